@@ -1,0 +1,82 @@
+//! The error reply: a machine-readable code and a sentence a person can act on.
+//!
+//! Every request a server cannot carry out is answered with an
+//! [`ErrorReply`] (as a Zenoh error reply, JSON-encoded), never dropped.
+
+use serde::{Deserialize, Serialize};
+use std::fmt;
+
+/// What went wrong with a request, in a form programs can match on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ErrorCode {
+    /// The payload is not valid JSON, or not valid UTF-8.
+    BadJson,
+    /// A name (variable, semaphore, robot …) is not a valid key chunk.
+    BadName,
+    /// The key does not name any operation of this server.
+    UnknownKey,
+    /// A selector parameter is missing, unknown or unparsable.
+    BadParameter,
+    /// A value has the wrong JSON type for this operation.
+    WrongType,
+    /// A number is outside the range the operation accepts.
+    OutOfRange,
+    /// The variable has never been written.
+    UnknownVariable,
+    /// No semaphore of that name has been created.
+    UnknownSemaphore,
+    /// The request is valid but conflicts with the server's current state.
+    Conflict,
+    /// The server is shutting down and will not carry out the request.
+    ShuttingDown,
+}
+
+impl ErrorCode {
+    /// The code as it appears on the wire (`"unknown_semaphore"` …).
+    pub fn as_str(self) -> &'static str {
+        match self {
+            ErrorCode::BadJson => "bad_json",
+            ErrorCode::BadName => "bad_name",
+            ErrorCode::UnknownKey => "unknown_key",
+            ErrorCode::BadParameter => "bad_parameter",
+            ErrorCode::WrongType => "wrong_type",
+            ErrorCode::OutOfRange => "out_of_range",
+            ErrorCode::UnknownVariable => "unknown_variable",
+            ErrorCode::UnknownSemaphore => "unknown_semaphore",
+            ErrorCode::Conflict => "conflict",
+            ErrorCode::ShuttingDown => "shutting_down",
+        }
+    }
+}
+
+impl fmt::Display for ErrorCode {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+/// The body of every error reply.
+///
+/// ```text
+/// {"code":"unknown_semaphore","message":"no semaphore named 'GoalData'; create it first (rome sem create GoalData 0)"}
+/// ```
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, thiserror::Error)]
+#[serde(deny_unknown_fields)]
+#[error("{code}: {message}")]
+pub struct ErrorReply {
+    /// What kind of error this is.
+    pub code: ErrorCode,
+    /// A sentence that names what was wrong and, where possible, how to fix it.
+    pub message: String,
+}
+
+impl ErrorReply {
+    /// An error reply with this code and message.
+    pub fn new(code: ErrorCode, message: impl Into<String>) -> Self {
+        ErrorReply {
+            code,
+            message: message.into(),
+        }
+    }
+}

@@ -1,0 +1,23 @@
+//! Shared vocabulary of every RoME program: key expressions, messages and
+//! error replies.
+//!
+//! How this crate is laid out:
+//! - [`keys`]: the key-expression scheme (`rome/data/var/<name>` …), with a
+//!   builder and a parser for every key, so servers and clients never format
+//!   keys by hand.
+//! - [`data`]: the messages of the data server (the thesis' DServer, §4.6.1),
+//!   grouped by who sends them to whom.
+//! - [`error`]: the error reply every server sends instead of a silent drop.
+//! - [`codec`]: the one encode and the one strict decode entry point.
+//!
+//! The crate deliberately does not depend on Zenoh: it is plain data, so any
+//! program (and any other language) can follow `docs/keys.md` without it.
+
+pub mod codec;
+pub mod data;
+pub mod error;
+pub mod keys;
+
+pub use codec::{decode, encode, DecodeError};
+pub use error::{ErrorCode, ErrorReply};
+pub use keys::{DataKey, KeyError, Name, Root};

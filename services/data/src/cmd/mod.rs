@@ -1,0 +1,177 @@
+//! One file per request kind. Each parses its selector parameters and
+//! payload strictly (an unknown parameter is an error, so `?bak=2` is not
+//! silently read as `back=0`) and applies itself to the [`Store`].
+//!
+//! Parameters whose name starts with `_` are Zenoh's own (`_anyke` …) and
+//! are passed over.
+
+mod ack;
+mod cancel;
+mod create;
+mod get;
+mod history;
+mod params;
+mod sem;
+mod set;
+mod signal;
+mod try_wait;
+mod wait;
+
+pub use ack::Ack;
+pub use cancel::Cancel;
+pub use create::Create;
+pub use get::Get;
+pub use history::History;
+pub use params::Params;
+pub use sem::Read;
+pub use set::{value_from_payload as set_value_from_payload, Set};
+pub use signal::Signal;
+pub use try_wait::TryWait;
+pub use wait::Wait;
+
+use crate::store::{Grant, Store};
+use rome_schema::data::Committed;
+use rome_schema::keys::DataOp;
+use rome_schema::{encode, ErrorCode, ErrorReply, Root};
+use serde::Serialize;
+use std::time::{Duration, Instant};
+
+/// A request to the data server, parsed from a query on a literal key.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Request {
+    /// `var/<name>`: read a value.
+    Get(Get),
+    /// `set/<name>`: acknowledged write.
+    Set(Set),
+    /// `history/<name>`: read or set the history length.
+    History(History),
+    /// `sem/<name>`: read a semaphore.
+    Read(Read),
+    /// `create/<name>`: create a semaphore.
+    Create(Create),
+    /// `signal/<name>`: up().
+    Signal(Signal),
+    /// `wait/<name>`: blocking down().
+    Wait(Wait),
+    /// `try-wait/<name>`: non-blocking down().
+    TryWait(TryWait),
+    /// `cancel/<name>`: give up a queued wait.
+    Cancel(Cancel),
+    /// `ack/<name>`: confirm a grant.
+    Ack(Ack),
+}
+
+/// What applying a request asks the server to do.
+#[derive(Debug, Default)]
+pub struct Applied {
+    /// The JSON reply to send now (none: the query is held, see `hold`).
+    pub reply: Option<Vec<u8>>,
+    /// A commit to publish on `watch/<name>`.
+    pub commit: Option<Committed>,
+    /// Queued waits that now hold a unit.
+    pub grants: Vec<Grant>,
+    /// Hold the query for this ticket at most this long.
+    pub hold: Option<(String, Duration)>,
+}
+
+impl Applied {
+    fn reply(message: &impl Serialize) -> Self {
+        Applied {
+            reply: Some(encode(message)),
+            ..Applied::default()
+        }
+    }
+}
+
+impl Request {
+    /// Parses a query on a literal key into a request.
+    pub fn parse(
+        root: &Root,
+        key: &str,
+        params: Params,
+        payload: Option<&[u8]>,
+    ) -> Result<Request, ErrorReply> {
+        let key = root
+            .parse_data(key)
+            .map_err(|e| ErrorReply::new(ErrorCode::UnknownKey, e.to_string()))?;
+        let name = key.name;
+        let no_payload = |op: DataOp| -> Result<(), ErrorReply> {
+            match payload {
+                Some(p) if !p.is_empty() => Err(ErrorReply::new(
+                    ErrorCode::BadParameter,
+                    format!("'{}' takes no payload; its arguments are selector parameters (see docs/keys.md)", op.chunk()),
+                )),
+                _ => Ok(()),
+            }
+        };
+        let op = key.op;
+        let request = match op {
+            DataOp::Set => Request::Set(Set::parse(name, params, payload)?),
+            DataOp::Var => {
+                no_payload(op)?;
+                Request::Get(Get::parse(name, params)?)
+            }
+            DataOp::History => {
+                no_payload(op)?;
+                Request::History(History::parse(name, params)?)
+            }
+            DataOp::Sem => {
+                no_payload(op)?;
+                Request::Read(Read::parse(name, params)?)
+            }
+            DataOp::Create => {
+                no_payload(op)?;
+                Request::Create(Create::parse(name, params)?)
+            }
+            DataOp::Signal => {
+                no_payload(op)?;
+                Request::Signal(Signal::parse(name, params)?)
+            }
+            DataOp::Wait => {
+                no_payload(op)?;
+                Request::Wait(Wait::parse(name, params)?)
+            }
+            DataOp::TryWait => {
+                no_payload(op)?;
+                Request::TryWait(TryWait::parse(name, params)?)
+            }
+            DataOp::Cancel => {
+                no_payload(op)?;
+                Request::Cancel(Cancel::parse(name, params)?)
+            }
+            DataOp::Ack => {
+                no_payload(op)?;
+                Request::Ack(Ack::parse(name, params)?)
+            }
+            DataOp::Watch => {
+                return Err(ErrorReply::new(
+                    ErrorCode::UnknownKey,
+                    format!(
+                        "'{}' is published by the server, not queried: subscribe to it (rome data watch {name})",
+                        root.data(DataOp::Watch, &name)
+                    ),
+                ))
+            }
+        };
+        Ok(request)
+    }
+
+    /// Applies the request to the store.
+    pub fn apply(self, store: &mut Store, now: Instant) -> Result<Applied, ErrorReply> {
+        match self {
+            Request::Get(c) => c.apply(store),
+            Request::Set(c) => c.apply(store, now),
+            Request::History(c) => c.apply(store),
+            Request::Read(c) => c.apply(store),
+            Request::Create(c) => c.apply(store),
+            Request::Signal(c) => c.apply(store, now),
+            Request::Wait(c) => c.apply(store, now),
+            Request::TryWait(c) => c.apply(store, now),
+            Request::Cancel(c) => c.apply(store),
+            Request::Ack(c) => c.apply(store, now),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests;

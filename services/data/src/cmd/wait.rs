@@ -1,0 +1,68 @@
+use super::{Applied, Params};
+use crate::store::Store;
+use rome_schema::data::{param, WaitStatus, DEFAULT_HOLD_MS, MAX_HOLD_MS};
+use rome_schema::{encode, ErrorReply, Name};
+use std::time::{Duration, Instant};
+
+/// Blocking down() (the thesis' `DataWait(DS, "$XYZ")`): answered
+/// `granted` as soon as a unit is the ticket's, or `pending` after
+/// `hold_ms` (the client asks again with the same ticket, keeping its
+/// place in the queue).
+///
+/// ```text
+/// get rome/data/wait/XYZ?ticket=c7-15&owner=c7&hold_ms=10000
+///     -> {"name":"XYZ","ticket":"c7-15","status":"granted"}
+///     -> {"name":"XYZ","ticket":"c7-15","status":"pending","position":2}
+/// get rome/data/wait/XYZ?hold_ms=3000        (anonymous, e.g. from z_get)
+///     -> {"name":"XYZ","ticket":"anon-4","status":"timed_out"}
+/// ```
+///
+/// With an `owner` (the last chunk of the client's liveliness token
+/// `rome/alive/client/<role>/<owner>`) a grant is provisional until
+/// `ack`; if the owner disappears first, its place is dropped and the
+/// unit goes back. An anonymous wait's grant is final, and it leaves the
+/// queue when its hold runs out.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Wait {
+    /// The semaphore.
+    pub name: Name,
+    /// The wait's identity across retries.
+    pub ticket: Option<String>,
+    /// The waiting client's liveliness id.
+    pub owner: Option<String>,
+    /// How long the server may hold the query.
+    pub hold: Duration,
+}
+
+impl Wait {
+    /// Parses `ticket`, `owner` and `hold_ms`.
+    pub fn parse(name: Name, mut params: Params) -> Result<Self, ErrorReply> {
+        let ticket = params.take_id(param::TICKET)?;
+        let owner = params.take_id(param::OWNER)?;
+        let hold_ms = params
+            .take_int(param::HOLD_MS, 0, i128::from(MAX_HOLD_MS))?
+            .map_or(DEFAULT_HOLD_MS, |v| v as u64);
+        params.finish("wait", &[param::TICKET, param::OWNER, param::HOLD_MS])?;
+        Ok(Wait {
+            name,
+            ticket,
+            owner,
+            hold: Duration::from_millis(hold_ms),
+        })
+    }
+
+    /// Takes a unit now, or asks the server to hold the query.
+    pub fn apply(self, store: &mut Store, now: Instant) -> Result<Applied, ErrorReply> {
+        let reply = store.wait(&self.name, self.ticket.as_deref(), self.owner.as_deref(), now)?;
+        if reply.status == WaitStatus::Pending {
+            return Ok(Applied {
+                hold: Some((reply.ticket, self.hold)),
+                ..Applied::default()
+            });
+        }
+        Ok(Applied {
+            reply: Some(encode(&reply)),
+            ..Applied::default()
+        })
+    }
+}

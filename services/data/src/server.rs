@@ -1,0 +1,392 @@
+//! The Zenoh side of the data server.
+//!
+//! Every input (queries, plain puts, liveliness changes, hold timers, the
+//! housekeeping tick) is turned into an [`Event`] on one channel, in the
+//! order Zenoh delivers it, and one task owns the [`Store`] and handles
+//! events one at a time. So a put followed by a get from the same session
+//! is seen in that order, commits are published in commit order, and no
+//! lock is needed.
+
+use crate::cmd::{Params, Request};
+use crate::store::{Grant, Store};
+use rome_schema::data::{Committed, Rejected, WaitReply, WaitStatus, DEFAULT_HISTORY};
+use rome_schema::keys::DataOp;
+use rome_schema::{encode, ErrorCode, ErrorReply, Root};
+use serde::Serialize;
+use std::collections::{HashMap, HashSet};
+use std::future::Future;
+use std::time::{Duration, Instant};
+use tokio::sync::mpsc;
+use zenoh::bytes::Encoding;
+use zenoh::key_expr::KeyExpr;
+use zenoh::qos::CongestionControl;
+use zenoh::query::Query;
+use zenoh::sample::{Sample, SampleKind};
+use zenoh::Session;
+
+/// How the data server runs.
+#[derive(Debug, Clone)]
+pub struct ServerConfig {
+    /// The deployment's root prefix.
+    pub root: Root,
+    /// History length of a new variable.
+    pub default_history: u32,
+    /// How long a queued wait keeps its place between a client's polls,
+    /// and how long an unconfirmed grant to an owner not seen alive is kept
+    /// before its unit is taken back.
+    pub grace: Duration,
+    /// How often lapsed places and orphaned grants are swept.
+    pub sweep_every: Duration,
+}
+
+impl Default for ServerConfig {
+    fn default() -> Self {
+        ServerConfig {
+            root: Root::default(),
+            default_history: DEFAULT_HISTORY,
+            grace: Duration::from_secs(5),
+            sweep_every: Duration::from_millis(500),
+        }
+    }
+}
+
+/// The data server could not start.
+#[derive(Debug, thiserror::Error)]
+pub enum ServerError {
+    /// A Zenoh declaration failed.
+    #[error("could not declare {what}: {detail}")]
+    Declare {
+        /// What was being declared.
+        what: String,
+        /// Zenoh's error.
+        detail: String,
+    },
+}
+
+enum Event {
+    Query(Query),
+    Put(Sample),
+    Alive(Sample),
+    HoldOver { ticket: String, generation: u64 },
+}
+
+struct Held {
+    query: Query,
+    generation: u64,
+}
+
+struct Server {
+    session: Session,
+    config: ServerConfig,
+    store: Store,
+    held: HashMap<String, Held>,
+    generation: u64,
+    alive: HashSet<String>,
+    events: mpsc::UnboundedSender<Event>,
+}
+
+fn declare_err(what: &str, e: zenoh::Error) -> ServerError {
+    ServerError::Declare {
+        what: what.to_string(),
+        detail: e.to_string(),
+    }
+}
+
+/// Runs the data server on `session` until `shutdown` completes.
+///
+/// Queries still held (blocked waits) are dropped on shutdown; their
+/// clients see no reply and retry with the same ticket.
+pub async fn run(
+    session: Session,
+    config: ServerConfig,
+    shutdown: impl Future<Output = ()>,
+) -> Result<(), ServerError> {
+    let root = config.root.clone();
+    let (tx, mut rx) = mpsc::unbounded_channel();
+
+    let sender = tx.clone();
+    let _queryable = session
+        .declare_queryable(root.data_all())
+        .callback(move |q| {
+            let _ = sender.send(Event::Query(q));
+        })
+        .await
+        .map_err(|e| declare_err("the data queryable", e))?;
+    let mut subscribers = Vec::new();
+    for op in [DataOp::Var, DataOp::Signal] {
+        let sender = tx.clone();
+        subscribers.push(
+            session
+                .declare_subscriber(root.data_all_of(op))
+                .callback(move |s| {
+                    let _ = sender.send(Event::Put(s));
+                })
+                .await
+                .map_err(|e| declare_err("the put subscriber", e))?,
+        );
+    }
+    let sender = tx.clone();
+    let _alive = session
+        .liveliness()
+        .declare_subscriber(root.alive_clients())
+        .history(true)
+        .callback(move |s| {
+            let _ = sender.send(Event::Alive(s));
+        })
+        .await
+        .map_err(|e| declare_err("the liveliness subscriber", e))?;
+    // Declared last: a client that sees this token can query at once.
+    let _token = session
+        .liveliness()
+        .declare_token(root.alive_server("data", &session.zid().to_string()))
+        .await
+        .map_err(|e| declare_err("the liveliness token", e))?;
+    tracing::info!(root = root.as_str(), zid = %session.zid(), "data server ready");
+
+    let mut server = Server {
+        store: Store::new(config.default_history),
+        session,
+        held: HashMap::new(),
+        generation: 0,
+        alive: HashSet::new(),
+        events: tx,
+        config,
+    };
+    let mut tick = tokio::time::interval(server.config.sweep_every);
+    tokio::pin!(shutdown);
+    loop {
+        tokio::select! {
+            biased;
+            _ = &mut shutdown => break,
+            Some(event) = rx.recv() => server.handle(event).await,
+            _ = tick.tick() => server.sweep().await,
+        }
+    }
+    tracing::info!(held = server.held.len(), "data server stopping");
+    Ok(())
+}
+
+impl Server {
+    async fn handle(&mut self, event: Event) {
+        match event {
+            Event::Query(q) => self.query(q).await,
+            Event::Put(s) => self.put(s).await,
+            Event::Alive(s) => self.alive(s).await,
+            Event::HoldOver { ticket, generation } => self.hold_over(ticket, generation).await,
+        }
+    }
+
+    async fn query(&mut self, query: Query) {
+        let key = query.key_expr().as_str().to_string();
+        if key.contains('*') {
+            return self.list(query).await;
+        }
+        let params = Params::new(query.parameters().iter());
+        let payload = query.payload().map(|p| p.to_bytes().into_owned());
+        let now = Instant::now();
+        let applied = Request::parse(&self.config.root, &key, params, payload.as_deref())
+            .and_then(|request| request.apply(&mut self.store, now));
+        match applied {
+            Err(e) => {
+                tracing::debug!(%key, error = %e, "request refused");
+                reply_err(&query, &e).await;
+            }
+            Ok(applied) => {
+                if let Some(reply) = applied.reply {
+                    reply_json(&query, &key, reply).await;
+                }
+                if let Some(commit) = applied.commit {
+                    self.publish(&commit).await;
+                }
+                if let Some((ticket, hold)) = applied.hold {
+                    self.hold(ticket, hold, query);
+                }
+                self.answer_grants(applied.grants).await;
+            }
+        }
+    }
+
+    /// A query with wildcards: one reply per variable value, history and
+    /// semaphore whose key it matches (`rome/data/var/**`, `rome/**` …).
+    async fn list(&mut self, query: Query) {
+        let params = Params::new(query.parameters().iter());
+        if let Err(e) = params.finish("a wildcard query", &[]) {
+            return reply_err(&query, &e).await;
+        }
+        let root = &self.config.root;
+        let mut replies: Vec<(String, Vec<u8>)> = Vec::new();
+        for (name, value) in self.store.values() {
+            replies.push((root.data(DataOp::Var, name), encode(value)));
+        }
+        for info in self.store.histories() {
+            if let Ok(name) = rome_schema::Name::new(info.name.as_str()) {
+                replies.push((root.data(DataOp::History, &name), encode(&info)));
+            }
+        }
+        for state in self.store.semaphores() {
+            if let Ok(name) = rome_schema::Name::new(state.name.as_str()) {
+                replies.push((root.data(DataOp::Sem, &name), encode(&state)));
+            }
+        }
+        for (key, payload) in replies {
+            let Ok(ke) = KeyExpr::try_from(key.as_str()) else { continue };
+            if query.key_expr().intersects(&ke) {
+                reply_json(&query, &key, payload).await;
+            }
+        }
+    }
+
+    async fn put(&mut self, sample: Sample) {
+        let key = sample.key_expr().as_str().to_string();
+        let parsed = self.config.root.parse_data(&key);
+        let Ok(data_key) = parsed else { return };
+        let now = Instant::now();
+        let result: Result<Option<Committed>, ErrorReply> = match (data_key.op, sample.kind()) {
+            (DataOp::Var, SampleKind::Put) => {
+                let bytes = sample.payload().to_bytes();
+                crate::cmd::set_value_from_payload(&data_key.name, Some(&bytes))
+                    .map(|value| Some(self.store.put(&data_key.name, value)))
+            }
+            (DataOp::Var, SampleKind::Delete) => Ok(self.store.delete(&data_key.name)),
+            (DataOp::Signal, SampleKind::Put) => match self.store.signal(&data_key.name, None, now) {
+                Ok(signalled) => {
+                    self.answer_grants(signalled.grants).await;
+                    Ok(None)
+                }
+                Err(e) => Err(e),
+            },
+            (DataOp::Signal, SampleKind::Delete) => Err(ErrorReply::new(
+                ErrorCode::BadParameter,
+                "a delete on a signal key means nothing; put to signal a semaphore",
+            )),
+            _ => return,
+        };
+        match result {
+            Ok(Some(commit)) => self.publish(&commit).await,
+            Ok(None) => {}
+            Err(e) => self.reject(&key, e).await,
+        }
+    }
+
+    async fn reject(&self, key: &str, e: ErrorReply) {
+        tracing::warn!(%key, error = %e, "put refused");
+        let rejected = Rejected {
+            key: key.to_string(),
+            code: e.code,
+            message: e.message,
+        };
+        self.send(&self.config.root.rejected(), &rejected).await;
+    }
+
+    async fn publish(&self, commit: &Committed) {
+        match rome_schema::Name::new(commit.name.as_str()) {
+            Ok(name) => {
+                let key = self.config.root.data(DataOp::Watch, &name);
+                self.send(&key, commit).await;
+            }
+            Err(e) => tracing::error!(error = %e, "commit on an invalid name"),
+        }
+    }
+
+    async fn send(&self, key: &str, message: &impl Serialize) {
+        // Block rather than drop: a watcher must see every commit.
+        let sent = self
+            .session
+            .put(key, encode(message))
+            .encoding(Encoding::APPLICATION_JSON)
+            .congestion_control(CongestionControl::Block)
+            .await;
+        if let Err(e) = sent {
+            tracing::error!(%key, error = %e, "publication failed");
+        }
+    }
+
+    fn hold(&mut self, ticket: String, hold: Duration, query: Query) {
+        self.generation += 1;
+        let generation = self.generation;
+        // A newer poll of the same ticket replaces the old one; the old
+        // query is dropped, which ends it with no reply (its client has
+        // already moved on to the new one).
+        self.held.insert(ticket.clone(), Held { query, generation });
+        let events = self.events.clone();
+        tokio::spawn(async move {
+            tokio::time::sleep(hold).await;
+            let _ = events.send(Event::HoldOver { ticket, generation });
+        });
+    }
+
+    async fn hold_over(&mut self, ticket: String, generation: u64) {
+        match self.held.get(&ticket) {
+            Some(h) if h.generation == generation => {}
+            _ => return,
+        }
+        let Some(held) = self.held.remove(&ticket) else { return };
+        let lapse_at = Instant::now() + self.config.grace;
+        if let Some(reply) = self.store.release_hold(&ticket, lapse_at) {
+            let key = held.query.key_expr().as_str().to_string();
+            reply_json(&held.query, &key, encode(&reply)).await;
+        }
+    }
+
+    async fn answer_grants(&mut self, grants: Vec<Grant>) {
+        for grant in grants {
+            let Some(held) = self.held.remove(&grant.ticket) else {
+                // Not held right now: the client's next poll learns it.
+                continue;
+            };
+            let reply = WaitReply {
+                name: grant.sem.to_string(),
+                ticket: grant.ticket,
+                status: WaitStatus::Granted,
+                position: None,
+            };
+            let key = held.query.key_expr().as_str().to_string();
+            reply_json(&held.query, &key, encode(&reply)).await;
+        }
+    }
+
+    async fn alive(&mut self, sample: Sample) {
+        let key = sample.key_expr().as_str();
+        let Some(alive) = self.config.root.parse_alive(key) else { return };
+        let owner = alive.id.to_string();
+        match sample.kind() {
+            SampleKind::Put => {
+                self.alive.insert(owner);
+            }
+            SampleKind::Delete => {
+                self.alive.remove(&owner);
+                let grants = self.store.owner_gone(&owner, Instant::now());
+                tracing::info!(%owner, passed_on = grants.len(), "client gone; its waits dropped");
+                self.answer_grants(grants).await;
+            }
+        }
+    }
+
+    async fn sweep(&mut self) {
+        let alive = &self.alive;
+        let grants = self
+            .store
+            .sweep(Instant::now(), self.config.grace, |o| alive.contains(o));
+        self.answer_grants(grants).await;
+    }
+}
+
+async fn reply_json(query: &Query, key: &str, payload: Vec<u8>) {
+    if let Err(e) = query
+        .reply(key, payload)
+        .encoding(Encoding::APPLICATION_JSON)
+        .await
+    {
+        tracing::warn!(%key, error = %e, "reply failed");
+    }
+}
+
+async fn reply_err(query: &Query, e: &ErrorReply) {
+    if let Err(err) = query
+        .reply_err(encode(e))
+        .encoding(Encoding::APPLICATION_JSON)
+        .await
+    {
+        tracing::warn!(error = %err, "error reply failed");
+    }
+}

@@ -1,0 +1,917 @@
+//! The data server's state: variables with history, semaphores, wait
+//! tickets and the record of finished requests. Pure and synchronous (no
+//! Zenoh, no clock of its own) so every rule about losing or duplicating a
+//! unit is tested here directly.
+//!
+//! How a wait keeps its unit safe:
+//! - every wait carries a *ticket* the client keeps across retries; a
+//!   re-sent wait with a known ticket keeps its place (or learns its grant)
+//!   instead of queueing twice;
+//! - a grant to a ticket with an *owner* (a client with a liveliness token)
+//!   is provisional until the client confirms it with `ack`; if the owner is
+//!   seen gone first, the unit goes back to the semaphore, so a client
+//!   killed between grant and use loses nothing;
+//! - `cancel` after a grant answers `granted`, so a client that gives up
+//!   just as the unit arrives takes it rather than dropping it;
+//! - writes, signals and try-waits carry an `op` id: a retry whose first
+//!   reply was lost gets the first reply again, and is not done twice.
+
+use rome_schema::data::{
+    Committed, CreateReply, HistoryInfo, SemState, SetReply, SignalReply, TryWaitReply,
+    WaitReply, WaitStatus, MAX_HISTORY, MAX_SEMAPHORE_VALUE,
+};
+use rome_schema::{ErrorCode, ErrorReply, Name};
+use serde_json::Value;
+use std::collections::{BTreeMap, HashMap, VecDeque};
+use std::time::{Duration, Instant};
+
+/// How long a finished request's reply is kept for retries.
+pub const DEFAULT_RETENTION: Duration = Duration::from_secs(600);
+
+/// How many finished requests are remembered at most.
+pub const MAX_REMEMBERED: usize = 200_000;
+
+/// One variable: the last `len` values, newest at the back.
+#[derive(Debug)]
+struct Var {
+    len: u32,
+    values: VecDeque<Value>,
+    seq: u64,
+}
+
+/// One counting semaphore with its FIFO queue of tickets.
+#[derive(Debug, Default)]
+struct Sem {
+    value: u64,
+    queue: VecDeque<String>,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum TicketState {
+    /// In the queue. `lapse_at`: when it is dropped if nobody asks again
+    /// (set while no query is attached).
+    Queued { lapse_at: Option<Instant> },
+    /// Holds a unit, waiting for the owner's `ack`.
+    Granted { at: Instant },
+}
+
+#[derive(Debug)]
+struct Ticket {
+    sem: Name,
+    owner: Option<String>,
+    state: TicketState,
+}
+
+/// A reply kept for requests that may be retried.
+#[derive(Debug, Clone, PartialEq)]
+enum Remembered {
+    Set(SetReply),
+    Signal(SignalReply),
+    TryWait(TryWaitReply),
+    Confirmed(WaitReply),
+}
+
+/// A unit handed to a queued ticket: the server answers its attached query.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Grant {
+    /// The semaphore.
+    pub sem: Name,
+    /// The ticket that now holds the unit.
+    pub ticket: String,
+}
+
+/// The outcome of a `signal`: its reply and the waits it woke.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Signalled {
+    /// The reply to the signalling client.
+    pub reply: SignalReply,
+    /// Waits to answer `granted` (empty for a retried signal).
+    pub grants: Vec<Grant>,
+}
+
+/// The outcome of a write: the reply, and the commit to publish (none when
+/// a retried write was answered from memory).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Written {
+    /// The reply to the writer.
+    pub reply: SetReply,
+    /// The commit to publish on `watch`, if this request made one.
+    pub commit: Option<Committed>,
+}
+
+/// All of the data server's state.
+#[derive(Debug)]
+pub struct Store {
+    default_history: u32,
+    retention: Duration,
+    vars: BTreeMap<Name, Var>,
+    sems: BTreeMap<Name, Sem>,
+    tickets: HashMap<String, Ticket>,
+    remembered: HashMap<String, Remembered>,
+    remembered_order: VecDeque<(Instant, String)>,
+    next_anonymous: u64,
+}
+
+fn err(code: ErrorCode, message: impl Into<String>) -> ErrorReply {
+    ErrorReply::new(code, message)
+}
+
+fn unknown_sem(name: &Name) -> ErrorReply {
+    err(
+        ErrorCode::UnknownSemaphore,
+        format!("no semaphore named '{name}'; create it first (rome sem create {name} 0)"),
+    )
+}
+
+impl Store {
+    /// An empty store; new variables keep `default_history` values.
+    pub fn new(default_history: u32) -> Self {
+        Store {
+            default_history: default_history.clamp(1, MAX_HISTORY),
+            retention: DEFAULT_RETENTION,
+            vars: BTreeMap::new(),
+            sems: BTreeMap::new(),
+            tickets: HashMap::new(),
+            remembered: HashMap::new(),
+            remembered_order: VecDeque::new(),
+            next_anonymous: 0,
+        }
+    }
+
+    /// Sets how long finished requests are remembered for retries.
+    pub fn with_retention(mut self, retention: Duration) -> Self {
+        self.retention = retention;
+        self
+    }
+
+    // ----- idempotency ---------------------------------------------------
+
+    fn recall(&self, op: Option<&str>) -> Option<&Remembered> {
+        op.and_then(|op| self.remembered.get(op))
+    }
+
+    fn remember(&mut self, op: Option<&str>, now: Instant, what: Remembered) {
+        let Some(op) = op else { return };
+        if self.remembered.insert(op.to_string(), what).is_none() {
+            self.remembered_order.push_back((now, op.to_string()));
+        }
+        while self.remembered_order.len() > MAX_REMEMBERED {
+            if let Some((_, old)) = self.remembered_order.pop_front() {
+                self.remembered.remove(&old);
+            }
+        }
+    }
+
+    fn reused(op: &str, kind: &str) -> ErrorReply {
+        err(
+            ErrorCode::Conflict,
+            format!("op id '{op}' was already used for a different request than this {kind}; every request needs its own op id"),
+        )
+    }
+
+    // ----- variables -----------------------------------------------------
+
+    fn commit(&mut self, name: &Name, value: Value) -> Committed {
+        let default = self.default_history;
+        let var = self.vars.entry(name.clone()).or_insert_with(|| Var {
+            len: default,
+            values: VecDeque::new(),
+            seq: 0,
+        });
+        var.values.push_back(value.clone());
+        while var.values.len() > var.len as usize {
+            var.values.pop_front();
+        }
+        var.seq += 1;
+        Committed {
+            name: name.to_string(),
+            seq: var.seq,
+            value: Some(value),
+            deleted: false,
+        }
+    }
+
+    /// A plain write (Zenoh `put` on `var/<name>`): always commits.
+    pub fn put(&mut self, name: &Name, value: Value) -> Committed {
+        self.commit(name, value)
+    }
+
+    /// An acknowledged write; a retried `op` is answered from memory.
+    pub fn set(
+        &mut self,
+        name: &Name,
+        value: Value,
+        op: Option<&str>,
+        now: Instant,
+    ) -> Result<Written, ErrorReply> {
+        match self.recall(op) {
+            Some(Remembered::Set(reply)) if reply.name == name.as_str() => {
+                return Ok(Written {
+                    reply: reply.clone(),
+                    commit: None,
+                })
+            }
+            Some(_) => return Err(Self::reused(op.unwrap_or_default(), "set")),
+            None => {}
+        }
+        let commit = self.commit(name, value);
+        let reply = SetReply {
+            name: name.to_string(),
+            seq: commit.seq,
+        };
+        self.remember(op, now, Remembered::Set(reply.clone()));
+        Ok(Written {
+            reply,
+            commit: Some(commit),
+        })
+    }
+
+    /// Deletes a variable's values (Zenoh `delete`); its history length and
+    /// commit numbering carry on, so watchers still see consecutive numbers.
+    pub fn delete(&mut self, name: &Name) -> Option<Committed> {
+        let var = self.vars.get_mut(name)?;
+        if var.values.is_empty() {
+            return None;
+        }
+        var.values.clear();
+        var.seq += 1;
+        Some(Committed {
+            name: name.to_string(),
+            seq: var.seq,
+            value: None,
+            deleted: true,
+        })
+    }
+
+    /// The value `back` steps before the newest (0 = current; the thesis' -N).
+    pub fn get(&self, name: &Name, back: u32) -> Result<&Value, ErrorReply> {
+        let var = self
+            .vars
+            .get(name)
+            .filter(|v| !v.values.is_empty())
+            .ok_or_else(|| {
+                err(
+                    ErrorCode::UnknownVariable,
+                    format!("no variable named '{name}' has a value; `rome data ls` lists the variables"),
+                )
+            })?;
+        let stored = var.values.len();
+        if back as usize >= stored {
+            return Err(err(
+                ErrorCode::OutOfRange,
+                format!(
+                    "'{name}' holds {stored} value(s) (history length {}), so back={back} is out of range; use 0..={}",
+                    var.len,
+                    stored - 1
+                ),
+            ));
+        }
+        Ok(&var.values[stored - 1 - back as usize])
+    }
+
+    /// Every variable that has a value, with its current value.
+    pub fn values(&self) -> impl Iterator<Item = (&Name, &Value)> {
+        self.vars
+            .iter()
+            .filter_map(|(n, v)| v.values.back().map(|value| (n, value)))
+    }
+
+    fn info(name: &Name, var: &Var) -> HistoryInfo {
+        HistoryInfo {
+            name: name.to_string(),
+            len: var.len,
+            stored: var.values.len() as u32,
+            seq: var.seq,
+        }
+    }
+
+    /// Reads the history length, or sets it (dropping the oldest values).
+    ///
+    /// Setting the length of a variable never written declares it, as the
+    /// thesis' `DataSetHistory` does; reading one is an error.
+    pub fn history(&mut self, name: &Name, len: Option<u32>) -> Result<HistoryInfo, ErrorReply> {
+        match len {
+            Some(len) => {
+                if !(1..=MAX_HISTORY).contains(&len) {
+                    return Err(err(
+                        ErrorCode::OutOfRange,
+                        format!("history length must be between 1 and {MAX_HISTORY}, got {len}"),
+                    ));
+                }
+                let var = self.vars.entry(name.clone()).or_insert_with(|| Var {
+                    len,
+                    values: VecDeque::new(),
+                    seq: 0,
+                });
+                var.len = len;
+                while var.values.len() > len as usize {
+                    var.values.pop_front();
+                }
+                Ok(Self::info(name, var))
+            }
+            None => self.vars.get(name).map(|v| Self::info(name, v)).ok_or_else(|| {
+                err(
+                    ErrorCode::UnknownVariable,
+                    format!("no variable named '{name}'; `rome data ls` lists the variables"),
+                )
+            }),
+        }
+    }
+
+    /// History information of every known variable.
+    pub fn histories(&self) -> Vec<HistoryInfo> {
+        self.vars.iter().map(|(n, v)| Self::info(n, v)).collect()
+    }
+
+    // ----- semaphores ----------------------------------------------------
+
+    /// Creates a semaphore; an existing one is left as it is.
+    pub fn create(&mut self, name: &Name, value: u64) -> Result<CreateReply, ErrorReply> {
+        if value > MAX_SEMAPHORE_VALUE {
+            return Err(err(
+                ErrorCode::OutOfRange,
+                format!("initial value {value} is above the maximum {MAX_SEMAPHORE_VALUE}"),
+            ));
+        }
+        let mut created = false;
+        let sem = self.sems.entry(name.clone()).or_insert_with(|| {
+            created = true;
+            Sem {
+                value,
+                queue: VecDeque::new(),
+            }
+        });
+        Ok(CreateReply {
+            name: name.to_string(),
+            created,
+            value: sem.value,
+        })
+    }
+
+    fn sem_state(name: &Name, sem: &Sem) -> SemState {
+        SemState {
+            name: name.to_string(),
+            value: sem.value,
+            waiters: sem.queue.len() as u32,
+        }
+    }
+
+    /// A semaphore's value and queue length.
+    pub fn semaphore(&self, name: &Name) -> Result<SemState, ErrorReply> {
+        let sem = self.sems.get(name).ok_or_else(|| unknown_sem(name))?;
+        Ok(Self::sem_state(name, sem))
+    }
+
+    /// Every semaphore's state.
+    pub fn semaphores(&self) -> Vec<SemState> {
+        self.sems.iter().map(|(n, s)| Self::sem_state(n, s)).collect()
+    }
+
+    /// Hands available units to queued tickets, first come first served.
+    fn dispatch(&mut self, name: &Name, now: Instant) -> Vec<Grant> {
+        let mut grants = Vec::new();
+        let Some(sem) = self.sems.get_mut(name) else {
+            return grants;
+        };
+        while sem.value > 0 {
+            let Some(ticket) = sem.queue.pop_front() else { break };
+            sem.value -= 1;
+            if let Some(t) = self.tickets.get_mut(&ticket) {
+                if t.owner.is_some() {
+                    t.state = TicketState::Granted { at: now };
+                } else {
+                    // Nobody will confirm an anonymous grant: it is final.
+                    self.tickets.remove(&ticket);
+                }
+            }
+            grants.push(Grant {
+                sem: name.clone(),
+                ticket,
+            });
+        }
+        grants
+    }
+
+    /// up(): one more unit, handed to the first queued wait if any.
+    pub fn signal(
+        &mut self,
+        name: &Name,
+        op: Option<&str>,
+        now: Instant,
+    ) -> Result<Signalled, ErrorReply> {
+        match self.recall(op) {
+            Some(Remembered::Signal(reply)) if reply.name == name.as_str() => {
+                return Ok(Signalled {
+                    reply: reply.clone(),
+                    grants: Vec::new(),
+                })
+            }
+            Some(_) => return Err(Self::reused(op.unwrap_or_default(), "signal")),
+            None => {}
+        }
+        let sem = self.sems.get_mut(name).ok_or_else(|| unknown_sem(name))?;
+        if sem.value >= MAX_SEMAPHORE_VALUE {
+            return Err(err(
+                ErrorCode::OutOfRange,
+                format!("semaphore '{name}' is at its maximum value {MAX_SEMAPHORE_VALUE}"),
+            ));
+        }
+        sem.value += 1;
+        let grants = self.dispatch(name, now);
+        let value = self.sems.get(name).map_or(0, |s| s.value);
+        let reply = SignalReply {
+            name: name.to_string(),
+            value,
+            woke: !grants.is_empty(),
+        };
+        self.remember(op, now, Remembered::Signal(reply.clone()));
+        Ok(Signalled { reply, grants })
+    }
+
+    /// down_nowait(): takes a unit if one is free and nobody is queued.
+    pub fn try_wait(
+        &mut self,
+        name: &Name,
+        op: Option<&str>,
+        now: Instant,
+    ) -> Result<TryWaitReply, ErrorReply> {
+        match self.recall(op) {
+            Some(Remembered::TryWait(reply)) if reply.name == name.as_str() => {
+                return Ok(reply.clone())
+            }
+            Some(_) => return Err(Self::reused(op.unwrap_or_default(), "try-wait")),
+            None => {}
+        }
+        let sem = self.sems.get_mut(name).ok_or_else(|| unknown_sem(name))?;
+        // Queued waiters came first: taking a unit past them would break FIFO.
+        let acquired = sem.value > 0 && sem.queue.is_empty();
+        if acquired {
+            sem.value -= 1;
+        }
+        let reply = TryWaitReply {
+            name: name.to_string(),
+            acquired,
+            value: sem.value,
+        };
+        self.remember(op, now, Remembered::TryWait(reply.clone()));
+        Ok(reply)
+    }
+
+    fn position(&self, sem: &Name, ticket: &str) -> Option<u32> {
+        let sem = self.sems.get(sem)?;
+        sem.queue
+            .iter()
+            .position(|t| t == ticket)
+            .map(|p| p as u32 + 1)
+    }
+
+    fn wait_reply(&self, name: &Name, ticket: &str, status: WaitStatus) -> WaitReply {
+        let position = match status {
+            WaitStatus::Pending => self.position(name, ticket),
+            _ => None,
+        };
+        WaitReply {
+            name: name.to_string(),
+            ticket: ticket.to_string(),
+            status,
+            position,
+        }
+    }
+
+    fn check_ticket_sem(&self, name: &Name, ticket: &str) -> Result<(), ErrorReply> {
+        match self.tickets.get(ticket) {
+            Some(t) if &t.sem != name => Err(err(
+                ErrorCode::Conflict,
+                format!("ticket '{ticket}' belongs to semaphore '{}', not '{name}'", t.sem),
+            )),
+            _ => Ok(()),
+        }
+    }
+
+    /// down(): takes a unit now, or queues the ticket (reply `pending`).
+    ///
+    /// A wait without a ticket gets one made up (and is anonymous: nobody
+    /// can retry it). A known ticket keeps its place or learns its grant.
+    pub fn wait(
+        &mut self,
+        name: &Name,
+        ticket: Option<&str>,
+        owner: Option<&str>,
+        now: Instant,
+    ) -> Result<WaitReply, ErrorReply> {
+        if !self.sems.contains_key(name) {
+            return Err(unknown_sem(name));
+        }
+        let ticket = match ticket {
+            Some(t) => t.to_string(),
+            None => {
+                self.next_anonymous += 1;
+                format!("anon-{}", self.next_anonymous)
+            }
+        };
+        self.check_ticket_sem(name, &ticket)?;
+        if let Some(t) = self.tickets.get_mut(&ticket) {
+            return Ok(match t.state {
+                TicketState::Granted { .. } => self.wait_reply(name, &ticket, WaitStatus::Granted),
+                TicketState::Queued { .. } => {
+                    t.state = TicketState::Queued { lapse_at: None };
+                    self.wait_reply(name, &ticket, WaitStatus::Pending)
+                }
+            });
+        }
+        if let Some(Remembered::Confirmed(reply)) = self.remembered.get(&ticket) {
+            // Already granted and confirmed: a late duplicate of the wait.
+            return Ok(reply.clone());
+        }
+        self.tickets.insert(
+            ticket.clone(),
+            Ticket {
+                sem: name.clone(),
+                owner: owner.map(str::to_string),
+                state: TicketState::Queued { lapse_at: None },
+            },
+        );
+        if let Some(sem) = self.sems.get_mut(name) {
+            sem.queue.push_back(ticket.clone());
+        }
+        let granted = self.dispatch(name, now).iter().any(|g| g.ticket == ticket);
+        let status = if granted {
+            WaitStatus::Granted
+        } else {
+            WaitStatus::Pending
+        };
+        Ok(self.wait_reply(name, &ticket, status))
+    }
+
+    /// The server stopped holding a wait's query without a grant. An owned
+    /// ticket keeps its place until `lapse_at` (the client asks again
+    /// before then); an anonymous one leaves the queue (`timed_out`).
+    pub fn release_hold(&mut self, ticket: &str, lapse_at: Instant) -> Option<WaitReply> {
+        let t = self.tickets.get_mut(ticket)?;
+        let name = t.sem.clone();
+        match t.state {
+            TicketState::Granted { .. } => Some(self.wait_reply(&name, ticket, WaitStatus::Granted)),
+            TicketState::Queued { .. } if t.owner.is_some() => {
+                t.state = TicketState::Queued {
+                    lapse_at: Some(lapse_at),
+                };
+                Some(self.wait_reply(&name, ticket, WaitStatus::Pending))
+            }
+            TicketState::Queued { .. } => {
+                self.drop_queued(ticket);
+                Some(self.wait_reply(&name, ticket, WaitStatus::TimedOut))
+            }
+        }
+    }
+
+    fn drop_queued(&mut self, ticket: &str) {
+        if let Some(t) = self.tickets.remove(ticket) {
+            if let Some(sem) = self.sems.get_mut(&t.sem) {
+                sem.queue.retain(|q| q != ticket);
+            }
+        }
+    }
+
+    /// Gives up a wait. If the unit was granted meanwhile the answer is
+    /// `granted`: the client takes it (and acks) rather than losing it.
+    pub fn cancel(&mut self, name: &Name, ticket: &str) -> Result<WaitReply, ErrorReply> {
+        self.check_ticket_sem(name, ticket)?;
+        let status = match self.tickets.get(ticket).map(|t| t.state) {
+            Some(TicketState::Granted { .. }) => WaitStatus::Granted,
+            Some(TicketState::Queued { .. }) => {
+                self.drop_queued(ticket);
+                WaitStatus::Cancelled
+            }
+            None => match self.remembered.get(ticket) {
+                Some(Remembered::Confirmed(_)) => WaitStatus::Confirmed,
+                _ => WaitStatus::Unknown,
+            },
+        };
+        Ok(self.wait_reply(name, ticket, status))
+    }
+
+    /// Confirms a grant: the unit is the client's for good.
+    pub fn ack(&mut self, name: &Name, ticket: &str, now: Instant) -> Result<WaitReply, ErrorReply> {
+        self.check_ticket_sem(name, ticket)?;
+        match self.tickets.get(ticket).map(|t| t.state) {
+            Some(TicketState::Granted { .. }) => {
+                self.tickets.remove(ticket);
+                let reply = self.wait_reply(name, ticket, WaitStatus::Confirmed);
+                self.remember(Some(ticket), now, Remembered::Confirmed(reply.clone()));
+                Ok(reply)
+            }
+            Some(TicketState::Queued { .. }) => Ok(self.wait_reply(name, ticket, WaitStatus::Pending)),
+            None => Ok(match self.remembered.get(ticket) {
+                Some(Remembered::Confirmed(reply)) => reply.clone(),
+                _ => self.wait_reply(name, ticket, WaitStatus::Unknown),
+            }),
+        }
+    }
+
+    fn give_back(&mut self, ticket: &str, now: Instant) -> Vec<Grant> {
+        let Some(t) = self.tickets.remove(ticket) else {
+            return Vec::new();
+        };
+        let Some(sem) = self.sems.get_mut(&t.sem) else {
+            return Vec::new();
+        };
+        sem.value = sem.value.saturating_add(1);
+        self.dispatch(&t.sem, now)
+    }
+
+    /// A client is gone (its liveliness token was withdrawn): its queued
+    /// waits leave the queues and its unconfirmed units go back.
+    pub fn owner_gone(&mut self, owner: &str, now: Instant) -> Vec<Grant> {
+        let mine: Vec<(String, TicketState)> = self
+            .tickets
+            .iter()
+            .filter(|(_, t)| t.owner.as_deref() == Some(owner))
+            .map(|(id, t)| (id.clone(), t.state))
+            .collect();
+        // Places first: a unit given back must not go to another of the
+        // same dead owner's tickets.
+        let (queued, granted): (Vec<_>, Vec<_>) = mine
+            .into_iter()
+            .partition(|(_, state)| matches!(state, TicketState::Queued { .. }));
+        for (id, _) in queued {
+            self.drop_queued(&id);
+        }
+        let mut grants = Vec::new();
+        for (id, _) in granted {
+            grants.extend(self.give_back(&id, now));
+        }
+        grants
+    }
+
+    /// Periodic housekeeping: drops queued tickets nobody asked about in
+    /// time, takes back unconfirmed units of owners that are not alive
+    /// `grace` after the grant, and forgets finished requests past retention.
+    pub fn sweep(&mut self, now: Instant, grace: Duration, alive: impl Fn(&str) -> bool) -> Vec<Grant> {
+        let lapsed: Vec<String> = self
+            .tickets
+            .iter()
+            .filter(|(_, t)| matches!(t.state, TicketState::Queued { lapse_at: Some(at) } if at <= now))
+            .map(|(id, _)| id.clone())
+            .collect();
+        for id in lapsed {
+            self.drop_queued(&id);
+        }
+        let orphaned: Vec<String> = self
+            .tickets
+            .iter()
+            .filter(|(_, t)| match (&t.owner, t.state) {
+                (Some(owner), TicketState::Granted { at }) => !alive(owner) && at + grace <= now,
+                _ => false,
+            })
+            .map(|(id, _)| id.clone())
+            .collect();
+        let mut grants = Vec::new();
+        for id in orphaned {
+            grants.extend(self.give_back(&id, now));
+        }
+        while let Some((at, _)) = self.remembered_order.front() {
+            if *at + self.retention > now {
+                break;
+            }
+            if let Some((_, op)) = self.remembered_order.pop_front() {
+                self.remembered.remove(&op);
+            }
+        }
+        grants
+    }
+
+    /// How many tickets are queued or granted-unconfirmed (for tests and stats).
+    pub fn open_tickets(&self) -> usize {
+        self.tickets.len()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    fn n(s: &str) -> Name {
+        Name::new(s).unwrap()
+    }
+
+    #[test]
+    fn history_is_fifo_and_back_reads_older_values() {
+        let mut s = Store::new(3);
+        let t = Instant::now();
+        for v in 1..=5 {
+            s.set(&n("PosX"), json!(v), None, t).unwrap();
+        }
+        assert_eq!(s.get(&n("PosX"), 0).unwrap(), &json!(5));
+        assert_eq!(s.get(&n("PosX"), 2).unwrap(), &json!(3));
+        let e = s.get(&n("PosX"), 3).unwrap_err();
+        assert_eq!(e.code, ErrorCode::OutOfRange);
+        assert!(e.message.contains("holds 3 value"), "{}", e.message);
+        let info = s.history(&n("PosX"), Some(2)).unwrap();
+        assert_eq!((info.len, info.stored, info.seq), (2, 2, 5));
+        assert_eq!(s.get(&n("PosX"), 1).unwrap(), &json!(4));
+    }
+
+    #[test]
+    fn history_length_is_checked_and_declares_a_variable() {
+        let mut s = Store::new(16);
+        assert_eq!(s.history(&n("x"), Some(0)).unwrap_err().code, ErrorCode::OutOfRange);
+        assert_eq!(
+            s.history(&n("x"), Some(MAX_HISTORY + 1)).unwrap_err().code,
+            ErrorCode::OutOfRange
+        );
+        assert_eq!(s.history(&n("x"), None).unwrap_err().code, ErrorCode::UnknownVariable);
+        s.history(&n("x"), Some(2)).unwrap();
+        assert_eq!(s.get(&n("x"), 0).unwrap_err().code, ErrorCode::UnknownVariable);
+        for v in 0..5 {
+            s.put(&n("x"), json!(v));
+        }
+        assert_eq!(s.history(&n("x"), None).unwrap().stored, 2);
+    }
+
+    #[test]
+    fn retried_set_is_not_committed_twice() {
+        let mut s = Store::new(16);
+        let t = Instant::now();
+        let a = s.set(&n("v"), json!("a"), Some("c1-1"), t).unwrap();
+        assert_eq!(a.commit.as_ref().map(|c| c.seq), Some(1));
+        let again = s.set(&n("v"), json!("a"), Some("c1-1"), t).unwrap();
+        assert_eq!(again.reply, a.reply);
+        assert!(again.commit.is_none());
+        assert_eq!(s.history(&n("v"), None).unwrap().seq, 1);
+        // The same op id on another request is a client bug, named as such.
+        let e = s.signal(&n("v"), Some("c1-1"), t).unwrap_err();
+        assert_eq!(e.code, ErrorCode::Conflict);
+    }
+
+    #[test]
+    fn delete_keeps_the_commit_numbering() {
+        let mut s = Store::new(4);
+        s.put(&n("v"), json!(1));
+        let d = s.delete(&n("v")).unwrap();
+        assert_eq!((d.seq, d.deleted), (2, true));
+        assert!(s.delete(&n("v")).is_none());
+        assert_eq!(s.put(&n("v"), json!(2)).seq, 3);
+    }
+
+    #[test]
+    fn semaphore_basics_and_unknown_names() {
+        let mut s = Store::new(4);
+        let t = Instant::now();
+        assert_eq!(s.signal(&n("S"), None, t).unwrap_err().code, ErrorCode::UnknownSemaphore);
+        assert_eq!(s.wait(&n("S"), None, None, t).unwrap_err().code, ErrorCode::UnknownSemaphore);
+        assert_eq!(s.try_wait(&n("S"), None, t).unwrap_err().code, ErrorCode::UnknownSemaphore);
+        assert!(s.create(&n("S"), 1).unwrap().created);
+        let again = s.create(&n("S"), 5).unwrap();
+        assert!(!again.created);
+        assert_eq!(again.value, 1);
+        assert!(s.try_wait(&n("S"), None, t).unwrap().acquired);
+        assert!(!s.try_wait(&n("S"), None, t).unwrap().acquired);
+        assert_eq!(s.signal(&n("S"), None, t).unwrap().reply.value, 1);
+    }
+
+    #[test]
+    fn waiters_are_served_in_order() {
+        let mut s = Store::new(4);
+        let t = Instant::now();
+        s.create(&n("S"), 0).unwrap();
+        for id in ["a", "b", "c"] {
+            let r = s.wait(&n("S"), Some(id), Some("o"), t).unwrap();
+            assert_eq!(r.status, WaitStatus::Pending);
+        }
+        assert_eq!(s.semaphore(&n("S")).unwrap().waiters, 3);
+        // try-wait may not jump the queue even when a unit is free.
+        let mut order = Vec::new();
+        for _ in 0..3 {
+            let sig = s.signal(&n("S"), None, t).unwrap();
+            assert!(sig.reply.woke);
+            order.extend(sig.grants.into_iter().map(|g| g.ticket));
+        }
+        assert_eq!(order, ["a", "b", "c"]);
+        assert_eq!(s.semaphore(&n("S")).unwrap().value, 0);
+    }
+
+    #[test]
+    fn retried_wait_keeps_its_place_and_its_grant() {
+        let mut s = Store::new(4);
+        let t = Instant::now();
+        s.create(&n("S"), 0).unwrap();
+        s.wait(&n("S"), Some("a"), Some("o1"), t).unwrap();
+        s.wait(&n("S"), Some("b"), Some("o2"), t).unwrap();
+        // "a" retries (its reply was lost): still first, not queued twice.
+        let r = s.wait(&n("S"), Some("a"), Some("o1"), t).unwrap();
+        assert_eq!((r.status, r.position), (WaitStatus::Pending, Some(1)));
+        assert_eq!(s.semaphore(&n("S")).unwrap().waiters, 2);
+        let sig = s.signal(&n("S"), None, t).unwrap();
+        assert_eq!(sig.grants[0].ticket, "a");
+        // The grant reply is lost; the retry learns it without a second unit.
+        for _ in 0..3 {
+            assert_eq!(s.wait(&n("S"), Some("a"), Some("o1"), t).unwrap().status, WaitStatus::Granted);
+        }
+        assert_eq!(s.ack(&n("S"), "a", t).unwrap().status, WaitStatus::Confirmed);
+        // A retried ack, and a very late duplicate wait, are answered from memory.
+        assert_eq!(s.ack(&n("S"), "a", t).unwrap().status, WaitStatus::Confirmed);
+        assert_eq!(s.wait(&n("S"), Some("a"), Some("o1"), t).unwrap().status, WaitStatus::Confirmed);
+        let st = s.semaphore(&n("S")).unwrap();
+        assert_eq!((st.value, st.waiters), (0, 1));
+    }
+
+    #[test]
+    fn cancel_racing_a_grant_hands_over_the_unit() {
+        let mut s = Store::new(4);
+        let t = Instant::now();
+        s.create(&n("S"), 0).unwrap();
+        s.wait(&n("S"), Some("a"), Some("o"), t).unwrap();
+        s.signal(&n("S"), None, t).unwrap();
+        assert_eq!(s.cancel(&n("S"), "a").unwrap().status, WaitStatus::Granted);
+        s.ack(&n("S"), "a", t).unwrap();
+        // Cancelling a queued ticket removes it and takes nothing.
+        s.wait(&n("S"), Some("b"), Some("o"), t).unwrap();
+        assert_eq!(s.cancel(&n("S"), "b").unwrap().status, WaitStatus::Cancelled);
+        assert_eq!(s.cancel(&n("S"), "b").unwrap().status, WaitStatus::Unknown);
+        s.signal(&n("S"), None, t).unwrap();
+        assert_eq!(s.semaphore(&n("S")).unwrap().value, 1);
+    }
+
+    #[test]
+    fn a_dead_owners_place_is_dropped_and_its_unconfirmed_unit_returned() {
+        let mut s = Store::new(4);
+        let t = Instant::now();
+        s.create(&n("S"), 0).unwrap();
+        s.wait(&n("S"), Some("dead-1"), Some("dead"), t).unwrap();
+        s.wait(&n("S"), Some("dead-2"), Some("dead"), t).unwrap();
+        s.wait(&n("S"), Some("live-1"), Some("live"), t).unwrap();
+        // The first signal goes to the dead owner before its death is known.
+        assert_eq!(s.signal(&n("S"), None, t).unwrap().grants[0].ticket, "dead-1");
+        let grants = s.owner_gone("dead", t);
+        assert_eq!(grants, vec![Grant { sem: n("S"), ticket: "live-1".into() }]);
+        assert_eq!(s.ack(&n("S"), "dead-1", t).unwrap().status, WaitStatus::Unknown);
+        let st = s.semaphore(&n("S")).unwrap();
+        assert_eq!((st.value, st.waiters), (0, 0));
+    }
+
+    #[test]
+    fn sweep_lapses_abandoned_places_and_orphaned_grants() {
+        let mut s = Store::new(4);
+        let t0 = Instant::now();
+        let grace = Duration::from_secs(5);
+        s.create(&n("S"), 0).unwrap();
+        s.wait(&n("S"), Some("a"), Some("ghost"), t0).unwrap();
+        s.wait(&n("S"), Some("b"), Some("live"), t0).unwrap();
+        assert_eq!(s.release_hold("b", t0 + grace).unwrap().status, WaitStatus::Pending);
+        // "a" is granted to an owner that was never seen alive.
+        s.signal(&n("S"), None, t0).unwrap();
+        let alive = |o: &str| o == "live";
+        assert!(s.sweep(t0 + Duration::from_secs(1), grace, alive).is_empty());
+        assert_eq!(s.open_tickets(), 2);
+        // After the grace "b" has lapsed (nobody asked again), and the
+        // ghost's unit returns to the semaphore.
+        assert!(s.sweep(t0 + grace, grace, alive).is_empty());
+        assert_eq!(s.open_tickets(), 0);
+        assert_eq!(s.semaphore(&n("S")).unwrap().value, 1);
+    }
+
+    #[test]
+    fn anonymous_waits_time_out_and_their_grants_are_final() {
+        let mut s = Store::new(4);
+        let t = Instant::now();
+        s.create(&n("S"), 0).unwrap();
+        let r = s.wait(&n("S"), None, None, t).unwrap();
+        assert_eq!(r.status, WaitStatus::Pending);
+        assert_eq!(s.release_hold(&r.ticket, t).unwrap().status, WaitStatus::TimedOut);
+        assert_eq!(s.semaphore(&n("S")).unwrap().waiters, 0);
+        let r = s.wait(&n("S"), None, None, t).unwrap();
+        let g = s.signal(&n("S"), None, t).unwrap().grants;
+        assert_eq!(g[0].ticket, r.ticket);
+        assert_eq!(s.open_tickets(), 0);
+    }
+
+    #[test]
+    fn retried_signal_and_try_wait_are_not_done_twice() {
+        let mut s = Store::new(4);
+        let t = Instant::now();
+        s.create(&n("S"), 0).unwrap();
+        s.signal(&n("S"), Some("s1"), t).unwrap();
+        s.signal(&n("S"), Some("s1"), t).unwrap();
+        assert_eq!(s.semaphore(&n("S")).unwrap().value, 1);
+        s.signal(&n("S"), Some("s2"), t).unwrap();
+        assert!(s.try_wait(&n("S"), Some("t1"), t).unwrap().acquired);
+        assert!(s.try_wait(&n("S"), Some("t1"), t).unwrap().acquired);
+        assert_eq!(s.semaphore(&n("S")).unwrap().value, 1);
+        // Memory of finished requests expires after the retention.
+        s.sweep(t + DEFAULT_RETENTION, Duration::ZERO, |_| true);
+        s.signal(&n("S"), Some("s1"), t).unwrap();
+        assert_eq!(s.semaphore(&n("S")).unwrap().value, 2);
+    }
+
+    #[test]
+    fn tickets_cannot_cross_semaphores() {
+        let mut s = Store::new(4);
+        let t = Instant::now();
+        s.create(&n("A"), 0).unwrap();
+        s.create(&n("B"), 0).unwrap();
+        s.wait(&n("A"), Some("x"), Some("o"), t).unwrap();
+        assert_eq!(s.wait(&n("B"), Some("x"), Some("o"), t).unwrap_err().code, ErrorCode::Conflict);
+        assert_eq!(s.cancel(&n("B"), "x").unwrap_err().code, ErrorCode::Conflict);
+    }
+}
