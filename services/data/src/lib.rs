@@ -14,5 +14,5 @@ pub mod cmd;
 pub mod server;
 pub mod store;
 
-pub use server::{run, ServerConfig, ServerError};
+pub use server::{run, spawn, Running, ServerConfig, ServerError};
 pub use store::Store;

@@ -63,6 +63,41 @@ pub enum ServerError {
     },
 }
 
+/// A data server running in a task of this process (embedded runs,
+/// tests, benchmarks).
+pub struct Running {
+    stop: Option<tokio::sync::oneshot::Sender<()>>,
+    task: tokio::task::JoinHandle<Result<(), ServerError>>,
+}
+
+impl Running {
+    /// Stops the server and waits for it to finish.
+    pub async fn stop(mut self) -> Result<(), ServerError> {
+        if let Some(stop) = self.stop.take() {
+            let _ = stop.send(());
+        }
+        match (&mut self.task).await {
+            Ok(result) => result,
+            Err(e) => Err(ServerError::Declare {
+                what: "the server task".into(),
+                detail: e.to_string(),
+            }),
+        }
+    }
+}
+
+/// Starts [`run`] in a task; it stops on [`Running::stop`] or when dropped.
+pub fn spawn(session: Session, config: ServerConfig) -> Running {
+    let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
+    let task = tokio::spawn(run(session, config, async move {
+        let _ = stopped.await;
+    }));
+    Running {
+        stop: Some(stop),
+        task,
+    }
+}
+
 enum Event {
     Query(Query),
     Put(Sample),
@@ -356,7 +391,7 @@ impl Server {
             SampleKind::Delete => {
                 self.alive.remove(&owner);
                 let grants = self.store.owner_gone(&owner, Instant::now());
-                tracing::info!(%owner, passed_on = grants.len(), "client gone; its waits dropped");
+                tracing::debug!(%owner, passed_on = grants.len(), "client gone; its waits dropped");
                 self.answer_grants(grants).await;
             }
         }

@@ -28,6 +28,10 @@ use std::time::{Duration, Instant};
 /// How long a finished request's reply is kept for retries.
 pub const DEFAULT_RETENTION: Duration = Duration::from_secs(600);
 
+/// How long an owned grant may wait for its `ack` before its unit goes
+/// back, even if the owner looks alive (its client gave up on the wait).
+pub const DEFAULT_CONFIRM_WITHIN: Duration = Duration::from_secs(60);
+
 /// How many finished requests are remembered at most.
 pub const MAX_REMEMBERED: usize = 200_000;
 
@@ -104,6 +108,7 @@ pub struct Written {
 pub struct Store {
     default_history: u32,
     retention: Duration,
+    confirm_within: Duration,
     vars: BTreeMap<Name, Var>,
     sems: BTreeMap<Name, Sem>,
     tickets: HashMap<String, Ticket>,
@@ -129,6 +134,7 @@ impl Store {
         Store {
             default_history: default_history.clamp(1, MAX_HISTORY),
             retention: DEFAULT_RETENTION,
+            confirm_within: DEFAULT_CONFIRM_WITHIN,
             vars: BTreeMap::new(),
             sems: BTreeMap::new(),
             tickets: HashMap::new(),
@@ -136,6 +142,12 @@ impl Store {
             remembered_order: VecDeque::new(),
             next_anonymous: 0,
         }
+    }
+
+    /// Sets how long an owned grant may wait for its `ack`.
+    pub fn with_confirm_within(mut self, confirm_within: Duration) -> Self {
+        self.confirm_within = confirm_within;
+        self
     }
 
     /// Sets how long finished requests are remembered for retries.
@@ -645,7 +657,8 @@ impl Store {
 
     /// Periodic housekeeping: drops queued tickets nobody asked about in
     /// time, takes back unconfirmed units of owners that are not alive
-    /// `grace` after the grant, and forgets finished requests past retention.
+    /// `grace` after the grant (or of any owner after `confirm_within`),
+    /// and forgets finished requests past retention.
     pub fn sweep(&mut self, now: Instant, grace: Duration, alive: impl Fn(&str) -> bool) -> Vec<Grant> {
         let lapsed: Vec<String> = self
             .tickets
@@ -660,7 +673,9 @@ impl Store {
             .tickets
             .iter()
             .filter(|(_, t)| match (&t.owner, t.state) {
-                (Some(owner), TicketState::Granted { at }) => !alive(owner) && at + grace <= now,
+                (Some(owner), TicketState::Granted { at }) => {
+                    (!alive(owner) && at + grace <= now) || at + self.confirm_within <= now
+                }
                 _ => false,
             })
             .map(|(id, _)| id.clone())
@@ -869,6 +884,23 @@ mod tests {
         assert!(s.sweep(t0 + grace, grace, alive).is_empty());
         assert_eq!(s.open_tickets(), 0);
         assert_eq!(s.semaphore(&n("S")).unwrap().value, 1);
+    }
+
+    #[test]
+    fn a_grant_never_confirmed_goes_back_even_if_the_owner_lives() {
+        let mut s = Store::new(4).with_confirm_within(Duration::from_secs(60));
+        let t0 = Instant::now();
+        s.create(&n("S"), 0).unwrap();
+        s.wait(&n("S"), Some("a"), Some("live"), t0).unwrap();
+        s.signal(&n("S"), None, t0).unwrap();
+        let grace = Duration::from_secs(5);
+        s.sweep(t0 + Duration::from_secs(59), grace, |_| true);
+        assert_eq!(s.open_tickets(), 1);
+        s.sweep(t0 + Duration::from_secs(60), grace, |_| true);
+        assert_eq!(s.open_tickets(), 0);
+        assert_eq!(s.semaphore(&n("S")).unwrap().value, 1);
+        // The late ack learns the unit is not its own.
+        assert_eq!(s.ack(&n("S"), "a", t0).unwrap().status, WaitStatus::Unknown);
     }
 
     #[test]

@@ -21,10 +21,10 @@ impl Params {
         }
     }
 
-    /// Parses `a=1&b=x` (for tests and tools).
+    /// Parses `a=1;b=x`, Zenoh's selector-parameter syntax (for tests and tools).
     pub fn parse(text: &str) -> Self {
         Params::new(
-            text.split('&')
+            text.split(';')
                 .filter(|p| !p.is_empty())
                 .map(|p| p.split_once('=').unwrap_or((p, ""))),
         )

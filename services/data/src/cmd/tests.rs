@@ -98,12 +98,12 @@ fn wait_is_held_or_answered() {
         .unwrap()
         .apply(&mut store, now)
         .unwrap();
-    let first = parse("rome/data/wait/S", "ticket=t1&owner=o", None)
+    let first = parse("rome/data/wait/S", "ticket=t1;owner=o", None)
         .unwrap()
         .apply(&mut store, now)
         .unwrap();
     assert!(first.reply.is_some() && first.hold.is_none());
-    let second = parse("rome/data/wait/S", "ticket=t2&owner=o&hold_ms=250", None)
+    let second = parse("rome/data/wait/S", "ticket=t2;owner=o;hold_ms=250", None)
         .unwrap()
         .apply(&mut store, now)
         .unwrap();

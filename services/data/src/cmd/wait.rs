@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 /// place in the queue).
 ///
 /// ```text
-/// get rome/data/wait/XYZ?ticket=c7-15&owner=c7&hold_ms=10000
+/// get rome/data/wait/XYZ?ticket=c7-15;owner=c7;hold_ms=10000
 ///     -> {"name":"XYZ","ticket":"c7-15","status":"granted"}
 ///     -> {"name":"XYZ","ticket":"c7-15","status":"pending","position":2}
 /// get rome/data/wait/XYZ?hold_ms=3000        (anonymous, e.g. from z_get)

@@ -1,0 +1,90 @@
+//! Flags shared by every command, turned into network options in one place.
+
+use clap::Args;
+use rome_client::net::{NetOptions, DEFAULT_PORT};
+use rome_schema::Root;
+use std::path::PathBuf;
+
+/// Zenoh and deployment flags, accepted by every command.
+#[derive(Debug, Clone, Args)]
+pub struct CommonArgs {
+    /// A Zenoh configuration file (JSON5) to start from.
+    #[arg(short, long, global = true, env = "ROME_CONFIG", value_name = "FILE")]
+    pub config: Option<PathBuf>,
+    /// Zenoh mode: peer, client or router.
+    #[arg(short, long, global = true, env = "ROME_MODE", value_parser = ["peer", "client", "router"])]
+    pub mode: Option<String>,
+    /// Endpoint to connect to, e.g. tcp/192.168.1.10:7447 (repeatable).
+    #[arg(short = 'e', long, global = true, env = "ROME_CONNECT", value_delimiter = ',', value_name = "ENDPOINT")]
+    pub connect: Vec<String>,
+    /// Endpoint to listen on, e.g. tcp/0.0.0.0:7447 (repeatable).
+    #[arg(short, long, global = true, env = "ROME_LISTEN", value_delimiter = ',', value_name = "ENDPOINT")]
+    pub listen: Vec<String>,
+    /// Turn off multicast scouting (only the given endpoints are used).
+    #[arg(long, global = true, env = "ROME_NO_MULTICAST")]
+    pub no_multicast: bool,
+    /// Root prefix of every key, so deployments can share a router.
+    #[arg(long, global = true, env = "ROME_ROOT", default_value = rome_schema::keys::DEFAULT_ROOT)]
+    pub root: String,
+    /// More log output (-v info, -vv debug); RUST_LOG overrides.
+    #[arg(short, long, global = true, action = clap::ArgAction::Count)]
+    pub verbose: u8,
+}
+
+/// Whether the program serves (listens by default) or is a client
+/// (connects by default).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Side {
+    /// A server: listens on 0.0.0.0:7447 when nothing is given.
+    Server,
+    /// A client: connects to 127.0.0.1:7447 when nothing is given.
+    Client,
+}
+
+impl CommonArgs {
+    /// The root prefix, validated.
+    pub fn root(&self) -> anyhow::Result<Root> {
+        Ok(Root::new(self.root.as_str())?)
+    }
+
+    /// Network options for this side, with the out-of-the-box defaults.
+    pub fn net(&self, side: Side) -> NetOptions {
+        let mut net = NetOptions {
+            config: self.config.clone(),
+            mode: self.mode.clone(),
+            connect: self.connect.clone(),
+            listen: self.listen.clone(),
+            no_multicast: self.no_multicast,
+        };
+        if net.is_unconfigured() {
+            match side {
+                Side::Server => net.listen.push(format!("tcp/0.0.0.0:{DEFAULT_PORT}")),
+                Side::Client => net.connect.push(format!("tcp/127.0.0.1:{DEFAULT_PORT}")),
+            }
+        }
+        net
+    }
+
+    /// Opens a session for this side.
+    pub async fn open(&self, side: Side) -> anyhow::Result<zenoh::Session> {
+        Ok(self.net(side).open().await?)
+    }
+
+    /// Installs the log subscriber: warnings by default, info for servers.
+    pub fn init_logging(&self, server: bool) {
+        use tracing_subscriber::EnvFilter;
+        let level = match (self.verbose, server) {
+            (0, false) => "warn",
+            (0, true) | (1, _) => "info",
+            _ => "debug",
+        };
+        let filter = EnvFilter::try_from_default_env()
+            .unwrap_or_else(|_| EnvFilter::new(format!("{level},zenoh=warn,zenoh_transport=warn")));
+        use std::io::IsTerminal;
+        let _ = tracing_subscriber::fmt()
+            .with_env_filter(filter)
+            .with_ansi(std::io::stderr().is_terminal())
+            .with_writer(std::io::stderr)
+            .try_init();
+    }
+}

@@ -1,0 +1,258 @@
+//! `rome bench data`: round trips and throughput of the data server,
+//! beside a bare Zenoh queryable measured in the same run over the same
+//! loopback links, so the figures are a ratio, not a guess about the
+//! machine.
+
+use crate::args::CommonArgs;
+use crate::exit;
+use clap::Subcommand;
+use rome_client::net::{free_loopback_port, NetOptions};
+use rome_client::{DataClient, DataOptions};
+use serde::Serialize;
+use std::time::{Duration, Instant};
+use zenoh::Wait;
+
+/// The `rome bench` commands.
+#[derive(Debug, Subcommand)]
+pub enum BenchCmd {
+    /// Data server get/set/signal vs a bare Zenoh queryable, on loopback.
+    Data(DataBench),
+}
+
+/// Flags of `rome bench data`.
+#[derive(Debug, clap::Args)]
+pub struct DataBench {
+    /// Client counts to measure, each client on its own Zenoh session.
+    #[arg(long, value_delimiter = ',', default_values_t = [1usize, 50])]
+    pub clients: Vec<usize>,
+    /// Seconds to measure each operation at each client count.
+    #[arg(long, default_value_t = 2.0)]
+    pub seconds: f64,
+    /// Print JSON rows instead of a table.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Op {
+    Raw,
+    Get,
+    Set,
+    Signal,
+}
+
+impl Op {
+    fn name(self) -> &'static str {
+        match self {
+            Op::Raw => "zenoh-queryable",
+            Op::Get => "get",
+            Op::Set => "set",
+            Op::Signal => "signal",
+        }
+    }
+}
+
+/// One measured row.
+#[derive(Debug, Clone, Serialize)]
+pub struct Row {
+    /// The operation.
+    pub op: &'static str,
+    /// Concurrent clients.
+    pub clients: usize,
+    /// Completed operations per second, all clients together.
+    pub ops_per_s: f64,
+    /// Median round trip, microseconds.
+    pub p50_us: u64,
+    /// 99th percentile round trip, microseconds.
+    pub p99_us: u64,
+    /// Operations measured.
+    pub samples: usize,
+}
+
+const RAW_KEY: &str = "rome-bench/raw";
+
+struct Client {
+    session: zenoh::Session,
+    data: DataClient,
+}
+
+async fn once(client: &Client, op: Op) -> anyhow::Result<()> {
+    match op {
+        Op::Raw => {
+            let replies = client
+                .session
+                .get(RAW_KEY)
+                .await
+                .map_err(|e| anyhow::anyhow!("{e}"))?;
+            let reply = replies
+                .recv_async()
+                .await
+                .map_err(|e| anyhow::anyhow!("raw queryable did not answer: {e}"))?;
+            anyhow::ensure!(reply.result().is_ok(), "raw queryable answered an error");
+        }
+        Op::Get => {
+            client.data.get("bench/x").await?;
+        }
+        Op::Set => {
+            client.data.set("bench/x", &1).await?;
+        }
+        Op::Signal => {
+            client.data.signal("bench").await?;
+        }
+    }
+    Ok(())
+}
+
+async fn measure(clients: &[Client], op: Op, span: Duration) -> anyhow::Result<Row> {
+    let run = |span: Duration| {
+        let deadline = Instant::now() + span;
+        async move {
+            let mut tasks = Vec::new();
+            for client in clients {
+                tasks.push(async move {
+                    let mut lat = Vec::new();
+                    while Instant::now() < deadline {
+                        let t = Instant::now();
+                        once(client, op).await?;
+                        lat.push(t.elapsed().as_micros() as u64);
+                    }
+                    Ok::<_, anyhow::Error>(lat)
+                });
+            }
+            let started = Instant::now();
+            let results = futures_join_all(tasks).await;
+            let elapsed = started.elapsed();
+            let mut all = Vec::new();
+            for r in results {
+                all.extend(r?);
+            }
+            Ok::<_, anyhow::Error>((all, elapsed))
+        }
+    };
+    run(span / 5).await?; // warm-up
+    let (mut lat, elapsed) = run(span).await?;
+    anyhow::ensure!(!lat.is_empty(), "no {} completed", op.name());
+    lat.sort_unstable();
+    let pct = |p: f64| lat[((lat.len() as f64 * p) as usize).min(lat.len() - 1)];
+    Ok(Row {
+        op: op.name(),
+        clients: clients.len(),
+        ops_per_s: lat.len() as f64 / elapsed.as_secs_f64(),
+        p50_us: pct(0.50),
+        p99_us: pct(0.99),
+        samples: lat.len(),
+    })
+}
+
+/// Drives futures concurrently on this task (no extra dependency).
+async fn futures_join_all<F: std::future::Future>(futures: Vec<F>) -> Vec<F::Output> {
+    let mut set = Vec::with_capacity(futures.len());
+    for f in futures {
+        set.push(Box::pin(f));
+    }
+    let mut out: Vec<Option<F::Output>> = (0..set.len()).map(|_| None).collect();
+    std::future::poll_fn(|cx| {
+        let mut pending = false;
+        for (i, f) in set.iter_mut().enumerate() {
+            if out[i].is_none() {
+                match f.as_mut().poll(cx) {
+                    std::task::Poll::Ready(v) => out[i] = Some(v),
+                    std::task::Poll::Pending => pending = true,
+                }
+            }
+        }
+        if pending {
+            std::task::Poll::Pending
+        } else {
+            std::task::Poll::Ready(())
+        }
+    })
+    .await;
+    out.into_iter().flatten().collect()
+}
+
+/// Runs the data benchmark and returns its rows.
+pub async fn data_rows(args: &DataBench, progress: bool) -> anyhow::Result<Vec<Row>> {
+    anyhow::ensure!(
+        args.seconds.is_finite() && args.seconds > 0.0,
+        "--seconds must be positive"
+    );
+    anyhow::ensure!(
+        args.clients.iter().all(|&n| (1..=500).contains(&n)),
+        "--clients takes counts between 1 and 500"
+    );
+    let span = Duration::from_secs_f64(args.seconds);
+    let port = free_loopback_port()?;
+    let server_session = NetOptions::loopback(Some(port), &[]).open().await?;
+    let _raw = server_session
+        .declare_queryable(RAW_KEY)
+        .callback(|q| {
+            let _ = q.reply(RAW_KEY, b"0".to_vec()).wait();
+        })
+        .await
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    let server = rome_data::spawn(server_session.clone(), rome_data::ServerConfig::default());
+    let mut rows = Vec::new();
+    for &n in &args.clients {
+        if progress {
+            eprintln!("opening {n} client session(s) on 127.0.0.1:{port} …");
+        }
+        let mut clients = Vec::new();
+        for i in 0..n {
+            let session = NetOptions::loopback(None, &[port]).open().await?;
+            let data = DataClient::connect(&session, DataOptions::new(&format!("bench{i}"))).await?;
+            clients.push(Client { session, data });
+        }
+        clients[0].data.set("bench/x", &0).await?;
+        clients[0].data.create_semaphore("bench", 0).await?;
+        for op in [Op::Raw, Op::Get, Op::Set, Op::Signal] {
+            if progress {
+                eprintln!("  {:16} {n:>3} client(s), {:.1} s …", op.name(), args.seconds);
+            }
+            rows.push(measure(&clients, op, span).await?);
+        }
+        for c in clients {
+            let _ = c.session.close().await;
+        }
+    }
+    server.stop().await?;
+    let _ = server_session.close().await;
+    Ok(rows)
+}
+
+/// Runs a `rome bench` command.
+pub async fn run(_common: &CommonArgs, cmd: BenchCmd) -> anyhow::Result<u8> {
+    match cmd {
+        BenchCmd::Data(args) => {
+            let rows = data_rows(&args, !args.json).await?;
+            if args.json {
+                println!("{}", serde_json::to_string_pretty(&rows)?);
+            } else {
+                print_table(&rows);
+            }
+        }
+    }
+    Ok(exit::OK)
+}
+
+fn print_table(rows: &[Row]) {
+    println!(
+        "{:16} {:>7} {:>10} {:>9} {:>9} {:>11}",
+        "operation", "clients", "ops/s", "p50 µs", "p99 µs", "p50 vs raw"
+    );
+    for row in rows {
+        let raw = rows
+            .iter()
+            .find(|r| r.op == Op::Raw.name() && r.clients == row.clients)
+            .map_or(1, |r| r.p50_us.max(1));
+        println!(
+            "{:16} {:>7} {:>10.0} {:>9} {:>9} {:>10.2}x",
+            row.op,
+            row.clients,
+            row.ops_per_s,
+            row.p50_us,
+            row.p99_us,
+            row.p50_us as f64 / raw as f64
+        );
+    }
+}

@@ -1,0 +1,39 @@
+//! `rome data-server`: runs the data server until Ctrl-C or SIGTERM.
+
+use crate::args::{CommonArgs, Side};
+use crate::exit;
+use rome_data::ServerConfig;
+use std::time::Duration;
+
+/// Flags of `rome data-server`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// History length of a new variable (the thesis' N).
+    #[arg(long, default_value_t = rome_schema::data::DEFAULT_HISTORY, value_parser = clap::value_parser!(u32).range(1..=i64::from(rome_schema::data::MAX_HISTORY)))]
+    pub history: u32,
+    /// How long a queued wait keeps its place between polls, and how long
+    /// an unconfirmed grant to a vanished client is kept (milliseconds).
+    #[arg(long, default_value_t = 5000, value_name = "MS")]
+    pub grace_ms: u64,
+}
+
+/// Runs the server.
+pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
+    let net = common.net(Side::Server);
+    let session = net.open().await?;
+    let config = ServerConfig {
+        root: common.root()?,
+        default_history: args.history,
+        grace: Duration::from_millis(args.grace_ms),
+        ..ServerConfig::default()
+    };
+    eprintln!(
+        "rome data-server: serving '{}/data/**' (listen {:?}, connect {:?}); Ctrl-C to stop",
+        config.root.as_str(),
+        net.listen,
+        net.connect
+    );
+    rome_data::run(session.clone(), config, exit::interrupted()).await?;
+    let _ = session.close().await;
+    Ok(exit::OK)
+}

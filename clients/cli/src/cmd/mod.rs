@@ -1,0 +1,22 @@
+//! One module per command group.
+
+pub mod bench;
+pub mod data;
+pub mod data_server;
+pub mod demo;
+pub mod ls;
+pub mod sem;
+
+use crate::args::{CommonArgs, Side};
+use anyhow::Context;
+use rome_client::{DataClient, DataOptions};
+
+/// Opens a client session and connects to the data server.
+pub async fn connect_data(common: &CommonArgs, role: &str) -> anyhow::Result<DataClient> {
+    let session = common.open(Side::Client).await?;
+    let mut options = DataOptions::new(role);
+    options.root = common.root()?;
+    DataClient::connect(&session, options)
+        .await
+        .context("cannot reach the data server (start one with `rome data-server`, or pass --connect)")
+}

@@ -1,0 +1,106 @@
+//! The `rome` command-line program.
+//!
+//! How this crate is laid out:
+//! - [`args`]: [`CommonArgs`](args::CommonArgs), the Zenoh flags shared by
+//!   every command (`--connect`, `--listen`, `--mode`, `--config`,
+//!   `--no-multicast`, `--root`), flattened into [`Cli`].
+//! - [`cmd`]: one module per command group (`data-server`, `data`, `sem`,
+//!   `ls`, `demo`, `bench`), each with a `run` taking parsed arguments.
+//! - [`exit`]: the exit codes, documented in `rome --help`.
+//!
+//! `main` only parses flags and calls [`main`]; everything else is here so
+//! tests and benchmarks can call commands without a subprocess.
+
+pub mod args;
+pub mod cmd;
+pub mod exit;
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+/// Command-line client and servers for RoME over Zenoh.
+#[derive(Debug, Parser)]
+#[command(
+    name = "rome",
+    version,
+    about = "RoME over Zenoh: data server, robot servers and clients for robot navigation",
+    long_about = "RoME over Zenoh: the client-server robot control architecture of the thesis \
+(data server, hardware servers, navigation clients) on Zenoh.\n\n\
+Every program meets the others through Zenoh. With no --connect/--listen/--config, servers \
+listen on tcp/0.0.0.0:7447 and clients connect to tcp/127.0.0.1:7447, so one machine works \
+out of the box; point --connect at a router or server for anything else.",
+    after_help = "Exit codes: 0 success, 1 error, 2 bad usage, 3 not acquired / timed out (sem try-wait, sem wait --timeout), 130 interrupted.\n\
+Keys, payloads and plain-Zenoh examples: docs/keys.md"
+)]
+pub struct Cli {
+    /// Zenoh and deployment flags.
+    #[command(flatten)]
+    pub common: args::CommonArgs,
+    /// The command.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// The commands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Run the data server (DServer): shared variables and semaphores.
+    DataServer(cmd::data_server::Args),
+    /// Read, write and watch shared variables.
+    #[command(subcommand)]
+    Data(cmd::data::DataCmd),
+    /// Create, signal and wait on semaphores.
+    #[command(subcommand)]
+    Sem(cmd::sem::SemCmd),
+    /// List the live servers and clients.
+    Ls(cmd::ls::Args),
+    /// Run everything in one process and show it working (no router, no configuration).
+    Demo(cmd::demo::Args),
+    /// Measure round trips and throughput.
+    #[command(subcommand)]
+    Bench(cmd::bench::BenchCmd),
+}
+
+/// Runs a parsed command line and returns the process exit code.
+pub fn main(cli: Cli) -> ExitCode {
+    let server = matches!(cli.command, Command::DataServer(_));
+    cli.common.init_logging(server);
+    let runtime = match tokio::runtime::Builder::new_multi_thread().enable_all().build() {
+        Ok(rt) => rt,
+        Err(e) => {
+            eprintln!("error: cannot start the async runtime: {e}");
+            return ExitCode::from(exit::ERROR);
+        }
+    };
+    let code = runtime.block_on(async {
+        let result = if server {
+            // A server takes the interrupt as its shutdown signal and exits 0.
+            run(cli).await
+        } else {
+            tokio::select! {
+                result = run(cli) => result,
+                _ = exit::interrupted() => Ok(exit::INTERRUPTED),
+            }
+        };
+        result.unwrap_or_else(|e| {
+            eprintln!("error: {e:#}");
+            exit::ERROR
+        })
+    });
+    // Zenoh's background tasks must not hold the process open.
+    runtime.shutdown_timeout(std::time::Duration::from_millis(500));
+    ExitCode::from(code)
+}
+
+/// Runs one command; `Ok` carries the exit code.
+pub async fn run(cli: Cli) -> anyhow::Result<u8> {
+    let common = cli.common;
+    match cli.command {
+        Command::DataServer(args) => cmd::data_server::run(&common, args).await,
+        Command::Data(c) => cmd::data::run(&common, c).await,
+        Command::Sem(c) => cmd::sem::run(&common, c).await,
+        Command::Ls(args) => cmd::ls::run(&common, args).await,
+        Command::Demo(args) => cmd::demo::run(&common, args).await,
+        Command::Bench(c) => cmd::bench::run(&common, c).await,
+    }
+}

@@ -1,0 +1,50 @@
+//! Who is alive: every server and client declares a liveliness token
+//! under `<root>/alive/...`; this replaces the thesis' name server.
+
+use crate::ClientError;
+use rome_schema::keys::AliveClass;
+use rome_schema::Root;
+use std::time::Duration;
+use zenoh::Session;
+
+/// One live participant.
+#[derive(Debug, Clone, PartialEq, Eq, PartialOrd, Ord)]
+pub struct Participant {
+    /// `server` or `client`.
+    pub class: &'static str,
+    /// What it is: `data`, `cli`, `planner` …
+    pub role: String,
+    /// Its unique id.
+    pub id: String,
+    /// Its full liveliness key.
+    pub key: String,
+}
+
+/// Lists every live server and client of the deployment, sorted.
+pub async fn list(session: &Session, root: &Root, timeout: Duration) -> Result<Vec<Participant>, ClientError> {
+    let replies = session
+        .liveliness()
+        .get(root.alive_all())
+        .timeout(timeout)
+        .await
+        .map_err(ClientError::zenoh)?;
+    let mut out = Vec::new();
+    while let Ok(reply) = replies.recv_async().await {
+        let Ok(sample) = reply.result() else { continue };
+        let key = sample.key_expr().as_str();
+        if let Some(alive) = root.parse_alive(key) {
+            out.push(Participant {
+                class: match alive.class {
+                    AliveClass::Server => "server",
+                    AliveClass::Client => "client",
+                },
+                role: alive.role.to_string(),
+                id: alive.id.to_string(),
+                key: key.to_string(),
+            });
+        }
+    }
+    out.sort();
+    out.dedup();
+    Ok(out)
+}

@@ -1,0 +1,517 @@
+//! [`DataClient`]: the data server's function library (§4.6.1).
+//!
+//! Every call is a Zenoh query to `<root>/data/<op>/<name>` (see
+//! `docs/keys.md`). Calls that change state carry an id, so a call whose
+//! reply is lost is retried without being done twice; a blocking wait
+//! keeps one ticket for all its polls and confirms its grant before
+//! returning, so no unit is lost or duplicated when replies go missing,
+//! the call times out, or the client dies.
+
+use crate::ClientError;
+use rome_schema::data::{
+    param, Committed, CreateReply, HistoryInfo, SemState, SetReply, SignalReply, TryWaitReply,
+    WaitReply, WaitStatus, MAX_HOLD_MS,
+};
+use rome_schema::keys::DataOp;
+use rome_schema::{decode, encode, ErrorReply, Name, Root};
+use serde::de::DeserializeOwned;
+use serde::Serialize;
+use serde_json::Value;
+use std::collections::HashMap;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+use zenoh::bytes::Encoding;
+use zenoh::handlers::FifoChannelHandler;
+use zenoh::liveliness::LivelinessToken;
+use zenoh::pubsub::Subscriber;
+use zenoh::qos::Priority;
+use zenoh::sample::Sample;
+use zenoh::Session;
+
+/// Numbers the clients of this process, so owners are unique per session.
+static NEXT_CLIENT: AtomicU64 = AtomicU64::new(1);
+
+/// How a [`DataClient`] behaves.
+#[derive(Debug, Clone)]
+pub struct DataOptions {
+    /// The deployment's root prefix.
+    pub root: Root,
+    /// What this client is (`planner`, `cli` …): shown by `rome ls`.
+    pub role: String,
+    /// How long one call may take, retries included (waits excepted).
+    pub request_timeout: Duration,
+    /// How long one attempt of a call may take before it is retried.
+    pub attempt_timeout: Duration,
+    /// How long the server holds one poll of a blocking wait.
+    pub hold: Duration,
+    /// How long [`DataClient::connect`] waits for the data server to appear.
+    pub connect_timeout: Duration,
+    /// The Zenoh priority of this client's requests (§4.3).
+    pub priority: Priority,
+}
+
+impl DataOptions {
+    /// Defaults for a client with this role.
+    pub fn new(role: &str) -> Self {
+        DataOptions {
+            root: Root::default(),
+            role: role.to_string(),
+            request_timeout: Duration::from_secs(10),
+            attempt_timeout: Duration::from_secs(3),
+            hold: Duration::from_secs(10),
+            connect_timeout: Duration::from_secs(10),
+            priority: Priority::Data,
+        }
+    }
+}
+
+struct Inner {
+    session: Session,
+    options: DataOptions,
+    owner: String,
+    next_id: AtomicU64,
+    _token: LivelinessToken,
+}
+
+/// A connection to the data server. Cheap to clone; clones share one
+/// owner id and one liveliness token.
+#[derive(Clone)]
+pub struct DataClient {
+    inner: Arc<Inner>,
+}
+
+/// What a call expects back.
+enum Answer<T> {
+    Reply(T),
+    /// The server replied with an error.
+    Refused(ErrorReply),
+}
+
+impl DataClient {
+    /// Declares this client alive and waits until the data server is seen.
+    pub async fn connect(session: &Session, options: DataOptions) -> Result<Self, ClientError> {
+        let n = NEXT_CLIENT.fetch_add(1, Ordering::Relaxed);
+        let owner = format!("{}-{n}", session.zid());
+        let role = Name::new(options.role.as_str())?;
+        let token = session
+            .liveliness()
+            .declare_token(options.root.alive_client(role.as_str(), &owner))
+            .await
+            .map_err(ClientError::zenoh)?;
+        let client = DataClient {
+            inner: Arc::new(Inner {
+                session: session.clone(),
+                owner,
+                next_id: AtomicU64::new(1),
+                _token: token,
+                options,
+            }),
+        };
+        client.await_server().await?;
+        Ok(client)
+    }
+
+    async fn await_server(&self) -> Result<(), ClientError> {
+        let o = &self.inner.options;
+        let key = o.root.alive_server("data", "*");
+        let seen = self
+            .inner
+            .session
+            .liveliness()
+            .declare_subscriber(&key)
+            .history(true)
+            .await
+            .map_err(ClientError::zenoh)?;
+        match tokio::time::timeout(o.connect_timeout, seen.recv_async()).await {
+            Ok(Ok(_)) => Ok(()),
+            _ => Err(ClientError::NoReply {
+                what: "the data server",
+                key,
+                waited: o.connect_timeout,
+            }),
+        }
+    }
+
+    /// This client's owner id (the last chunk of its liveliness token).
+    pub fn owner(&self) -> &str {
+        &self.inner.owner
+    }
+
+    /// The options in use.
+    pub fn options(&self) -> &DataOptions {
+        &self.inner.options
+    }
+
+    fn next_id(&self) -> String {
+        let n = self.inner.next_id.fetch_add(1, Ordering::Relaxed);
+        format!("{}.{n}", self.inner.owner)
+    }
+
+    fn key(&self, op: DataOp, name: &Name) -> String {
+        self.inner.options.root.data(op, name)
+    }
+
+    /// One query attempt; `Ok(None)` when nothing answered in `timeout`.
+    async fn attempt(
+        &self,
+        key: &str,
+        params: &[(&str, String)],
+        payload: Option<&[u8]>,
+        timeout: Duration,
+    ) -> Result<Option<Answer<(String, Vec<u8>)>>, ClientError> {
+        let selector = selector(key, params);
+        let mut get = self
+            .inner
+            .session
+            .get(selector.as_str())
+            .timeout(timeout)
+            .priority(self.inner.options.priority);
+        if let Some(p) = payload {
+            get = get.payload(p.to_vec()).encoding(Encoding::APPLICATION_JSON);
+        }
+        let replies = get.await.map_err(ClientError::zenoh)?;
+        // Waits ride on the same receiver: the first reply is the answer.
+        match replies.recv_async().await {
+            Ok(reply) => match reply.result() {
+                Ok(sample) => Ok(Some(Answer::Reply((
+                    sample.key_expr().as_str().to_string(),
+                    sample.payload().to_bytes().into_owned(),
+                )))),
+                Err(err) => {
+                    let body = err.payload().to_bytes();
+                    Ok(Some(Answer::Refused(decode(&body, "error reply")?)))
+                }
+            },
+            Err(_) => Ok(None),
+        }
+    }
+
+    /// A call, retried on silence until `request_timeout`; safe because
+    /// every state-changing call carries an id.
+    async fn call<T: DeserializeOwned>(
+        &self,
+        key: &str,
+        params: &[(&str, String)],
+        payload: Option<&[u8]>,
+        what: &str,
+    ) -> Result<T, ClientError> {
+        let o = &self.inner.options;
+        let started = Instant::now();
+        let deadline = started + o.request_timeout;
+        let mut backoff = Duration::from_millis(20);
+        loop {
+            let left = deadline.saturating_duration_since(Instant::now());
+            if left.is_zero() {
+                return Err(ClientError::NoReply {
+                    what: "the data server",
+                    key: key.to_string(),
+                    waited: started.elapsed(),
+                });
+            }
+            let tried = Instant::now();
+            match self.attempt(key, params, payload, left.min(o.attempt_timeout)).await? {
+                Some(Answer::Reply((_, body))) => return Ok(decode(&body, what)?),
+                Some(Answer::Refused(e)) => return Err(ClientError::Server(e)),
+                None => {
+                    // Silence at once means no queryable matched (the server
+                    // is not there yet or restarting): back off a little.
+                    if tried.elapsed() < backoff {
+                        tokio::time::sleep(backoff.min(left)).await;
+                        backoff = (backoff * 2).min(Duration::from_millis(500));
+                    }
+                }
+            }
+        }
+    }
+
+    /// A wildcard query: every reply's key and body.
+    async fn collect(&self, key: &str) -> Result<Vec<(String, Vec<u8>)>, ClientError> {
+        let replies = self
+            .inner
+            .session
+            .get(key)
+            .timeout(self.inner.options.attempt_timeout)
+            .priority(self.inner.options.priority)
+            .await
+            .map_err(ClientError::zenoh)?;
+        let mut out = Vec::new();
+        while let Ok(reply) = replies.recv_async().await {
+            match reply.result() {
+                Ok(sample) => out.push((
+                    sample.key_expr().as_str().to_string(),
+                    sample.payload().to_bytes().into_owned(),
+                )),
+                Err(err) => {
+                    let e: ErrorReply = decode(&err.payload().to_bytes(), "error reply")?;
+                    return Err(ClientError::Server(e));
+                }
+            }
+        }
+        Ok(out)
+    }
+
+    // ----- variables -------------------------------------------------------
+
+    /// Writes a variable and waits until it is committed
+    /// (`DataSetValue(DS, "PosX", 4)`); returns its commit number.
+    pub async fn set(&self, name: &str, value: &(impl Serialize + ?Sized)) -> Result<u64, ClientError> {
+        let name = Name::new(name)?;
+        let payload = encode(value);
+        let params = [(param::OP, self.next_id())];
+        let reply: SetReply = self
+            .call(&self.key(DataOp::Set, &name), &params, Some(&payload), "set reply")
+            .await?;
+        Ok(reply.seq)
+    }
+
+    /// Reads a variable's current value (`DataGetValue(DS, "PosX", 0)`).
+    pub async fn get(&self, name: &str) -> Result<Value, ClientError> {
+        self.get_back(name, 0).await
+    }
+
+    /// Reads the value `back` writes ago (`DataGetValue(DS, "PosX", -back)`).
+    pub async fn get_back(&self, name: &str, back: u32) -> Result<Value, ClientError> {
+        let name = Name::new(name)?;
+        let params: Vec<(&str, String)> = if back == 0 {
+            Vec::new()
+        } else {
+            vec![(param::BACK, back.to_string())]
+        };
+        self.call(&self.key(DataOp::Var, &name), &params, None, &format!("value of '{name}'"))
+            .await
+    }
+
+    /// Reads a variable's current value as `T`.
+    pub async fn get_as<T: DeserializeOwned>(&self, name: &str) -> Result<T, ClientError> {
+        let value = self.get(name).await?;
+        serde_json::from_value(value).map_err(|e| {
+            ClientError::Decode(rome_schema::DecodeError::Json {
+                what: format!("value of '{name}'"),
+                detail: e.to_string(),
+                excerpt: String::new(),
+            })
+        })
+    }
+
+    /// Sets how many values a variable keeps (`DataSetHistory(DS, "PosX", N)`).
+    pub async fn set_history(&self, name: &str, len: u32) -> Result<HistoryInfo, ClientError> {
+        let name = Name::new(name)?;
+        let params = [(param::LEN, len.to_string())];
+        self.call(&self.key(DataOp::History, &name), &params, None, "history reply")
+            .await
+    }
+
+    /// A variable's history length, stored count and commit number.
+    pub async fn history(&self, name: &str) -> Result<HistoryInfo, ClientError> {
+        let name = Name::new(name)?;
+        self.call(&self.key(DataOp::History, &name), &[], None, "history reply")
+            .await
+    }
+
+    /// Every variable the server knows, sorted by name.
+    pub async fn list(&self) -> Result<Vec<HistoryInfo>, ClientError> {
+        let key = self.inner.options.root.data_all_of(DataOp::History);
+        let mut out = Vec::new();
+        for (_, body) in self.collect(&key).await? {
+            out.push(decode::<HistoryInfo>(&body, "history reply")?);
+        }
+        out.sort_by(|a, b| a.name.cmp(&b.name));
+        Ok(out)
+    }
+
+    /// Every variable's current value, by name.
+    pub async fn values(&self) -> Result<std::collections::BTreeMap<String, Value>, ClientError> {
+        let root = &self.inner.options.root;
+        let mut out = std::collections::BTreeMap::new();
+        for (key, body) in self.collect(&root.data_all_of(DataOp::Var)).await? {
+            let parsed = root.parse_data(&key)?;
+            out.insert(parsed.name.to_string(), decode(&body, "variable value")?);
+        }
+        Ok(out)
+    }
+
+    /// Follows committed writes to variables matching `pattern` (`PosX`,
+    /// `r1/**`, `**`): each exactly once, in commit order per variable.
+    pub async fn watch(&self, pattern: &str) -> Result<Watch, ClientError> {
+        let key = self.inner.options.root.data_pattern(DataOp::Watch, pattern)?;
+        let subscriber = self
+            .inner
+            .session
+            .declare_subscriber(&key)
+            .await
+            .map_err(ClientError::zenoh)?;
+        Ok(Watch {
+            subscriber,
+            last: HashMap::new(),
+        })
+    }
+
+    // ----- semaphores ------------------------------------------------------
+
+    /// Creates a semaphore (`DataCreateSemaphore(DS, "$XYZ", 1)`); one
+    /// that exists is left as it is (`created: false`).
+    pub async fn create_semaphore(&self, name: &str, value: u64) -> Result<CreateReply, ClientError> {
+        let name = Name::semaphore(name)?;
+        let params = [(param::VALUE, value.to_string())];
+        self.call(&self.key(DataOp::Create, &name), &params, None, "create reply")
+            .await
+    }
+
+    /// up() (`DataSignal(DS, "$XYZ")`).
+    pub async fn signal(&self, name: &str) -> Result<SignalReply, ClientError> {
+        let name = Name::semaphore(name)?;
+        let params = [(param::OP, self.next_id())];
+        self.call(&self.key(DataOp::Signal, &name), &params, None, "signal reply")
+            .await
+    }
+
+    /// Non-blocking down(): whether a unit was taken.
+    pub async fn try_wait(&self, name: &str) -> Result<bool, ClientError> {
+        let name = Name::semaphore(name)?;
+        let params = [(param::OP, self.next_id())];
+        let reply: TryWaitReply = self
+            .call(&self.key(DataOp::TryWait, &name), &params, None, "try-wait reply")
+            .await?;
+        Ok(reply.acquired)
+    }
+
+    /// A semaphore's value and queue length.
+    pub async fn semaphore(&self, name: &str) -> Result<SemState, ClientError> {
+        let name = Name::semaphore(name)?;
+        self.call(&self.key(DataOp::Sem, &name), &[], None, "semaphore state")
+            .await
+    }
+
+    /// Every semaphore, sorted by name.
+    pub async fn semaphores(&self) -> Result<Vec<SemState>, ClientError> {
+        let key = self.inner.options.root.data_all_of(DataOp::Sem);
+        let mut out = Vec::new();
+        for (_, body) in self.collect(&key).await? {
+            out.push(decode::<SemState>(&body, "semaphore state")?);
+        }
+        out.sort_by(|a, b| a.name.cmp(&b.name));
+        Ok(out)
+    }
+
+    /// Blocking down() (`DataWait(DS, "$XYZ")`), for as long as it takes.
+    pub async fn wait(&self, name: &str) -> Result<(), ClientError> {
+        self.wait_until(name, None).await.map(|_| ())
+    }
+
+    /// Blocking down() for at most `timeout`: whether a unit was taken.
+    /// On `false` nothing was taken and the place in the queue is given up.
+    pub async fn wait_timeout(&self, name: &str, timeout: Duration) -> Result<bool, ClientError> {
+        self.wait_until(name, Some(Instant::now() + timeout)).await
+    }
+
+    async fn wait_until(&self, name: &str, deadline: Option<Instant>) -> Result<bool, ClientError> {
+        let name = Name::semaphore(name)?;
+        let ticket = self.next_id();
+        let key = self.key(DataOp::Wait, &name);
+        let o = &self.inner.options;
+        let mut backoff = Duration::from_millis(20);
+        loop {
+            let left = deadline.map(|d| d.saturating_duration_since(Instant::now()));
+            if left == Some(Duration::ZERO) {
+                return self.give_up(&name, &ticket).await;
+            }
+            let hold = left
+                .unwrap_or(o.hold)
+                .min(o.hold)
+                .min(Duration::from_millis(MAX_HOLD_MS));
+            let params = [
+                (param::TICKET, ticket.clone()),
+                (param::OWNER, self.inner.owner.clone()),
+                (param::HOLD_MS, hold.as_millis().to_string()),
+            ];
+            let tried = Instant::now();
+            match self.attempt(&key, &params, None, hold + o.attempt_timeout).await? {
+                Some(Answer::Refused(e)) => return Err(ClientError::Server(e)),
+                Some(Answer::Reply((_, body))) => {
+                    let reply: WaitReply = decode(&body, "wait reply")?;
+                    match reply.status {
+                        WaitStatus::Granted => {
+                            if self.confirm(&name, &ticket).await? {
+                                return Ok(true);
+                            }
+                            // Taken back before our ack landed: wait again.
+                        }
+                        WaitStatus::Confirmed => return Ok(true),
+                        WaitStatus::Pending
+                        | WaitStatus::TimedOut
+                        | WaitStatus::Cancelled
+                        | WaitStatus::Unknown => {}
+                    }
+                }
+                None => {
+                    if tried.elapsed() < backoff {
+                        tokio::time::sleep(backoff).await;
+                        backoff = (backoff * 2).min(Duration::from_millis(500));
+                    }
+                }
+            }
+        }
+    }
+
+    /// Confirms a grant; `false` if the server had taken it back.
+    async fn confirm(&self, name: &Name, ticket: &str) -> Result<bool, ClientError> {
+        let params = [(param::TICKET, ticket.to_string())];
+        let reply: WaitReply = self
+            .call(&self.key(DataOp::Ack, name), &params, None, "ack reply")
+            .await?;
+        Ok(reply.status == WaitStatus::Confirmed)
+    }
+
+    /// Cancels a wait at its deadline; takes the unit if it came meanwhile.
+    async fn give_up(&self, name: &Name, ticket: &str) -> Result<bool, ClientError> {
+        let params = [(param::TICKET, ticket.to_string())];
+        let reply: WaitReply = self
+            .call(&self.key(DataOp::Cancel, name), &params, None, "cancel reply")
+            .await?;
+        match reply.status {
+            WaitStatus::Granted => self.confirm(name, ticket).await,
+            WaitStatus::Confirmed => Ok(true),
+            _ => Ok(false),
+        }
+    }
+}
+
+fn selector(key: &str, params: &[(&str, String)]) -> String {
+    if params.is_empty() {
+        return key.to_string();
+    }
+    let joined: Vec<String> = params.iter().map(|(k, v)| format!("{k}={v}")).collect();
+    format!("{key}?{}", joined.join(";"))
+}
+
+/// A stream of committed writes (see [`DataClient::watch`]).
+pub struct Watch {
+    subscriber: Subscriber<FifoChannelHandler<Sample>>,
+    last: HashMap<String, u64>,
+}
+
+impl Watch {
+    /// The next committed write; `None` once the session is closed.
+    ///
+    /// A repeat of a commit already seen is skipped, so each write is
+    /// returned once even if the network delivers it twice.
+    pub async fn next(&mut self) -> Option<Result<Committed, ClientError>> {
+        loop {
+            let sample = self.subscriber.recv_async().await.ok()?;
+            let commit: Committed = match decode(&sample.payload().to_bytes(), "watch event") {
+                Ok(c) => c,
+                Err(e) => return Some(Err(e.into())),
+            };
+            let last = self.last.entry(commit.name.clone()).or_insert(0);
+            if commit.seq <= *last {
+                continue;
+            }
+            if *last != 0 && commit.seq != *last + 1 {
+                tracing::warn!(name = %commit.name, from = *last, to = commit.seq, "watch skipped commits");
+            }
+            *last = commit.seq;
+            return Some(Ok(commit));
+        }
+    }
+}

@@ -1,0 +1,45 @@
+//! What a client call can fail with.
+
+use rome_schema::{DecodeError, ErrorReply, KeyError};
+use std::time::Duration;
+
+/// Why a client call failed.
+#[derive(Debug, thiserror::Error)]
+pub enum ClientError {
+    /// The server refused the request and said why.
+    #[error(transparent)]
+    Server(#[from] ErrorReply),
+    /// A name or pattern is not valid; nothing was sent.
+    #[error(transparent)]
+    Key(#[from] KeyError),
+    /// No server answered in time.
+    #[error("no reply from {what} on '{key}' after {waited:.1?}; is it running and reachable? (`rome ls` lists what is alive)")]
+    NoReply {
+        /// Which server was asked.
+        what: &'static str,
+        /// The key that was queried.
+        key: String,
+        /// How long the client tried.
+        waited: Duration,
+    },
+    /// A reply could not be decoded: the server speaks another version.
+    #[error("unexpected reply: {0}")]
+    Decode(#[from] DecodeError),
+    /// Zenoh itself failed (bad configuration, session closed …).
+    #[error("zenoh: {0}")]
+    Zenoh(String),
+}
+
+impl ClientError {
+    pub(crate) fn zenoh(e: impl std::fmt::Display) -> Self {
+        ClientError::Zenoh(e.to_string())
+    }
+
+    /// The server's error code, if the server refused the request.
+    pub fn code(&self) -> Option<rome_schema::ErrorCode> {
+        match self {
+            ClientError::Server(e) => Some(e.code),
+            _ => None,
+        }
+    }
+}

@@ -1,0 +1,34 @@
+//! Typed async client library for RoME servers: the thesis' per-server
+//! function libraries (Fig. 4.8) on top of Zenoh.
+//!
+//! How this crate is laid out:
+//! - [`net`]: the one place network options become a `zenoh::Config`
+//!   (mode, connect, listen, multicast scouting, config file).
+//! - [`data`]: [`DataClient`], the data-server library of §4.6.1
+//!   (`DataSetValue`, `DataGetValue`, `DataSetHistory`, `DataCreateSemaphore`,
+//!   `DataSignal`, `DataWait` …) as typed async methods.
+//! - [`goals`]: the Planner → Navigator goal hand-over of Table 5.4.
+//! - [`alive`]: who is alive (servers and clients), from liveliness tokens.
+//! - [`error`]: [`ClientError`], what every call can fail with.
+//!
+//! ```no_run
+//! # async fn demo() -> Result<(), rome_client::ClientError> {
+//! use rome_client::{net::NetOptions, DataClient, DataOptions};
+//! let session = NetOptions::default().open().await?;
+//! let ds = DataClient::connect(&session, DataOptions::new("planner")).await?;
+//! ds.create_semaphore("$GoalData", 0).await?;
+//! ds.set("GoalType", &"L").await?;
+//! ds.set("GoalDistance", &3).await?;
+//! ds.signal("$GoalData").await?;
+//! let previous = ds.get_back("GoalDistance", 1).await; // the thesis' -1
+//! # Ok(()) }
+//! ```
+
+pub mod alive;
+pub mod data;
+pub mod error;
+pub mod goals;
+pub mod net;
+
+pub use data::{DataClient, DataOptions, Watch};
+pub use error::ClientError;

@@ -1,0 +1,162 @@
+//! Network options, turned into a `zenoh::Config` in this one place.
+//!
+//! Every `rome` program and every test builds its session through
+//! [`NetOptions`], so mode, endpoints and scouting behave the same
+//! everywhere.
+
+use crate::ClientError;
+use std::path::PathBuf;
+use zenoh::{Config, Session};
+
+/// The port zenohd and `rome` servers listen on by default.
+pub const DEFAULT_PORT: u16 = 7447;
+
+/// How a program joins the Zenoh network.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct NetOptions {
+    /// A Zenoh configuration file (JSON5) to start from.
+    pub config: Option<PathBuf>,
+    /// `peer`, `client` or `router`; Zenoh's default (peer) when unset.
+    pub mode: Option<String>,
+    /// Endpoints to connect to (`tcp/10.0.0.5:7447` …).
+    pub connect: Vec<String>,
+    /// Endpoints to listen on.
+    pub listen: Vec<String>,
+    /// Turn multicast scouting off (tests, and networks without multicast).
+    pub no_multicast: bool,
+}
+
+impl NetOptions {
+    /// Options for a session on loopback only: listens on 127.0.0.1 at
+    /// `listen` (an ephemeral port if `None`: peers gossip their listen
+    /// locators, and Zenoh's default `[::]:0` would advertise addresses off
+    /// this machine), connects to `connect`, multicast scouting off.
+    pub fn loopback(listen: Option<u16>, connect: &[u16]) -> Self {
+        NetOptions {
+            config: None,
+            mode: Some("peer".into()),
+            connect: connect.iter().map(|p| format!("tcp/127.0.0.1:{p}")).collect(),
+            listen: vec![format!("tcp/127.0.0.1:{}", listen.unwrap_or(0))],
+            no_multicast: true,
+        }
+    }
+
+    /// Options for a session that talks to nobody but itself: every
+    /// component of an embedded run shares it.
+    pub fn isolated() -> Self {
+        NetOptions {
+            config: None,
+            mode: Some("peer".into()),
+            connect: Vec::new(),
+            listen: Vec::new(),
+            no_multicast: true,
+        }
+    }
+
+    /// Whether neither endpoints nor a config file were given.
+    pub fn is_unconfigured(&self) -> bool {
+        self.config.is_none() && self.connect.is_empty() && self.listen.is_empty()
+    }
+
+    /// Builds the Zenoh configuration.
+    pub fn to_config(&self) -> Result<Config, ClientError> {
+        let mut config = match &self.config {
+            Some(path) => Config::from_file(path).map_err(|e| {
+                ClientError::Zenoh(format!("cannot load config file {}: {e}", path.display()))
+            })?,
+            None => Config::default(),
+        };
+        let mut set = |key: &str, value: String| {
+            config
+                .insert_json5(key, &value)
+                .map_err(|e| ClientError::Zenoh(format!("invalid {key} {value}: {e}")))
+        };
+        if let Some(mode) = &self.mode {
+            if !matches!(mode.as_str(), "peer" | "client" | "router") {
+                return Err(ClientError::Zenoh(format!(
+                    "unknown mode '{mode}'; use peer, client or router"
+                )));
+            }
+            set("mode", json_string(mode))?;
+        }
+        if !self.connect.is_empty() {
+            set("connect/endpoints", json_list(&self.connect))?;
+        }
+        if !self.listen.is_empty() || (self.no_multicast && self.connect.is_empty() && self.config.is_none()) {
+            // With no listen endpoint, no connect endpoint and no scouting
+            // the session is on its own: do not open Zenoh's default
+            // listener on every interface either.
+            set("listen/endpoints", json_list(&self.listen))?;
+        }
+        if self.no_multicast {
+            set("scouting/multicast/enabled", "false".into())?;
+        }
+        Ok(config)
+    }
+
+    /// Opens a Zenoh session with these options.
+    pub async fn open(&self) -> Result<Session, ClientError> {
+        let config = self.to_config()?;
+        zenoh::open(config).await.map_err(|e| {
+            ClientError::Zenoh(format!(
+                "cannot open a session (connect {:?}, listen {:?}): {e}",
+                self.connect, self.listen
+            ))
+        })
+    }
+}
+
+/// A TCP port on 127.0.0.1 that was free a moment ago (the OS picks it),
+/// for tests and benchmarks that start servers on loopback.
+pub fn free_loopback_port() -> std::io::Result<u16> {
+    let listener = std::net::TcpListener::bind(("127.0.0.1", 0))?;
+    Ok(listener.local_addr()?.port())
+}
+
+fn json_string(s: &str) -> String {
+    serde_json::Value::String(s.to_string()).to_string()
+}
+
+fn json_list(items: &[String]) -> String {
+    serde_json::Value::from(items.to_vec()).to_string()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn loopback_options_become_config() {
+        let config = NetOptions::loopback(Some(17001), &[17002]).to_config().unwrap();
+        let listen = config.get_json("listen/endpoints").unwrap();
+        assert!(listen.contains("tcp/127.0.0.1:17001"), "{listen}");
+        let connect = config.get_json("connect/endpoints").unwrap();
+        assert!(connect.contains("tcp/127.0.0.1:17002"), "{connect}");
+        assert_eq!(config.get_json("scouting/multicast/enabled").unwrap(), "false");
+        assert_eq!(config.get_json("mode").unwrap(), "\"peer\"");
+    }
+
+    #[test]
+    fn bad_mode_and_missing_file_are_named() {
+        let opts = NetOptions {
+            mode: Some("server".into()),
+            ..NetOptions::default()
+        };
+        assert!(opts.to_config().unwrap_err().to_string().contains("unknown mode 'server'"));
+        let opts = NetOptions {
+            config: Some("/nonexistent/zenoh.json5".into()),
+            ..NetOptions::default()
+        };
+        assert!(opts.to_config().unwrap_err().to_string().contains("/nonexistent/zenoh.json5"));
+    }
+
+    #[test]
+    fn bad_endpoint_is_named() {
+        let opts = NetOptions {
+            connect: vec!["not an endpoint".into()],
+            ..NetOptions::default()
+        };
+        let err = opts.to_config().unwrap_err().to_string();
+        assert!(err.contains("connect/endpoints"), "{err}");
+    }
+}
