@@ -71,6 +71,7 @@ struct Inner {
     options: DataOptions,
     owner: String,
     next_id: AtomicU64,
+    retries: AtomicU64,
     _token: LivelinessToken,
 }
 
@@ -104,6 +105,7 @@ impl DataClient {
                 session: session.clone(),
                 owner,
                 next_id: AtomicU64::new(1),
+                retries: AtomicU64::new(0),
                 _token: token,
                 options,
             }),
@@ -143,6 +145,12 @@ impl DataClient {
         &self.inner.options
     }
 
+    /// How many request attempts went unanswered and were retried so far
+    /// (a sign of a lossy or overloaded link).
+    pub fn retries(&self) -> u64 {
+        self.inner.retries.load(Ordering::Relaxed)
+    }
+
     fn next_id(&self) -> String {
         let n = self.inner.next_id.fetch_add(1, Ordering::Relaxed);
         format!("{}.{n}", self.inner.owner)
@@ -178,10 +186,10 @@ impl DataClient {
                     sample.key_expr().as_str().to_string(),
                     sample.payload().to_bytes().into_owned(),
                 )))),
-                Err(err) => {
-                    let body = err.payload().to_bytes();
-                    Ok(Some(Answer::Refused(decode(&body, "error reply")?)))
-                }
+                Err(err) => match refusal(&err.payload().to_bytes())? {
+                    Some(e) => Ok(Some(Answer::Refused(e))),
+                    None => Ok(None),
+                },
             },
             Err(_) => Ok(None),
         }
@@ -214,6 +222,7 @@ impl DataClient {
                 Some(Answer::Reply((_, body))) => return Ok(decode(&body, what)?),
                 Some(Answer::Refused(e)) => return Err(ClientError::Server(e)),
                 None => {
+                    self.inner.retries.fetch_add(1, Ordering::Relaxed);
                     // Silence at once means no queryable matched (the server
                     // is not there yet or restarting): back off a little.
                     if tried.elapsed() < backoff {
@@ -243,8 +252,9 @@ impl DataClient {
                     sample.payload().to_bytes().into_owned(),
                 )),
                 Err(err) => {
-                    let e: ErrorReply = decode(&err.payload().to_bytes(), "error reply")?;
-                    return Err(ClientError::Server(e));
+                    if let Some(e) = refusal(&err.payload().to_bytes())? {
+                        return Err(ClientError::Server(e));
+                    }
                 }
             }
         }
@@ -445,6 +455,7 @@ impl DataClient {
                     }
                 }
                 None => {
+                    self.inner.retries.fetch_add(1, Ordering::Relaxed);
                     if tried.elapsed() < backoff {
                         tokio::time::sleep(backoff).await;
                         backoff = (backoff * 2).min(Duration::from_millis(500));
@@ -475,6 +486,17 @@ impl DataClient {
             _ => Ok(false),
         }
     }
+}
+
+/// Zenoh's own payload of the error it reports when a query times out.
+const ZENOH_TIMEOUT: &[u8] = b"Timeout";
+
+/// A server's error reply, or `None` for Zenoh's local timeout (silence).
+fn refusal(body: &[u8]) -> Result<Option<ErrorReply>, ClientError> {
+    if body == ZENOH_TIMEOUT {
+        return Ok(None);
+    }
+    Ok(Some(decode(body, "error reply")?))
 }
 
 fn selector(key: &str, params: &[(&str, String)]) -> String {

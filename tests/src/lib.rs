@@ -1,0 +1,146 @@
+//! Helpers for the integration tests: data servers on loopback ports,
+//! client sessions that only ever talk to 127.0.0.1, and child processes
+//! that are killed when the test ends.
+//!
+//! How this crate is laid out:
+//! - this file: the helpers;
+//! - `src/bin/peer.rs`: `rome-test-peer`, a client playing one role
+//!   (planner, navigator, waiter) in its own process;
+//! - `tests/`: the tests, one file per subject.
+
+use rome_client::net::{free_loopback_port, NetOptions};
+use rome_client::{DataClient, DataOptions};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+use zenoh::Session;
+
+/// A data server running in this test process on its own loopback port.
+pub struct TestServer {
+    /// The port it listens on (127.0.0.1).
+    pub port: u16,
+    /// Its Zenoh session.
+    pub session: Session,
+    running: Option<rome_data::Running>,
+}
+
+impl TestServer {
+    /// Starts a data server with default settings.
+    pub async fn start() -> TestServer {
+        Self::start_with(rome_data::ServerConfig::default()).await
+    }
+
+    /// Starts a data server with this configuration.
+    pub async fn start_with(config: rome_data::ServerConfig) -> TestServer {
+        let port = free_loopback_port().expect("a free loopback port");
+        let session = NetOptions::loopback(Some(port), &[])
+            .open()
+            .await
+            .expect("server session on loopback");
+        let running = rome_data::spawn(session.clone(), config);
+        TestServer {
+            port,
+            session,
+            running: Some(running),
+        }
+    }
+
+    /// A new client session connected to this server only.
+    pub async fn session(&self) -> Session {
+        NetOptions::loopback(None, &[self.port])
+            .open()
+            .await
+            .expect("client session on loopback")
+    }
+
+    /// A data client with its own session.
+    pub async fn client(&self, role: &str) -> DataClient {
+        let session = self.session().await;
+        DataClient::connect(&session, DataOptions::new(role))
+            .await
+            .expect("data client connects")
+    }
+
+    /// A data client with its own session and these options.
+    pub async fn client_with(&self, options: DataOptions) -> DataClient {
+        let session = self.session().await;
+        DataClient::connect(&session, options)
+            .await
+            .expect("data client connects")
+    }
+
+    /// Stops the server.
+    pub async fn stop(mut self) {
+        if let Some(running) = self.running.take() {
+            running.stop().await.expect("server stops cleanly");
+        }
+    }
+}
+
+/// Polls `check` until it returns true or `within` has passed; for
+/// conditions that only show in another process's state.
+pub async fn eventually<F, Fut>(within: Duration, what: &str, mut check: F)
+where
+    F: FnMut() -> Fut,
+    Fut: std::future::Future<Output = bool>,
+{
+    let deadline = Instant::now() + within;
+    while !check().await {
+        assert!(Instant::now() < deadline, "not within {within:?}: {what}");
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+}
+
+/// A child process killed (SIGKILL) when dropped.
+pub struct ChildGuard(pub Option<Child>);
+
+impl ChildGuard {
+    /// Kills the child now and reaps it.
+    pub fn kill(&mut self) {
+        if let Some(mut child) = self.0.take() {
+            let _ = child.kill();
+            let _ = child.wait();
+        }
+    }
+
+    /// Waits for the child and returns its stdout; panics on failure.
+    pub fn output(&mut self) -> String {
+        let child = self.0.take().expect("child already taken");
+        let out = child.wait_with_output().expect("child runs");
+        assert!(
+            out.status.success(),
+            "child failed ({}): {}",
+            out.status,
+            String::from_utf8_lossy(&out.stderr)
+        );
+        String::from_utf8_lossy(&out.stdout).into_owned()
+    }
+}
+
+impl Drop for ChildGuard {
+    fn drop(&mut self) {
+        self.kill();
+    }
+}
+
+/// Starts `rome-test-peer` against the server on `port`
+/// (`peer!(port, ["planner", "--goals", "10"])`).
+#[macro_export]
+macro_rules! peer {
+    ($port:expr, $args:expr) => {
+        $crate::spawn_peer(env!("CARGO_BIN_EXE_rome-test-peer"), $port, &$args)
+    };
+}
+
+/// Starts the `rome-test-peer` binary at `exe`; use [`peer!`].
+pub fn spawn_peer(exe: &str, port: u16, args: &[&str]) -> ChildGuard {
+    let child = Command::new(exe)
+        .arg("--port")
+        .arg(port.to_string())
+        .args(args)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("rome-test-peer starts");
+    ChildGuard(Some(child))
+}
