@@ -41,6 +41,10 @@ pub const MAX_HOLD_MS: u64 = 60_000;
 /// The hold used by a wait that names none.
 pub const DEFAULT_HOLD_MS: u64 = 5_000;
 
+/// Largest value a variable may hold, in bytes of JSON. The data server is
+/// for shared state, not bulk data: images go through the camera servers.
+pub const MAX_VALUE_BYTES: usize = 1 << 20;
+
 /// Largest initial or current semaphore value.
 pub const MAX_SEMAPHORE_VALUE: u64 = i64::MAX as u64;
 

@@ -100,3 +100,9 @@ async fn bad_put_is_reported_on_rejected_and_not_recorded() {
     assert_eq!(good.history("PosX").await.unwrap().seq, 1);
     server.stop().await;
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn value_too_large() {
+    let big = vec![b'1'; rome_schema::data::MAX_VALUE_BYTES + 1];
+    case("rome/data/set/PosX", Some(&big), ErrorCode::OutOfRange, &["limit"]).await;
+}

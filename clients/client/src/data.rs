@@ -41,8 +41,11 @@ pub struct DataOptions {
     pub role: String,
     /// How long one call may take, retries included (waits excepted).
     pub request_timeout: Duration,
-    /// How long one attempt of a call may take before it is retried.
+    /// How long the first attempt of a call may take before it is
+    /// retried; each silent attempt doubles it, up to `max_attempt_timeout`.
     pub attempt_timeout: Duration,
+    /// The longest a single attempt may take.
+    pub max_attempt_timeout: Duration,
     /// How long the server holds one poll of a blocking wait.
     pub hold: Duration,
     /// How long [`DataClient::connect`] waits for the data server to appear.
@@ -58,7 +61,8 @@ impl DataOptions {
             root: Root::default(),
             role: role.to_string(),
             request_timeout: Duration::from_secs(10),
-            attempt_timeout: Duration::from_secs(3),
+            attempt_timeout: Duration::from_millis(500),
+            max_attempt_timeout: Duration::from_secs(3),
             hold: Duration::from_secs(10),
             connect_timeout: Duration::from_secs(10),
             priority: Priority::Data,
@@ -208,6 +212,7 @@ impl DataClient {
         let started = Instant::now();
         let deadline = started + o.request_timeout;
         let mut backoff = Duration::from_millis(20);
+        let mut attempt_timeout = o.attempt_timeout;
         loop {
             let left = deadline.saturating_duration_since(Instant::now());
             if left.is_zero() {
@@ -218,7 +223,11 @@ impl DataClient {
                 });
             }
             let tried = Instant::now();
-            match self.attempt(key, params, payload, left.min(o.attempt_timeout)).await? {
+            let this_attempt = left.min(attempt_timeout);
+            // A loaded server or link answers late: give the next attempt
+            // longer instead of abandoning every one at the same point.
+            attempt_timeout = (attempt_timeout * 2).min(o.max_attempt_timeout.max(o.attempt_timeout));
+            match self.attempt(key, params, payload, this_attempt).await? {
                 Some(Answer::Reply((_, body))) => return Ok(decode(&body, what)?),
                 Some(Answer::Refused(e)) => return Err(ClientError::Server(e)),
                 None => {
@@ -240,7 +249,7 @@ impl DataClient {
             .inner
             .session
             .get(key)
-            .timeout(self.inner.options.attempt_timeout)
+            .timeout(self.inner.options.max_attempt_timeout)
             .priority(self.inner.options.priority)
             .await
             .map_err(ClientError::zenoh)?;
@@ -436,7 +445,7 @@ impl DataClient {
                 (param::HOLD_MS, hold.as_millis().to_string()),
             ];
             let tried = Instant::now();
-            match self.attempt(&key, &params, None, hold + o.attempt_timeout).await? {
+            match self.attempt(&key, &params, None, hold + o.max_attempt_timeout).await? {
                 Some(Answer::Refused(e)) => return Err(ClientError::Server(e)),
                 Some(Answer::Reply((_, body))) => {
                     let reply: WaitReply = decode(&body, "wait reply")?;

@@ -6,6 +6,11 @@
 //! events one at a time. So a put followed by a get from the same session
 //! is seen in that order, commits are published in commit order, and no
 //! lock is needed.
+//!
+//! The channel is bounded ([`EVENT_QUEUE`]) and Zenoh's callbacks block
+//! when it is full, as Zenoh's own FIFO handlers do: a client that floods
+//! the server is slowed down on its own link instead of growing the
+//! server's memory without limit.
 
 use crate::cmd::{Params, Request};
 use crate::store::{Grant, Store};
@@ -16,13 +21,15 @@ use serde::Serialize;
 use std::collections::{HashMap, HashSet};
 use std::future::Future;
 use std::time::{Duration, Instant};
-use tokio::sync::mpsc;
 use zenoh::bytes::Encoding;
 use zenoh::key_expr::KeyExpr;
 use zenoh::qos::CongestionControl;
 use zenoh::query::Query;
 use zenoh::sample::{Sample, SampleKind};
 use zenoh::Session;
+
+/// How many events may wait for the server before Zenoh is pushed back.
+pub const EVENT_QUEUE: usize = 256;
 
 /// How the data server runs.
 #[derive(Debug, Clone)]
@@ -117,7 +124,7 @@ struct Server {
     held: HashMap<String, Held>,
     generation: u64,
     alive: HashSet<String>,
-    events: mpsc::UnboundedSender<Event>,
+    events: flume::Sender<Event>,
 }
 
 fn declare_err(what: &str, e: zenoh::Error) -> ServerError {
@@ -137,7 +144,7 @@ pub async fn run(
     shutdown: impl Future<Output = ()>,
 ) -> Result<(), ServerError> {
     let root = config.root.clone();
-    let (tx, mut rx) = mpsc::unbounded_channel();
+    let (tx, rx) = flume::bounded(EVENT_QUEUE);
 
     let sender = tx.clone();
     let _queryable = session
@@ -193,7 +200,7 @@ pub async fn run(
         tokio::select! {
             biased;
             _ = &mut shutdown => break,
-            Some(event) = rx.recv() => server.handle(event).await,
+            Ok(event) = rx.recv_async() => server.handle(event).await,
             _ = tick.tick() => server.sweep().await,
         }
     }
@@ -346,7 +353,7 @@ impl Server {
         let events = self.events.clone();
         tokio::spawn(async move {
             tokio::time::sleep(hold).await;
-            let _ = events.send(Event::HoldOver { ticket, generation });
+            let _ = events.send_async(Event::HoldOver { ticket, generation }).await;
         });
     }
 

@@ -1,6 +1,6 @@
 use super::{Applied, Params};
 use crate::store::Store;
-use rome_schema::data::param;
+use rome_schema::data::{param, MAX_VALUE_BYTES};
 use rome_schema::{decode, ErrorCode, ErrorReply, Name};
 use serde_json::Value;
 use std::time::Instant;
@@ -31,6 +31,15 @@ pub fn value_from_payload(name: &Name, payload: Option<&[u8]>) -> Result<Value, 
         return Err(ErrorReply::new(
             ErrorCode::BadJson,
             format!("writing '{name}' needs a JSON value as payload (for example 4, \"text\" or {{\"x_mm\":1}}); the payload is empty"),
+        ));
+    }
+    if bytes.len() > MAX_VALUE_BYTES {
+        return Err(ErrorReply::new(
+            ErrorCode::OutOfRange,
+            format!(
+                "value of '{name}' is {} bytes; the limit is {MAX_VALUE_BYTES} (bulk data belongs to the camera servers, not the data server)",
+                bytes.len()
+            ),
         ));
     }
     decode(bytes, &format!("value of '{name}'"))
