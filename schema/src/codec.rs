@@ -88,7 +88,9 @@ mod tests {
     fn non_utf8_and_empty_are_named() {
         let err = decode::<SetReply>(&[0xff, 0xfe], "set reply").unwrap_err();
         assert!(matches!(err, DecodeError::NotUtf8 { .. }));
-        let err = decode::<serde_json::Value>(b"  ", "value").unwrap_err().to_string();
+        let err = decode::<serde_json::Value>(b"  ", "value")
+            .unwrap_err()
+            .to_string();
         assert!(err.contains("empty"), "{err}");
     }
 }

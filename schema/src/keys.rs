@@ -68,7 +68,10 @@ fn check_path(name: &str) -> Result<(), String> {
         return Err("it is empty".into());
     }
     if name.len() > MAX_NAME_LEN {
-        return Err(format!("it is {} bytes long; at most {MAX_NAME_LEN}", name.len()));
+        return Err(format!(
+            "it is {} bytes long; at most {MAX_NAME_LEN}",
+            name.len()
+        ));
     }
     for chunk in name.split('/') {
         if chunk.is_empty() {
@@ -313,9 +316,7 @@ impl Root {
 
     /// Parses a liveliness key into (kind path, id): the id is the last chunk.
     pub fn parse_alive<'k>(&self, key: &'k str) -> Option<Alive<'k>> {
-        let rest = key
-            .strip_prefix(self.0.as_str())?
-            .strip_prefix("/alive/")?;
+        let rest = key.strip_prefix(self.0.as_str())?.strip_prefix("/alive/")?;
         let (kind, id) = rest.rsplit_once('/')?;
         let (class, role) = kind.split_once('/')?;
         let class = match class {
@@ -359,7 +360,14 @@ mod tests {
             for op in DataOp::ALL {
                 let key = root.data(op, &name);
                 let parsed = root.parse_data(&key).unwrap();
-                assert_eq!(parsed, DataKey { op, name: name.clone() }, "{key}");
+                assert_eq!(
+                    parsed,
+                    DataKey {
+                        op,
+                        name: name.clone()
+                    },
+                    "{key}"
+                );
             }
         }
     }
@@ -445,7 +453,10 @@ mod tests {
         assert_eq!(alive.id, "0a1b-3");
         let key = root.alive_server("data", "ff00");
         let alive = root.parse_alive(&key).unwrap();
-        assert_eq!((alive.class, alive.role, alive.id), (AliveClass::Server, "data", "ff00"));
+        assert_eq!(
+            (alive.class, alive.role, alive.id),
+            (AliveClass::Server, "data", "ff00")
+        );
         assert!(root.parse_alive("rome/alive/robot/x").is_none());
         assert!(root.parse_alive("other/alive/client/a/b").is_none());
     }

@@ -1,5 +1,7 @@
 //! The Planner/Navigator hand-over of Table 5.4, by two separate processes.
 
+#![allow(clippy::unwrap_used)]
+
 use rome_client::goals::{Goal, GoalType};
 use rome_tests::{peer, TestServer};
 
@@ -10,9 +12,10 @@ async fn thousand_goals_between_two_processes_none_lost_none_duplicated_in_order
     let n = GOALS.to_string();
     let mut navigator = peer!(server.port, ["navigator", "--goals", n.as_str()]);
     let mut planner = peer!(server.port, ["planner", "--goals", n.as_str()]);
-    let (nav_out, plan_out) = tokio::task::spawn_blocking(move || (navigator.output(), planner.output()))
-        .await
-        .unwrap();
+    let (nav_out, plan_out) =
+        tokio::task::spawn_blocking(move || (navigator.output(), planner.output()))
+            .await
+            .unwrap();
     assert!(plan_out.is_empty());
     let received: Vec<Goal> = nav_out
         .lines()

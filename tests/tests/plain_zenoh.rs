@@ -1,6 +1,8 @@
 //! A plain Zenoh session, with no project client code, uses the data
 //! server through the keys in docs/keys.md alone.
 
+#![allow(clippy::unwrap_used)]
+
 use rome_schema::data::{Committed, CreateReply, SemState, TryWaitReply};
 use rome_schema::{decode, ErrorCode, ErrorReply};
 use rome_tests::TestServer;
@@ -9,7 +11,11 @@ use std::time::Duration;
 use zenoh::Session;
 
 /// The first reply of a query: Ok(payload) or Err(error reply).
-async fn query(session: &Session, selector: &str, payload: Option<&str>) -> Result<Vec<u8>, ErrorReply> {
+async fn query(
+    session: &Session,
+    selector: &str,
+    payload: Option<&str>,
+) -> Result<Vec<u8>, ErrorReply> {
     let mut get = session.get(selector).timeout(Duration::from_secs(5));
     if let Some(p) = payload {
         get = get.payload(p.to_string());
@@ -73,8 +79,13 @@ async fn plain_put_get_and_subscribe() {
     }
 
     // An acknowledged write with a JSON object, then a listing with a wildcard.
-    let ack = query(&z, "rome/data/set/Pose", Some(r#"{"x_mm":1,"y_mm":2}"#)).await.unwrap();
-    assert_eq!(serde_json::from_slice::<Value>(&ack).unwrap(), json!({"name":"Pose","seq":1}));
+    let ack = query(&z, "rome/data/set/Pose", Some(r#"{"x_mm":1,"y_mm":2}"#))
+        .await
+        .unwrap();
+    assert_eq!(
+        serde_json::from_slice::<Value>(&ack).unwrap(),
+        json!({"name":"Pose","seq":1})
+    );
     let vars = all(&z, "rome/data/var/**").await;
     assert_eq!(
         vars,
@@ -99,26 +110,53 @@ async fn plain_semaphores() {
     let server = TestServer::start().await;
     let z = server.session().await;
     server_seen(&z).await;
-    let created: CreateReply =
-        decode(&query(&z, "rome/data/create/GoalData?value=1", None).await.unwrap(), "create").unwrap();
+    let created: CreateReply = decode(
+        &query(&z, "rome/data/create/GoalData?value=1", None)
+            .await
+            .unwrap(),
+        "create",
+    )
+    .unwrap();
     assert!(created.created);
-    let t: TryWaitReply =
-        decode(&query(&z, "rome/data/try-wait/GoalData", None).await.unwrap(), "try").unwrap();
+    let t: TryWaitReply = decode(
+        &query(&z, "rome/data/try-wait/GoalData", None)
+            .await
+            .unwrap(),
+        "try",
+    )
+    .unwrap();
     assert!(t.acquired);
     // A plain put on the signal key signals, with no reply.
     z.put("rome/data/signal/GoalData", "").await.unwrap();
-    let state: SemState = decode(&query(&z, "rome/data/sem/GoalData", None).await.unwrap(), "sem").unwrap();
+    let state: SemState = decode(
+        &query(&z, "rome/data/sem/GoalData", None).await.unwrap(),
+        "sem",
+    )
+    .unwrap();
     assert_eq!((state.value, state.waiters), (1, 0));
     // An anonymous wait (as from z_get) is granted at once when a unit is free …
-    let w = query(&z, "rome/data/wait/GoalData?hold_ms=1000", None).await.unwrap();
+    let w = query(&z, "rome/data/wait/GoalData?hold_ms=1000", None)
+        .await
+        .unwrap();
     assert!(String::from_utf8_lossy(&w).contains("\"granted\""));
     // … and times out without taking anything when none comes.
-    let w = query(&z, "rome/data/wait/GoalData?hold_ms=100", None).await.unwrap();
+    let w = query(&z, "rome/data/wait/GoalData?hold_ms=100", None)
+        .await
+        .unwrap();
     assert!(String::from_utf8_lossy(&w).contains("\"timed_out\""));
-    let state: SemState = decode(&query(&z, "rome/data/sem/GoalData", None).await.unwrap(), "sem").unwrap();
+    let state: SemState = decode(
+        &query(&z, "rome/data/sem/GoalData", None).await.unwrap(),
+        "sem",
+    )
+    .unwrap();
     assert_eq!((state.value, state.waiters), (0, 0));
     // Everything at once: `get rome/**` shows the whole data server.
     let everything = all(&z, "rome/**").await;
-    assert!(everything.iter().any(|(k, _)| k == "rome/data/sem/GoalData"), "{everything:?}");
+    assert!(
+        everything
+            .iter()
+            .any(|(k, _)| k == "rome/data/sem/GoalData"),
+        "{everything:?}"
+    );
     server.stop().await;
 }

@@ -1,6 +1,8 @@
 //! No unit lost or duplicated: crashed waiters, timed-out waiters,
 //! lost replies, and many clients using a semaphore as a mutex.
 
+#![allow(clippy::unwrap_used)]
+
 use rome_client::net::{free_loopback_port, NetOptions};
 use rome_client::{DataClient, DataOptions};
 use rome_tests::{eventually, peer, TestServer};
@@ -22,14 +24,19 @@ async fn a_waiter_killed_with_sigkill_loses_its_place_and_no_unit() {
     })
     .await;
     waiter.kill(); // SIGKILL: no goodbye, only the broken link.
-    eventually(Duration::from_secs(15), "the dead waiter's place is dropped", || async {
-        ds.semaphore("S").await.unwrap().waiters == 0
-    })
+    eventually(
+        Duration::from_secs(15),
+        "the dead waiter's place is dropped",
+        || async { ds.semaphore("S").await.unwrap().waiters == 0 },
+    )
     .await;
     let signal = ds.signal("S").await.unwrap();
     assert!(!signal.woke, "the unit went to a dead waiter");
     assert_eq!(signal.value, 1);
-    assert!(ds.try_wait("S").await.unwrap(), "the unit is there for the living");
+    assert!(
+        ds.try_wait("S").await.unwrap(),
+        "the unit is there for the living"
+    );
     server.stop().await;
 }
 
@@ -50,7 +57,11 @@ async fn waiters_that_time_out_and_retry_lose_and_duplicate_nothing() {
             // Very short timeouts, so waits give up while units arrive.
             let mut ms = 1 + c;
             while taken.load(Ordering::SeqCst) < UNITS {
-                if ds.wait_timeout("S", Duration::from_millis(ms)).await.unwrap() {
+                if ds
+                    .wait_timeout("S", Duration::from_millis(ms))
+                    .await
+                    .unwrap()
+                {
                     mine += 1;
                     taken.fetch_add(1, Ordering::SeqCst);
                 } else {
@@ -81,7 +92,10 @@ async fn waiters_that_time_out_and_retry_lose_and_duplicate_nothing() {
     assert_eq!(total + state.value, UNITS, "units lost or duplicated");
     assert_eq!(total, UNITS);
     assert_eq!(state.waiters, 0, "cancelled waits left in the queue");
-    assert!(timeouts > 0, "no wait timed out, so the test proved nothing");
+    assert!(
+        timeouts > 0,
+        "no wait timed out, so the test proved nothing"
+    );
     server.stop().await;
 }
 
@@ -101,7 +115,12 @@ async fn a_request_sent_again_after_a_lost_reply_is_done_once() {
                 get = get.payload(p);
             }
             let reply = get.await.unwrap().recv_async().await.unwrap();
-            let body = reply.result().expect("success").payload().to_bytes().into_owned();
+            let body = reply
+                .result()
+                .expect("success")
+                .payload()
+                .to_bytes()
+                .into_owned();
             serde_json::from_slice::<serde_json::Value>(&body).unwrap()
         }
     };
@@ -110,7 +129,11 @@ async fn a_request_sent_again_after_a_lost_reply_is_done_once() {
     }
     let first = ask("rome/data/set/v?op=x.2", Some("7")).await;
     assert_eq!(ask("rome/data/set/v?op=x.2", Some("7")).await, first);
-    assert_eq!(check.history("v").await.unwrap().seq, 1, "a repeated set committed twice");
+    assert_eq!(
+        check.history("v").await.unwrap().seq,
+        1,
+        "a repeated set committed twice"
+    );
     // An owned wait granted at once, its grant reply lost: the repeat
     // learns the same grant, and the ack (sent twice) confirms one unit.
     let owner = check.owner().to_string();
@@ -119,9 +142,16 @@ async fn a_request_sent_again_after_a_lost_reply_is_done_once() {
     assert_eq!(ask(wait, None).await["status"], "granted");
     assert_eq!(ask(wait, None).await["status"], "granted");
     for _ in 0..2 {
-        assert_eq!(ask("rome/data/ack/S?ticket=x.3", None).await["status"], "confirmed");
+        assert_eq!(
+            ask("rome/data/ack/S?ticket=x.3", None).await["status"],
+            "confirmed"
+        );
     }
-    assert_eq!(check.semaphore("S").await.unwrap().value, 0, "the unit was taken twice");
+    assert_eq!(
+        check.semaphore("S").await.unwrap().value,
+        0,
+        "the unit was taken twice"
+    );
     for selector in ["rome/data/try-wait/S?op=x.4", "rome/data/try-wait/S?op=x.4"] {
         assert_eq!(ask(selector, None).await["acquired"], false);
     }
@@ -168,17 +198,30 @@ async fn the_client_retries_a_lost_reply_with_the_same_id() {
         })
         .await
         .unwrap();
-    let _token = fake.liveliness().declare_token("rome/alive/server/data/fake").await.unwrap();
+    let _token = fake
+        .liveliness()
+        .declare_token("rome/alive/server/data/fake")
+        .await
+        .unwrap();
 
     let session = NetOptions::loopback(None, &[port]).open().await.unwrap();
-    let ds = DataClient::connect(&session, DataOptions::new("lossy")).await.unwrap();
+    let ds = DataClient::connect(&session, DataOptions::new("lossy"))
+        .await
+        .unwrap();
     for i in 0..10u64 {
         assert_eq!(ds.set("v", &i).await.unwrap(), 1);
         assert_eq!(ds.signal("S").await.unwrap().value, 1);
     }
     let seen = seen.lock().unwrap();
-    assert_eq!(seen.len(), 20, "each call keeps one id across its retries: {seen:?}");
-    assert!(seen.values().all(|&n| n == 2), "each id sent exactly twice: {seen:?}");
+    assert_eq!(
+        seen.len(),
+        20,
+        "each call keeps one id across its retries: {seen:?}"
+    );
+    assert!(
+        seen.values().all(|&n| n == 2),
+        "each id sent exactly twice: {seen:?}"
+    );
     assert_eq!(ds.retries(), 20);
 }
 

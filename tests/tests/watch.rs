@@ -1,6 +1,8 @@
 //! A watcher sees every committed write exactly once, in commit order
 //! per variable, whether it came from a plain put or an acknowledged set.
 
+#![allow(clippy::unwrap_used)]
+
 use rome_tests::TestServer;
 use serde_json::json;
 use std::collections::HashMap;
@@ -30,7 +32,10 @@ async fn every_commit_once_in_order() {
                 let var = if i % 2 == 0 { "a" } else { "b" };
                 if w == 2 {
                     plain
-                        .put(format!("rome/data/var/{var}"), json!({"w": w, "i": i}).to_string())
+                        .put(
+                            format!("rome/data/var/{var}"),
+                            json!({"w": w, "i": i}).to_string(),
+                        )
                         .await
                         .unwrap();
                 } else {
@@ -65,6 +70,10 @@ async fn every_commit_once_in_order() {
     }
     assert_eq!(seqs.values().map(Vec::len).sum::<usize>(), total);
     // Nothing more: no duplicate arrives late.
-    assert!(tokio::time::timeout(Duration::from_millis(300), watch.next()).await.is_err());
+    assert!(
+        tokio::time::timeout(Duration::from_millis(300), watch.next())
+            .await
+            .is_err()
+    );
     server.stop().await;
 }

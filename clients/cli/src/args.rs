@@ -15,10 +15,24 @@ pub struct CommonArgs {
     #[arg(short, long, global = true, env = "ROME_MODE", value_parser = ["peer", "client", "router"])]
     pub mode: Option<String>,
     /// Endpoint to connect to, e.g. tcp/192.168.1.10:7447 (repeatable).
-    #[arg(short = 'e', long, global = true, env = "ROME_CONNECT", value_delimiter = ',', value_name = "ENDPOINT")]
+    #[arg(
+        short = 'e',
+        long,
+        global = true,
+        env = "ROME_CONNECT",
+        value_delimiter = ',',
+        value_name = "ENDPOINT"
+    )]
     pub connect: Vec<String>,
     /// Endpoint to listen on, e.g. tcp/0.0.0.0:7447 (repeatable).
-    #[arg(short, long, global = true, env = "ROME_LISTEN", value_delimiter = ',', value_name = "ENDPOINT")]
+    #[arg(
+        short,
+        long,
+        global = true,
+        env = "ROME_LISTEN",
+        value_delimiter = ',',
+        value_name = "ENDPOINT"
+    )]
     pub listen: Vec<String>,
     /// Turn off multicast scouting (only the given endpoints are used).
     #[arg(long, global = true, env = "ROME_NO_MULTICAST")]
@@ -26,6 +40,15 @@ pub struct CommonArgs {
     /// Root prefix of every key, so deployments can share a router.
     #[arg(long, global = true, env = "ROME_ROOT", default_value = rome_schema::keys::DEFAULT_ROOT)]
     pub root: String,
+    /// How long to wait for the data server to appear, in seconds.
+    #[arg(
+        long,
+        global = true,
+        env = "ROME_CONNECT_TIMEOUT",
+        default_value_t = 10.0,
+        value_name = "SECS"
+    )]
+    pub connect_timeout: f64,
     /// More log output (-v info, -vv debug); RUST_LOG overrides.
     #[arg(short, long, global = true, action = clap::ArgAction::Count)]
     pub verbose: u8,

@@ -65,7 +65,10 @@ pub enum Command {
 pub fn main(cli: Cli) -> ExitCode {
     let server = matches!(cli.command, Command::DataServer(_));
     cli.common.init_logging(server);
-    let runtime = match tokio::runtime::Builder::new_multi_thread().enable_all().build() {
+    let runtime = match tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+    {
         Ok(rt) => rt,
         Err(e) => {
             eprintln!("error: cannot start the async runtime: {e}");

@@ -21,7 +21,11 @@ pub struct Participant {
 }
 
 /// Lists every live server and client of the deployment, sorted.
-pub async fn list(session: &Session, root: &Root, timeout: Duration) -> Result<Vec<Participant>, ClientError> {
+pub async fn list(
+    session: &Session,
+    root: &Root,
+    timeout: Duration,
+) -> Result<Vec<Participant>, ClientError> {
     let replies = session
         .liveliness()
         .get(root.alive_all())

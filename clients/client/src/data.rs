@@ -226,7 +226,8 @@ impl DataClient {
             let this_attempt = left.min(attempt_timeout);
             // A loaded server or link answers late: give the next attempt
             // longer instead of abandoning every one at the same point.
-            attempt_timeout = (attempt_timeout * 2).min(o.max_attempt_timeout.max(o.attempt_timeout));
+            attempt_timeout =
+                (attempt_timeout * 2).min(o.max_attempt_timeout.max(o.attempt_timeout));
             match self.attempt(key, params, payload, this_attempt).await? {
                 Some(Answer::Reply((_, body))) => return Ok(decode(&body, what)?),
                 Some(Answer::Refused(e)) => return Err(ClientError::Server(e)),
@@ -274,12 +275,21 @@ impl DataClient {
 
     /// Writes a variable and waits until it is committed
     /// (`DataSetValue(DS, "PosX", 4)`); returns its commit number.
-    pub async fn set(&self, name: &str, value: &(impl Serialize + ?Sized)) -> Result<u64, ClientError> {
+    pub async fn set(
+        &self,
+        name: &str,
+        value: &(impl Serialize + ?Sized),
+    ) -> Result<u64, ClientError> {
         let name = Name::new(name)?;
         let payload = encode(value);
         let params = [(param::OP, self.next_id())];
         let reply: SetReply = self
-            .call(&self.key(DataOp::Set, &name), &params, Some(&payload), "set reply")
+            .call(
+                &self.key(DataOp::Set, &name),
+                &params,
+                Some(&payload),
+                "set reply",
+            )
             .await?;
         Ok(reply.seq)
     }
@@ -297,8 +307,13 @@ impl DataClient {
         } else {
             vec![(param::BACK, back.to_string())]
         };
-        self.call(&self.key(DataOp::Var, &name), &params, None, &format!("value of '{name}'"))
-            .await
+        self.call(
+            &self.key(DataOp::Var, &name),
+            &params,
+            None,
+            &format!("value of '{name}'"),
+        )
+        .await
     }
 
     /// Reads a variable's current value as `T`.
@@ -317,15 +332,25 @@ impl DataClient {
     pub async fn set_history(&self, name: &str, len: u32) -> Result<HistoryInfo, ClientError> {
         let name = Name::new(name)?;
         let params = [(param::LEN, len.to_string())];
-        self.call(&self.key(DataOp::History, &name), &params, None, "history reply")
-            .await
+        self.call(
+            &self.key(DataOp::History, &name),
+            &params,
+            None,
+            "history reply",
+        )
+        .await
     }
 
     /// A variable's history length, stored count and commit number.
     pub async fn history(&self, name: &str) -> Result<HistoryInfo, ClientError> {
         let name = Name::new(name)?;
-        self.call(&self.key(DataOp::History, &name), &[], None, "history reply")
-            .await
+        self.call(
+            &self.key(DataOp::History, &name),
+            &[],
+            None,
+            "history reply",
+        )
+        .await
     }
 
     /// Every variable the server knows, sorted by name.
@@ -353,7 +378,11 @@ impl DataClient {
     /// Follows committed writes to variables matching `pattern` (`PosX`,
     /// `r1/**`, `**`): each exactly once, in commit order per variable.
     pub async fn watch(&self, pattern: &str) -> Result<Watch, ClientError> {
-        let key = self.inner.options.root.data_pattern(DataOp::Watch, pattern)?;
+        let key = self
+            .inner
+            .options
+            .root
+            .data_pattern(DataOp::Watch, pattern)?;
         let subscriber = self
             .inner
             .session
@@ -370,19 +399,33 @@ impl DataClient {
 
     /// Creates a semaphore (`DataCreateSemaphore(DS, "$XYZ", 1)`); one
     /// that exists is left as it is (`created: false`).
-    pub async fn create_semaphore(&self, name: &str, value: u64) -> Result<CreateReply, ClientError> {
+    pub async fn create_semaphore(
+        &self,
+        name: &str,
+        value: u64,
+    ) -> Result<CreateReply, ClientError> {
         let name = Name::semaphore(name)?;
         let params = [(param::VALUE, value.to_string())];
-        self.call(&self.key(DataOp::Create, &name), &params, None, "create reply")
-            .await
+        self.call(
+            &self.key(DataOp::Create, &name),
+            &params,
+            None,
+            "create reply",
+        )
+        .await
     }
 
     /// up() (`DataSignal(DS, "$XYZ")`).
     pub async fn signal(&self, name: &str) -> Result<SignalReply, ClientError> {
         let name = Name::semaphore(name)?;
         let params = [(param::OP, self.next_id())];
-        self.call(&self.key(DataOp::Signal, &name), &params, None, "signal reply")
-            .await
+        self.call(
+            &self.key(DataOp::Signal, &name),
+            &params,
+            None,
+            "signal reply",
+        )
+        .await
     }
 
     /// Non-blocking down(): whether a unit was taken.
@@ -390,7 +433,12 @@ impl DataClient {
         let name = Name::semaphore(name)?;
         let params = [(param::OP, self.next_id())];
         let reply: TryWaitReply = self
-            .call(&self.key(DataOp::TryWait, &name), &params, None, "try-wait reply")
+            .call(
+                &self.key(DataOp::TryWait, &name),
+                &params,
+                None,
+                "try-wait reply",
+            )
             .await?;
         Ok(reply.acquired)
     }
@@ -445,7 +493,10 @@ impl DataClient {
                 (param::HOLD_MS, hold.as_millis().to_string()),
             ];
             let tried = Instant::now();
-            match self.attempt(&key, &params, None, hold + o.max_attempt_timeout).await? {
+            match self
+                .attempt(&key, &params, None, hold + o.max_attempt_timeout)
+                .await?
+            {
                 Some(Answer::Refused(e)) => return Err(ClientError::Server(e)),
                 Some(Answer::Reply((_, body))) => {
                     let reply: WaitReply = decode(&body, "wait reply")?;
@@ -487,7 +538,12 @@ impl DataClient {
     async fn give_up(&self, name: &Name, ticket: &str) -> Result<bool, ClientError> {
         let params = [(param::TICKET, ticket.to_string())];
         let reply: WaitReply = self
-            .call(&self.key(DataOp::Cancel, name), &params, None, "cancel reply")
+            .call(
+                &self.key(DataOp::Cancel, name),
+                &params,
+                None,
+                "cancel reply",
+            )
             .await?;
         match reply.status {
             WaitStatus::Granted => self.confirm(name, ticket).await,

@@ -35,7 +35,10 @@ impl NetOptions {
         NetOptions {
             config: None,
             mode: Some("peer".into()),
-            connect: connect.iter().map(|p| format!("tcp/127.0.0.1:{p}")).collect(),
+            connect: connect
+                .iter()
+                .map(|p| format!("tcp/127.0.0.1:{p}"))
+                .collect(),
             listen: vec![format!("tcp/127.0.0.1:{}", listen.unwrap_or(0))],
             no_multicast: true,
         }
@@ -82,7 +85,9 @@ impl NetOptions {
         if !self.connect.is_empty() {
             set("connect/endpoints", json_list(&self.connect))?;
         }
-        if !self.listen.is_empty() || (self.no_multicast && self.connect.is_empty() && self.config.is_none()) {
+        if !self.listen.is_empty()
+            || (self.no_multicast && self.connect.is_empty() && self.config.is_none())
+        {
             // With no listen endpoint, no connect endpoint and no scouting
             // the session is on its own: do not open Zenoh's default
             // listener on every interface either.
@@ -127,12 +132,17 @@ mod tests {
 
     #[test]
     fn loopback_options_become_config() {
-        let config = NetOptions::loopback(Some(17001), &[17002]).to_config().unwrap();
+        let config = NetOptions::loopback(Some(17001), &[17002])
+            .to_config()
+            .unwrap();
         let listen = config.get_json("listen/endpoints").unwrap();
         assert!(listen.contains("tcp/127.0.0.1:17001"), "{listen}");
         let connect = config.get_json("connect/endpoints").unwrap();
         assert!(connect.contains("tcp/127.0.0.1:17002"), "{connect}");
-        assert_eq!(config.get_json("scouting/multicast/enabled").unwrap(), "false");
+        assert_eq!(
+            config.get_json("scouting/multicast/enabled").unwrap(),
+            "false"
+        );
         assert_eq!(config.get_json("mode").unwrap(), "\"peer\"");
     }
 
@@ -142,12 +152,20 @@ mod tests {
             mode: Some("server".into()),
             ..NetOptions::default()
         };
-        assert!(opts.to_config().unwrap_err().to_string().contains("unknown mode 'server'"));
+        assert!(opts
+            .to_config()
+            .unwrap_err()
+            .to_string()
+            .contains("unknown mode 'server'"));
         let opts = NetOptions {
             config: Some("/nonexistent/zenoh.json5".into()),
             ..NetOptions::default()
         };
-        assert!(opts.to_config().unwrap_err().to_string().contains("/nonexistent/zenoh.json5"));
+        assert!(opts
+            .to_config()
+            .unwrap_err()
+            .to_string()
+            .contains("/nonexistent/zenoh.json5"));
     }
 
     #[test]

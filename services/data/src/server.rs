@@ -271,7 +271,9 @@ impl Server {
             }
         }
         for (key, payload) in replies {
-            let Ok(ke) = KeyExpr::try_from(key.as_str()) else { continue };
+            let Ok(ke) = KeyExpr::try_from(key.as_str()) else {
+                continue;
+            };
             if query.key_expr().intersects(&ke) {
                 reply_json(&query, &key, payload).await;
             }
@@ -290,7 +292,8 @@ impl Server {
                     .map(|value| Some(self.store.put(&data_key.name, value)))
             }
             (DataOp::Var, SampleKind::Delete) => Ok(self.store.delete(&data_key.name)),
-            (DataOp::Signal, SampleKind::Put) => match self.store.signal(&data_key.name, None, now) {
+            (DataOp::Signal, SampleKind::Put) => match self.store.signal(&data_key.name, None, now)
+            {
                 Ok(signalled) => {
                     self.answer_grants(signalled.grants).await;
                     Ok(None)
@@ -353,7 +356,9 @@ impl Server {
         let events = self.events.clone();
         tokio::spawn(async move {
             tokio::time::sleep(hold).await;
-            let _ = events.send_async(Event::HoldOver { ticket, generation }).await;
+            let _ = events
+                .send_async(Event::HoldOver { ticket, generation })
+                .await;
         });
     }
 
@@ -362,7 +367,9 @@ impl Server {
             Some(h) if h.generation == generation => {}
             _ => return,
         }
-        let Some(held) = self.held.remove(&ticket) else { return };
+        let Some(held) = self.held.remove(&ticket) else {
+            return;
+        };
         let lapse_at = Instant::now() + self.config.grace;
         if let Some(reply) = self.store.release_hold(&ticket, lapse_at) {
             let key = held.query.key_expr().as_str().to_string();
@@ -389,7 +396,9 @@ impl Server {
 
     async fn alive(&mut self, sample: Sample) {
         let key = sample.key_expr().as_str();
-        let Some(alive) = self.config.root.parse_alive(key) else { return };
+        let Some(alive) = self.config.root.parse_alive(key) else {
+            return;
+        };
         let owner = alive.id.to_string();
         match sample.kind() {
             SampleKind::Put => {

@@ -17,8 +17,8 @@
 //!   reply was lost gets the first reply again, and is not done twice.
 
 use rome_schema::data::{
-    Committed, CreateReply, HistoryInfo, SemState, SetReply, SignalReply, TryWaitReply,
-    WaitReply, WaitStatus, MAX_HISTORY, MAX_SEMAPHORE_VALUE,
+    Committed, CreateReply, HistoryInfo, SemState, SetReply, SignalReply, TryWaitReply, WaitReply,
+    WaitStatus, MAX_HISTORY, MAX_SEMAPHORE_VALUE,
 };
 use rome_schema::{ErrorCode, ErrorReply, Name};
 use serde_json::Value;
@@ -321,12 +321,16 @@ impl Store {
                 }
                 Ok(Self::info(name, var))
             }
-            None => self.vars.get(name).map(|v| Self::info(name, v)).ok_or_else(|| {
-                err(
-                    ErrorCode::UnknownVariable,
-                    format!("no variable named '{name}'; `rome data ls` lists the variables"),
-                )
-            }),
+            None => self
+                .vars
+                .get(name)
+                .map(|v| Self::info(name, v))
+                .ok_or_else(|| {
+                    err(
+                        ErrorCode::UnknownVariable,
+                        format!("no variable named '{name}'; `rome data ls` lists the variables"),
+                    )
+                }),
         }
     }
 
@@ -376,7 +380,10 @@ impl Store {
 
     /// Every semaphore's state.
     pub fn semaphores(&self) -> Vec<SemState> {
-        self.sems.iter().map(|(n, s)| Self::sem_state(n, s)).collect()
+        self.sems
+            .iter()
+            .map(|(n, s)| Self::sem_state(n, s))
+            .collect()
     }
 
     /// Hands available units to queued tickets, first come first served.
@@ -386,7 +393,9 @@ impl Store {
             return grants;
         };
         while sem.value > 0 {
-            let Some(ticket) = sem.queue.pop_front() else { break };
+            let Some(ticket) = sem.queue.pop_front() else {
+                break;
+            };
             sem.value -= 1;
             if let Some(t) = self.tickets.get_mut(&ticket) {
                 if t.owner.is_some() {
@@ -494,7 +503,10 @@ impl Store {
         match self.tickets.get(ticket) {
             Some(t) if &t.sem != name => Err(err(
                 ErrorCode::Conflict,
-                format!("ticket '{ticket}' belongs to semaphore '{}', not '{name}'", t.sem),
+                format!(
+                    "ticket '{ticket}' belongs to semaphore '{}', not '{name}'",
+                    t.sem
+                ),
             )),
             _ => Ok(()),
         }
@@ -562,7 +574,9 @@ impl Store {
         let t = self.tickets.get_mut(ticket)?;
         let name = t.sem.clone();
         match t.state {
-            TicketState::Granted { .. } => Some(self.wait_reply(&name, ticket, WaitStatus::Granted)),
+            TicketState::Granted { .. } => {
+                Some(self.wait_reply(&name, ticket, WaitStatus::Granted))
+            }
             TicketState::Queued { .. } if t.owner.is_some() => {
                 t.state = TicketState::Queued {
                     lapse_at: Some(lapse_at),
@@ -603,7 +617,12 @@ impl Store {
     }
 
     /// Confirms a grant: the unit is the client's for good.
-    pub fn ack(&mut self, name: &Name, ticket: &str, now: Instant) -> Result<WaitReply, ErrorReply> {
+    pub fn ack(
+        &mut self,
+        name: &Name,
+        ticket: &str,
+        now: Instant,
+    ) -> Result<WaitReply, ErrorReply> {
         self.check_ticket_sem(name, ticket)?;
         match self.tickets.get(ticket).map(|t| t.state) {
             Some(TicketState::Granted { .. }) => {
@@ -612,7 +631,9 @@ impl Store {
                 self.remember(Some(ticket), now, Remembered::Confirmed(reply.clone()));
                 Ok(reply)
             }
-            Some(TicketState::Queued { .. }) => Ok(self.wait_reply(name, ticket, WaitStatus::Pending)),
+            Some(TicketState::Queued { .. }) => {
+                Ok(self.wait_reply(name, ticket, WaitStatus::Pending))
+            }
             None => Ok(match self.remembered.get(ticket) {
                 Some(Remembered::Confirmed(reply)) => reply.clone(),
                 _ => self.wait_reply(name, ticket, WaitStatus::Unknown),
@@ -659,11 +680,18 @@ impl Store {
     /// time, takes back unconfirmed units of owners that are not alive
     /// `grace` after the grant (or of any owner after `confirm_within`),
     /// and forgets finished requests past retention.
-    pub fn sweep(&mut self, now: Instant, grace: Duration, alive: impl Fn(&str) -> bool) -> Vec<Grant> {
+    pub fn sweep(
+        &mut self,
+        now: Instant,
+        grace: Duration,
+        alive: impl Fn(&str) -> bool,
+    ) -> Vec<Grant> {
         let lapsed: Vec<String> = self
             .tickets
             .iter()
-            .filter(|(_, t)| matches!(t.state, TicketState::Queued { lapse_at: Some(at) } if at <= now))
+            .filter(
+                |(_, t)| matches!(t.state, TicketState::Queued { lapse_at: Some(at) } if at <= now),
+            )
             .map(|(id, _)| id.clone())
             .collect();
         for id in lapsed {
@@ -730,14 +758,23 @@ mod tests {
     #[test]
     fn history_length_is_checked_and_declares_a_variable() {
         let mut s = Store::new(16);
-        assert_eq!(s.history(&n("x"), Some(0)).unwrap_err().code, ErrorCode::OutOfRange);
+        assert_eq!(
+            s.history(&n("x"), Some(0)).unwrap_err().code,
+            ErrorCode::OutOfRange
+        );
         assert_eq!(
             s.history(&n("x"), Some(MAX_HISTORY + 1)).unwrap_err().code,
             ErrorCode::OutOfRange
         );
-        assert_eq!(s.history(&n("x"), None).unwrap_err().code, ErrorCode::UnknownVariable);
+        assert_eq!(
+            s.history(&n("x"), None).unwrap_err().code,
+            ErrorCode::UnknownVariable
+        );
         s.history(&n("x"), Some(2)).unwrap();
-        assert_eq!(s.get(&n("x"), 0).unwrap_err().code, ErrorCode::UnknownVariable);
+        assert_eq!(
+            s.get(&n("x"), 0).unwrap_err().code,
+            ErrorCode::UnknownVariable
+        );
         for v in 0..5 {
             s.put(&n("x"), json!(v));
         }
@@ -773,9 +810,18 @@ mod tests {
     fn semaphore_basics_and_unknown_names() {
         let mut s = Store::new(4);
         let t = Instant::now();
-        assert_eq!(s.signal(&n("S"), None, t).unwrap_err().code, ErrorCode::UnknownSemaphore);
-        assert_eq!(s.wait(&n("S"), None, None, t).unwrap_err().code, ErrorCode::UnknownSemaphore);
-        assert_eq!(s.try_wait(&n("S"), None, t).unwrap_err().code, ErrorCode::UnknownSemaphore);
+        assert_eq!(
+            s.signal(&n("S"), None, t).unwrap_err().code,
+            ErrorCode::UnknownSemaphore
+        );
+        assert_eq!(
+            s.wait(&n("S"), None, None, t).unwrap_err().code,
+            ErrorCode::UnknownSemaphore
+        );
+        assert_eq!(
+            s.try_wait(&n("S"), None, t).unwrap_err().code,
+            ErrorCode::UnknownSemaphore
+        );
         assert!(s.create(&n("S"), 1).unwrap().created);
         let again = s.create(&n("S"), 5).unwrap();
         assert!(!again.created);
@@ -821,12 +867,24 @@ mod tests {
         assert_eq!(sig.grants[0].ticket, "a");
         // The grant reply is lost; the retry learns it without a second unit.
         for _ in 0..3 {
-            assert_eq!(s.wait(&n("S"), Some("a"), Some("o1"), t).unwrap().status, WaitStatus::Granted);
+            assert_eq!(
+                s.wait(&n("S"), Some("a"), Some("o1"), t).unwrap().status,
+                WaitStatus::Granted
+            );
         }
-        assert_eq!(s.ack(&n("S"), "a", t).unwrap().status, WaitStatus::Confirmed);
+        assert_eq!(
+            s.ack(&n("S"), "a", t).unwrap().status,
+            WaitStatus::Confirmed
+        );
         // A retried ack, and a very late duplicate wait, are answered from memory.
-        assert_eq!(s.ack(&n("S"), "a", t).unwrap().status, WaitStatus::Confirmed);
-        assert_eq!(s.wait(&n("S"), Some("a"), Some("o1"), t).unwrap().status, WaitStatus::Confirmed);
+        assert_eq!(
+            s.ack(&n("S"), "a", t).unwrap().status,
+            WaitStatus::Confirmed
+        );
+        assert_eq!(
+            s.wait(&n("S"), Some("a"), Some("o1"), t).unwrap().status,
+            WaitStatus::Confirmed
+        );
         let st = s.semaphore(&n("S")).unwrap();
         assert_eq!((st.value, st.waiters), (0, 1));
     }
@@ -842,7 +900,10 @@ mod tests {
         s.ack(&n("S"), "a", t).unwrap();
         // Cancelling a queued ticket removes it and takes nothing.
         s.wait(&n("S"), Some("b"), Some("o"), t).unwrap();
-        assert_eq!(s.cancel(&n("S"), "b").unwrap().status, WaitStatus::Cancelled);
+        assert_eq!(
+            s.cancel(&n("S"), "b").unwrap().status,
+            WaitStatus::Cancelled
+        );
         assert_eq!(s.cancel(&n("S"), "b").unwrap().status, WaitStatus::Unknown);
         s.signal(&n("S"), None, t).unwrap();
         assert_eq!(s.semaphore(&n("S")).unwrap().value, 1);
@@ -857,10 +918,22 @@ mod tests {
         s.wait(&n("S"), Some("dead-2"), Some("dead"), t).unwrap();
         s.wait(&n("S"), Some("live-1"), Some("live"), t).unwrap();
         // The first signal goes to the dead owner before its death is known.
-        assert_eq!(s.signal(&n("S"), None, t).unwrap().grants[0].ticket, "dead-1");
+        assert_eq!(
+            s.signal(&n("S"), None, t).unwrap().grants[0].ticket,
+            "dead-1"
+        );
         let grants = s.owner_gone("dead", t);
-        assert_eq!(grants, vec![Grant { sem: n("S"), ticket: "live-1".into() }]);
-        assert_eq!(s.ack(&n("S"), "dead-1", t).unwrap().status, WaitStatus::Unknown);
+        assert_eq!(
+            grants,
+            vec![Grant {
+                sem: n("S"),
+                ticket: "live-1".into()
+            }]
+        );
+        assert_eq!(
+            s.ack(&n("S"), "dead-1", t).unwrap().status,
+            WaitStatus::Unknown
+        );
         let st = s.semaphore(&n("S")).unwrap();
         assert_eq!((st.value, st.waiters), (0, 0));
     }
@@ -873,11 +946,16 @@ mod tests {
         s.create(&n("S"), 0).unwrap();
         s.wait(&n("S"), Some("a"), Some("ghost"), t0).unwrap();
         s.wait(&n("S"), Some("b"), Some("live"), t0).unwrap();
-        assert_eq!(s.release_hold("b", t0 + grace).unwrap().status, WaitStatus::Pending);
+        assert_eq!(
+            s.release_hold("b", t0 + grace).unwrap().status,
+            WaitStatus::Pending
+        );
         // "a" is granted to an owner that was never seen alive.
         s.signal(&n("S"), None, t0).unwrap();
         let alive = |o: &str| o == "live";
-        assert!(s.sweep(t0 + Duration::from_secs(1), grace, alive).is_empty());
+        assert!(s
+            .sweep(t0 + Duration::from_secs(1), grace, alive)
+            .is_empty());
         assert_eq!(s.open_tickets(), 2);
         // After the grace "b" has lapsed (nobody asked again), and the
         // ghost's unit returns to the semaphore.
@@ -910,7 +988,10 @@ mod tests {
         s.create(&n("S"), 0).unwrap();
         let r = s.wait(&n("S"), None, None, t).unwrap();
         assert_eq!(r.status, WaitStatus::Pending);
-        assert_eq!(s.release_hold(&r.ticket, t).unwrap().status, WaitStatus::TimedOut);
+        assert_eq!(
+            s.release_hold(&r.ticket, t).unwrap().status,
+            WaitStatus::TimedOut
+        );
         assert_eq!(s.semaphore(&n("S")).unwrap().waiters, 0);
         let r = s.wait(&n("S"), None, None, t).unwrap();
         let g = s.signal(&n("S"), None, t).unwrap().grants;
@@ -943,7 +1024,13 @@ mod tests {
         s.create(&n("A"), 0).unwrap();
         s.create(&n("B"), 0).unwrap();
         s.wait(&n("A"), Some("x"), Some("o"), t).unwrap();
-        assert_eq!(s.wait(&n("B"), Some("x"), Some("o"), t).unwrap_err().code, ErrorCode::Conflict);
-        assert_eq!(s.cancel(&n("B"), "x").unwrap_err().code, ErrorCode::Conflict);
+        assert_eq!(
+            s.wait(&n("B"), Some("x"), Some("o"), t).unwrap_err().code,
+            ErrorCode::Conflict
+        );
+        assert_eq!(
+            s.cancel(&n("B"), "x").unwrap_err().code,
+            ErrorCode::Conflict
+        );
     }
 }

@@ -200,14 +200,19 @@ pub async fn data_rows(args: &DataBench, progress: bool) -> anyhow::Result<Vec<R
         let mut clients = Vec::new();
         for i in 0..n {
             let session = NetOptions::loopback(None, &[port]).open().await?;
-            let data = DataClient::connect(&session, DataOptions::new(&format!("bench{i}"))).await?;
+            let data =
+                DataClient::connect(&session, DataOptions::new(&format!("bench{i}"))).await?;
             clients.push(Client { session, data });
         }
         clients[0].data.set("bench/x", &0).await?;
         clients[0].data.create_semaphore("bench", 0).await?;
         for op in [Op::Raw, Op::Get, Op::Set, Op::Signal] {
             if progress {
-                eprintln!("  {:16} {n:>3} client(s), {:.1} s …", op.name(), args.seconds);
+                eprintln!(
+                    "  {:16} {n:>3} client(s), {:.1} s …",
+                    op.name(),
+                    args.seconds
+                );
             }
             rows.push(measure(&clients, op, span).await?);
         }

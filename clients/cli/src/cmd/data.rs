@@ -108,7 +108,9 @@ pub async fn run(common: &CommonArgs, cmd: DataCmd) -> anyhow::Result<u8> {
                 let width = vars.iter().map(|v| v.name.len()).max().unwrap_or(4).max(4);
                 println!("{:width$}  {:>6}  {:>9}  VALUE", "NAME", "SEQ", "KEPT");
                 for v in &vars {
-                    let value = values.get(&v.name).map_or("-".to_string(), Value::to_string);
+                    let value = values
+                        .get(&v.name)
+                        .map_or("-".to_string(), Value::to_string);
                     let kept = format!("{}/{}", v.stored, v.len);
                     println!("{:width$}  {:>6}  {kept:>9}  {value}", v.name, v.seq);
                 }

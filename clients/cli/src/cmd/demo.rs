@@ -62,7 +62,11 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
     };
     let planner = DataClient::connect(&session, options("planner")).await?;
     let navigator = DataClient::connect(&session, options("navigator")).await?;
-    println!("data server up under '{}' ({:.0?})", root.as_str(), started.elapsed());
+    println!(
+        "data server up under '{}' ({:.0?})",
+        root.as_str(),
+        started.elapsed()
+    );
 
     // The one set/get, and the history the thesis' DataGetValue(-N) reads.
     planner.set_history("PosX", 4).await?;
@@ -90,7 +94,11 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
     });
     for (i, goal) in plan.iter().enumerate() {
         goals::hand_over(&planner, goal).await?;
-        let unit = if goal.goal_type == GoalType::L { "lights" } else { "mm" };
+        let unit = if goal.goal_type == GoalType::L {
+            "lights"
+        } else {
+            "mm"
+        };
         println!(
             "[{}/{total}] planner -> navigator: GoalType {:?}, GoalDistance {} {unit}, GoalDirection {}°",
             i + 1,
@@ -100,7 +108,10 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
         );
     }
     let seen = nav.await??;
-    anyhow::ensure!(seen == plan, "the navigator received {seen:?}, expected {plan:?}");
+    anyhow::ensure!(
+        seen == plan,
+        "the navigator received {seen:?}, expected {plan:?}"
+    );
     println!(
         "navigator received all {total} goals in order via $GoalData/$RobotStatus ({:.0?} in all)",
         started.elapsed()

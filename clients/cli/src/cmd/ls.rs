@@ -25,15 +25,21 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
     let root = common.root()?;
     // Peers learn each other's tokens just after connecting; a liveliness
     // subscriber with history waits for that instead of guessing.
-    let people = rome_client::alive::list(&session, &root, Duration::from_secs_f64(args.timeout)).await?;
+    let people =
+        rome_client::alive::list(&session, &root, Duration::from_secs_f64(args.timeout)).await?;
     if args.json {
         let rows: Vec<_> = people
             .iter()
-            .map(|p| serde_json::json!({"class": p.class, "role": p.role, "id": p.id, "key": p.key}))
+            .map(
+                |p| serde_json::json!({"class": p.class, "role": p.role, "id": p.id, "key": p.key}),
+            )
             .collect();
         println!("{}", serde_json::to_string_pretty(&rows)?);
     } else if people.is_empty() {
-        eprintln!("nothing alive under '{}' (is a server running, and --connect right?)", root.as_str());
+        eprintln!(
+            "nothing alive under '{}' (is a server running, and --connect right?)",
+            root.as_str()
+        );
     } else {
         println!("{:6}  {:12}  ID", "CLASS", "ROLE");
         for p in &people {

@@ -14,9 +14,15 @@ use rome_client::{DataClient, DataOptions};
 /// Opens a client session and connects to the data server.
 pub async fn connect_data(common: &CommonArgs, role: &str) -> anyhow::Result<DataClient> {
     let session = common.open(Side::Client).await?;
+    anyhow::ensure!(
+        common.connect_timeout.is_finite() && common.connect_timeout > 0.0,
+        "--connect-timeout must be a positive number of seconds, got {}",
+        common.connect_timeout
+    );
     let mut options = DataOptions::new(role);
     options.root = common.root()?;
-    DataClient::connect(&session, options)
-        .await
-        .context("cannot reach the data server (start one with `rome data-server`, or pass --connect)")
+    options.connect_timeout = std::time::Duration::from_secs_f64(common.connect_timeout);
+    DataClient::connect(&session, options).await.context(
+        "cannot reach the data server (start one with `rome data-server`, or pass --connect)",
+    )
 }

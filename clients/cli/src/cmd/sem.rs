@@ -76,7 +76,8 @@ pub async fn run(common: &CommonArgs, cmd: SemCmd) -> anyhow::Result<u8> {
                         secs.is_finite() && secs >= 0.0,
                         "--timeout must be a non-negative number of seconds, got {secs}"
                     );
-                    ds.wait_timeout(&name, Duration::from_secs_f64(secs)).await?
+                    ds.wait_timeout(&name, Duration::from_secs_f64(secs))
+                        .await?
                 }
             };
             if !acquired {

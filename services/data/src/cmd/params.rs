@@ -36,7 +36,12 @@ impl Params {
     }
 
     /// Takes a whole number within `min..=max`.
-    pub fn take_int(&mut self, name: &str, min: i128, max: i128) -> Result<Option<i128>, ErrorReply> {
+    pub fn take_int(
+        &mut self,
+        name: &str,
+        min: i128,
+        max: i128,
+    ) -> Result<Option<i128>, ErrorReply> {
         let Some(text) = self.take(name) else {
             return Ok(None);
         };

@@ -48,7 +48,11 @@ pub fn value_from_payload(name: &Name, payload: Option<&[u8]>) -> Result<Value, 
 
 impl Set {
     /// Parses the payload and `op`.
-    pub fn parse(name: Name, mut params: Params, payload: Option<&[u8]>) -> Result<Self, ErrorReply> {
+    pub fn parse(
+        name: Name,
+        mut params: Params,
+        payload: Option<&[u8]>,
+    ) -> Result<Self, ErrorReply> {
         let op = params.take_id(param::OP)?;
         params.finish("set", &[param::OP])?;
         let value = value_from_payload(&name, payload)?;

@@ -108,7 +108,10 @@ fn wait_is_held_or_answered() {
         .apply(&mut store, now)
         .unwrap();
     assert!(second.reply.is_none());
-    assert_eq!(second.hold, Some(("t2".to_string(), std::time::Duration::from_millis(250))));
+    assert_eq!(
+        second.hold,
+        Some(("t2".to_string(), std::time::Duration::from_millis(250)))
+    );
     let signalled = parse("rome/data/signal/S", "op=x1", None)
         .unwrap()
         .apply(&mut store, now)

@@ -28,6 +28,10 @@ impl TryWait {
 
     /// Tries to take a unit.
     pub fn apply(self, store: &mut Store, now: Instant) -> Result<Applied, ErrorReply> {
-        Ok(Applied::reply(&store.try_wait(&self.name, self.op.as_deref(), now)?))
+        Ok(Applied::reply(&store.try_wait(
+            &self.name,
+            self.op.as_deref(),
+            now,
+        )?))
     }
 }

@@ -53,7 +53,12 @@ impl Wait {
 
     /// Takes a unit now, or asks the server to hold the query.
     pub fn apply(self, store: &mut Store, now: Instant) -> Result<Applied, ErrorReply> {
-        let reply = store.wait(&self.name, self.ticket.as_deref(), self.owner.as_deref(), now)?;
+        let reply = store.wait(
+            &self.name,
+            self.ticket.as_deref(),
+            self.owner.as_deref(),
+            now,
+        )?;
         if reply.status == WaitStatus::Pending {
             return Ok(Applied {
                 hold: Some((reply.ticket, self.hold)),

@@ -1,0 +1,227 @@
+//! The `rome` program driven as a person would from a shell, against
+//! `rome data-server` running in another process, all on loopback.
+
+#![allow(clippy::unwrap_used)]
+
+use rome_client::net::free_loopback_port;
+use rome_tests::ChildGuard;
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+const ROME: &str = env!("CARGO_BIN_EXE_rome");
+
+struct Shell {
+    port: u16,
+    server: ChildGuard,
+}
+
+impl Shell {
+    fn start() -> Shell {
+        let port = free_loopback_port().unwrap();
+        let child = Command::new(ROME)
+            .args(["data-server", "--no-multicast", "--listen"])
+            .arg(format!("tcp/127.0.0.1:{port}"))
+            .stdin(Stdio::null())
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap();
+        Shell {
+            port,
+            server: ChildGuard(Some(child)),
+        }
+    }
+
+    fn cmd(&self, args: &[&str]) -> Command {
+        let mut c = Command::new(ROME);
+        c.args(["--no-multicast", "--listen", "tcp/127.0.0.1:0", "--connect"])
+            .arg(format!("tcp/127.0.0.1:{}", self.port))
+            .args(args)
+            .stdin(Stdio::null());
+        c
+    }
+
+    fn run(&self, args: &[&str]) -> (i32, String, String) {
+        let Output {
+            status,
+            stdout,
+            stderr,
+        } = self.cmd(args).output().unwrap();
+        (
+            status.code().unwrap_or(-1),
+            String::from_utf8_lossy(&stdout).into_owned(),
+            String::from_utf8_lossy(&stderr).into_owned(),
+        )
+    }
+
+    fn ok(&self, args: &[&str]) -> String {
+        let (code, out, err) = self.run(args);
+        assert_eq!(code, 0, "rome {args:?} failed: {err}");
+        out
+    }
+}
+
+#[test]
+fn variables_from_the_shell() {
+    let sh = Shell::start();
+    assert_eq!(
+        sh.ok(&["data", "set", "PosX", "4"]).trim(),
+        "PosX = 4 (seq 1)"
+    );
+    sh.ok(&["data", "set", "PosX", "5"]);
+    sh.ok(&["data", "set", "Pose", r#"{"x_mm":1,"heading_deg":90}"#]);
+    assert_eq!(sh.ok(&["data", "get", "PosX"]).trim(), "5");
+    assert_eq!(sh.ok(&["data", "get", "PosX", "--back", "1"]).trim(), "4");
+    assert_eq!(
+        sh.ok(&["data", "history", "PosX", "1"]).trim(),
+        "PosX: keeps 1, holds 1, last seq 2"
+    );
+    let ls = sh.ok(&["data", "ls"]);
+    assert!(
+        ls.contains("PosX") && ls.contains("\"heading_deg\":90"),
+        "{ls}"
+    );
+
+    let (code, _, err) = sh.run(&["data", "get", "PosX", "--back", "1"]);
+    assert_eq!(code, 1);
+    assert!(
+        err.contains("out_of_range") && err.contains("back=1"),
+        "{err}"
+    );
+    let (code, _, err) = sh.run(&["data", "set", "PosX", "abc"]);
+    assert_eq!(code, 1);
+    assert!(err.contains("not JSON"), "{err}");
+    let (code, _, err) = sh.run(&["data", "set", "bad name", "1"]);
+    assert_eq!(code, 1);
+    assert!(err.contains("invalid name 'bad name'"), "{err}");
+}
+
+#[test]
+fn semaphores_from_the_shell() {
+    let sh = Shell::start();
+    assert_eq!(
+        sh.ok(&["sem", "create", "$GoalData", "0"]).trim(),
+        "created GoalData = 0"
+    );
+    let (code, _, err) = sh.run(&["sem", "try-wait", "GoalData"]);
+    assert_eq!((code, err.trim()), (3, "GoalData: no unit free"));
+    let (code, _, _) = sh.run(&["sem", "wait", "GoalData", "--timeout", "0.2"]);
+    assert_eq!(code, 3);
+
+    // A blocking wait in one shell, released by a signal from another.
+    let waiter = sh
+        .cmd(&["sem", "wait", "$GoalData"])
+        .stdout(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut waiter = ChildGuard(Some(waiter));
+    let deadline = Instant::now() + Duration::from_secs(20);
+    while !sh.ok(&["sem", "get", "GoalData"]).contains("(1 waiting)") {
+        assert!(Instant::now() < deadline, "the waiter never queued");
+    }
+    assert!(sh
+        .ok(&["sem", "signal", "GoalData"])
+        .contains("woke a waiter"));
+    assert_eq!(waiter.output().trim(), "acquired $GoalData");
+    assert_eq!(
+        sh.ok(&["sem", "get", "GoalData"]).trim(),
+        "GoalData = 0 (0 waiting)"
+    );
+
+    let (code, _, err) = sh.run(&["sem", "signal", "Nope"]);
+    assert_eq!(code, 1);
+    assert!(
+        err.contains("unknown_semaphore") && err.contains("'Nope'"),
+        "{err}"
+    );
+}
+
+#[test]
+fn ls_shows_the_live_server_and_clients() {
+    let sh = Shell::start();
+    sh.ok(&["sem", "create", "S", "0"]);
+    let waiter = sh
+        .cmd(&["sem", "wait", "S"])
+        .stdout(Stdio::null())
+        .spawn()
+        .unwrap();
+    let _waiter = ChildGuard(Some(waiter));
+    let deadline = Instant::now() + Duration::from_secs(20);
+    loop {
+        let out = sh.ok(&["ls"]);
+        if out.contains("server  data") && out.contains("client  cli") {
+            break;
+        }
+        assert!(
+            Instant::now() < deadline,
+            "rome ls never showed both: {out}"
+        );
+    }
+}
+
+#[test]
+fn the_server_stops_cleanly_on_sigint() {
+    let mut sh = Shell::start();
+    sh.ok(&["data", "set", "x", "1"]);
+    let mut child = sh.server.0.take().unwrap();
+    let killed = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(killed.success());
+    assert_eq!(child.wait().unwrap().code(), Some(0));
+}
+
+#[test]
+fn no_server_is_a_clear_error() {
+    let port = free_loopback_port().unwrap();
+    let out = Command::new(ROME)
+        .args(["--no-multicast", "--listen", "tcp/127.0.0.1:0", "--connect"])
+        .arg(format!("tcp/127.0.0.1:{port}"))
+        .args(["--connect-timeout", "1", "data", "get", "x"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("cannot reach the data server"), "{err}");
+}
+
+#[test]
+fn demo_runs_with_no_configuration() {
+    let out = Command::new(ROME).arg("demo").output().unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("PosX = 1500 (one write ago 1250, two ago 1000)"),
+        "{text}"
+    );
+    assert!(text.contains("received all 6 goals in order"), "{text}");
+}
+
+#[test]
+fn help_names_the_commands_and_exit_codes() {
+    let out = Command::new(ROME).arg("--help").output().unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    for word in [
+        "data-server",
+        "data",
+        "sem",
+        "ls",
+        "--connect",
+        "--no-multicast",
+        "Exit codes",
+    ] {
+        assert!(text.contains(word), "--help lacks {word}: {text}");
+    }
+    let out = Command::new(ROME)
+        .args(["sem", "wait", "--help"])
+        .output()
+        .unwrap();
+    assert!(String::from_utf8_lossy(&out.stdout).contains("--timeout"));
+    let out = Command::new(ROME).args(["data", "frob"]).output().unwrap();
+    assert_eq!(out.status.code(), Some(2));
+}
