@@ -35,7 +35,12 @@ pub struct CommonArgs {
     )]
     pub listen: Vec<String>,
     /// Turn off multicast scouting (only the given endpoints are used).
-    #[arg(long, global = true, env = "ROME_NO_MULTICAST")]
+    #[arg(
+        long,
+        global = true,
+        env = "ROME_NO_MULTICAST",
+        alias = "no-multicast-scouting"
+    )]
     pub no_multicast: bool,
     /// Root prefix of every key, so deployments can share a router.
     #[arg(long, global = true, env = "ROME_ROOT", default_value = rome_schema::keys::DEFAULT_ROOT)]

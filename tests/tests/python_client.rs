@@ -1,0 +1,73 @@
+//! A client in another language (Python's `eclipse-zenoh`), written from
+//! docs/keys.md alone, against the data server.
+//!
+//! The package is installed from PyPI into a virtual environment under the
+//! target directory the first time, so a fresh machine needs only Python 3.
+
+#![allow(clippy::unwrap_used)]
+
+use rome_tests::TestServer;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// The version matching the Zenoh crates (1.10).
+const PY_ZENOH: &str = "eclipse-zenoh==1.10.2";
+
+fn python_with_zenoh() -> PathBuf {
+    let venv = Path::new(env!("CARGO_TARGET_TMPDIR")).join("py-zenoh");
+    let python = venv.join("bin/python");
+    let has_zenoh = |py: &Path| {
+        Command::new(py)
+            .args(["-c", "import zenoh"])
+            .status()
+            .map(|s| s.success())
+            .unwrap_or(false)
+    };
+    if has_zenoh(&python) {
+        return python;
+    }
+    let made = Command::new("python3")
+        .args(["-m", "venv"])
+        .arg(&venv)
+        .status()
+        .expect("python3 is needed for the cross-language test");
+    assert!(made.success(), "python3 -m venv failed");
+    let pip = Command::new(&python)
+        .args([
+            "-m",
+            "pip",
+            "install",
+            "--quiet",
+            "--disable-pip-version-check",
+            PY_ZENOH,
+        ])
+        .status()
+        .unwrap();
+    assert!(pip.success(), "pip install {PY_ZENOH} failed");
+    assert!(has_zenoh(&python));
+    python
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn python_client_from_docs_alone() {
+    let python = tokio::task::spawn_blocking(python_with_zenoh)
+        .await
+        .unwrap();
+    let server = TestServer::start().await;
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("python/keys_check.py");
+    let port = server.port.to_string();
+    let out = tokio::task::spawn_blocking(move || {
+        Command::new(python).arg(script).arg(port).output().unwrap()
+    })
+    .await
+    .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(stdout.contains(" 0 failed"), "{stdout}");
+    assert!(!stdout.contains("FAIL"), "{stdout}");
+    server.stop().await;
+}
