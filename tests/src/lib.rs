@@ -44,9 +44,9 @@ impl TestServer {
         }
     }
 
-    /// A new client session connected to this server only.
+    /// A new Zenoh client session connected to this server only.
     pub async fn session(&self) -> Session {
-        NetOptions::loopback(None, &[self.port])
+        NetOptions::loopback_client(self.port)
             .open()
             .await
             .expect("client session on loopback")

@@ -257,3 +257,48 @@ async fn fifty_clients_count_exactly_under_a_semaphore_mutex() {
     assert_eq!((m.value, m.waiters), (1, 0));
     server.stop().await;
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn long_waits_keep_their_place_across_polls_fifo() {
+    let server = TestServer::start().await;
+    let ds = server.client("signaller").await;
+    ds.create_semaphore("S", 0).await.unwrap();
+    // A 40 ms hold turns every wait into a series of polls: the order can
+    // only hold if each poll keeps the ticket's place.
+    let mut order = Vec::new();
+    let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel();
+    for who in 0..3u32 {
+        let mut options = DataOptions::new("waiter");
+        options.hold = Duration::from_millis(40);
+        let waiter = server.client_with(options).await;
+        let tx = tx.clone();
+        tokio::spawn(async move {
+            waiter.wait("S").await.unwrap();
+            tx.send(who).unwrap();
+        });
+        // Queue them one after the other, so FIFO has a known answer.
+        eventually(Duration::from_secs(10), "waiter queued", || async {
+            ds.semaphore("S").await.unwrap().waiters == who + 1
+        })
+        .await;
+    }
+    // Time passing is what is under test here, not a stand-in for an
+    // event: every wait goes through about ten polls before a unit comes.
+    tokio::time::sleep(Duration::from_millis(400)).await;
+    assert_eq!(
+        ds.semaphore("S").await.unwrap().waiters,
+        3,
+        "a place was lost between polls"
+    );
+    for _ in 0..3 {
+        ds.signal("S").await.unwrap();
+        order.push(
+            tokio::time::timeout(Duration::from_secs(10), rx.recv())
+                .await
+                .unwrap()
+                .unwrap(),
+        );
+    }
+    assert_eq!(order, [0, 1, 2]);
+    server.stop().await;
+}

@@ -11,7 +11,8 @@ pub struct CommonArgs {
     /// A Zenoh configuration file (JSON5) to start from.
     #[arg(short, long, global = true, env = "ROME_CONFIG", value_name = "FILE")]
     pub config: Option<PathBuf>,
-    /// Zenoh mode: peer, client or router.
+    /// Zenoh mode: peer, client or router [default: peer for servers,
+    /// client for everything else].
     #[arg(short, long, global = true, env = "ROME_MODE", value_parser = ["peer", "client", "router"])]
     pub mode: Option<String>,
     /// Endpoint to connect to, e.g. tcp/192.168.1.10:7447 (repeatable).
@@ -45,7 +46,7 @@ pub struct CommonArgs {
     /// Root prefix of every key, so deployments can share a router.
     #[arg(long, global = true, env = "ROME_ROOT", default_value = rome_schema::keys::DEFAULT_ROOT)]
     pub root: String,
-    /// How long to wait for the data server to appear, in seconds.
+    /// How long to keep trying to reach the network and the data server, in seconds.
     #[arg(
         long,
         global = true,
@@ -83,12 +84,21 @@ impl CommonArgs {
             connect: self.connect.clone(),
             listen: self.listen.clone(),
             no_multicast: self.no_multicast,
+            connect_timeout: None,
         };
         if net.is_unconfigured() {
             match side {
                 Side::Server => net.listen.push(format!("tcp/0.0.0.0:{DEFAULT_PORT}")),
                 Side::Client => net.connect.push(format!("tcp/127.0.0.1:{DEFAULT_PORT}")),
             }
+        }
+        // Clients only talk to servers: Zenoh's client mode, unless told
+        // otherwise, so one-shot commands do not mesh with every peer.
+        if side == Side::Client && net.mode.is_none() && net.config.is_none() {
+            net.mode = Some("client".into());
+        }
+        if side == Side::Client && self.connect_timeout.is_finite() && self.connect_timeout > 0.0 {
+            net.connect_timeout = Some(std::time::Duration::from_secs_f64(self.connect_timeout));
         }
         net
     }
@@ -106,8 +116,11 @@ impl CommonArgs {
             (0, true) | (1, _) => "info",
             _ => "debug",
         };
+        // A client's errors already say what Zenoh could not do; Zenoh's own
+        // warnings stay on for servers, which run for long.
+        let zenoh = if server || self.verbose > 0 { "warn" } else { "error" };
         let filter = EnvFilter::try_from_default_env()
-            .unwrap_or_else(|_| EnvFilter::new(format!("{level},zenoh=warn,zenoh_transport=warn")));
+            .unwrap_or_else(|_| EnvFilter::new(format!("{level},zenoh={zenoh},zenoh_transport={zenoh}")));
         use std::io::IsTerminal;
         let _ = tracing_subscriber::fmt()
             .with_env_filter(filter)

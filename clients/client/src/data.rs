@@ -355,12 +355,22 @@ impl DataClient {
 
     /// Every variable the server knows, sorted by name.
     pub async fn list(&self) -> Result<Vec<HistoryInfo>, ClientError> {
-        let key = self.inner.options.root.data_all_of(DataOp::History);
+        let mut out: Vec<HistoryInfo> = self.collect_all(DataOp::History, "history reply").await?;
+        out.sort_by(|a, b| a.name.cmp(&b.name));
+        Ok(out)
+    }
+
+    /// Every reply to `<root>/data/<op>/**`, decoded.
+    async fn collect_all<T: DeserializeOwned>(
+        &self,
+        op: DataOp,
+        what: &str,
+    ) -> Result<Vec<T>, ClientError> {
+        let key = self.inner.options.root.data_all_of(op);
         let mut out = Vec::new();
         for (_, body) in self.collect(&key).await? {
-            out.push(decode::<HistoryInfo>(&body, "history reply")?);
+            out.push(decode(&body, what)?);
         }
-        out.sort_by(|a, b| a.name.cmp(&b.name));
         Ok(out)
     }
 
@@ -452,11 +462,7 @@ impl DataClient {
 
     /// Every semaphore, sorted by name.
     pub async fn semaphores(&self) -> Result<Vec<SemState>, ClientError> {
-        let key = self.inner.options.root.data_all_of(DataOp::Sem);
-        let mut out = Vec::new();
-        for (_, body) in self.collect(&key).await? {
-            out.push(decode::<SemState>(&body, "semaphore state")?);
-        }
+        let mut out: Vec<SemState> = self.collect_all(DataOp::Sem, "semaphore state").await?;
         out.sort_by(|a, b| a.name.cmp(&b.name));
         Ok(out)
     }

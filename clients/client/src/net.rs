@@ -24,6 +24,9 @@ pub struct NetOptions {
     pub listen: Vec<String>,
     /// Turn multicast scouting off (tests, and networks without multicast).
     pub no_multicast: bool,
+    /// How long opening may keep trying the connect endpoints (Zenoh's
+    /// `connect/timeout_ms`); Zenoh's default (a client tries once) if unset.
+    pub connect_timeout: Option<std::time::Duration>,
 }
 
 impl NetOptions {
@@ -41,6 +44,22 @@ impl NetOptions {
                 .collect(),
             listen: vec![format!("tcp/127.0.0.1:{}", listen.unwrap_or(0))],
             no_multicast: true,
+            connect_timeout: None,
+        }
+    }
+
+    /// Options for a Zenoh *client* session on loopback: connects to
+    /// 127.0.0.1:`connect` only, listens nowhere, multicast off. Clients of
+    /// RoME talk only to servers, so unlike peers they need no mesh with
+    /// each other (fifty peers would open over a thousand links).
+    pub fn loopback_client(connect: u16) -> Self {
+        NetOptions {
+            config: None,
+            mode: Some("client".into()),
+            connect: vec![format!("tcp/127.0.0.1:{connect}")],
+            listen: Vec::new(),
+            no_multicast: true,
+            connect_timeout: None,
         }
     }
 
@@ -53,6 +72,7 @@ impl NetOptions {
             connect: Vec::new(),
             listen: Vec::new(),
             no_multicast: true,
+            connect_timeout: None,
         }
     }
 
@@ -96,6 +116,9 @@ impl NetOptions {
         if self.no_multicast {
             set("scouting/multicast/enabled", "false".into())?;
         }
+        if let Some(timeout) = self.connect_timeout {
+            set("connect/timeout_ms", timeout.as_millis().to_string())?;
+        }
         Ok(config)
     }
 
@@ -103,10 +126,18 @@ impl NetOptions {
     pub async fn open(&self) -> Result<Session, ClientError> {
         let config = self.to_config()?;
         zenoh::open(config).await.map_err(|e| {
-            ClientError::Zenoh(format!(
-                "cannot open a session (connect {:?}, listen {:?}): {e}",
-                self.connect, self.listen
-            ))
+            let text = e.to_string();
+            if text.contains("Unable to connect") {
+                ClientError::Zenoh(format!(
+                    "cannot reach {} (is a server or router running there? --connect names another)",
+                    self.connect.join(", ")
+                ))
+            } else {
+                ClientError::Zenoh(format!(
+                    "cannot open a session (connect {:?}, listen {:?}): {text}",
+                    self.connect, self.listen
+                ))
+            }
         })
     }
 }

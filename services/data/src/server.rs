@@ -68,6 +68,9 @@ pub enum ServerError {
         /// Zenoh's error.
         detail: String,
     },
+    /// The server task ended abnormally (it panicked or was aborted).
+    #[error("the data server task failed: {0}")]
+    Task(String),
 }
 
 /// A data server running in a task of this process (embedded runs,
@@ -85,10 +88,7 @@ impl Running {
         }
         match (&mut self.task).await {
             Ok(result) => result,
-            Err(e) => Err(ServerError::Declare {
-                what: "the server task".into(),
-                detail: e.to_string(),
-            }),
+            Err(e) => Err(ServerError::Task(e.to_string())),
         }
     }
 }

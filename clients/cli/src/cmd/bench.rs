@@ -199,7 +199,7 @@ pub async fn data_rows(args: &DataBench, progress: bool) -> anyhow::Result<Vec<R
         }
         let mut clients = Vec::new();
         for i in 0..n {
-            let session = NetOptions::loopback(None, &[port]).open().await?;
+            let session = NetOptions::loopback_client(port).open().await?;
             let data =
                 DataClient::connect(&session, DataOptions::new(&format!("bench{i}"))).await?;
             clients.push(Client { session, data });

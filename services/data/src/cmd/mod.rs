@@ -95,54 +95,26 @@ impl Request {
             .parse_data(key)
             .map_err(|e| ErrorReply::new(ErrorCode::UnknownKey, e.to_string()))?;
         let name = key.name;
-        let no_payload = |op: DataOp| -> Result<(), ErrorReply> {
-            match payload {
-                Some(p) if !p.is_empty() => Err(ErrorReply::new(
-                    ErrorCode::BadParameter,
-                    format!("'{}' takes no payload; its arguments are selector parameters (see docs/keys.md)", op.chunk()),
-                )),
-                _ => Ok(()),
-            }
-        };
         let op = key.op;
+        // Only a write carries a payload; anywhere else it is a mistake
+        // (an argument sent as payload instead of a selector parameter).
+        if op != DataOp::Set && payload.is_some_and(|p| !p.is_empty()) {
+            return Err(ErrorReply::new(
+                ErrorCode::BadParameter,
+                format!("'{}' takes no payload; its arguments are selector parameters (see docs/keys.md)", op.chunk()),
+            ));
+        }
         let request = match op {
             DataOp::Set => Request::Set(Set::parse(name, params, payload)?),
-            DataOp::Var => {
-                no_payload(op)?;
-                Request::Get(Get::parse(name, params)?)
-            }
-            DataOp::History => {
-                no_payload(op)?;
-                Request::History(History::parse(name, params)?)
-            }
-            DataOp::Sem => {
-                no_payload(op)?;
-                Request::Read(Read::parse(name, params)?)
-            }
-            DataOp::Create => {
-                no_payload(op)?;
-                Request::Create(Create::parse(name, params)?)
-            }
-            DataOp::Signal => {
-                no_payload(op)?;
-                Request::Signal(Signal::parse(name, params)?)
-            }
-            DataOp::Wait => {
-                no_payload(op)?;
-                Request::Wait(Wait::parse(name, params)?)
-            }
-            DataOp::TryWait => {
-                no_payload(op)?;
-                Request::TryWait(TryWait::parse(name, params)?)
-            }
-            DataOp::Cancel => {
-                no_payload(op)?;
-                Request::Cancel(Cancel::parse(name, params)?)
-            }
-            DataOp::Ack => {
-                no_payload(op)?;
-                Request::Ack(Ack::parse(name, params)?)
-            }
+            DataOp::Var => Request::Get(Get::parse(name, params)?),
+            DataOp::History => Request::History(History::parse(name, params)?),
+            DataOp::Sem => Request::Read(Read::parse(name, params)?),
+            DataOp::Create => Request::Create(Create::parse(name, params)?),
+            DataOp::Signal => Request::Signal(Signal::parse(name, params)?),
+            DataOp::Wait => Request::Wait(Wait::parse(name, params)?),
+            DataOp::TryWait => Request::TryWait(TryWait::parse(name, params)?),
+            DataOp::Cancel => Request::Cancel(Cancel::parse(name, params)?),
+            DataOp::Ack => Request::Ack(Ack::parse(name, params)?),
             DataOp::Watch => {
                 return Err(ErrorReply::new(
                     ErrorCode::UnknownKey,
