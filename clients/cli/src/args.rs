@@ -118,9 +118,14 @@ impl CommonArgs {
         };
         // A client's errors already say what Zenoh could not do; Zenoh's own
         // warnings stay on for servers, which run for long.
-        let zenoh = if server || self.verbose > 0 { "warn" } else { "error" };
-        let filter = EnvFilter::try_from_default_env()
-            .unwrap_or_else(|_| EnvFilter::new(format!("{level},zenoh={zenoh},zenoh_transport={zenoh}")));
+        let zenoh = if server || self.verbose > 0 {
+            "warn"
+        } else {
+            "error"
+        };
+        let filter = EnvFilter::try_from_default_env().unwrap_or_else(|_| {
+            EnvFilter::new(format!("{level},zenoh={zenoh},zenoh_transport={zenoh}"))
+        });
         use std::io::IsTerminal;
         let _ = tracing_subscriber::fmt()
             .with_env_filter(filter)
