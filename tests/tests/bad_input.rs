@@ -175,6 +175,17 @@ async fn bad_put_is_reported_on_rejected_and_not_recorded() {
     assert_eq!(r.key, "rome/data/var/PosX");
     assert_eq!(good.get("PosX").await.unwrap(), serde_json::json!(1));
     assert_eq!(good.history("PosX").await.unwrap().seq, 1);
+    // A put on a key that is no valid variable name is reported too.
+    z.put("rome/data/var/a b", "1").await.unwrap();
+    let r = tokio::time::timeout(Duration::from_secs(10), rejected.recv_async())
+        .await
+        .expect("rejection published")
+        .unwrap();
+    let r: Rejected = decode(&r.payload().to_bytes(), "rejected").unwrap();
+    assert_eq!(
+        (r.code, r.key.as_str()),
+        (ErrorCode::BadName, "rome/data/var/a b")
+    );
     server.stop().await;
 }
 

@@ -256,34 +256,44 @@ impl Server {
             return reply_err(&query, &e).await;
         }
         let root = &self.config.root;
+        // Keys first: only what the query matches is encoded and sent.
+        let matches = |op: DataOp, name: &rome_schema::Name| {
+            let key = root.data(op, name);
+            let hit =
+                KeyExpr::try_from(key.as_str()).is_ok_and(|ke| query.key_expr().intersects(&ke));
+            hit.then_some(key)
+        };
         let mut replies: Vec<(String, Vec<u8>)> = Vec::new();
         for (name, value) in self.store.values() {
-            replies.push((root.data(DataOp::Var, name), encode(value)));
-        }
-        for info in self.store.histories() {
-            if let Ok(name) = rome_schema::Name::new(info.name.as_str()) {
-                replies.push((root.data(DataOp::History, &name), encode(&info)));
+            if let Some(key) = matches(DataOp::Var, name) {
+                replies.push((key, encode(value)));
             }
         }
-        for state in self.store.semaphores() {
-            if let Ok(name) = rome_schema::Name::new(state.name.as_str()) {
-                replies.push((root.data(DataOp::Sem, &name), encode(&state)));
+        for (name, info) in self.store.histories() {
+            if let Some(key) = matches(DataOp::History, name) {
+                replies.push((key, encode(&info)));
+            }
+        }
+        for (name, state) in self.store.semaphores() {
+            if let Some(key) = matches(DataOp::Sem, name) {
+                replies.push((key, encode(&state)));
             }
         }
         for (key, payload) in replies {
-            let Ok(ke) = KeyExpr::try_from(key.as_str()) else {
-                continue;
-            };
-            if query.key_expr().intersects(&ke) {
-                reply_json(&query, &key, payload).await;
-            }
+            reply_json(&query, &key, payload).await;
         }
     }
 
     async fn put(&mut self, sample: Sample) {
         let key = sample.key_expr().as_str().to_string();
-        let parsed = self.config.root.parse_data(&key);
-        let Ok(data_key) = parsed else { return };
+        let data_key = match self.config.root.parse_data(&key) {
+            Ok(k) => k,
+            Err(e) => {
+                return self
+                    .reject(&key, ErrorReply::new(ErrorCode::BadName, e.to_string()))
+                    .await
+            }
+        };
         let now = Instant::now();
         let result: Result<Option<Committed>, ErrorReply> = match (data_key.op, sample.kind()) {
             (DataOp::Var, SampleKind::Put) => {

@@ -335,8 +335,8 @@ impl Store {
     }
 
     /// History information of every known variable.
-    pub fn histories(&self) -> Vec<HistoryInfo> {
-        self.vars.iter().map(|(n, v)| Self::info(n, v)).collect()
+    pub fn histories(&self) -> impl Iterator<Item = (&Name, HistoryInfo)> {
+        self.vars.iter().map(|(n, v)| (n, Self::info(n, v)))
     }
 
     // ----- semaphores ----------------------------------------------------
@@ -379,11 +379,8 @@ impl Store {
     }
 
     /// Every semaphore's state.
-    pub fn semaphores(&self) -> Vec<SemState> {
-        self.sems
-            .iter()
-            .map(|(n, s)| Self::sem_state(n, s))
-            .collect()
+    pub fn semaphores(&self) -> impl Iterator<Item = (&Name, SemState)> {
+        self.sems.iter().map(|(n, s)| (n, Self::sem_state(n, s)))
     }
 
     /// Hands available units to queued tickets, first come first served.

@@ -32,7 +32,7 @@ pub use wait::Wait;
 use crate::store::{Grant, Store};
 use rome_schema::data::Committed;
 use rome_schema::keys::DataOp;
-use rome_schema::{encode, ErrorCode, ErrorReply, Root};
+use rome_schema::{encode, ErrorCode, ErrorReply, KeyError, Root};
 use serde::Serialize;
 use std::time::{Duration, Instant};
 
@@ -91,9 +91,13 @@ impl Request {
         params: Params,
         payload: Option<&[u8]>,
     ) -> Result<Request, ErrorReply> {
-        let key = root
-            .parse_data(key)
-            .map_err(|e| ErrorReply::new(ErrorCode::UnknownKey, e.to_string()))?;
+        let key = root.parse_data(key).map_err(|e| {
+            let code = match e {
+                KeyError::BadName { .. } => ErrorCode::BadName,
+                KeyError::OutsideRoot { .. } | KeyError::UnknownOp { .. } => ErrorCode::UnknownKey,
+            };
+            ErrorReply::new(code, e.to_string())
+        })?;
         let name = key.name;
         let op = key.op;
         // Only a write carries a payload; anywhere else it is a mistake

@@ -119,3 +119,10 @@ fn wait_is_held_or_answered() {
     assert_eq!(signalled.grants.len(), 1);
     assert_eq!(signalled.grants[0].ticket, "t2");
 }
+
+#[test]
+fn a_bad_name_is_named_as_such() {
+    let (c, m) = code("rome/data/var/a b", "", None);
+    assert_eq!(c, ErrorCode::BadName);
+    assert!(m.contains("'a b'"), "{m}");
+}
