@@ -1,7 +1,7 @@
 //! The Zenoh side of the data server.
 //!
 //! Every input (queries, plain puts, liveliness changes, hold timers, the
-//! housekeeping tick) is turned into an [`Event`] on one channel, in the
+//! housekeeping tick) is turned into an event on one channel, in the
 //! order Zenoh delivers it, and one task owns the [`Store`] and handles
 //! events one at a time. So a put followed by a get from the same session
 //! is seen in that order, commits are published in commit order, and no
