@@ -5,7 +5,7 @@
 //!   every command (`--connect`, `--listen`, `--mode`, `--config`,
 //!   `--no-multicast`, `--root`), flattened into [`Cli`].
 //! - [`cmd`]: one module per command group (`data-server`, `data`, `sem`,
-//!   `ls`, `demo`, `bench`), each with a `run` taking parsed arguments.
+//!   `ls`, `map`, `demo`, `bench`), each with a `run` taking parsed arguments.
 //! - [`exit`]: the exit codes, documented in `rome --help`.
 //!
 //! `main` only parses flags and calls [`main`]; everything else is here so
@@ -55,6 +55,9 @@ pub enum Command {
     Sem(cmd::sem::SemCmd),
     /// List the live servers and clients.
     Ls(cmd::ls::Args),
+    /// Check and draw StickRep maps.
+    #[command(subcommand)]
+    Map(cmd::map::MapCmd),
     /// Run everything in one process and show it working (no router, no configuration).
     Demo(cmd::demo::Args),
     /// Measure round trips and throughput.
@@ -104,6 +107,7 @@ pub async fn run(cli: Cli) -> anyhow::Result<u8> {
         Command::Data(c) => cmd::data::run(&common, c).await,
         Command::Sem(c) => cmd::sem::run(&common, c).await,
         Command::Ls(args) => cmd::ls::run(&common, args).await,
+        Command::Map(c) => cmd::map::run(c),
         Command::Demo(args) => cmd::demo::run(&common, args).await,
         Command::Bench(c) => cmd::bench::run(&common, c).await,
     }

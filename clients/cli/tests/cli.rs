@@ -228,3 +228,89 @@ fn help_names_the_commands_and_exit_codes() {
     let out = Command::new(ROME).args(["data", "frob"]).output().unwrap();
     assert_eq!(out.status.code(), Some(2));
 }
+
+fn map_file(name: &str) -> std::path::PathBuf {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../maps/data")
+        .join(name)
+}
+
+#[test]
+fn map_check_passes_good_maps_and_names_file_and_line_in_broken_ones() {
+    let good = map_file("fig5_3.stk");
+    let out = Command::new(ROME)
+        .args(["map", "check"])
+        .arg(&good)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(String::from_utf8_lossy(&out.stdout).contains("2 ring(s), 20 nodes"));
+
+    let dir = std::env::temp_dir().join(format!("rome-map-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let broken = dir.join("broken.stk");
+    let text = std::fs::read_to_string(&good)
+        .unwrap()
+        .replace("node X2 270", "node X2 250");
+    std::fs::write(&broken, text).unwrap();
+    let out = Command::new(ROME)
+        .args(["map", "check"])
+        .arg(&broken)
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains(&format!("{}:", broken.display())) && err.contains("not ±360"),
+        "{err}"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn map_render_writes_png_and_svg() {
+    let dir = std::env::temp_dir().join(format!("rome-render-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    for (name, width) in [("fig.png", "800"), ("fig.svg", "900")] {
+        let out_path = dir.join(name);
+        let out = Command::new(ROME)
+            .args(["map", "render"])
+            .arg(map_file("fig5_3.stk"))
+            .arg("-o")
+            .arg(&out_path)
+            .args(["--width", width])
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let bytes = std::fs::read(&out_path).unwrap();
+        if name.ends_with(".png") {
+            assert_eq!(&bytes[1..4], b"PNG");
+            let w = u32::from_be_bytes([bytes[16], bytes[17], bytes[18], bytes[19]]);
+            assert_eq!(w, 800);
+        } else {
+            let svg = String::from_utf8(bytes).unwrap();
+            assert!(svg.starts_with("<svg") && svg.contains(r#"width="900""#));
+            assert!(
+                svg.contains(">L1L2<") && svg.contains(">301<"),
+                "door labels drawn"
+            );
+        }
+    }
+    let out = Command::new(ROME)
+        .args(["map", "render"])
+        .arg(map_file("fig5_3.stk"))
+        .args(["-o", "/tmp/x.gif"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("name the output .png or .svg"));
+    std::fs::remove_dir_all(&dir).unwrap();
+}

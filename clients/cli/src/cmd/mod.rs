@@ -5,6 +5,7 @@ pub mod data;
 pub mod data_server;
 pub mod demo;
 pub mod ls;
+pub mod map;
 pub mod sem;
 
 use crate::args::{CommonArgs, Side};

@@ -1,0 +1,67 @@
+//! StickRep world maps (§5.1, Appendix A): rings of edges traced with the
+//! wall on the left, in a text format a person can write and review.
+//!
+//! How this crate is laid out:
+//! - [`model`]: maps, rings, nodes, edges, links: what a file says.
+//! - [`parse`]: text → [`Map`], with `file:line` errors.
+//! - [`validate`]: the rules a map must keep (rings close, angles and
+//!   lengths agree, names are unique, lights lie on their edge, links are
+//!   sound), each broken rule reported with its line.
+//! - [`geometry`]: a map turned into world coordinates: wall segments,
+//!   doors, ceiling lights, door plates and named positions (`350R`).
+//! - [`render`]: a picture of the map, as SVG or PNG.
+//!
+//! The format is described in `docs/stickrep.md`; `maps/data/` holds the
+//! maps.
+
+pub mod font;
+pub mod geometry;
+pub mod model;
+pub mod parse;
+pub mod render;
+pub mod validate;
+
+pub use geometry::World;
+pub use model::Map;
+pub use parse::{parse, ParseError};
+pub use validate::{validate, Problem};
+
+/// Reads, parses and validates a map file; every problem is reported.
+pub fn load(path: &std::path::Path) -> Result<Map, LoadError> {
+    let text = std::fs::read_to_string(path).map_err(|e| LoadError::Io {
+        path: path.display().to_string(),
+        detail: e.to_string(),
+    })?;
+    let file = path.display().to_string();
+    let map = parse(&file, &text).map_err(LoadError::Parse)?;
+    let problems = validate(&map);
+    if problems.is_empty() {
+        Ok(map)
+    } else {
+        Err(LoadError::Invalid { file, problems })
+    }
+}
+
+/// Why a map could not be loaded.
+#[derive(Debug, thiserror::Error)]
+pub enum LoadError {
+    /// The file could not be read.
+    #[error("cannot read {path}: {detail}")]
+    Io {
+        /// The path.
+        path: String,
+        /// The OS error.
+        detail: String,
+    },
+    /// The text does not follow the format.
+    #[error(transparent)]
+    Parse(ParseError),
+    /// The map breaks rules of StickRep.
+    #[error("{}", problems.iter().map(|p| format!("{file}:{p}")).collect::<Vec<_>>().join("\n"))]
+    Invalid {
+        /// The file.
+        file: String,
+        /// Every broken rule.
+        problems: Vec<Problem>,
+    },
+}

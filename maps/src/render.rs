@@ -1,0 +1,381 @@
+//! Pictures of a map: rings by edge kind, doors with their numbers,
+//! ceiling lights, door plates, links and a scale bar, as SVG or PNG.
+//!
+//! Both formats draw the same list of primitives ([`scene`]), so they
+//! cannot drift apart.
+
+use crate::font;
+use crate::geometry::{Point, World};
+use crate::model::{EdgeKind, Map};
+use std::fmt::Write as _;
+
+/// An RGB colour.
+pub type Rgb = [u8; 3];
+
+/// One thing to draw, in world coordinates (mm).
+#[derive(Debug, Clone, PartialEq)]
+pub enum Shape {
+    /// A line.
+    Line {
+        /// Start.
+        a: Point,
+        /// End.
+        b: Point,
+        /// Colour.
+        color: Rgb,
+        /// Width in pixels.
+        width: f64,
+        /// Dashed.
+        dashed: bool,
+    },
+    /// A filled disc of a radius in pixels.
+    Dot {
+        /// Centre.
+        at: Point,
+        /// Radius in pixels.
+        radius: f64,
+        /// Colour.
+        color: Rgb,
+    },
+    /// A label whose top-left corner is at `at`.
+    Text {
+        /// Where.
+        at: Point,
+        /// What.
+        text: String,
+        /// Colour.
+        color: Rgb,
+        /// Font scale (1 = 7 pixels high).
+        size: i64,
+    },
+}
+
+fn edge_style(kind: EdgeKind) -> (Rgb, f64, bool) {
+    match kind {
+        EdgeKind::Wall => ([34, 34, 34], 2.0, false),
+        EdgeKind::Door => ([181, 101, 29], 3.0, false),
+        EdgeKind::Elevator => ([31, 95, 191], 4.0, false),
+        EdgeKind::Window => ([63, 167, 214], 3.0, false),
+        EdgeKind::Glass => ([120, 200, 255], 3.0, true),
+        EdgeKind::Opening => ([190, 190, 190], 1.0, true),
+    }
+}
+
+const LIGHT: Rgb = [235, 180, 0];
+const PLATE: Rgb = [0, 0, 0];
+const LINK: Rgb = [40, 160, 60];
+const LABEL: Rgb = [120, 60, 0];
+const NODE: Rgb = [120, 120, 120];
+
+/// Everything to draw for a map.
+pub fn scene(map: &Map, world: &World) -> Vec<Shape> {
+    let mut out = Vec::new();
+    for s in &world.segments {
+        let (color, width, dashed) = edge_style(s.kind);
+        out.push(Shape::Line {
+            a: s.a,
+            b: s.b,
+            color,
+            width,
+            dashed,
+        });
+    }
+    for link in &map.links {
+        let a = world.positions.get(&format!("{}.{}", link.a.0, link.a.1));
+        let b = world.positions.get(&format!("{}.{}", link.b.0, link.b.1));
+        if let (Some(a), Some(b)) = (a, b) {
+            out.push(Shape::Line {
+                a: a.at,
+                b: b.at,
+                color: LINK,
+                width: 1.5,
+                dashed: true,
+            });
+        }
+    }
+    for light in &world.lights {
+        out.push(Shape::Dot {
+            at: light.at,
+            radius: 4.0,
+            color: LIGHT,
+        });
+    }
+    for plate in &world.plates {
+        out.push(Shape::Dot {
+            at: plate.at,
+            radius: 2.5,
+            color: PLATE,
+        });
+    }
+    for (ri, ring) in map.rings.iter().enumerate() {
+        for (ei, edge) in ring.edges.iter().enumerate() {
+            if let Some(number) = &edge.number {
+                let s = &world.segments.iter().find(|s| s.ring == ri && s.edge == ei);
+                if let Some(s) = s {
+                    let mid = ((s.a.0 + s.b.0) / 2.0, (s.a.1 + s.b.1) / 2.0);
+                    out.push(Shape::Text {
+                        at: mid,
+                        text: number.clone(),
+                        color: LABEL,
+                        size: 1,
+                    });
+                }
+            }
+        }
+        if let Some((name, p)) = world.nodes.get(ri).and_then(|n| n.first()) {
+            out.push(Shape::Text {
+                at: *p,
+                text: format!("{} ({name})", ring.name),
+                color: NODE,
+                size: 1,
+            });
+        }
+    }
+    out
+}
+
+/// How world millimetres map to picture pixels.
+struct View {
+    lo: Point,
+    hi: Point,
+    scale: f64,
+    margin: f64,
+    top: f64,
+    width: u32,
+    height: u32,
+}
+
+impl View {
+    fn new(world: &World, width_px: u32) -> View {
+        let (lo, hi) = world.bounds();
+        let margin = 40.0;
+        let top = 40.0;
+        let span_x = (hi.0 - lo.0).max(1.0);
+        let span_y = (hi.1 - lo.1).max(1.0);
+        let scale = (f64::from(width_px) - 2.0 * margin) / span_x;
+        let height = (span_y * scale + 2.0 * margin + top).ceil() as u32;
+        View {
+            lo,
+            hi,
+            scale,
+            margin,
+            top,
+            width: width_px,
+            height,
+        }
+    }
+
+    fn px(&self, p: Point) -> (f64, f64) {
+        (
+            self.margin + (p.0 - self.lo.0) * self.scale,
+            self.top + self.margin + (self.hi.1 - p.1) * self.scale,
+        )
+    }
+
+    /// A 10 m (or 1 m) scale bar and the title, in pixel coordinates.
+    fn furniture(&self, title: &str) -> (f64, String, String) {
+        let metres = if (self.hi.0 - self.lo.0) > 20_000.0 {
+            10.0
+        } else {
+            1.0
+        };
+        (
+            metres * 1000.0 * self.scale,
+            format!("{metres} M"),
+            title.to_string(),
+        )
+    }
+}
+
+fn hex(c: Rgb) -> String {
+    format!("#{:02x}{:02x}{:02x}", c[0], c[1], c[2])
+}
+
+/// The map as an SVG document.
+pub fn svg(map: &Map, world: &World, width_px: u32) -> String {
+    let v = View::new(world, width_px);
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{}" height="{}" viewBox="0 0 {} {}" font-family="sans-serif">"#,
+        v.width, v.height, v.width, v.height
+    );
+    let _ = writeln!(s, r#"<rect width="100%" height="100%" fill="white"/>"#);
+    for shape in scene(map, world) {
+        match shape {
+            Shape::Line {
+                a,
+                b,
+                color,
+                width,
+                dashed,
+            } => {
+                let (x1, y1) = v.px(a);
+                let (x2, y2) = v.px(b);
+                let dash = if dashed {
+                    r#" stroke-dasharray="6 4""#
+                } else {
+                    ""
+                };
+                let _ = writeln!(
+                    s,
+                    r#"<line x1="{x1:.1}" y1="{y1:.1}" x2="{x2:.1}" y2="{y2:.1}" stroke="{}" stroke-width="{width}" stroke-linecap="round"{dash}/>"#,
+                    hex(color)
+                );
+            }
+            Shape::Dot { at, radius, color } => {
+                let (x, y) = v.px(at);
+                let _ = writeln!(
+                    s,
+                    r#"<circle cx="{x:.1}" cy="{y:.1}" r="{radius}" fill="{}" stroke="black" stroke-width="0.5"/>"#,
+                    hex(color)
+                );
+            }
+            Shape::Text {
+                at,
+                text,
+                color,
+                size,
+            } => {
+                let (x, y) = v.px(at);
+                let _ = writeln!(
+                    s,
+                    r#"<text x="{:.1}" y="{:.1}" font-size="{}" fill="{}">{}</text>"#,
+                    x + 3.0,
+                    y + 10.0,
+                    9 * size + 1,
+                    hex(color),
+                    escape(&text)
+                );
+            }
+        }
+    }
+    let (bar, bar_label, title) = v.furniture(&map.name);
+    let by = f64::from(v.height) - 15.0;
+    let _ = writeln!(
+        s,
+        r#"<text x="{}" y="24" font-size="16">{}</text>"#,
+        v.margin,
+        escape(&title)
+    );
+    let _ = writeln!(
+        s,
+        r#"<line x1="{}" y1="{by}" x2="{:.1}" y2="{by}" stroke="black" stroke-width="3"/>"#,
+        v.margin,
+        v.margin + bar
+    );
+    let _ = writeln!(
+        s,
+        r#"<text x="{:.1}" y="{:.1}" font-size="11">{}</text>"#,
+        v.margin + bar + 6.0,
+        by + 4.0,
+        bar_label.to_lowercase()
+    );
+    s.push_str("</svg>\n");
+    s
+}
+
+fn escape(text: &str) -> String {
+    text.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+}
+
+/// The map as an RGB image.
+pub fn raster(map: &Map, world: &World, width_px: u32) -> image::RgbImage {
+    let v = View::new(world, width_px);
+    let mut img = image::RgbImage::from_pixel(v.width, v.height, image::Rgb([255, 255, 255]));
+    let (w, h) = (i64::from(v.width), i64::from(v.height));
+    let put = |img: &mut image::RgbImage, x: i64, y: i64, c: Rgb| {
+        if (0..w).contains(&x) && (0..h).contains(&y) {
+            img.put_pixel(x as u32, y as u32, image::Rgb(c));
+        }
+    };
+    for shape in scene(map, world) {
+        match shape {
+            Shape::Line {
+                a,
+                b,
+                color,
+                width,
+                dashed,
+            } => {
+                let (x1, y1) = v.px(a);
+                let (x2, y2) = v.px(b);
+                let len = (x2 - x1).hypot(y2 - y1);
+                let steps = len.ceil().max(1.0) as i64;
+                let r = (width / 2.0).round() as i64;
+                for i in 0..=steps {
+                    let t = i as f64 / steps as f64;
+                    if dashed && (t * len / 5.0) as i64 % 2 == 1 {
+                        continue;
+                    }
+                    let (x, y) = (x1 + (x2 - x1) * t, y1 + (y2 - y1) * t);
+                    for dy in -r..=r {
+                        for dx in -r..=r {
+                            put(
+                                &mut img,
+                                x.round() as i64 + dx,
+                                y.round() as i64 + dy,
+                                color,
+                            );
+                        }
+                    }
+                }
+            }
+            Shape::Dot { at, radius, color } => {
+                let (cx, cy) = v.px(at);
+                let r = radius.ceil() as i64;
+                for dy in -r - 1..=r + 1 {
+                    for dx in -r - 1..=r + 1 {
+                        let d = (dx as f64).hypot(dy as f64);
+                        if d <= radius {
+                            put(
+                                &mut img,
+                                cx.round() as i64 + dx,
+                                cy.round() as i64 + dy,
+                                color,
+                            );
+                        } else if d <= radius + 1.0 {
+                            put(
+                                &mut img,
+                                cx.round() as i64 + dx,
+                                cy.round() as i64 + dy,
+                                [0, 0, 0],
+                            );
+                        }
+                    }
+                }
+            }
+            Shape::Text {
+                at,
+                text,
+                color,
+                size,
+            } => {
+                let (x, y) = v.px(at);
+                font::draw(&text, x as i64 + 3, y as i64 + 3, size, |px, py| {
+                    put(&mut img, px, py, color)
+                });
+            }
+        }
+    }
+    let (bar, bar_label, title) = v.furniture(&map.name);
+    font::draw(&title, v.margin as i64, 12, 2, |x, y| {
+        put(&mut img, x, y, [0, 0, 0])
+    });
+    let by = h - 15;
+    for x in v.margin as i64..(v.margin + bar) as i64 {
+        for dy in -1..=1 {
+            put(&mut img, x, by + dy, [0, 0, 0]);
+        }
+    }
+    font::draw(
+        &bar_label,
+        (v.margin + bar) as i64 + 6,
+        by - 3,
+        1,
+        |x, y| put(&mut img, x, y, [0, 0, 0]),
+    );
+    img
+}
