@@ -3,8 +3,8 @@
 //!
 //! How this crate is laid out:
 //! - [`model`]: maps, rings, nodes, edges, links: what a file says.
-//! - [`parse`]: text → [`Map`], with `file:line` errors.
-//! - [`validate`]: the rules a map must keep (rings close, angles and
+//! - [`mod@parse`]: text → [`Map`], with `file:line` errors.
+//! - [`mod@validate`]: the rules a map must keep (rings close, angles and
 //!   lengths agree, names are unique, lights lie on their edge, links are
 //!   sound), each broken rule reported with its line.
 //! - [`geometry`]: a map turned into world coordinates: wall segments,
