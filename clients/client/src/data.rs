@@ -29,6 +29,11 @@ use zenoh::qos::Priority;
 use zenoh::sample::Sample;
 use zenoh::Session;
 
+/// The first pause after a query that no server matched.
+const FIRST_BACKOFF: Duration = Duration::from_millis(20);
+/// The longest pause between such queries.
+const MAX_BACKOFF: Duration = Duration::from_millis(500);
+
 /// Numbers the clients of this process, so owners are unique per session.
 static NEXT_CLIENT: AtomicU64 = AtomicU64::new(1);
 
@@ -211,7 +216,7 @@ impl DataClient {
         let o = &self.inner.options;
         let started = Instant::now();
         let deadline = started + o.request_timeout;
-        let mut backoff = Duration::from_millis(20);
+        let mut backoff = FIRST_BACKOFF;
         let mut attempt_timeout = o.attempt_timeout;
         loop {
             let left = deadline.saturating_duration_since(Instant::now());
@@ -231,16 +236,20 @@ impl DataClient {
             match self.attempt(key, params, payload, this_attempt).await? {
                 Some(Answer::Reply((_, body))) => return Ok(decode(&body, what)?),
                 Some(Answer::Refused(e)) => return Err(ClientError::Server(e)),
-                None => {
-                    self.inner.retries.fetch_add(1, Ordering::Relaxed);
-                    // Silence at once means no queryable matched (the server
-                    // is not there yet or restarting): back off a little.
-                    if tried.elapsed() < backoff {
-                        tokio::time::sleep(backoff.min(left)).await;
-                        backoff = (backoff * 2).min(Duration::from_millis(500));
-                    }
-                }
+                None => self.silence(&mut backoff, tried, left).await,
             }
+        }
+    }
+
+    /// An attempt tried at `tried` got no reply: counts the retry and, if
+    /// the silence came at once (no queryable matched: the server is not
+    /// there yet, or restarting), waits `backoff` (at most `left`) and
+    /// doubles it up to [`MAX_BACKOFF`].
+    async fn silence(&self, backoff: &mut Duration, tried: Instant, left: Duration) {
+        self.inner.retries.fetch_add(1, Ordering::Relaxed);
+        if tried.elapsed() < *backoff {
+            tokio::time::sleep((*backoff).min(left)).await;
+            *backoff = (*backoff * 2).min(MAX_BACKOFF);
         }
     }
 
@@ -483,7 +492,7 @@ impl DataClient {
         let ticket = self.next_id();
         let key = self.key(DataOp::Wait, &name);
         let o = &self.inner.options;
-        let mut backoff = Duration::from_millis(20);
+        let mut backoff = FIRST_BACKOFF;
         loop {
             let left = deadline.map(|d| d.saturating_duration_since(Instant::now()));
             if left == Some(Duration::ZERO) {
@@ -521,11 +530,8 @@ impl DataClient {
                     }
                 }
                 None => {
-                    self.inner.retries.fetch_add(1, Ordering::Relaxed);
-                    if tried.elapsed() < backoff {
-                        tokio::time::sleep(backoff).await;
-                        backoff = (backoff * 2).min(Duration::from_millis(500));
-                    }
+                    let left = left.unwrap_or(Duration::MAX);
+                    self.silence(&mut backoff, tried, left).await;
                 }
             }
         }
