@@ -18,6 +18,7 @@ use rome_schema::data::{Committed, Rejected, WaitReply, WaitStatus, DEFAULT_HIST
 use rome_schema::keys::DataOp;
 use rome_schema::{encode, ErrorCode, ErrorReply, Root};
 use serde::Serialize;
+use std::collections::hash_map::Entry;
 use std::collections::{HashMap, HashSet};
 use std::future::Future;
 use std::time::{Duration, Instant};
@@ -373,12 +374,10 @@ impl Server {
     }
 
     async fn hold_over(&mut self, ticket: String, generation: u64) {
-        match self.held.get(&ticket) {
-            Some(h) if h.generation == generation => {}
+        // A newer poll of the ticket has its own timer: only the latest counts.
+        let held = match self.held.entry(ticket.clone()) {
+            Entry::Occupied(e) if e.get().generation == generation => e.remove(),
             _ => return,
-        }
-        let Some(held) = self.held.remove(&ticket) else {
-            return;
         };
         let lapse_at = Instant::now() + self.config.grace;
         if let Some(reply) = self.store.release_hold(&ticket, lapse_at) {
