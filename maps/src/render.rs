@@ -107,21 +107,19 @@ pub fn scene(map: &Map, world: &World) -> Vec<Shape> {
             color: PLATE,
         });
     }
-    for (ri, ring) in map.rings.iter().enumerate() {
-        for (ei, edge) in ring.edges.iter().enumerate() {
-            if let Some(number) = &edge.number {
-                let s = &world.segments.iter().find(|s| s.ring == ri && s.edge == ei);
-                if let Some(s) = s {
-                    let mid = ((s.a.0 + s.b.0) / 2.0, (s.a.1 + s.b.1) / 2.0);
-                    out.push(Shape::Text {
-                        at: mid,
-                        text: number.clone(),
-                        color: LABEL,
-                        size: 1,
-                    });
-                }
-            }
+    for s in &world.segments {
+        let number = map.rings[s.ring].edges[s.edge].number.as_ref();
+        if let Some(number) = number {
+            let mid = ((s.a.0 + s.b.0) / 2.0, (s.a.1 + s.b.1) / 2.0);
+            out.push(Shape::Text {
+                at: mid,
+                text: number.clone(),
+                color: LABEL,
+                size: 1,
+            });
         }
+    }
+    for (ri, ring) in map.rings.iter().enumerate() {
         if let Some((name, p)) = world.nodes.get(ri).and_then(|n| n.first()) {
             out.push(Shape::Text {
                 at: *p,

@@ -1,7 +1,7 @@
 //! The rules a StickRep map must keep, each broken rule reported with the
 //! line it is on.
 
-use crate::geometry::{distance, trace};
+use crate::geometry::{distance, trace, Trace};
 use crate::model::{EdgeKind, Map};
 use std::collections::HashMap;
 use std::fmt;
@@ -32,7 +32,9 @@ pub fn validate(map: &Map) -> Vec<Problem> {
     let mut rings: HashMap<&str, usize> = HashMap::new();
     let mut numbers: HashMap<&str, usize> = HashMap::new();
     let mut plates: HashMap<&str, usize> = HashMap::new();
-    for ring in &map.rings {
+    // One trace per ring, by position: names may repeat in a broken map.
+    let traces: Vec<Trace> = map.rings.iter().map(trace).collect();
+    for (ri, ring) in map.rings.iter().enumerate() {
         if let Some(first) = rings.insert(&ring.name, ring.line) {
             say(
                 ring.line,
@@ -122,7 +124,7 @@ pub fn validate(map: &Map) -> Vec<Problem> {
                 }
             }
         }
-        let tr = trace(ring);
+        let tr = &traces[ri];
         let turn = tr.total_turn_deg;
         if (turn.abs() - 360.0).abs() > 0.01 {
             say(ring.line, format!("the turns of ring '{}' add up to {turn:.2}°, not ±360°: an adjacency angle is wrong (180 is straight on; 270 a right turn, 90 a left turn)", ring.name));
@@ -135,17 +137,17 @@ pub fn validate(map: &Map) -> Vec<Problem> {
     for link in &map.links {
         let mut ends = Vec::new();
         for (ring, node) in [&link.a, &link.b] {
-            match map.ring(ring) {
+            match map.rings.iter().position(|r| &r.name == ring) {
                 None => say(
                     link.line,
                     format!("link names ring '{ring}', which does not exist"),
                 ),
-                Some(r) => match r.nodes.iter().position(|n| &n.name == node) {
+                Some(ri) => match map.rings[ri].nodes.iter().position(|n| &n.name == node) {
                     None => say(
                         link.line,
                         format!("link names node '{node}', which ring '{ring}' does not have"),
                     ),
-                    Some(i) => ends.push(trace(r).nodes.get(i).copied()),
+                    Some(i) => ends.push(traces[ri].nodes.get(i).copied()),
                 },
             }
         }

@@ -248,7 +248,12 @@ fn map_check_passes_good_maps_and_names_file_and_line_in_broken_ones() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    assert!(String::from_utf8_lossy(&out.stdout).contains("2 ring(s), 20 nodes"));
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("2 ring(s), 20 nodes"), "{text}");
+    assert!(
+        text.contains("18 lights, 3 numbered doors, 3 plates, 4 links"),
+        "{text}"
+    );
 
     let dir = std::env::temp_dir().join(format!("rome-map-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();

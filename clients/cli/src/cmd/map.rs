@@ -34,13 +34,18 @@ pub fn run(cmd: MapCmd) -> anyhow::Result<u8> {
             Ok(map) => {
                 let world = World::from_map(&map);
                 let nodes: usize = map.rings.iter().map(|r| r.nodes.len()).sum();
+                let numbered = map
+                    .rings
+                    .iter()
+                    .flat_map(|r| &r.edges)
+                    .filter(|e| e.number.is_some())
+                    .count();
                 println!(
-                    "{}: ok: '{}', {} ring(s), {nodes} nodes, {} lights, {} doors/positions, {} plates, {} links",
+                    "{}: ok: '{}', {} ring(s), {nodes} nodes, {} lights, {numbered} numbered doors, {} plates, {} links",
                     file.display(),
                     map.name,
                     map.rings.len(),
                     world.lights.len(),
-                    world.positions.keys().filter(|k| !k.contains('.') || k.ends_with(['L', 'R'])).count() / 2,
                     world.plates.len(),
                     map.links.len()
                 );
