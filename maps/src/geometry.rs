@@ -24,11 +24,11 @@ pub fn normalize_deg(a: f64) -> f64 {
     a
 }
 
-fn add(p: Point, q: Point) -> Point {
+pub(crate) fn add(p: Point, q: Point) -> Point {
     (p.0 + q.0, p.1 + q.1)
 }
 
-fn scale(p: Point, k: f64) -> Point {
+pub(crate) fn scale(p: Point, k: f64) -> Point {
     (p.0 * k, p.1 * k)
 }
 
@@ -123,6 +123,19 @@ pub struct Position {
     pub ring: usize,
     /// Edge index the position starts or ends.
     pub edge: usize,
+    /// How far the corridor's centre line (its lights) is from this wall, mm.
+    pub lateral_mm: f64,
+}
+
+impl Position {
+    /// The point in the corridor abeam this position, on the line of the
+    /// lights: where a robot stands to start from or arrive at it.
+    pub fn in_corridor(&self) -> Point {
+        add(
+            self.at,
+            scale(direction(self.wall_heading_deg - 90.0), self.lateral_mm),
+        )
+    }
 }
 
 /// Everything in world coordinates.
@@ -141,7 +154,7 @@ pub struct World {
 }
 
 /// Intersection of the lines p + t·u and q + s·v, if not parallel.
-fn intersect(p: Point, u: Point, q: Point, v: Point) -> Option<Point> {
+pub(crate) fn intersect(p: Point, u: Point, q: Point, v: Point) -> Option<Point> {
     let det = u.0 * v.1 - u.1 * v.0;
     if det.abs() < 1e-9 {
         return None;
@@ -231,6 +244,7 @@ impl World {
                     wall_heading_deg: normalize_deg(h),
                     ring: ri,
                     edge: ei,
+                    lateral_mm: lateral,
                 };
                 if let Some(number) = &edge.number {
                     // Facing the door from the corridor, the edge's start

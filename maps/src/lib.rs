@@ -9,7 +9,10 @@
 //!   sound), each broken rule reported with its line.
 //! - [`geometry`]: a map turned into world coordinates: wall segments,
 //!   doors, ceiling lights, door plates and named positions (`350R`).
-//! - [`render`]: a picture of the map, as SVG or PNG.
+//! - [`route`]: shortest paths between named positions along the
+//!   corridors' centre lines.
+//! - [`render`]: a picture of the map, as SVG or PNG, optionally with a
+//!   route or a trajectory drawn on it.
 //!
 //! The format is described in `docs/stickrep.md`; `maps/data/` holds the
 //! maps.
@@ -19,11 +22,13 @@ pub mod geometry;
 pub mod model;
 pub mod parse;
 pub mod render;
+pub mod route;
 pub mod validate;
 
 pub use geometry::World;
 pub use model::Map;
 pub use parse::{parse, ParseError};
+pub use route::{Network, Route, RouteError};
 pub use validate::{validate, Problem};
 
 /// Reads, parses and validates a map file; every problem is reported.

@@ -62,6 +62,10 @@ fn edge_style(kind: EdgeKind) -> (Rgb, f64, bool) {
 }
 
 const LIGHT: Rgb = [235, 180, 0];
+/// Colour of a planned route.
+pub const ROUTE: Rgb = [220, 30, 30];
+/// Colour of a driven trajectory.
+pub const TRACK: Rgb = [20, 90, 220];
 const PLATE: Rgb = [0, 0, 0];
 const LINK: Rgb = [40, 160, 60];
 const LABEL: Rgb = [120, 60, 0];
@@ -132,6 +136,73 @@ pub fn scene(map: &Map, world: &World) -> Vec<Shape> {
     out
 }
 
+/// What the colours mean: (colour, dashed, text), drawn in a corner.
+fn legend(map: &Map, overlay: &[Shape]) -> Vec<(Rgb, bool, &'static str)> {
+    let mut out = Vec::new();
+    let kinds: std::collections::BTreeSet<&'static str> = map
+        .rings
+        .iter()
+        .flat_map(|r| &r.edges)
+        .map(|e| e.kind.keyword())
+        .collect();
+    for (kind, word) in EdgeKind::ALL {
+        if kinds.contains(word) {
+            let (c, _, dashed) = edge_style(kind);
+            out.push((c, dashed, word));
+        }
+    }
+    out.push((LIGHT, false, "ceiling light"));
+    out.push((PLATE, false, "door plate"));
+    if !map.links.is_empty() {
+        out.push((LINK, true, "link"));
+    }
+    let has = |c: Rgb| {
+        overlay
+            .iter()
+            .any(|s| matches!(s, Shape::Line { color, .. } if *color == c))
+    };
+    if has(ROUTE) {
+        out.push((ROUTE, false, "route"));
+    }
+    if has(TRACK) {
+        out.push((TRACK, false, "trajectory"));
+    }
+    out
+}
+
+/// A route drawn as a thick line with its stops labelled.
+pub fn route_shapes(route: &crate::Route) -> Vec<Shape> {
+    let mut out: Vec<Shape> = route
+        .points
+        .windows(2)
+        .map(|w| Shape::Line {
+            a: w[0],
+            b: w[1],
+            color: ROUTE,
+            width: 3.0,
+            dashed: false,
+        })
+        .collect();
+    if let (Some(first), Some(last)) = (route.points.first(), route.points.last()) {
+        for (at, text) in [(first, route.stops.first()), (last, route.stops.last())] {
+            out.push(Shape::Dot {
+                at: *at,
+                radius: 5.0,
+                color: ROUTE,
+            });
+            if let Some(text) = text {
+                out.push(Shape::Text {
+                    at: *at,
+                    text: text.clone(),
+                    color: ROUTE,
+                    size: 2,
+                });
+            }
+        }
+    }
+    out
+}
+
 /// How world millimetres map to picture pixels.
 struct View {
     lo: Point,
@@ -141,17 +212,25 @@ struct View {
     top: f64,
     width: u32,
     height: u32,
+    /// Top of the legend band, below the scale bar.
+    legend_y: f64,
 }
 
+/// Horizontal room for one legend entry, pixels.
+const LEGEND_SLOT: f64 = 130.0;
+
 impl View {
-    fn new(world: &World, width_px: u32) -> View {
+    fn new(world: &World, width_px: u32, legend_entries: usize) -> View {
         let (lo, hi) = world.bounds();
         let margin = 40.0;
         let top = 40.0;
         let span_x = (hi.0 - lo.0).max(1.0);
         let span_y = (hi.1 - lo.1).max(1.0);
         let scale = (f64::from(width_px) - 2.0 * margin) / span_x;
-        let height = (span_y * scale + 2.0 * margin + top).ceil() as u32;
+        let per_row = ((f64::from(width_px) - 2.0 * margin) / LEGEND_SLOT).max(1.0) as usize;
+        let rows = legend_entries.div_ceil(per_row);
+        let legend_y = span_y * scale + 2.0 * margin + top;
+        let height = (legend_y + 16.0 * rows as f64 + 8.0).ceil() as u32;
         View {
             lo,
             hi,
@@ -160,7 +239,17 @@ impl View {
             top,
             width: width_px,
             height,
+            legend_y,
         }
+    }
+
+    /// Where legend entry `i` goes: the left end of its sample line.
+    fn legend_at(&self, i: usize) -> (f64, f64) {
+        let per_row = ((f64::from(self.width) - 2.0 * self.margin) / LEGEND_SLOT).max(1.0) as usize;
+        (
+            self.margin + LEGEND_SLOT * (i % per_row) as f64,
+            self.legend_y + 6.0 + 16.0 * (i / per_row) as f64,
+        )
     }
 
     fn px(&self, p: Point) -> (f64, f64) {
@@ -190,8 +279,10 @@ fn hex(c: Rgb) -> String {
 }
 
 /// The map as an SVG document.
-pub fn svg(map: &Map, world: &World, width_px: u32) -> String {
-    let v = View::new(world, width_px);
+/// `overlay` is drawn over the map (a route, a trajectory).
+pub fn svg(map: &Map, world: &World, width_px: u32, overlay: &[Shape]) -> String {
+    let legend = legend(map, overlay);
+    let v = View::new(world, width_px, legend.len());
     let mut s = String::new();
     let _ = writeln!(
         s,
@@ -199,7 +290,7 @@ pub fn svg(map: &Map, world: &World, width_px: u32) -> String {
         v.width, v.height, v.width, v.height
     );
     let _ = writeln!(s, r#"<rect width="100%" height="100%" fill="white"/>"#);
-    for shape in scene(map, world) {
+    for shape in scene(map, world).into_iter().chain(overlay.iter().cloned()) {
         match shape {
             Shape::Line {
                 a,
@@ -249,7 +340,7 @@ pub fn svg(map: &Map, world: &World, width_px: u32) -> String {
         }
     }
     let (bar, bar_label, title) = v.furniture(&map.name);
-    let by = f64::from(v.height) - 15.0;
+    let by = v.legend_y - 15.0;
     let _ = writeln!(
         s,
         r#"<text x="{}" y="24" font-size="16">{}</text>"#,
@@ -269,6 +360,22 @@ pub fn svg(map: &Map, world: &World, width_px: u32) -> String {
         by + 4.0,
         bar_label.to_lowercase()
     );
+    for (i, (color, dashed, text)) in legend.into_iter().enumerate() {
+        let (x, y) = v.legend_at(i);
+        let dash = if dashed {
+            r#" stroke-dasharray="4 3""#
+        } else {
+            ""
+        };
+        let _ = writeln!(
+            s,
+            r#"<line x1="{x}" y1="{y}" x2="{}" y2="{y}" stroke="{}" stroke-width="4"{dash}/><text x="{}" y="{}" font-size="11">{text}</text>"#,
+            x + 22.0,
+            hex(color),
+            x + 28.0,
+            y + 4.0
+        );
+    }
     s.push_str("</svg>\n");
     s
 }
@@ -280,8 +387,10 @@ fn escape(text: &str) -> String {
 }
 
 /// The map as an RGB image.
-pub fn raster(map: &Map, world: &World, width_px: u32) -> image::RgbImage {
-    let v = View::new(world, width_px);
+/// `overlay` is drawn over the map (a route, a trajectory).
+pub fn raster(map: &Map, world: &World, width_px: u32, overlay: &[Shape]) -> image::RgbImage {
+    let legend = legend(map, overlay);
+    let v = View::new(world, width_px, legend.len());
     let mut img = image::RgbImage::from_pixel(v.width, v.height, image::Rgb([255, 255, 255]));
     let (w, h) = (i64::from(v.width), i64::from(v.height));
     let put = |img: &mut image::RgbImage, x: i64, y: i64, c: Rgb| {
@@ -289,7 +398,7 @@ pub fn raster(map: &Map, world: &World, width_px: u32) -> image::RgbImage {
             img.put_pixel(x as u32, y as u32, image::Rgb(c));
         }
     };
-    for shape in scene(map, world) {
+    for shape in scene(map, world).into_iter().chain(overlay.iter().cloned()) {
         match shape {
             Shape::Line {
                 a,
@@ -362,7 +471,7 @@ pub fn raster(map: &Map, world: &World, width_px: u32) -> image::RgbImage {
     font::draw(&title, v.margin as i64, 12, 2, |x, y| {
         put(&mut img, x, y, [0, 0, 0])
     });
-    let by = h - 15;
+    let by = v.legend_y as i64 - 15;
     for x in v.margin as i64..(v.margin + bar) as i64 {
         for dy in -1..=1 {
             put(&mut img, x, by + dy, [0, 0, 0]);
@@ -375,5 +484,20 @@ pub fn raster(map: &Map, world: &World, width_px: u32) -> image::RgbImage {
         1,
         |x, y| put(&mut img, x, y, [0, 0, 0]),
     );
+    for (i, (color, dashed, text)) in legend.into_iter().enumerate() {
+        let (x, y) = v.legend_at(i);
+        let (x, y) = (x as i64, y as i64);
+        for dx in 0..22 {
+            if dashed && (dx / 4) % 2 == 1 {
+                continue;
+            }
+            for dy in -1..=1 {
+                put(&mut img, x + dx, y + dy, color);
+            }
+        }
+        font::draw(text, x + 28, y - 3, 1, |px, py| {
+            put(&mut img, px, py, [0, 0, 0])
+        });
+    }
     img
 }

@@ -3,7 +3,7 @@
 use crate::exit;
 use anyhow::Context;
 use clap::Subcommand;
-use rome_maps::{render, World};
+use rome_maps::{render, Network, World};
 use std::path::PathBuf;
 
 /// The `rome map` commands.
@@ -24,7 +24,47 @@ pub enum MapCmd {
         /// Picture width in pixels.
         #[arg(long, default_value_t = 1600, value_parser = clap::value_parser!(u32).range(200..=20000))]
         width: u32,
+        /// Also draw the route between two positions: --route 350R 376L.
+        #[arg(long, num_args = 2, value_names = ["FROM", "TO"])]
+        route: Option<Vec<String>>,
+        /// Positions the drawn route must pass, in order.
+        #[arg(long, value_name = "POSITION", requires = "route")]
+        via: Vec<String>,
     },
+    /// The shortest route between two positions (door jambs like 350R, or
+    /// RING.NODE) along the corridors: length, corners and legs.
+    Route {
+        /// The map file.
+        file: PathBuf,
+        /// Where to start (350R, 303.second.L, outer.NE …).
+        from: String,
+        /// Where to go.
+        to: String,
+        /// Positions the route must pass, in order (repeatable).
+        #[arg(long, value_name = "POSITION")]
+        via: Vec<String>,
+        /// Print every leg.
+        #[arg(long)]
+        legs: bool,
+    },
+}
+
+fn load(file: &std::path::Path) -> anyhow::Result<(rome_maps::Map, World)> {
+    let map = rome_maps::load(file).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let world = World::from_map(&map);
+    Ok((map, world))
+}
+
+fn route(
+    map: &rome_maps::Map,
+    world: &World,
+    from: &str,
+    via: &[String],
+    to: &str,
+) -> anyhow::Result<rome_maps::Route> {
+    let net = Network::new(map, world);
+    let via: Vec<&str> = via.iter().map(String::as_str).collect();
+    Ok(world.route(&net, from, &via, to)?)
 }
 
 /// Runs a `rome map` command.
@@ -56,22 +96,59 @@ pub fn run(cmd: MapCmd) -> anyhow::Result<u8> {
                 Ok(exit::ERROR)
             }
         },
+        MapCmd::Route {
+            file,
+            from,
+            to,
+            via,
+            legs,
+        } => {
+            let (map, world) = load(&file)?;
+            let r = route(&map, &world, &from, &via, &to)?;
+            println!(
+                "{}: {:.3} m, {} corner(s), {} leg(s)",
+                r.stops.join(" -> "),
+                r.length_mm / 1000.0,
+                r.turns,
+                r.points.len() - 1
+            );
+            if legs {
+                for (i, (a, b, len, heading)) in r.legs().into_iter().enumerate() {
+                    println!(
+                        "  {:>2}. ({:8.2}, {:8.2}) -> ({:8.2}, {:8.2}) m  {:8.3} m  heading {:6.1}",
+                        i + 1,
+                        a.0 / 1000.0,
+                        a.1 / 1000.0,
+                        b.0 / 1000.0,
+                        b.1 / 1000.0,
+                        len / 1000.0,
+                        heading
+                    );
+                }
+            }
+            Ok(exit::OK)
+        }
         MapCmd::Render {
             file,
             output,
             width,
+            route: between,
+            via,
         } => {
-            let map = rome_maps::load(&file).map_err(|e| anyhow::anyhow!("{e}"))?;
-            let world = World::from_map(&map);
+            let (map, world) = load(&file)?;
+            let overlay = match &between {
+                Some(ends) => render::route_shapes(&route(&map, &world, &ends[0], &via, &ends[1])?),
+                None => Vec::new(),
+            };
             let ext = output
                 .extension()
                 .and_then(|e| e.to_str())
                 .unwrap_or("")
                 .to_ascii_lowercase();
             match ext.as_str() {
-                "svg" => std::fs::write(&output, render::svg(&map, &world, width))
+                "svg" => std::fs::write(&output, render::svg(&map, &world, width, &overlay))
                     .with_context(|| format!("cannot write {}", output.display()))?,
-                "png" => render::raster(&map, &world, width)
+                "png" => render::raster(&map, &world, width, &overlay)
                     .save(&output)
                     .with_context(|| format!("cannot write {}", output.display()))?,
                 other => anyhow::bail!(

@@ -1,0 +1,308 @@
+//! Shortest paths between named positions (`350R` → `376L`) along the
+//! corridors of a map.
+//!
+//! A robot travels on the corridor's centre line, the line of its ceiling
+//! lights (§5.3, §5.6). Every building corner (a node with a negative
+//! adjacency angle) and every linked node gives a waypoint where the centre
+//! lines of its two edges cross: the middle of a turning space. A start or
+//! goal is the point abeam its door on that line. Two waypoints are joined
+//! when the straight line between them meets no wall, door or glass; the
+//! route is the shortest chain of such lines (Dijkstra). Links between rings
+//! (§7.2) thus add their waypoints, and a corridor shared by two rings (one
+//! ring on each side) is one corridor.
+
+use crate::geometry::{add, direction, distance, intersect, normalize_deg, scale, Point, World};
+use crate::model::{EdgeKind, Map};
+
+/// A route between two positions.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Route {
+    /// The positions asked for: start, any via points, goal.
+    pub stops: Vec<String>,
+    /// The corner points of the path, start first, goal last.
+    pub points: Vec<Point>,
+    /// Its length, mm.
+    pub length_mm: f64,
+    /// How many times the path turns by more than 30°: the corners the
+    /// robot has to take.
+    pub turns: usize,
+}
+
+impl Route {
+    /// The straight legs: start, end, length (mm) and heading (degrees).
+    pub fn legs(&self) -> Vec<(Point, Point, f64, f64)> {
+        self.points
+            .windows(2)
+            .map(|w| (w[0], w[1], distance(w[0], w[1]), heading(w[0], w[1])))
+            .collect()
+    }
+}
+
+/// Why there is no route.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum RouteError {
+    /// The map has no such position.
+    #[error("no position '{name}' in the map{}", hint(.similar))]
+    Unknown {
+        /// What was asked for.
+        name: String,
+        /// Positions with a similar name.
+        similar: Vec<String>,
+    },
+    /// No corridor connects the two.
+    #[error("no way from '{from}' to '{to}': no corridor connects them")]
+    Unreachable {
+        /// Start.
+        from: String,
+        /// Goal.
+        to: String,
+    },
+}
+
+fn hint(similar: &[String]) -> String {
+    if similar.is_empty() {
+        " (door jambs are named like 350L and 350R, nodes like outer.NE)".to_string()
+    } else {
+        format!("; did you mean {}?", similar.join(", "))
+    }
+}
+
+/// Heading from p to q, degrees (North 0, West 90).
+pub fn heading(p: Point, q: Point) -> f64 {
+    normalize_deg((-(q.0 - p.0)).atan2(q.1 - p.1).to_degrees())
+}
+
+/// The corridor network of a map: waypoints and the walls that block lines.
+#[derive(Debug, Clone)]
+pub struct Network {
+    waypoints: Vec<Point>,
+    walls: Vec<(Point, Point)>,
+    /// Which waypoints see each other, and how far apart they are.
+    edges: Vec<Vec<(usize, f64)>>,
+}
+
+impl Network {
+    /// Builds the network of a map and its world.
+    pub fn new(map: &Map, world: &World) -> Network {
+        let walls: Vec<(Point, Point)> = world
+            .segments
+            .iter()
+            .filter(|s| s.kind != EdgeKind::Opening)
+            .map(|s| (s.a, s.b))
+            .collect();
+        let mut linked = std::collections::BTreeSet::new();
+        for link in &map.links {
+            linked.insert((link.a.0.as_str(), link.a.1.as_str()));
+            linked.insert((link.b.0.as_str(), link.b.1.as_str()));
+        }
+        let mut waypoints: Vec<Point> = Vec::new();
+        for (ri, ring) in map.rings.iter().enumerate() {
+            let n = ring.nodes.len();
+            for (i, node) in ring.nodes.iter().enumerate() {
+                if !node.is_corner() && !linked.contains(&(ring.name.as_str(), node.name.as_str()))
+                {
+                    continue;
+                }
+                let at = world.nodes[ri][i].1;
+                let prev = world
+                    .segments
+                    .iter()
+                    .find(|s| s.ring == ri && s.edge == (i + n - 1) % n);
+                let next = world.segments.iter().find(|s| s.ring == ri && s.edge == i);
+                let (Some(prev), Some(next)) = (prev, next) else {
+                    continue;
+                };
+                let lat = |e: usize| ring.edges[e].lateral_mm.unwrap_or(map.lateral_mm);
+                let h1 = heading(prev.a, prev.b);
+                let h2 = heading(next.a, next.b);
+                let p1 = offset(at, h1, lat(prev.edge));
+                let p2 = offset(at, h2, lat(next.edge));
+                let p = intersect(p1, direction(h1), p2, direction(h2)).unwrap_or(p2);
+                if !waypoints.iter().any(|w| distance(*w, p) < 1.0) {
+                    waypoints.push(p);
+                }
+            }
+        }
+        let mut net = Network {
+            edges: vec![Vec::new(); waypoints.len()],
+            waypoints,
+            walls,
+        };
+        for i in 0..net.waypoints.len() {
+            for j in i + 1..net.waypoints.len() {
+                let (p, q) = (net.waypoints[i], net.waypoints[j]);
+                if net.clear(p, q) {
+                    let d = distance(p, q);
+                    net.edges[i].push((j, d));
+                    net.edges[j].push((i, d));
+                }
+            }
+        }
+        net
+    }
+
+    /// The waypoints (turning-space centres).
+    pub fn waypoints(&self) -> &[Point] {
+        &self.waypoints
+    }
+
+    /// Whether the straight line from p to q meets no wall.
+    pub fn clear(&self, p: Point, q: Point) -> bool {
+        !self.walls.iter().any(|&(a, b)| crosses(p, q, a, b))
+    }
+
+    /// The shortest path between two points in corridors.
+    fn path(&self, from: Point, to: Point) -> Option<(Vec<Point>, f64)> {
+        if self.clear(from, to) {
+            return Some((vec![from, to], distance(from, to)));
+        }
+        let n = self.waypoints.len();
+        let (start, goal) = (n, n + 1);
+        let point = |i: usize| match i {
+            i if i == start => from,
+            i if i == goal => to,
+            i => self.waypoints[i],
+        };
+        let neighbours = |i: usize| -> Vec<(usize, f64)> {
+            let mut out = Vec::new();
+            if i < n {
+                out.extend(self.edges[i].iter().copied());
+                if self.clear(self.waypoints[i], to) {
+                    out.push((goal, distance(self.waypoints[i], to)));
+                }
+            } else if i == start {
+                for (k, w) in self.waypoints.iter().enumerate() {
+                    if self.clear(from, *w) {
+                        out.push((k, distance(from, *w)));
+                    }
+                }
+            }
+            out
+        };
+        let mut dist = vec![f64::INFINITY; n + 2];
+        let mut prev = vec![usize::MAX; n + 2];
+        let mut done = vec![false; n + 2];
+        dist[start] = 0.0;
+        loop {
+            let u = (0..n + 2)
+                .filter(|&i| !done[i] && dist[i].is_finite())
+                .min_by(|&a, &b| dist[a].total_cmp(&dist[b]))?;
+            if u == goal {
+                break;
+            }
+            done[u] = true;
+            for (v, w) in neighbours(u) {
+                if dist[u] + w < dist[v] {
+                    dist[v] = dist[u] + w;
+                    prev[v] = u;
+                }
+            }
+        }
+        let mut chain = vec![goal];
+        while let Some(&last) = chain.last() {
+            if last == start {
+                break;
+            }
+            chain.push(prev[last]);
+        }
+        chain.reverse();
+        Some((chain.into_iter().map(point).collect(), dist[goal]))
+    }
+}
+
+impl World {
+    /// The shortest route from one named position to another through the
+    /// `via` positions in order.
+    pub fn route(
+        &self,
+        network: &Network,
+        from: &str,
+        via: &[&str],
+        to: &str,
+    ) -> Result<Route, RouteError> {
+        let mut stops: Vec<&str> = vec![from];
+        stops.extend_from_slice(via);
+        stops.push(to);
+        let mut at = Vec::with_capacity(stops.len());
+        for name in &stops {
+            let p = self.position(name).ok_or_else(|| RouteError::Unknown {
+                name: (*name).to_string(),
+                similar: self.similar(name),
+            })?;
+            at.push(p.in_corridor());
+        }
+        let mut points = vec![at[0]];
+        let mut length_mm = 0.0;
+        for (k, w) in at.windows(2).enumerate() {
+            let (leg, len) = network
+                .path(w[0], w[1])
+                .ok_or_else(|| RouteError::Unreachable {
+                    from: stops[k].to_string(),
+                    to: stops[k + 1].to_string(),
+                })?;
+            points.extend(leg.into_iter().skip(1));
+            length_mm += len;
+        }
+        points.dedup_by(|a, b| distance(*a, *b) < 1.0);
+        let turns = points
+            .windows(3)
+            .filter(|w| normalize_deg(heading(w[1], w[2]) - heading(w[0], w[1])).abs() > 30.0)
+            .count();
+        Ok(Route {
+            stops: stops.iter().map(|s| (*s).to_string()).collect(),
+            points,
+            length_mm,
+            turns,
+        })
+    }
+
+    /// Position names close to `name` (same stem, or one character off).
+    pub fn similar(&self, name: &str) -> Vec<String> {
+        let stem = name.trim_end_matches(['L', 'R', '.']);
+        let mut out: Vec<String> = self
+            .positions
+            .keys()
+            .filter(|k| {
+                (!stem.is_empty() && k.trim_end_matches(['L', 'R']) == stem)
+                    || edit_distance(k, name) <= 1
+            })
+            .cloned()
+            .collect();
+        out.truncate(6);
+        out
+    }
+}
+
+fn edit_distance(a: &str, b: &str) -> usize {
+    let b: Vec<char> = b.chars().collect();
+    let mut row: Vec<usize> = (0..=b.len()).collect();
+    for (i, ca) in a.chars().enumerate() {
+        let mut prev = row[0];
+        row[0] = i + 1;
+        for (j, cb) in b.iter().enumerate() {
+            let cur = row[j + 1];
+            row[j + 1] = if ca == *cb {
+                prev
+            } else {
+                1 + prev.min(row[j]).min(row[j + 1])
+            };
+            prev = cur;
+        }
+    }
+    row[b.len()]
+}
+
+fn offset(p: Point, heading_deg: f64, lateral: f64) -> Point {
+    add(p, scale(direction(heading_deg - 90.0), lateral))
+}
+
+/// Whether segments pq and ab cross (touching counts).
+fn crosses(p: Point, q: Point, a: Point, b: Point) -> bool {
+    let orient =
+        |o: Point, s: Point, t: Point| (s.0 - o.0) * (t.1 - o.1) - (s.1 - o.1) * (t.0 - o.0);
+    let d1 = orient(a, b, p);
+    let d2 = orient(a, b, q);
+    let d3 = orient(p, q, a);
+    let d4 = orient(p, q, b);
+    d1 * d2 <= 0.0 && d3 * d4 <= 0.0 && !(d1 == 0.0 && d2 == 0.0 && d3 == 0.0 && d4 == 0.0)
+}
