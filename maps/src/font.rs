@@ -181,6 +181,21 @@ pub fn draw(text: &str, x: i64, y: i64, scale: i64, mut set: impl FnMut(i64, i64
     }
 }
 
+/// Whether font pixel (`col`, `row`) of `text` is lit, at scale 1 with one
+/// blank column between characters (as [`draw`] lays them out).
+pub fn lit(text: &str, col: i64, row: i64) -> bool {
+    if col < 0 || !(0..HEIGHT as i64).contains(&row) {
+        return false;
+    }
+    let (index, x) = (col / (WIDTH as i64 + 1), col % (WIDTH as i64 + 1));
+    if x >= WIDTH as i64 {
+        return false;
+    }
+    text.chars()
+        .nth(index as usize)
+        .is_some_and(|c| glyph(c)[row as usize] & (1 << (4 - x)) != 0)
+}
+
 /// Width in pixels of `text` at `scale`.
 pub fn width(text: &str, scale: i64) -> i64 {
     text.chars().count() as i64 * (WIDTH as i64 + 1) * scale

@@ -57,11 +57,16 @@ fn every_route_of_tables_6_1_and_6_2_is_within_three_percent() {
         let r = world.route(&net, from, via, to).unwrap();
         let err = (r.length_mm / 1000.0 - thesis) / thesis;
         if err.abs() > 0.03 {
-            worst.push(format!("{from} -> {to}: {:.3} m vs {thesis}", r.length_mm / 1000.0));
+            worst.push(format!(
+                "{from} -> {to}: {:.3} m vs {thesis}",
+                r.length_mm / 1000.0
+            ));
         }
         // A route is never shorter than the straight line.
         let (a, b) = (world.position(from).unwrap(), world.position(to).unwrap());
-        assert!(r.length_mm + 1.0 >= rome_maps::geometry::distance(a.in_corridor(), b.in_corridor()));
+        assert!(
+            r.length_mm + 1.0 >= rome_maps::geometry::distance(a.in_corridor(), b.in_corridor())
+        );
     }
     assert_eq!(worst.len(), 0, "{worst:?}");
 }
@@ -84,7 +89,10 @@ fn the_floor_has_the_structure_the_thesis_describes() {
     assert_eq!(map.rings.len(), 4);
     let (lo, hi) = world.bounds();
     let (w, h) = ((hi.0 - lo.0) / 1000.0, (hi.1 - lo.1) / 1000.0);
-    assert!((115.0..136.0).contains(&w) && (95.0..116.0).contains(&h), "{w} x {h}");
+    assert!(
+        (115.0..136.0).contains(&w) && (95.0..116.0).contains(&h),
+        "{w} x {h}"
+    );
     // Corridors G, N and J have exactly two ceiling lights each.
     for corridor in ["G", "N", "J"] {
         let x = match corridor {
@@ -105,17 +113,64 @@ fn the_floor_has_the_structure_the_thesis_describes() {
     // A glass door, a metal floor, two elevators, every room of Tables 6.1–6.3.
     let edges: Vec<_> = map.rings.iter().flat_map(|r| &r.edges).collect();
     assert!(edges.iter().any(|e| e.kind == EdgeKind::Glass));
-    assert!(edges.iter().any(|e| e.tags.get("floor").map(String::as_str) == Some("metal")));
-    assert_eq!(edges.iter().filter(|e| e.kind == EdgeKind::Elevator).count(), 2);
+    assert!(edges
+        .iter()
+        .any(|e| e.tags.get("floor").map(String::as_str) == Some("metal")));
+    assert_eq!(
+        edges
+            .iter()
+            .filter(|e| e.kind == EdgeKind::Elevator)
+            .count(),
+        2
+    );
     for room in [
-        "350", "376", "381", "343", "346", "388", "341", "311", "303.second", "345",
-        "311.double", "NE.men", "302", "301", "372", "acs.elev", "A340", "A392", "323",
-        "A313", "NE.women", "A314", "NW.men's", "A342", "A323", "A347", "A385", "A365",
-        "352", "384", "364.double", "old.elevator", "339", "350.1", "350.2", "317.1",
-        "317.2", "314", "340.cmptr.room", "A395", "A397",
+        "350",
+        "376",
+        "381",
+        "343",
+        "346",
+        "388",
+        "341",
+        "311",
+        "303.second",
+        "345",
+        "311.double",
+        "NE.men",
+        "302",
+        "301",
+        "372",
+        "acs.elev",
+        "A340",
+        "A392",
+        "323",
+        "A313",
+        "NE.women",
+        "A314",
+        "NW.men's",
+        "A342",
+        "A323",
+        "A347",
+        "A385",
+        "A365",
+        "352",
+        "384",
+        "364.double",
+        "old.elevator",
+        "339",
+        "350.1",
+        "350.2",
+        "317.1",
+        "317.2",
+        "314",
+        "340.cmptr.room",
+        "A395",
+        "A397",
     ] {
         for side in ["L", "R"] {
-            assert!(world.position(&format!("{room}{side}")).is_some(), "{room}{side}");
+            assert!(
+                world.position(&format!("{room}{side}")).is_some(),
+                "{room}{side}"
+            );
         }
     }
 }
@@ -123,6 +178,9 @@ fn the_floor_has_the_structure_the_thesis_describes() {
 #[test]
 fn unknown_rooms_are_named_with_suggestions() {
     let (_, world, net) = eb3();
-    let err = world.route(&net, "350X", &[], "376L").unwrap_err().to_string();
+    let err = world
+        .route(&net, "350X", &[], "376L")
+        .unwrap_err()
+        .to_string();
     assert!(err.contains("'350X'") && err.contains("350L"), "{err}");
 }

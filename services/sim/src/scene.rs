@@ -1,0 +1,432 @@
+//! The building as the simulator sees it: wall segments with what each
+//! sensor makes of them, corner reflectors, ceiling lights, plates, posters,
+//! metal floors and elevators, with a grid for fast nearby-wall queries.
+
+use rome_maps::geometry::{direction, Point};
+use rome_maps::model::EdgeKind;
+use rome_maps::{Map, World};
+
+/// Side of a grid cell, mm.
+const CELL_MM: f64 = 2_000.0;
+/// How deep an elevator cabin is behind its door, mm.
+const CABIN_MM: f64 = 2_000.0;
+
+/// One wall segment.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Wall {
+    /// Start (in the map's tracing order).
+    pub a: Point,
+    /// End.
+    pub b: Point,
+    /// Unit vector from a to b.
+    pub dir: Point,
+    /// Length, mm.
+    pub len: f64,
+    /// Unit normal pointing into the corridor (right of the tracing).
+    pub normal: Point,
+    /// What it is.
+    pub kind: EdgeKind,
+    /// The elevator this door belongs to, if it is one.
+    pub elevator: Option<usize>,
+    /// Glass bricks (a checker pattern to a camera).
+    pub bricks: bool,
+    /// Posters on it: offsets from `a`, mm.
+    pub posters: Vec<f64>,
+    /// Door plates on it: label and offset from `a`, mm.
+    pub plates: Vec<(String, f64)>,
+    /// Door number, if any.
+    pub number: Option<String>,
+}
+
+/// A ceiling light.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Lamp {
+    /// Centre, mm.
+    pub at: Point,
+    /// Unit vector along its wall (its short side runs this way).
+    pub along: Point,
+}
+
+/// An elevator: its door and whether it is open.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Elevator {
+    /// Its door number (`acs.elev`).
+    pub number: String,
+    /// Index of its door in [`Scene::walls`].
+    pub door: usize,
+}
+
+/// The static building.
+#[derive(Debug, Clone)]
+pub struct Scene {
+    /// Every wall, door, window, glass and elevator cabin wall.
+    pub walls: Vec<Wall>,
+    /// Corners that echo sound from any direction.
+    pub reflectors: Vec<Point>,
+    /// Ceiling lights.
+    pub lamps: Vec<Lamp>,
+    /// Metal floor patches (quadrilaterals).
+    pub metal: Vec<[Point; 4]>,
+    /// Elevators.
+    pub elevators: Vec<Elevator>,
+    /// The map's positions.
+    pub world: World,
+    lo: Point,
+    cols: usize,
+    rows: usize,
+    cells: Vec<Vec<u32>>,
+    reflector_cells: Vec<Vec<u32>>,
+}
+
+/// Which sensor is asking: each sees different things.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Sense {
+    /// Bodies: everything but openings and open elevator doors.
+    Touch,
+    /// Sonar and infrared: not glass (specular), not openings, not open doors.
+    Sound,
+    /// Cameras: everything but openings and open elevator doors.
+    Sight,
+}
+
+impl Scene {
+    /// Builds the scene of a valid map.
+    pub fn new(map: &Map) -> Scene {
+        let world = World::from_map(map);
+        let mut walls = Vec::new();
+        let mut elevators = Vec::new();
+        let mut metal = Vec::new();
+        let mut cabins = Vec::new();
+        for s in &world.segments {
+            let edge = &map.rings[s.ring].edges[s.edge];
+            let len = rome_maps::geometry::distance(s.a, s.b).max(1e-9);
+            let dir = ((s.b.0 - s.a.0) / len, (s.b.1 - s.a.1) / len);
+            let normal = (dir.1, -dir.0);
+            let elevator = if edge.kind == EdgeKind::Elevator {
+                elevators.push(Elevator {
+                    number: edge
+                        .number
+                        .clone()
+                        .unwrap_or_else(|| format!("elevator{}", elevators.len())),
+                    door: walls.len(),
+                });
+                let back = |p: Point| (p.0 - normal.0 * CABIN_MM, p.1 - normal.1 * CABIN_MM);
+                cabins.push((s.a, back(s.a)));
+                cabins.push((back(s.a), back(s.b)));
+                cabins.push((back(s.b), s.b));
+                Some(elevators.len() - 1)
+            } else {
+                None
+            };
+            if edge.tags.get("floor").map(String::as_str) == Some("metal") {
+                let depth = 2.0 * edge.lateral_mm.unwrap_or(map.lateral_mm);
+                let out = |p: Point| (p.0 + normal.0 * depth, p.1 + normal.1 * depth);
+                metal.push([s.a, s.b, out(s.b), out(s.a)]);
+            }
+            let posters = edge
+                .tags
+                .get("poster")
+                .map(|v| {
+                    v.split(',')
+                        .filter_map(|x| x.trim().parse::<f64>().ok())
+                        .collect()
+                })
+                .unwrap_or_default();
+            let plates = edge
+                .plates
+                .iter()
+                .map(|p| (p.label.clone(), p.offset_mm))
+                .collect();
+            walls.push(Wall {
+                a: s.a,
+                b: s.b,
+                dir,
+                len,
+                normal,
+                kind: s.kind,
+                elevator,
+                bricks: edge.tags.get("bricks").map(String::as_str) == Some("yes"),
+                posters,
+                plates,
+                number: edge.number.clone(),
+            });
+        }
+        for (a, b) in cabins {
+            let len = rome_maps::geometry::distance(a, b).max(1e-9);
+            let dir = ((b.0 - a.0) / len, (b.1 - a.1) / len);
+            walls.push(Wall {
+                a,
+                b,
+                dir,
+                len,
+                normal: (dir.1, -dir.0),
+                kind: EdgeKind::Wall,
+                elevator: None,
+                bricks: false,
+                posters: Vec::new(),
+                plates: Vec::new(),
+                number: None,
+            });
+        }
+        // Corners: nodes where the wall changes direction.
+        let mut reflectors = Vec::new();
+        for (ri, ring) in map.rings.iter().enumerate() {
+            for (i, node) in ring.nodes.iter().enumerate() {
+                if node.turn_deg().abs() > 1.0 {
+                    reflectors.push(world.nodes[ri][i].1);
+                }
+            }
+        }
+        let lamps = world
+            .lights
+            .iter()
+            .map(|l| {
+                let s = world
+                    .segments
+                    .iter()
+                    .find(|s| s.ring == l.ring && s.edge == l.edge);
+                let along = s.map_or((1.0, 0.0), |s| {
+                    let len = rome_maps::geometry::distance(s.a, s.b).max(1e-9);
+                    ((s.b.0 - s.a.0) / len, (s.b.1 - s.a.1) / len)
+                });
+                Lamp { at: l.at, along }
+            })
+            .collect();
+        let (lo, hi) = world.bounds();
+        let lo = (lo.0 - 3.0 * CELL_MM, lo.1 - 3.0 * CELL_MM);
+        let cols = (((hi.0 - lo.0) / CELL_MM).ceil() as usize + 4).max(1);
+        let rows = (((hi.1 - lo.1) / CELL_MM).ceil() as usize + 4).max(1);
+        let mut scene = Scene {
+            walls,
+            reflectors,
+            lamps,
+            metal,
+            elevators,
+            world,
+            lo,
+            cols,
+            rows,
+            cells: vec![Vec::new(); cols * rows],
+            reflector_cells: vec![Vec::new(); cols * rows],
+        };
+        for (i, w) in scene.walls.iter().enumerate() {
+            let steps = (w.len / (CELL_MM / 4.0)).ceil().max(1.0) as usize;
+            let mut last = usize::MAX;
+            for k in 0..=steps {
+                let t = w.len * k as f64 / steps as f64;
+                let c = scene.cell_of((w.a.0 + w.dir.0 * t, w.a.1 + w.dir.1 * t));
+                if c != last && !scene.cells[c].contains(&(i as u32)) {
+                    scene.cells[c].push(i as u32);
+                }
+                last = c;
+            }
+        }
+        for (i, p) in scene.reflectors.iter().enumerate() {
+            let c = scene.cell_of(*p);
+            scene.reflector_cells[c].push(i as u32);
+        }
+        scene
+    }
+
+    fn cell_xy(&self, p: Point) -> (usize, usize) {
+        let cx = ((p.0 - self.lo.0) / CELL_MM)
+            .floor()
+            .clamp(0.0, (self.cols - 1) as f64) as usize;
+        let cy = ((p.1 - self.lo.1) / CELL_MM)
+            .floor()
+            .clamp(0.0, (self.rows - 1) as f64) as usize;
+        (cx, cy)
+    }
+
+    fn cell_of(&self, p: Point) -> usize {
+        let (cx, cy) = self.cell_xy(p);
+        cy * self.cols + cx
+    }
+
+    /// Whether a wall stops this sense, given which elevator doors are open.
+    pub fn blocks(&self, wall: usize, sense: Sense, open: &[bool]) -> bool {
+        let w = &self.walls[wall];
+        if w.kind == EdgeKind::Opening {
+            return false;
+        }
+        if let Some(e) = w.elevator {
+            if open.get(e).copied().unwrap_or(false) {
+                return false;
+            }
+        }
+        !(sense == Sense::Sound && w.kind == EdgeKind::Glass)
+    }
+
+    /// Indices of walls that may lie within `r` of `p` (a superset), sorted.
+    pub fn walls_near(&self, p: Point, r: f64, out: &mut Vec<u32>) {
+        out.clear();
+        let (x0, y0) = self.cell_xy((p.0 - r, p.1 - r));
+        let (x1, y1) = self.cell_xy((p.0 + r, p.1 + r));
+        for cy in y0..=y1 {
+            for cx in x0..=x1 {
+                out.extend_from_slice(&self.cells[cy * self.cols + cx]);
+            }
+        }
+        out.sort_unstable();
+        out.dedup();
+    }
+
+    /// Indices of corner reflectors within the cells around `p` ± `r`.
+    pub fn reflectors_near(&self, p: Point, r: f64, out: &mut Vec<u32>) {
+        out.clear();
+        let (x0, y0) = self.cell_xy((p.0 - r, p.1 - r));
+        let (x1, y1) = self.cell_xy((p.0 + r, p.1 + r));
+        for cy in y0..=y1 {
+            for cx in x0..=x1 {
+                out.extend_from_slice(&self.reflector_cells[cy * self.cols + cx]);
+            }
+        }
+    }
+
+    /// The first wall a ray meets within `max` mm: (distance, wall index,
+    /// offset along the wall from its start). `skip` is never hit.
+    pub fn ray(
+        &self,
+        from: Point,
+        heading_deg: f64,
+        max: f64,
+        sense: Sense,
+        open: &[bool],
+        skip: Option<usize>,
+    ) -> Option<(f64, usize, f64)> {
+        let d = direction(heading_deg);
+        self.ray_dir(from, d, max, sense, open, skip)
+    }
+
+    /// As [`Scene::ray`] with a unit direction vector.
+    pub fn ray_dir(
+        &self,
+        from: Point,
+        d: Point,
+        max: f64,
+        sense: Sense,
+        open: &[bool],
+        skip: Option<usize>,
+    ) -> Option<(f64, usize, f64)> {
+        // Walk the grid cells the ray crosses (Amanatides & Woo, 1987).
+        let (mut cx, mut cy) = self.cell_xy(from);
+        let step_x: isize = if d.0 > 0.0 { 1 } else { -1 };
+        let step_y: isize = if d.1 > 0.0 { 1 } else { -1 };
+        let next_x = self.lo.0 + (cx as f64 + if d.0 > 0.0 { 1.0 } else { 0.0 }) * CELL_MM;
+        let next_y = self.lo.1 + (cy as f64 + if d.1 > 0.0 { 1.0 } else { 0.0 }) * CELL_MM;
+        let mut t_max_x = if d.0.abs() < 1e-12 {
+            f64::INFINITY
+        } else {
+            (next_x - from.0) / d.0
+        };
+        let mut t_max_y = if d.1.abs() < 1e-12 {
+            f64::INFINITY
+        } else {
+            (next_y - from.1) / d.1
+        };
+        let t_dx = if d.0.abs() < 1e-12 {
+            f64::INFINITY
+        } else {
+            CELL_MM / d.0.abs()
+        };
+        let t_dy = if d.1.abs() < 1e-12 {
+            f64::INFINITY
+        } else {
+            CELL_MM / d.1.abs()
+        };
+        let mut best: Option<(f64, usize, f64)> = None;
+        loop {
+            for &wi in &self.cells[cy * self.cols + cx] {
+                let wi = wi as usize;
+                if Some(wi) == skip || !self.blocks(wi, sense, open) {
+                    continue;
+                }
+                let w = &self.walls[wi];
+                if let Some((t, u)) = hit(from, d, w.a, w.dir, w.len) {
+                    if t <= max && best.is_none_or(|(bt, _, _)| t < bt) {
+                        best = Some((t, wi, u));
+                    }
+                }
+            }
+            let t_next = t_max_x.min(t_max_y);
+            if best.is_some_and(|(bt, _, _)| bt <= t_next) || t_next > max {
+                return best;
+            }
+            if t_max_x < t_max_y {
+                t_max_x += t_dx;
+                let nx = cx as isize + step_x;
+                if nx < 0 || nx >= self.cols as isize {
+                    return best;
+                }
+                cx = nx as usize;
+            } else {
+                t_max_y += t_dy;
+                let ny = cy as isize + step_y;
+                if ny < 0 || ny >= self.rows as isize {
+                    return best;
+                }
+                cy = ny as usize;
+            }
+        }
+    }
+
+    /// Whether `p` is on a metal floor.
+    pub fn on_metal(&self, p: Point) -> bool {
+        self.metal.iter().any(|q| inside(q, p))
+    }
+
+    /// Distance from `p` to the nearest wall that bodies bump into, with the
+    /// nearest point on it, looking within `r`.
+    pub fn nearest_solid(
+        &self,
+        p: Point,
+        r: f64,
+        open: &[bool],
+        scratch: &mut Vec<u32>,
+    ) -> Option<(f64, Point)> {
+        self.walls_near(p, r, scratch);
+        let mut best: Option<(f64, Point)> = None;
+        for &wi in scratch.iter() {
+            let wi = wi as usize;
+            if !self.blocks(wi, Sense::Touch, open) {
+                continue;
+            }
+            let w = &self.walls[wi];
+            let t = ((p.0 - w.a.0) * w.dir.0 + (p.1 - w.a.1) * w.dir.1).clamp(0.0, w.len);
+            let q = (w.a.0 + w.dir.0 * t, w.a.1 + w.dir.1 * t);
+            let d = (p.0 - q.0).hypot(p.1 - q.1);
+            if d <= r && best.is_none_or(|(bd, _)| d < bd) {
+                best = Some((d, q));
+            }
+        }
+        best
+    }
+}
+
+/// Where the ray from + t·d meets the segment a + u·dir (0 ≤ u ≤ len):
+/// (t, u) with t > 0.
+fn hit(from: Point, d: Point, a: Point, dir: Point, len: f64) -> Option<(f64, f64)> {
+    let det = d.0 * (-dir.1) - d.1 * (-dir.0);
+    if det.abs() < 1e-12 {
+        return None;
+    }
+    let (rx, ry) = (a.0 - from.0, a.1 - from.1);
+    let t = (rx * (-dir.1) - ry * (-dir.0)) / det;
+    let u = (d.0 * ry - d.1 * rx) / det;
+    (t > 1e-6 && (-1e-6..=len + 1e-6).contains(&u)).then_some((t, u))
+}
+
+fn inside(q: &[Point; 4], p: Point) -> bool {
+    let mut sign = 0.0;
+    for i in 0..4 {
+        let (a, b) = (q[i], q[(i + 1) % 4]);
+        let c = (b.0 - a.0) * (p.1 - a.1) - (b.1 - a.1) * (p.0 - a.0);
+        if c != 0.0 {
+            if sign != 0.0 && c.signum() != sign {
+                return false;
+            }
+            sign = c.signum();
+        }
+    }
+    true
+}

@@ -1,0 +1,551 @@
+//! A running world: the building, the robots in it, simulated time.
+
+use crate::camera;
+use crate::drive::{Drive, Odometry, Registers};
+use crate::rng::Rng;
+use crate::scene::Scene;
+use crate::sonar::{self, Body};
+use crate::spec::{SimConfig, ROBOT_RADIUS_MM, SONARS, SONAR_MAX_MM};
+use image::GrayImage;
+use rome_maps::geometry::{direction, normalize_deg, Point};
+use rome_maps::Map;
+
+/// Why a world request was refused.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SimError {
+    /// No robot of that name.
+    #[error("no robot '{0}' in the world")]
+    NoRobot(String),
+    /// A robot of that name exists already.
+    #[error("a robot named '{0}' is already in the world")]
+    Duplicate(String),
+    /// A robot may not be placed there.
+    #[error("cannot place robot '{name}' at ({x:.0}, {y:.0}): {why}")]
+    Blocked {
+        /// The robot.
+        name: String,
+        /// x, mm.
+        x: f64,
+        /// y, mm.
+        y: f64,
+        /// What is in the way.
+        why: String,
+    },
+    /// No such position in the map.
+    #[error(transparent)]
+    Position(#[from] rome_maps::RouteError),
+    /// No elevator of that number.
+    #[error("no elevator '{0}' in the map")]
+    NoElevator(String),
+    /// A sensor timeout outside 1..=10000 mm or a sonar that does not exist.
+    #[error("{0}")]
+    BadSetting(String),
+}
+
+/// The true pose of a robot.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Pose {
+    /// x, mm.
+    pub x: f64,
+    /// y, mm.
+    pub y: f64,
+    /// Heading, degrees (North 0, West 90).
+    pub heading: f64,
+}
+
+/// The bumpers.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Bumpers {
+    /// The front bumper touches something.
+    pub front: bool,
+    /// The rear bumper touches something.
+    pub rear: bool,
+    /// Whether a touch stops the robot (Set Bumper).
+    pub watch: bool,
+}
+
+impl Bumpers {
+    /// The status word of Get Bumper Status: 0 none, bit 0 front, bit 1 rear.
+    pub fn status(&self) -> u8 {
+        u8::from(self.front) | (u8::from(self.rear) << 1)
+    }
+}
+
+/// One robot.
+#[derive(Debug, Clone)]
+pub struct Robot {
+    /// Its name (`rome1`).
+    pub name: String,
+    /// Where it truly is.
+    pub pose: Pose,
+    /// Its motion controller.
+    pub drive: Drive,
+    /// What its encoders say.
+    pub odometry: Odometry,
+    /// Its bumpers.
+    pub bumpers: Bumpers,
+    /// Last sonar ranges, mm.
+    pub sonar: [u16; SONARS],
+    /// When the sonars last fired, ms of simulated time.
+    pub sonar_at_ms: u64,
+    /// Per-sonar timeout (maximum range), mm.
+    pub timeouts: [u16; SONARS],
+    /// Last infrared bits.
+    pub infrared: u32,
+    /// Last upward image.
+    pub up: Option<GrayImage>,
+    /// Last sideways image.
+    pub side: Option<GrayImage>,
+    /// Distance truly travelled, mm.
+    pub travelled_mm: f64,
+    /// True poses every half second of simulated time.
+    pub trail: Vec<Pose>,
+    /// The wheels' systematic difference (heading drift).
+    wheel_bias: f64,
+    rng: Rng,
+}
+
+impl Robot {
+    /// The base's position registers.
+    pub fn registers(&self) -> Registers {
+        self.odometry.registers()
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Door {
+    Closed,
+    Opening { at_ms: u64 },
+    Open { until_ms: u64 },
+}
+
+/// A world: building, robots, time.
+#[derive(Debug)]
+pub struct Sim {
+    scene: Scene,
+    config: SimConfig,
+    robots: Vec<Robot>,
+    time_ms: u64,
+    rng: Rng,
+    doors: Vec<Door>,
+    open: Vec<bool>,
+    scratch: sonar::Scratch,
+    walls: Vec<u32>,
+    /// (grid cell, robot) sorted, for robot–robot queries.
+    cells: Vec<(u64, usize)>,
+}
+
+/// Side of the cells used to find nearby robots, mm.
+const ROBOT_CELL_MM: f64 = 2_000.0;
+/// How close a wall or robot must be to press a bumper, mm.
+const CONTACT_MM: f64 = 10.0;
+/// How often a robot's trail is recorded, ms.
+const TRAIL_MS: u64 = 500;
+
+fn cell_key(p: Point) -> (i64, i64) {
+    (
+        (p.0 / ROBOT_CELL_MM).floor() as i64,
+        (p.1 / ROBOT_CELL_MM).floor() as i64,
+    )
+}
+
+fn pack(k: (i64, i64)) -> u64 {
+    ((k.0 as u64 & 0xFFFF_FFFF) << 32) | (k.1 as u64 & 0xFFFF_FFFF)
+}
+
+impl Sim {
+    /// A world on a (valid) map, with no robots yet.
+    pub fn new(map: &Map, config: SimConfig) -> Sim {
+        let scene = Scene::new(map);
+        let n = scene.elevators.len();
+        Sim {
+            rng: Rng::new(config.seed),
+            scene,
+            config,
+            robots: Vec::new(),
+            time_ms: 0,
+            doors: vec![Door::Closed; n],
+            open: vec![false; n],
+            scratch: sonar::Scratch::default(),
+            walls: Vec::new(),
+            cells: Vec::new(),
+        }
+    }
+
+    /// The building.
+    pub fn scene(&self) -> &Scene {
+        &self.scene
+    }
+
+    /// The settings.
+    pub fn config(&self) -> &SimConfig {
+        &self.config
+    }
+
+    /// Simulated time, ms.
+    pub fn time_ms(&self) -> u64 {
+        self.time_ms
+    }
+
+    /// The robots, in the order they were added.
+    pub fn robots(&self) -> &[Robot] {
+        &self.robots
+    }
+
+    /// The index of a robot by name.
+    pub fn index(&self, name: &str) -> Result<usize, SimError> {
+        self.robots
+            .iter()
+            .position(|r| r.name == name)
+            .ok_or_else(|| SimError::NoRobot(name.to_string()))
+    }
+
+    /// A robot by index.
+    pub fn robot(&self, i: usize) -> &Robot {
+        &self.robots[i]
+    }
+
+    /// A robot's controller and odometry, to command it.
+    pub fn robot_mut(&mut self, i: usize) -> &mut Robot {
+        &mut self.robots[i]
+    }
+
+    /// Adds a robot at a true pose; its odometry starts at that pose (the
+    /// robot is told its true heading and position, §5).
+    pub fn add_robot(&mut self, name: &str, pose: Pose) -> Result<usize, SimError> {
+        if self.robots.iter().any(|r| r.name == name) {
+            return Err(SimError::Duplicate(name.to_string()));
+        }
+        let at = (pose.x, pose.y);
+        let blocked = |why: String| SimError::Blocked {
+            name: name.to_string(),
+            x: pose.x,
+            y: pose.y,
+            why,
+        };
+        if let Some((d, _)) =
+            self.scene
+                .nearest_solid(at, ROBOT_RADIUS_MM, &self.open, &mut self.walls)
+        {
+            return Err(blocked(format!("a wall is {d:.0} mm from its centre")));
+        }
+        if let Some(other) = self
+            .robots
+            .iter()
+            .find(|r| (r.pose.x - pose.x).hypot(r.pose.y - pose.y) < 2.0 * ROBOT_RADIUS_MM)
+        {
+            return Err(blocked(format!("robot '{}' is there", other.name)));
+        }
+        let mut rng = self.rng.fork();
+        let wheel_bias = rng.normal(self.config.noise.wheel_mismatch);
+        let mut odometry = Odometry {
+            x: 0.0,
+            y: 0.0,
+            heading: 0.0,
+        };
+        odometry.set(pose.x, pose.y, pose.heading);
+        self.robots.push(Robot {
+            name: name.to_string(),
+            pose: Pose {
+                heading: normalize_deg(pose.heading),
+                ..pose
+            },
+            drive: Drive::default(),
+            odometry,
+            bumpers: Bumpers::default(),
+            sonar: [SONAR_MAX_MM as u16; SONARS],
+            sonar_at_ms: 0,
+            timeouts: [SONAR_MAX_MM as u16; SONARS],
+            infrared: 0,
+            up: None,
+            side: None,
+            travelled_mm: 0.0,
+            trail: vec![pose],
+            wheel_bias,
+            rng,
+        });
+        let i = self.robots.len() - 1;
+        self.rebuild_cells();
+        self.sense(i);
+        Ok(i)
+    }
+
+    /// Adds a robot in the corridor abeam a named position (`350R`),
+    /// heading `heading` degrees.
+    pub fn add_robot_at(
+        &mut self,
+        name: &str,
+        position: &str,
+        heading: f64,
+    ) -> Result<usize, SimError> {
+        let p =
+            self.scene
+                .world
+                .position(position)
+                .ok_or_else(|| rome_maps::RouteError::Unknown {
+                    name: position.to_string(),
+                    similar: self.scene.world.similar(position),
+                })?;
+        let at = p.in_corridor();
+        self.add_robot(
+            name,
+            Pose {
+                x: at.0,
+                y: at.1,
+                heading,
+            },
+        )
+    }
+
+    /// Sets one sonar's timeout (maximum range, mm).
+    pub fn set_timeout(&mut self, i: usize, sonar: usize, mm: u16) -> Result<(), SimError> {
+        if sonar >= SONARS {
+            return Err(SimError::BadSetting(format!(
+                "no sonar {sonar}: sonars are 0..=23"
+            )));
+        }
+        if mm == 0 || f64::from(mm) > SONAR_MAX_MM {
+            return Err(SimError::BadSetting(format!(
+                "sonar timeout {mm} mm is out of range (1..=10000 mm)"
+            )));
+        }
+        self.robots[i].timeouts[sonar] = mm;
+        Ok(())
+    }
+
+    /// Calls an elevator: its door opens after the configured delay.
+    pub fn call_elevator(&mut self, number: &str) -> Result<(), SimError> {
+        let e = self
+            .scene
+            .elevators
+            .iter()
+            .position(|e| e.number == number)
+            .ok_or_else(|| SimError::NoElevator(number.to_string()))?;
+        if self.doors[e] == Door::Closed {
+            self.doors[e] = Door::Opening {
+                at_ms: self.time_ms + (self.config.elevator_delay_s * 1000.0) as u64,
+            };
+        }
+        Ok(())
+    }
+
+    /// Whether an elevator's door is open.
+    pub fn elevator_open(&self, number: &str) -> Option<bool> {
+        let e = self
+            .scene
+            .elevators
+            .iter()
+            .position(|e| e.number == number)?;
+        Some(self.open[e])
+    }
+
+    /// Advances the world by one physics step.
+    pub fn step(&mut self) {
+        let dt_ms = u64::from(self.config.step_ms.max(1));
+        let dt = dt_ms as f64 / 1000.0;
+        self.time_ms += dt_ms;
+        for (e, door) in self.doors.iter_mut().enumerate() {
+            match *door {
+                Door::Opening { at_ms } if self.time_ms >= at_ms => {
+                    *door = Door::Open {
+                        until_ms: self.time_ms + (self.config.elevator_open_s * 1000.0) as u64,
+                    };
+                    self.open[e] = true;
+                }
+                Door::Open { until_ms } if self.time_ms >= until_ms => {
+                    *door = Door::Closed;
+                    self.open[e] = false;
+                }
+                _ => {}
+            }
+        }
+        self.rebuild_cells();
+        for i in 0..self.robots.len() {
+            self.move_robot(i, dt);
+        }
+        let sonar_due = self.config.sonar_period_ms > 0
+            && self.time_ms % u64::from(self.config.sonar_period_ms) < dt_ms;
+        let camera_due = self.config.camera_period_ms > 0
+            && self.time_ms % u64::from(self.config.camera_period_ms) < dt_ms;
+        if sonar_due || camera_due {
+            self.rebuild_cells();
+        }
+        for i in 0..self.robots.len() {
+            if sonar_due {
+                self.sense(i);
+            }
+            if camera_due {
+                self.grab(i);
+            }
+            if self.time_ms % TRAIL_MS < dt_ms {
+                let pose = self.robots[i].pose;
+                self.robots[i].trail.push(pose);
+            }
+        }
+    }
+
+    /// Runs for `ms` of simulated time.
+    pub fn run_for(&mut self, ms: u64) {
+        let end = self.time_ms + ms;
+        while self.time_ms < end {
+            self.step();
+        }
+    }
+
+    /// Fires robot `i`'s sonars and reads its infrared now.
+    pub fn sense(&mut self, i: usize) {
+        let others = self.bodies_near(i, SONAR_MAX_MM + 2.0 * ROBOT_RADIUS_MM);
+        let r = &mut self.robots[i];
+        let at = (r.pose.x, r.pose.y);
+        r.sonar = sonar::scan(
+            &self.scene,
+            &self.open,
+            at,
+            r.pose.heading,
+            &others,
+            &r.timeouts,
+            &self.config.noise,
+            &mut r.rng,
+            &mut self.scratch,
+        );
+        r.infrared = sonar::infrared(&self.scene, &self.open, at, r.pose.heading, &others);
+        r.sonar_at_ms = self.time_ms;
+    }
+
+    /// Grabs both of robot `i`'s cameras now.
+    pub fn grab(&mut self, i: usize) {
+        let r = &mut self.robots[i];
+        let at = (r.pose.x, r.pose.y);
+        let size = self.config.image_size;
+        let px = self.config.noise.pixel;
+        r.up = Some(camera::up_image(
+            &self.scene,
+            at,
+            r.pose.heading,
+            size,
+            px,
+            &mut r.rng,
+        ));
+        r.side = Some(camera::side_image(
+            &self.scene,
+            &self.open,
+            at,
+            r.pose.heading,
+            size,
+            px,
+            &mut r.rng,
+        ));
+    }
+
+    fn rebuild_cells(&mut self) {
+        self.cells.clear();
+        self.cells.extend(
+            self.robots
+                .iter()
+                .enumerate()
+                .map(|(i, r)| (pack(cell_key((r.pose.x, r.pose.y))), i)),
+        );
+        self.cells.sort_unstable();
+    }
+
+    /// Other robots within `r` of robot `i` (by cells; a superset).
+    fn bodies_near(&self, i: usize, r: f64) -> Vec<Body> {
+        let me = &self.robots[i];
+        let (kx, ky) = cell_key((me.pose.x, me.pose.y));
+        let span = (r / ROBOT_CELL_MM).ceil() as i64;
+        let mut out = Vec::new();
+        for dx in -span..=span {
+            for dy in -span..=span {
+                let key = pack((kx + dx, ky + dy));
+                let start = self.cells.partition_point(|&(k, _)| k < key);
+                for &(k, j) in &self.cells[start..] {
+                    if k != key {
+                        break;
+                    }
+                    if j != i {
+                        let o = &self.robots[j];
+                        out.push(Body {
+                            at: (o.pose.x, o.pose.y),
+                        });
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    fn move_robot(&mut self, i: usize, dt: f64) {
+        let others = self.bodies_near(i, 3.0 * ROBOT_RADIUS_MM);
+        let on_metal = {
+            let r = &self.robots[i];
+            !self.scene.metal.is_empty() && self.scene.on_metal((r.pose.x, r.pose.y))
+        };
+        let noise = self.config.noise.clone();
+        let r = &mut self.robots[i];
+        let (vl, vr) = r.drive.step(dt, r.odometry.heading);
+        let (dl, dr) = (vl * dt, vr * dt);
+        r.odometry.advance(dl, dr);
+        let mut blocked = false;
+        if dl != 0.0 || dr != 0.0 {
+            let slip = noise.slip * if on_metal { noise.metal_factor } else { 1.0 };
+            let tl = dl * (1.0 + r.wheel_bias + r.rng.normal(slip));
+            let tr = dr * (1.0 - r.wheel_bias + r.rng.normal(slip));
+            let mut truth = Odometry {
+                x: r.pose.x,
+                y: r.pose.y,
+                heading: r.pose.heading,
+            };
+            truth.advance(tl, tr);
+            let to = (truth.x, truth.y);
+            // A body stops where it would touch a wall or another robot;
+            // the wheels may go on turning (and the encoders counting).
+            blocked = self
+                .scene
+                .nearest_solid(to, ROBOT_RADIUS_MM, &self.open, &mut self.walls)
+                .is_some()
+                || others
+                    .iter()
+                    .any(|o| (o.at.0 - to.0).hypot(o.at.1 - to.1) < 2.0 * ROBOT_RADIUS_MM);
+            if blocked {
+                // Turning in place never makes a disc touch anything new.
+                r.pose.heading = truth.heading;
+            } else {
+                r.travelled_mm += (to.0 - r.pose.x).hypot(to.1 - r.pose.y);
+                r.pose = Pose {
+                    x: to.0,
+                    y: to.1,
+                    heading: truth.heading,
+                };
+            }
+        }
+        let at = (r.pose.x, r.pose.y);
+        let contact = self
+            .scene
+            .nearest_solid(
+                at,
+                ROBOT_RADIUS_MM + CONTACT_MM,
+                &self.open,
+                &mut self.walls,
+            )
+            .map(|(_, q)| q)
+            .or_else(|| {
+                others
+                    .iter()
+                    .find(|o| {
+                        (o.at.0 - at.0).hypot(o.at.1 - at.1) < 2.0 * ROBOT_RADIUS_MM + CONTACT_MM
+                    })
+                    .map(|o| ((o.at.0 + at.0) / 2.0, (o.at.1 + at.1) / 2.0))
+            });
+        r.bumpers.front = false;
+        r.bumpers.rear = false;
+        if let Some(c) = contact {
+            let ahead = direction(r.pose.heading);
+            let towards = (c.0 - at.0) * ahead.0 + (c.1 - at.1) * ahead.1;
+            r.bumpers.front = towards >= 0.0;
+            r.bumpers.rear = towards < 0.0;
+        }
+        if blocked && r.bumpers.watch {
+            r.drive.stop(true);
+        }
+    }
+}

@@ -1,0 +1,520 @@
+//! The simulator against geometry computed by hand.
+
+#![allow(clippy::unwrap_used)]
+
+use rome_sim::camera::{DIGIT_GREY, LIGHT_GREY, PLATE_GREY};
+use rome_sim::spec::{ROBOT_RADIUS_MM, SONAR_HALF_BEAM_DEG};
+use rome_sim::{Mode, Noise, Pose, Sim, SimConfig};
+
+/// A 10 × 6 m room: x 0..10000, y 0..6000. The middle 4 m of the south wall
+/// are glass; the west wall has door 101 (y 2000..3000) with its plate 300 mm
+/// before it; the east wall has an elevator (y 2500..3500); one ceiling light
+/// in the middle of the room.
+const BOX: &str = "
+map test room
+tolerance 10
+lateral 1500
+ring room at 0 6000 heading -90
+  node NW -270
+  wall 10000 lights 5000 lateral 3000
+  node NE -270
+  wall 2500
+  node E1 180
+  elevator 1000 number lift
+  node E2 180
+  wall 2500
+  node SE -270
+  wall 3000
+  node G1 180
+  glass 4000
+  node G2 180
+  wall 3000
+  node SW -270
+  wall 2000 plate 101 1700
+  node D1 180
+  door 1000 number 101
+  node D2 180
+  wall 3000
+end
+";
+
+fn quiet() -> SimConfig {
+    SimConfig {
+        noise: Noise::none(),
+        sonar_period_ms: 100,
+        ..SimConfig::default()
+    }
+}
+
+fn room(config: SimConfig) -> Sim {
+    let map = rome_maps::parse("box.stk", BOX).unwrap();
+    assert!(
+        rome_maps::validate(&map).is_empty(),
+        "{:?}",
+        rome_maps::validate(&map)
+    );
+    Sim::new(&map, config)
+}
+
+fn at(x: f64, y: f64, heading: f64) -> Pose {
+    Pose { x, y, heading }
+}
+
+#[test]
+fn sonar_sees_a_perpendicular_wall_at_its_distance() {
+    let mut sim = room(quiet());
+    let r = sim.add_robot("r", at(5_000.0, 3_000.0, 0.0)).unwrap();
+    let s = sim.robot(r).sonar;
+    // Sonar 12 looks North: 6000 - 3000 - 380.
+    assert_eq!(s[12], 2_620);
+    // Sonar 18 looks West, sonar 6 East (door and elevator are flush).
+    assert_eq!(s[18], 4_620);
+    assert_eq!(s[6], 4_620);
+}
+
+#[test]
+fn sonar_hears_a_corner_from_any_direction_inside_its_beam() {
+    let mut sim = room(quiet());
+    // From (7000, 3000) the NE corner (10000, 6000) is at bearing -45:
+    // sonar 9. Both walls meet its beam at 45°: no specular echo.
+    let r = sim.add_robot("r", at(7_000.0, 3_000.0, 0.0)).unwrap();
+    let expected =
+        std::f64::consts::SQRT_2 * (3_000.0 - ROBOT_RADIUS_MM / std::f64::consts::SQRT_2);
+    let got = f64::from(sim.robot(r).sonar[9]);
+    assert!((got - expected).abs() <= 1.0, "{got} vs {expected}");
+}
+
+#[test]
+fn glass_returns_no_echo_but_stops_the_robot() {
+    let mut sim = room(quiet());
+    // Sonar 0 looks South, straight at the glass.
+    let r = sim.add_robot("r", at(5_000.0, 1_500.0, 0.0)).unwrap();
+    assert_eq!(sim.robot(r).sonar[0], 10_000, "glass is invisible to sonar");
+    // Moved over the wall part of the south wall, it hears the wall.
+    let q = sim.add_robot("q", at(1_500.0, 1_500.0, 0.0)).unwrap();
+    assert_eq!(sim.robot(q).sonar[0], 1_120);
+    // Backing into the glass: the body stops at it.
+    sim.robot_mut(r).bumpers.watch = true;
+    sim.robot_mut(r).drive.go(-300.0).unwrap();
+    sim.run_for(6_000);
+    let pose = sim.robot(r).pose;
+    assert!((pose.y - ROBOT_RADIUS_MM).abs() < 10.0, "{pose:?}");
+    assert!(sim.robot(r).bumpers.rear && !sim.robot(r).bumpers.front);
+}
+
+#[test]
+fn grazing_incidence_returns_nothing() {
+    // Turning the robot away from the North wall: within the beam the echo
+    // comes back (at the range of the beam's edge), beyond ~20° it does not.
+    let d = 6_000.0 - 3_000.0;
+    for (heading, expect) in [
+        (0.0, Some(d - ROBOT_RADIUS_MM)),
+        (15.0, Some(0.0)),
+        (30.0, None),
+    ] {
+        let mut sim = room(quiet());
+        let r = sim.add_robot("r", at(5_000.0, 3_000.0, heading)).unwrap();
+        let got = sim.robot(r).sonar[12];
+        match expect {
+            Some(v) if v > 0.0 => assert_eq!(f64::from(got), v),
+            Some(_) => {
+                // The sensor sits on the ring, turned with the robot.
+                let sensor_y = 3_000.0 + ROBOT_RADIUS_MM * heading.to_radians().cos();
+                let off = (15.0 - SONAR_HALF_BEAM_DEG).to_radians();
+                let want = (6_000.0 - sensor_y) / off.cos();
+                assert!((f64::from(got) - want).abs() <= 1.0, "{got} vs {want}");
+            }
+            None => assert_eq!(got, 10_000, "heading {heading}: grazing, no echo"),
+        }
+    }
+}
+
+#[test]
+fn another_robot_echoes_from_its_near_side() {
+    let mut sim = room(quiet());
+    let a = sim.add_robot("a", at(5_000.0, 3_000.0, 0.0)).unwrap();
+    sim.add_robot("b", at(5_000.0, 5_000.0, 180.0)).unwrap();
+    sim.sense(a);
+    // 2000 between centres, less both radii.
+    assert_eq!(sim.robot(a).sonar[12], 2_000 - 2 * 380);
+}
+
+#[test]
+fn timeouts_cap_the_range() {
+    let mut sim = room(quiet());
+    let r = sim.add_robot("r", at(5_000.0, 3_000.0, 0.0)).unwrap();
+    sim.set_timeout(r, 12, 2_000).unwrap();
+    sim.sense(r);
+    assert_eq!(
+        sim.robot(r).sonar[12],
+        2_000,
+        "the wall at 2620 is past the timeout"
+    );
+    assert!(sim
+        .set_timeout(r, 24, 2_000)
+        .unwrap_err()
+        .to_string()
+        .contains("no sonar 24"));
+    assert!(sim
+        .set_timeout(r, 1, 0)
+        .unwrap_err()
+        .to_string()
+        .contains("out of range"));
+}
+
+#[test]
+fn infrared_sees_walls_within_76_cm_but_not_glass() {
+    let mut sim = room(quiet());
+    let near = sim
+        .add_robot("near", at(5_000.0 - 2_500.0, 6_000.0 - 900.0, 0.0))
+        .unwrap();
+    let far = sim.add_robot("far", at(5_000.0, 3_000.0, 0.0)).unwrap();
+    let glass = sim.add_robot("glass", at(5_000.0, 900.0, 180.0)).unwrap();
+    // 900 - 380 = 520 mm to the north wall: the forward sensors see it.
+    assert_eq!(sim.robot(near).infrared & 0b0110, 0b0110);
+    assert_eq!(sim.robot(far).infrared, 0);
+    assert_eq!(
+        sim.robot(glass).infrared & 0b0110,
+        0,
+        "glass ahead is not seen"
+    );
+}
+
+#[test]
+fn a_watched_bumper_stops_the_robot_at_the_wall() {
+    let mut sim = room(quiet());
+    let r = sim.add_robot("r", at(5_000.0, 4_500.0, 0.0)).unwrap();
+    sim.robot_mut(r).bumpers.watch = true;
+    sim.robot_mut(r).drive.go(400.0).unwrap();
+    sim.run_for(8_000);
+    let robot = sim.robot(r);
+    assert_eq!(robot.drive.mode, Mode::Joystick, "emergency stop");
+    assert_eq!(robot.drive.v, 0.0);
+    assert_eq!(robot.bumpers.status(), 1, "front bumper");
+    assert!(
+        (robot.pose.y - (6_000.0 - ROBOT_RADIUS_MM)).abs() < 10.0,
+        "{:?}",
+        robot.pose
+    );
+    // Odometry agrees with the truth: the wheels stopped when the body did.
+    assert!((robot.odometry.y - robot.pose.y).abs() < 20.0);
+}
+
+#[test]
+fn an_ignored_bumper_lets_the_wheels_slip_against_the_wall() {
+    let mut sim = room(quiet());
+    let r = sim.add_robot("r", at(5_000.0, 4_500.0, 0.0)).unwrap();
+    sim.robot_mut(r).drive.go(400.0).unwrap();
+    sim.run_for(8_000);
+    let robot = sim.robot(r);
+    assert!(matches!(robot.drive.mode, Mode::Go { .. }));
+    assert!(robot.bumpers.front);
+    assert!((robot.pose.y - (6_000.0 - ROBOT_RADIUS_MM)).abs() < 10.0);
+    assert!(
+        robot.odometry.y - robot.pose.y > 1_000.0,
+        "the encoders kept counting"
+    );
+}
+
+#[test]
+fn point_to_point_go_and_turn_reach_their_targets() {
+    let mut sim = room(quiet());
+    let r = sim.add_robot("r", at(2_000.0, 3_000.0, -90.0)).unwrap(); // East
+    sim.robot_mut(r)
+        .drive
+        .move_by(4_000.0, 500.0, 300.0)
+        .unwrap();
+    sim.run_for(15_000);
+    let robot = sim.robot(r);
+    assert_eq!(robot.drive.mode, Mode::Go { velocity: 0.0 });
+    assert!((robot.pose.x - 6_000.0).abs() < 2.0, "{:?}", robot.pose);
+    assert!((robot.pose.y - 3_000.0).abs() < 2.0);
+    // Turn 90° clockwise: from East (-90) to South (180).
+    sim.robot_mut(r).drive.turn(90.0, 45.0, 90.0).unwrap();
+    sim.run_for(5_000);
+    let robot = sim.robot(r);
+    let err = rome_maps::geometry::normalize_deg(robot.pose.heading - 180.0);
+    assert!(err.abs() < 0.2, "{}", robot.pose.heading);
+    assert!((robot.pose.x - 6_000.0).abs() < 2.0, "turning in place");
+    // Backwards with negative distance, current settings kept (-1).
+    sim.robot_mut(r)
+        .drive
+        .move_by(-1_000.0, -1.0, -1.0)
+        .unwrap();
+    sim.run_for(6_000);
+    let robot = sim.robot(r);
+    assert!((robot.pose.y - 4_000.0).abs() < 2.0, "{:?}", robot.pose);
+    assert_eq!(robot.drive.speed_setting, 500.0);
+}
+
+#[test]
+fn jog_superimposes_a_turn_on_forward_motion() {
+    let mut sim = room(quiet());
+    let r = sim.add_robot("r", at(5_000.0, 1_500.0, 0.0)).unwrap();
+    sim.robot_mut(r).drive.go(300.0).unwrap();
+    sim.robot_mut(r).drive.jog(10.0).unwrap(); // clockwise
+    sim.run_for(3_000);
+    let robot = sim.robot(r);
+    assert!(
+        robot.pose.heading < -20.0,
+        "turned clockwise: {}",
+        robot.pose.heading
+    );
+    assert!(robot.pose.y > 2_000.0, "and moved on");
+}
+
+#[test]
+fn odometry_registers_wrap_at_both_ends() {
+    let mut sim = room(quiet());
+    let east = sim.add_robot("east", at(2_000.0, 2_000.0, -90.0)).unwrap();
+    let west = sim.add_robot("west", at(8_000.0, 4_000.0, 90.0)).unwrap();
+    sim.robot_mut(east).odometry.set(32_700.0, 0.0, -90.0);
+    sim.robot_mut(west).odometry.set(-32_700.0, 0.0, 90.0);
+    for i in [east, west] {
+        sim.robot_mut(i).drive.move_by(200.0, 200.0, 400.0).unwrap();
+    }
+    sim.run_for(4_000);
+    // 32900 does not fit 16 bits: it reads 32900 - 65536.
+    assert_eq!(sim.robot(east).registers().x, (32_900 - 65_536) as i16);
+    assert_eq!(sim.robot(west).registers().x, (65_536 - 32_900) as i16);
+    // Heading in hundredths of a degree: East is 270°.
+    assert_eq!(sim.robot(east).registers().heading_centideg, 27_000);
+}
+
+#[test]
+fn the_upward_camera_sees_a_light_exactly_when_it_is_overhead() {
+    // The light is at (5000, 3000), 600 mm along x by 1200 across (y); the
+    // camera sees 1500 across the robot by 1200 along it. Heading North,
+    // lit pixels appear while |dx| < 300 + 750 and |dy| < 600 + 600.
+    let mut sim = room(SimConfig {
+        image_size: (150, 120), // 10 mm pixels
+        ..quiet()
+    });
+    let bright = |sim: &mut Sim, i: usize| {
+        sim.grab(i);
+        sim.robot(i)
+            .up
+            .as_ref()
+            .unwrap()
+            .pixels()
+            .filter(|p| p.0[0] == LIGHT_GREY)
+            .count()
+    };
+    let mut k = 0;
+    for dx in (-1_400..=1_400).step_by(100) {
+        let i = sim
+            .add_robot(&format!("x{k}"), at(5_000.0 + f64::from(dx), 3_000.0, 0.0))
+            .unwrap();
+        k += 1;
+        let n = bright(&mut sim, i);
+        assert_eq!(
+            n > 0,
+            f64::from(dx).abs() < 1_050.0,
+            "dx {dx}: {n} lit pixels"
+        );
+        if dx == 0 {
+            // Fully under the light: 600 of 1500 across, 1200 of 1200 along.
+            assert_eq!(n, 60 * 120);
+        }
+        let i = sim.index(&format!("x{}", k - 1)).unwrap();
+        sim.robot_mut(i).pose.x = -50_000.0; // out of the way
+    }
+    for dy in (-1_600..=1_600).step_by(100) {
+        let i = sim
+            .add_robot(&format!("y{k}"), at(5_000.0, 3_000.0 + f64::from(dy), 0.0))
+            .unwrap();
+        k += 1;
+        let n = bright(&mut sim, i);
+        assert_eq!(
+            n > 0,
+            f64::from(dy).abs() < 1_200.0,
+            "dy {dy}: {n} lit pixels"
+        );
+        sim.robot_mut(i).pose.x = -50_000.0;
+    }
+}
+
+#[test]
+fn a_plate_appears_in_the_side_image_in_front_of_its_door() {
+    let mut sim = room(quiet());
+    // Plate 101 is on the west wall at y = 2000 - 1700 ... the wall runs
+    // from SW (0, 0) North, so the plate is at y = 1700, next to door 101
+    // (y 2000..3000). Heading North, sonar 18 (the camera) looks West.
+    let abeam = sim.add_robot("abeam", at(1_800.0, 1_700.0, 0.0)).unwrap();
+    let away = sim.add_robot("away", at(1_800.0, 2_700.0, 0.0)).unwrap();
+    sim.grab(abeam);
+    sim.grab(away);
+    let img = sim.robot(abeam).side.clone().unwrap();
+    let (w, h) = img.dimensions();
+    let count =
+        |img: &image::GrayImage, v: u8, rows: std::ops::Range<u32>, cols: std::ops::Range<u32>| {
+            rows.flat_map(|y| cols.clone().map(move |x| (x, y)))
+                .filter(|&(x, y)| img.get_pixel(x, y).0[0] == v)
+                .count()
+        };
+    let mid = (h / 2 - 40)..(h / 2 + 40);
+    let centre = (w / 2 - 60)..(w / 2 + 60);
+    let plate = count(&img, PLATE_GREY, mid.clone(), centre.clone());
+    let digits = count(&img, DIGIT_GREY, mid.clone(), centre.clone());
+    // 200 x 150 mm at 1420 mm: about 77 x 58 pixels in all.
+    assert!(
+        plate + digits > 3_500 && plate + digits < 5_000,
+        "{plate} + {digits}"
+    );
+    assert!(digits > 200, "white digits on the plate: {digits}");
+    // Nothing plate-black anywhere else in that image.
+    let all = count(&img, PLATE_GREY, 0..h, 0..w);
+    assert_eq!(all, plate);
+    // A metre on, the door is in view but its plate is not.
+    let img = sim.robot(away).side.clone().unwrap();
+    assert_eq!(count(&img, PLATE_GREY, 0..h, 0..w), 0);
+    assert!(count(&img, 105, 0..h, 0..w) > 1_000, "the door itself");
+}
+
+#[test]
+fn an_elevator_door_opens_after_a_call() {
+    let mut sim = room(SimConfig {
+        elevator_delay_s: 2.0,
+        elevator_open_s: 3.0,
+        ..quiet()
+    });
+    // Facing the lift (East wall, y 2500..3500).
+    let r = sim.add_robot("r", at(7_000.0, 3_000.0, -90.0)).unwrap();
+    assert_eq!(sim.robot(r).sonar[12], 10_000 - 7_000 - 380);
+    sim.call_elevator("lift").unwrap();
+    sim.run_for(1_900);
+    assert_eq!(sim.elevator_open("lift"), Some(false));
+    sim.run_for(200);
+    assert_eq!(sim.elevator_open("lift"), Some(true));
+    sim.sense(r);
+    assert_eq!(
+        sim.robot(r).sonar[12],
+        10_000 + 2_000 - 7_000 - 380,
+        "the cabin's back wall"
+    );
+    sim.run_for(3_000);
+    assert_eq!(sim.elevator_open("lift"), Some(false));
+    assert!(sim
+        .call_elevator("nope")
+        .unwrap_err()
+        .to_string()
+        .contains("no elevator 'nope'"));
+}
+
+#[test]
+fn robots_cannot_be_placed_in_walls_or_on_each_other() {
+    let mut sim = room(quiet());
+    let e = sim
+        .add_robot("a", at(100.0, 3_000.0, 0.0))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("a wall is 100 mm"), "{e}");
+    sim.add_robot("a", at(5_000.0, 3_000.0, 0.0)).unwrap();
+    let e = sim
+        .add_robot("b", at(5_300.0, 3_000.0, 0.0))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("robot 'a' is there"), "{e}");
+    let e = sim
+        .add_robot("a", at(2_000.0, 3_000.0, 0.0))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("already"), "{e}");
+    let e = sim.add_robot_at("c", "999L", 0.0).unwrap_err().to_string();
+    assert!(e.contains("'999L'"), "{e}");
+}
+
+fn eb3() -> rome_maps::Map {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../maps/data/eb3.stk");
+    rome_maps::load(std::path::Path::new(path)).unwrap()
+}
+
+fn drive_three(seed: u64) -> Vec<Vec<Pose>> {
+    let mut sim = Sim::new(
+        &eb3(),
+        SimConfig {
+            seed,
+            ..SimConfig::default()
+        },
+    );
+    for (name, at, heading) in [
+        ("a", "350R", 90.0),
+        ("b", "381L", -90.0),
+        ("c", "A342L", 0.0),
+    ] {
+        let i = sim.add_robot_at(name, at, heading).unwrap();
+        sim.robot_mut(i).drive.go(400.0).unwrap();
+    }
+    sim.run_for(20_000);
+    sim.robots().iter().map(|r| r.trail.clone()).collect()
+}
+
+#[test]
+fn the_same_seed_gives_the_same_trajectory() {
+    let a = drive_three(7);
+    let b = drive_three(7);
+    assert_eq!(a, b);
+    let c = drive_three(8);
+    assert_ne!(a, c, "another seed, another run");
+    // They did move: 20 s at 400 mm/s.
+    let last = a[0].last().unwrap();
+    assert!((last.x - a[0][0].x).abs() > 7_000.0, "{last:?}");
+}
+
+#[test]
+fn wheels_slip_more_on_the_metal_junction() {
+    // Drive 4 m along corridor M over the metal patch where J meets M, and
+    // 4 m along corridor A's tiles; compare odometry against the truth.
+    let err = |from: (f64, f64)| {
+        let mut total = 0.0;
+        for seed in 0..12 {
+            let mut sim = Sim::new(
+                &eb3(),
+                SimConfig {
+                    seed,
+                    noise: Noise {
+                        wheel_mismatch: 0.0,
+                        ..Noise::default()
+                    },
+                    ..SimConfig::default()
+                },
+            );
+            let i = sim.add_robot("r", at(from.0, from.1, -90.0)).unwrap();
+            sim.robot_mut(i)
+                .drive
+                .move_by(4_000.0, 400.0, 400.0)
+                .unwrap();
+            sim.run_for(12_000);
+            let r = sim.robot(i);
+            total += (r.odometry.x - r.pose.x).hypot(r.odometry.y - r.pose.y);
+        }
+        total / 12.0
+    };
+    assert!(sim_on_metal((112_000.0, 55_500.0)));
+    let metal = err((110_000.0, 55_500.0));
+    let tile = err((60_000.0, 104_000.0));
+    assert!(
+        metal > 3.0 * tile,
+        "metal {metal:.1} mm vs tile {tile:.1} mm"
+    );
+}
+
+fn sim_on_metal(p: (f64, f64)) -> bool {
+    Sim::new(&eb3(), SimConfig::default()).scene().on_metal(p)
+}
+
+#[test]
+fn a_turn_while_going_resumes_going_and_a_turn_from_standstill_stands() {
+    let mut sim = room(quiet());
+    let going = sim.add_robot("going", at(2_000.0, 1_500.0, 0.0)).unwrap();
+    let still = sim.add_robot("still", at(8_000.0, 1_500.0, 0.0)).unwrap();
+    sim.robot_mut(going).drive.go(250.0).unwrap();
+    sim.run_for(1_000);
+    for i in [going, still] {
+        sim.robot_mut(i).drive.turn(-30.0, 30.0, 60.0).unwrap(); // anticlockwise
+    }
+    sim.run_for(3_000);
+    assert_eq!(sim.robot(going).drive.mode, Mode::Go { velocity: 250.0 });
+    assert_eq!(sim.robot(still).drive.mode, Mode::Go { velocity: 0.0 });
+    assert!((sim.robot(still).pose.heading - 30.0).abs() < 0.2);
+}
