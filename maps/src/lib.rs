@@ -31,14 +31,45 @@ pub use parse::{parse, ParseError};
 pub use route::{Network, Route, RouteError};
 pub use validate::{validate, Problem};
 
+/// The maps shipped with the project, built into the program so that it
+/// runs from any directory: `eb3` (the MSU Engineering Building's third
+/// floor) and `fig5_3` (Figure 5.3).
+pub mod builtin {
+    /// The EB3 reconstruction, `maps/data/eb3.stk`.
+    pub const EB3: &str = include_str!("../data/eb3.stk");
+    /// The Figure 5.3 building, `maps/data/fig5_3.stk`.
+    pub const FIG5_3: &str = include_str!("../data/fig5_3.stk");
+
+    /// The text of a built-in map by name.
+    pub fn text(name: &str) -> Option<&'static str> {
+        match name {
+            "eb3" => Some(EB3),
+            "fig5_3" => Some(FIG5_3),
+            _ => None,
+        }
+    }
+}
+
+/// Loads a built-in map by name (`eb3`, `fig5_3`) or else a map file.
+pub fn load_named(name_or_path: &str) -> Result<Map, LoadError> {
+    match builtin::text(name_or_path) {
+        Some(text) => from_text(format!("{name_or_path} (built in)"), text),
+        None => load(std::path::Path::new(name_or_path)),
+    }
+}
+
 /// Reads, parses and validates a map file; every problem is reported.
 pub fn load(path: &std::path::Path) -> Result<Map, LoadError> {
     let text = std::fs::read_to_string(path).map_err(|e| LoadError::Io {
         path: path.display().to_string(),
         detail: e.to_string(),
     })?;
-    let file = path.display().to_string();
-    let map = parse(&file, &text).map_err(LoadError::Parse)?;
+    from_text(path.display().to_string(), &text)
+}
+
+/// Parses and validates a map's text; `file` names it in errors.
+pub fn from_text(file: String, text: &str) -> Result<Map, LoadError> {
+    let map = parse(&file, text).map_err(LoadError::Parse)?;
     let problems = validate(&map);
     if problems.is_empty() {
         Ok(map)

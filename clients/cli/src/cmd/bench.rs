@@ -17,6 +17,8 @@ use zenoh::Wait;
 pub enum BenchCmd {
     /// Data server get/set/signal vs a bare Zenoh queryable, on loopback.
     Data(DataBench),
+    /// Simulated seconds per wall-clock second for 1..1000 robots on a map.
+    Sim(crate::cmd::bench_sim::SimBench),
 }
 
 /// Flags of `rome bench data`.
@@ -234,6 +236,19 @@ pub async fn run(_common: &CommonArgs, cmd: BenchCmd) -> anyhow::Result<u8> {
                 println!("{}", serde_json::to_string_pretty(&rows)?);
             } else {
                 print_table(&rows);
+            }
+        }
+        BenchCmd::Sim(args) => {
+            let rows = tokio::task::spawn_blocking(move || {
+                let rows = crate::cmd::bench_sim::rows(&args);
+                (args, rows)
+            })
+            .await?;
+            let (args, rows) = (rows.0, rows.1?);
+            if args.json {
+                println!("{}", serde_json::to_string_pretty(&rows)?);
+            } else {
+                crate::cmd::bench_sim::print(&rows);
             }
         }
     }

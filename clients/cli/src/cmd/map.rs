@@ -11,12 +11,12 @@ use std::path::PathBuf;
 pub enum MapCmd {
     /// Check a map: every problem is printed as FILE:LINE: message (exit 1 if any).
     Check {
-        /// The map file.
+        /// The map file, or a built-in map: eb3, fig5_3.
         file: PathBuf,
     },
     /// Draw a map to a PNG or SVG picture (by the output's extension).
     Render {
-        /// The map file.
+        /// The map file, or a built-in map: eb3, fig5_3.
         file: PathBuf,
         /// The picture to write: .png or .svg.
         #[arg(short, long, value_name = "OUT")]
@@ -34,7 +34,7 @@ pub enum MapCmd {
     /// The shortest route between two positions (door jambs like 350R, or
     /// RING.NODE) along the corridors: length, corners and legs.
     Route {
-        /// The map file.
+        /// The map file, or a built-in map: eb3, fig5_3.
         file: PathBuf,
         /// Where to start (350R, 303.second.L, outer.NE …).
         from: String,
@@ -49,8 +49,13 @@ pub enum MapCmd {
     },
 }
 
+/// A built-in map by name (`eb3`, `fig5_3`) or a map file.
+fn load_any(file: &std::path::Path) -> Result<rome_maps::Map, rome_maps::LoadError> {
+    rome_maps::load_named(&file.to_string_lossy())
+}
+
 fn load(file: &std::path::Path) -> anyhow::Result<(rome_maps::Map, World)> {
-    let map = rome_maps::load(file).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let map = load_any(file).map_err(|e| anyhow::anyhow!("{e}"))?;
     let world = World::from_map(&map);
     Ok((map, world))
 }
@@ -70,7 +75,7 @@ fn route(
 /// Runs a `rome map` command.
 pub fn run(cmd: MapCmd) -> anyhow::Result<u8> {
     match cmd {
-        MapCmd::Check { file } => match rome_maps::load(&file) {
+        MapCmd::Check { file } => match load_any(&file) {
             Ok(map) => {
                 let world = World::from_map(&map);
                 let nodes: usize = map.rings.iter().map(|r| r.nodes.len()).sum();

@@ -1,0 +1,198 @@
+//! `rome bench sim`: how fast the simulator runs a building full of robots,
+//! in simulated seconds per wall-clock second, on one thread.
+//!
+//! Every robot wanders the corridors (keeps to the middle with jog, turns
+//! away when something is close, bumpers watched) with all 24 sonars firing
+//! at 10 Hz; with cameras on, both cameras also grab every 0.5 s, as the
+//! camera server does (§4.6.4).
+
+use rome_maps::geometry::direction;
+use rome_sim::rng::Rng;
+use rome_sim::{Mode, Pose, Sim, SimConfig};
+use serde::Serialize;
+use std::time::{Duration, Instant};
+
+/// Flags of `rome bench sim`.
+#[derive(Debug, clap::Args)]
+pub struct SimBench {
+    /// The map: a file, or a built-in map (eb3, fig5_3).
+    #[arg(long, default_value = "eb3")]
+    pub map: String,
+    /// Robot counts to measure.
+    #[arg(long, value_delimiter = ',', default_values_t = [1usize, 10, 100, 1000])]
+    pub robots: Vec<usize>,
+    /// Wall-clock seconds to run each row (at least one simulated second).
+    #[arg(long, default_value_t = 3.0)]
+    pub seconds: f64,
+    /// Seed of the world and of where the robots start.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Measure with cameras off only.
+    #[arg(long)]
+    pub no_cameras: bool,
+    /// Print JSON rows instead of a table.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// One measurement.
+#[derive(Debug, Clone, Serialize)]
+pub struct SimRow {
+    /// Robots in the world.
+    pub robots: usize,
+    /// Whether both cameras grabbed every 0.5 s.
+    pub cameras: bool,
+    /// Simulated seconds run.
+    pub sim_s: f64,
+    /// Wall-clock seconds taken.
+    pub wall_s: f64,
+    /// Simulated seconds per wall-clock second.
+    pub speed: f64,
+    /// Sonar scans (24 ranges each) per wall-clock second.
+    pub scans_per_s: f64,
+}
+
+/// Places `n` robots in corridors: abeam door jambs, spread along and across.
+fn populate(sim: &mut Sim, n: usize, rng: &mut Rng) -> anyhow::Result<()> {
+    let spots: Vec<(f64, f64, f64, f64)> = sim
+        .scene()
+        .world
+        .positions
+        .values()
+        .map(|p| {
+            let c = p.in_corridor();
+            (c.0, c.1, p.wall_heading_deg, p.lateral_mm)
+        })
+        .collect();
+    let mut placed = 0;
+    let mut tries = 0;
+    while placed < n {
+        tries += 1;
+        anyhow::ensure!(tries < 200 * n + 1000, "the map has no room for {n} robots ({placed} placed)");
+        let (x, y, h, lateral) = spots[(rng.next_u64() % spots.len() as u64) as usize];
+        let along = direction(h);
+        let across = direction(h - 90.0);
+        let u = (rng.uniform() - 0.5) * 6_000.0;
+        let v = (rng.uniform() - 0.5) * (lateral - 500.0).max(0.0);
+        let heading = if rng.chance(0.5) { h } else { h + 180.0 };
+        let pose = Pose {
+            x: x + along.0 * u + across.0 * v,
+            y: y + along.1 * u + across.1 * v,
+            heading,
+        };
+        if sim.add_robot(&format!("r{placed}"), pose).is_ok() {
+            let r = sim.robot_mut(placed);
+            r.bumpers.watch = true;
+            r.drive.go(400.0)?;
+            placed += 1;
+        }
+    }
+    Ok(())
+}
+
+/// The wander behaviour, run every half second of simulated time.
+fn wander(sim: &mut Sim, rng: &mut Rng) -> anyhow::Result<()> {
+    for i in 0..sim.robots().len() {
+        let (sonar, mode, bumped) = {
+            let r = sim.robot(i);
+            (r.sonar, r.drive.mode, r.bumpers.status() != 0)
+        };
+        if matches!(mode, Mode::PointTurn { .. }) {
+            continue;
+        }
+        let ahead = sonar[10..=14].iter().copied().min().unwrap_or(10_000);
+        let drive = &mut sim.robot_mut(i).drive;
+        if bumped || ahead < 900 || mode == Mode::Joystick {
+            drive.go(0.0)?;
+            drive.turn(120.0 + 60.0 * rng.uniform(), 60.0, 120.0)?;
+            drive.mode = match drive.mode {
+                Mode::PointTurn { remaining_deg, .. } => Mode::PointTurn {
+                    remaining_deg,
+                    resume_mm_s: 400.0,
+                },
+                other => other,
+            };
+        } else {
+            // Towards the side with more room: left is sonar 18.
+            let lean = (f64::from(sonar[18]) - f64::from(sonar[6])) / 200.0;
+            if !matches!(mode, Mode::Go { .. } | Mode::Jog { .. }) {
+                drive.go(400.0)?;
+            }
+            drive.jog((-lean).clamp(-8.0, 8.0))?;
+        }
+    }
+    Ok(())
+}
+
+fn measure(args: &SimBench, map: &rome_maps::Map, n: usize, cameras: bool) -> anyhow::Result<SimRow> {
+    let config = SimConfig {
+        seed: args.seed,
+        sonar_period_ms: 100,
+        camera_period_ms: if cameras { 500 } else { 0 },
+        ..SimConfig::default()
+    };
+    let mut sim = Sim::new(map, config);
+    let mut rng = Rng::new(args.seed.wrapping_add(n as u64));
+    populate(&mut sim, n, &mut rng)?;
+    let budget = Duration::from_secs_f64(args.seconds.max(0.1));
+    let start_ms = sim.time_ms();
+    let started = Instant::now();
+    while started.elapsed() < budget || sim.time_ms() - start_ms < 1_000 {
+        sim.step();
+        if sim.time_ms() % 500 == 0 {
+            wander(&mut sim, &mut rng)?;
+        }
+        if sim.time_ms() - start_ms >= 600_000 {
+            break;
+        }
+    }
+    let wall_s = started.elapsed().as_secs_f64();
+    let sim_s = (sim.time_ms() - start_ms) as f64 / 1000.0;
+    Ok(SimRow {
+        robots: n,
+        cameras,
+        sim_s,
+        wall_s,
+        speed: sim_s / wall_s,
+        scans_per_s: n as f64 * sim_s * 10.0 / wall_s,
+    })
+}
+
+/// Runs the benchmark, printing progress on stderr.
+pub fn rows(args: &SimBench) -> anyhow::Result<Vec<SimRow>> {
+    let map = rome_maps::load_named(&args.map).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let mut out = Vec::new();
+    for cameras in [false, true] {
+        if cameras && args.no_cameras {
+            continue;
+        }
+        for &n in &args.robots {
+            eprintln!(
+                "  {n} robot(s), cameras {} ...",
+                if cameras { "on" } else { "off" }
+            );
+            out.push(measure(args, &map, n, cameras)?);
+        }
+    }
+    Ok(out)
+}
+
+/// Prints the rows as a table.
+pub fn print(rows: &[SimRow]) {
+    println!(
+        "{:>7} {:>8} {:>9} {:>9} {:>14} {:>14}",
+        "robots", "cameras", "sim s", "wall s", "sim s/wall s", "sonar scans/s"
+    );
+    for r in rows {
+        println!(
+            "{:>7} {:>8} {:>9.1} {:>9.2} {:>14.1} {:>14.0}",
+            r.robots,
+            if r.cameras { "on" } else { "off" },
+            r.sim_s,
+            r.wall_s,
+            r.speed,
+            r.scans_per_s
+        );
+    }
+    println!("(one thread; sonars 10 Hz; cameras 512x482, both every 0.5 s when on)");
+}
