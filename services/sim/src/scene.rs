@@ -228,7 +228,13 @@ impl Scene {
         scene
     }
 
-    fn cell_xy(&self, p: Point) -> (usize, usize) {
+    /// The grid's size in cells: (columns, rows); cells are 2 m square.
+    pub fn grid(&self) -> (usize, usize) {
+        (self.cols, self.rows)
+    }
+
+    /// The grid cell (column, row) holding `p`, clamped to the grid.
+    pub fn cell_xy(&self, p: Point) -> (usize, usize) {
         let cx = ((p.0 - self.lo.0) / CELL_MM)
             .floor()
             .clamp(0.0, (self.cols - 1) as f64) as usize;
@@ -259,6 +265,13 @@ impl Scene {
 
     /// Indices of walls that may lie within `r` of `p` (a superset), sorted.
     pub fn walls_near(&self, p: Point, r: f64, out: &mut Vec<u32>) {
+        self.walls_near_unsorted(p, r, out);
+        out.sort_unstable();
+        out.dedup();
+    }
+
+    /// As [`Scene::walls_near`], possibly with repeats, in no order.
+    pub fn walls_near_unsorted(&self, p: Point, r: f64, out: &mut Vec<u32>) {
         out.clear();
         let (x0, y0) = self.cell_xy((p.0 - r, p.1 - r));
         let (x1, y1) = self.cell_xy((p.0 + r, p.1 + r));
@@ -267,8 +280,6 @@ impl Scene {
                 out.extend_from_slice(&self.cells[cy * self.cols + cx]);
             }
         }
-        out.sort_unstable();
-        out.dedup();
     }
 
     /// Indices of corner reflectors within the cells around `p` ± `r`.
@@ -394,7 +405,7 @@ impl Scene {
             let w = &self.walls[wi];
             let t = ((p.0 - w.a.0) * w.dir.0 + (p.1 - w.a.1) * w.dir.1).clamp(0.0, w.len);
             let q = (w.a.0 + w.dir.0 * t, w.a.1 + w.dir.1 * t);
-            let d = (p.0 - q.0).hypot(p.1 - q.1);
+            let d = ((p.0 - q.0).powi(2) + (p.1 - q.1).powi(2)).sqrt();
             if d <= r && best.is_none_or(|(bd, _)| d < bd) {
                 best = Some((d, q));
             }
@@ -405,7 +416,7 @@ impl Scene {
 
 /// Where the ray from + t·d meets the segment a + u·dir (0 ≤ u ≤ len):
 /// (t, u) with t > 0.
-fn hit(from: Point, d: Point, a: Point, dir: Point, len: f64) -> Option<(f64, f64)> {
+pub fn hit(from: Point, d: Point, a: Point, dir: Point, len: f64) -> Option<(f64, f64)> {
     let det = d.0 * (-dir.1) - d.1 * (-dir.0);
     if det.abs() < 1e-12 {
         return None;

@@ -55,18 +55,24 @@ pub fn scan(
     scene.walls_near(at, reach, &mut scratch.walls);
     scene.reflectors_near(at, reach, &mut scratch.corners);
     scratch.echoes.clear();
-    let sensor = |i: usize| {
-        let b = heading + sonar_bearing_deg(i);
-        let d = direction(b);
-        (
+    // Each sensor's position on the ring and its axis.
+    let mut sensors = [((0.0, 0.0), (0.0, 0.0)); SONARS];
+    for (i, s) in sensors.iter_mut().enumerate() {
+        let d = direction(heading + sonar_bearing_deg(i));
+        *s = (
             (at.0 + d.0 * ROBOT_RADIUS_MM, at.1 + d.1 * ROBOT_RADIUS_MM),
-            b,
-        )
+            d,
+        );
+    }
+    let forward = direction(heading);
+    let left = (-forward.1, forward.0);
+    // The sonar nearest to a direction (a unit vector), by its bearing.
+    let index_near = |v: Point| {
+        let rel = (v.0 * left.0 + v.1 * left.1).atan2(v.0 * forward.0 + v.1 * forward.1);
+        (rel.to_degrees() / 15.0).round() as i64 + 12
     };
-    let index_near = |bearing_deg: f64| {
-        let rel = normalize_deg(bearing_deg - heading);
-        (rel / 15.0).round() as i64 + 12
-    };
+    let cos_beam = SONAR_HALF_BEAM_DEG.to_radians().cos();
+    let cos_max = SONAR_MAX_INCIDENCE_DEG.to_radians().cos();
     // Flat surfaces.
     for &wi in &scratch.walls {
         let wi = wi as usize;
@@ -81,30 +87,44 @@ pub fn scan(
         } else {
             (-w.normal.0, -w.normal.1)
         };
-        // Heading that looks straight at the wall.
-        let facing = bearing((0.0, 0.0), (-n.0, -n.1));
-        let centre = index_near(facing);
+        if side.abs() > reach {
+            continue;
+        }
+        // Too far along the wall's line to matter.
+        let along = (at.0 - w.a.0) * w.dir.0 + (at.1 - w.a.1) * w.dir.1;
+        let beyond = if along < 0.0 {
+            -along
+        } else {
+            (along - w.len).max(0.0)
+        };
+        if beyond * beyond + side * side > reach * reach {
+            continue;
+        }
+        let look = (-n.0, -n.1);
+        let centre = index_near(look);
         for k in centre - 2..=centre + 2 {
             let i = k.rem_euclid(SONARS as i64) as usize;
-            let (s, axis) = sensor(i);
-            let incidence = normalize_deg(axis - facing);
-            if incidence.abs() > SONAR_MAX_INCIDENCE_DEG {
+            let (s, axis) = sensors[i];
+            let cos_inc = axis.0 * look.0 + axis.1 * look.1;
+            if cos_inc < cos_max {
                 continue;
             }
             let dist = (s.0 - w.a.0) * n.0 + (s.1 - w.a.1) * n.1;
             if dist <= 0.0 {
                 continue;
             }
-            // The beam ray closest to the normal.
-            let off = if incidence.abs() <= SONAR_HALF_BEAM_DEG {
-                0.0
+            let (range, p) = if cos_inc >= cos_beam {
+                (dist, (s.0 - n.0 * dist, s.1 - n.1 * dist))
             } else {
-                incidence.abs() - SONAR_HALF_BEAM_DEG
+                // The beam's edge ray, the one closest to the normal.
+                let off = cos_inc.min(1.0).acos() - SONAR_HALF_BEAM_DEG.to_radians();
+                let range = dist / off.cos();
+                // Turn `look` by `off` towards the axis.
+                let cross = look.0 * axis.1 - look.1 * axis.0;
+                let (sn, cs) = (off * cross.signum()).sin_cos();
+                let d = (look.0 * cs - look.1 * sn, look.0 * sn + look.1 * cs);
+                (range, (s.0 + d.0 * range, s.1 + d.1 * range))
             };
-            let range = dist / off.to_radians().cos();
-            let ray = normalize_deg(facing + off * incidence.signum());
-            let d = direction(ray);
-            let p = (s.0 + d.0 * range, s.1 + d.1 * range);
             let u = (p.0 - w.a.0) * w.dir.0 + (p.1 - w.a.1) * w.dir.1;
             if (0.0..=w.len).contains(&u) && range <= SONAR_MAX_MM {
                 scratch.echoes.push((i, range, wi, p));
@@ -114,55 +134,63 @@ pub fn scan(
     // Corners.
     for &ci in &scratch.corners {
         let c = scene.reflectors[ci as usize];
-        let centre = index_near(bearing(at, c));
+        let (dx, dy) = (c.0 - at.0, c.1 - at.1);
+        let dc = (dx * dx + dy * dy).sqrt();
+        if dc > reach || dc < 1.0 {
+            continue;
+        }
+        let centre = index_near((dx / dc, dy / dc));
         for k in centre - 1..=centre + 1 {
             let i = k.rem_euclid(SONARS as i64) as usize;
-            let (s, axis) = sensor(i);
-            let range = (c.0 - s.0).hypot(c.1 - s.1);
+            let (s, axis) = sensors[i];
+            let (ex, ey) = (c.0 - s.0, c.1 - s.1);
+            let range = (ex * ex + ey * ey).sqrt();
             if range <= SONAR_MAX_MM
                 && range > 1.0
-                && normalize_deg(bearing(s, c) - axis).abs() <= SONAR_HALF_BEAM_DEG
+                && (ex * axis.0 + ey * axis.1) >= cos_beam * range
             {
                 scratch.echoes.push((i, range, usize::MAX, c));
             }
         }
     }
-    // Other robots.
+    // Other robots: the beam meets a robot's disc when the direction to its
+    // centre is within half the beam plus the disc's angular radius.
     for other in others {
-        let dc = (other.at.0 - at.0).hypot(other.at.1 - at.1);
-        if dc < 1.0 || dc > reach + ROBOT_RADIUS_MM {
+        let (dx, dy) = (other.at.0 - at.0, other.at.1 - at.1);
+        let dc2 = dx * dx + dy * dy;
+        if dc2 < 1.0 || dc2 > (reach + ROBOT_RADIUS_MM).powi(2) {
             continue;
         }
-        let centre = index_near(bearing(at, other.at));
-        for k in centre - 2..=centre + 2 {
-            let i = k.rem_euclid(SONARS as i64) as usize;
-            let (s, axis) = sensor(i);
-            let d = (other.at.0 - s.0).hypot(other.at.1 - s.1);
-            if d <= ROBOT_RADIUS_MM {
-                continue;
-            }
-            let spread = (ROBOT_RADIUS_MM / d).asin().to_degrees();
-            if normalize_deg(bearing(s, other.at) - axis).abs() <= SONAR_HALF_BEAM_DEG + spread {
-                let range = d - ROBOT_RADIUS_MM;
-                if range <= SONAR_MAX_MM {
-                    let dir = direction(bearing(s, other.at));
-                    let p = (s.0 + dir.0 * range, s.1 + dir.1 * range);
-                    scratch.echoes.push((i, range, usize::MAX - 1, p));
-                }
+        let dc = dc2.sqrt();
+        let rel = (dx * left.0 + dy * left.1)
+            .atan2(dx * forward.0 + dy * forward.1)
+            .to_degrees();
+        let spread = (ROBOT_RADIUS_MM / dc).min(1.0).asin().to_degrees() + SONAR_HALF_BEAM_DEG;
+        let lo = ((rel - spread) / 15.0).ceil() as i64;
+        let hi = ((rel + spread) / 15.0).floor() as i64;
+        for k in lo..=hi {
+            let i = (k + 12).rem_euclid(SONARS as i64) as usize;
+            let (s, _) = sensors[i];
+            let (ex, ey) = (other.at.0 - s.0, other.at.1 - s.1);
+            let d = (ex * ex + ey * ey).sqrt();
+            let range = d - ROBOT_RADIUS_MM;
+            if range > 0.0 && range <= SONAR_MAX_MM {
+                let p = (s.0 + ex / d * range, s.1 + ey / d * range);
+                scratch.echoes.push((i, range, usize::MAX - 1, p));
             }
         }
     }
     scratch
         .echoes
-        .sort_by(|a, b| a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)));
+        .sort_unstable_by(|a, b| a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)));
     let mut out = [0u16; SONARS];
     let mut found = [false; SONARS];
     for &(i, range, wi, p) in &scratch.echoes {
         if found[i] {
             continue;
         }
-        let (s, _) = sensor(i);
-        let len = (p.0 - s.0).hypot(p.1 - s.1);
+        let (s, _) = sensors[i];
+        let len = ((p.0 - s.0).powi(2) + (p.1 - s.1).powi(2)).sqrt().max(1e-9);
         let dir = ((p.0 - s.0) / len, (p.1 - s.1) / len);
         let skip = (wi < scene.walls.len()).then_some(wi);
         // Hidden if another wall is met clearly before the echo point.
@@ -193,20 +221,42 @@ fn reading(range: f64, timeout: u16, noise: &Noise, rng: &mut Rng) -> u16 {
 }
 
 /// Reads the infrared sensors: bit `i` set when something is within
-/// [`IR_RANGE_MM`] of sensor `i` (glass is not seen).
-pub fn infrared(scene: &Scene, open: &[bool], at: Point, heading: f64, others: &[Body]) -> u32 {
+/// [`IR_RANGE_MM`] of sensor `i`, along its axis or 10° either side (glass
+/// is not seen).
+pub fn infrared(
+    scene: &Scene,
+    open: &[bool],
+    at: Point,
+    heading: f64,
+    others: &[Body],
+    scratch: &mut Scratch,
+) -> u32 {
+    scene.walls_near(at, ROBOT_RADIUS_MM + IR_RANGE_MM, &mut scratch.walls);
+    let walls: Vec<usize> = scratch
+        .walls
+        .iter()
+        .map(|&w| w as usize)
+        .filter(|&w| scene.blocks(w, Sense::Sound, open))
+        .collect();
+    let reach2 = (2.0 * ROBOT_RADIUS_MM + IR_RANGE_MM).powi(2);
+    let close: Vec<&Body> = others
+        .iter()
+        .filter(|o| (o.at.0 - at.0).powi(2) + (o.at.1 - at.1).powi(2) <= reach2)
+        .collect();
     let mut bits = 0u32;
     for i in 0..IR_SENSORS {
         let b = heading + ir_bearing_deg(i);
         let d = direction(b);
         let s = (at.0 + d.0 * ROBOT_RADIUS_MM, at.1 + d.1 * ROBOT_RADIUS_MM);
         let mut seen = [-10.0, 0.0, 10.0].iter().any(|spread| {
-            scene
-                .ray(s, b + spread, IR_RANGE_MM, Sense::Sound, open, None)
-                .is_some()
+            let r = direction(b + spread);
+            walls.iter().any(|&w| {
+                let w = &scene.walls[w];
+                crate::scene::hit(s, r, w.a, w.dir, w.len).is_some_and(|(t, _)| t <= IR_RANGE_MM)
+            })
         });
         if !seen {
-            seen = others.iter().any(|o| {
+            seen = close.iter().any(|o| {
                 let dist = (o.at.0 - s.0).hypot(o.at.1 - s.1) - ROBOT_RADIUS_MM;
                 dist <= IR_RANGE_MM
                     && dist > -ROBOT_RADIUS_MM

@@ -7,7 +7,7 @@ use crate::scene::Scene;
 use crate::sonar::{self, Body};
 use crate::spec::{SimConfig, ROBOT_RADIUS_MM, SONARS, SONAR_MAX_MM};
 use image::GrayImage;
-use rome_maps::geometry::{direction, normalize_deg, Point};
+use rome_maps::geometry::{direction, normalize_deg};
 use rome_maps::Map;
 
 /// Why a world request was refused.
@@ -131,27 +131,17 @@ pub struct Sim {
     open: Vec<bool>,
     scratch: sonar::Scratch,
     walls: Vec<u32>,
-    /// (grid cell, robot) sorted, for robot–robot queries.
-    cells: Vec<(u64, usize)>,
+    /// Robots by grid cell (counting sort): robots of cell c are
+    /// `cell_robots[cell_start[c]..cell_start[c + 1]]`.
+    cell_start: Vec<u32>,
+    cell_robots: Vec<u32>,
+    near: Vec<Body>,
 }
 
-/// Side of the cells used to find nearby robots, mm.
-const ROBOT_CELL_MM: f64 = 2_000.0;
 /// How close a wall or robot must be to press a bumper, mm.
 const CONTACT_MM: f64 = 10.0;
 /// How often a robot's trail is recorded, ms.
 const TRAIL_MS: u64 = 500;
-
-fn cell_key(p: Point) -> (i64, i64) {
-    (
-        (p.0 / ROBOT_CELL_MM).floor() as i64,
-        (p.1 / ROBOT_CELL_MM).floor() as i64,
-    )
-}
-
-fn pack(k: (i64, i64)) -> u64 {
-    ((k.0 as u64 & 0xFFFF_FFFF) << 32) | (k.1 as u64 & 0xFFFF_FFFF)
-}
 
 impl Sim {
     /// A world on a (valid) map, with no robots yet.
@@ -168,7 +158,9 @@ impl Sim {
             open: vec![false; n],
             scratch: sonar::Scratch::default(),
             walls: Vec::new(),
-            cells: Vec::new(),
+            cell_start: Vec::new(),
+            cell_robots: Vec::new(),
+            near: Vec::new(),
         }
     }
 
@@ -394,7 +386,8 @@ impl Sim {
 
     /// Fires robot `i`'s sonars and reads its infrared now.
     pub fn sense(&mut self, i: usize) {
-        let others = self.bodies_near(i, SONAR_MAX_MM + 2.0 * ROBOT_RADIUS_MM);
+        let mut others = std::mem::take(&mut self.near);
+        self.bodies_near(i, SONAR_MAX_MM + 2.0 * ROBOT_RADIUS_MM, &mut others);
         let r = &mut self.robots[i];
         let at = (r.pose.x, r.pose.y);
         r.sonar = sonar::scan(
@@ -408,8 +401,16 @@ impl Sim {
             &mut r.rng,
             &mut self.scratch,
         );
-        r.infrared = sonar::infrared(&self.scene, &self.open, at, r.pose.heading, &others);
+        r.infrared = sonar::infrared(
+            &self.scene,
+            &self.open,
+            at,
+            r.pose.heading,
+            &others,
+            &mut self.scratch,
+        );
         r.sonar_at_ms = self.time_ms;
+        self.near = others;
     }
 
     /// Grabs both of robot `i`'s cameras now.
@@ -438,32 +439,44 @@ impl Sim {
     }
 
     fn rebuild_cells(&mut self) {
-        self.cells.clear();
-        self.cells.extend(
-            self.robots
-                .iter()
-                .enumerate()
-                .map(|(i, r)| (pack(cell_key((r.pose.x, r.pose.y))), i)),
-        );
-        self.cells.sort_unstable();
+        let (cols, rows) = self.scene.grid();
+        self.cell_start.clear();
+        self.cell_start.resize(cols * rows + 1, 0);
+        let cell = |r: &Robot| {
+            let (cx, cy) = self.scene.cell_xy((r.pose.x, r.pose.y));
+            cy * cols + cx
+        };
+        for r in &self.robots {
+            self.cell_start[cell(r) + 1] += 1;
+        }
+        for c in 1..self.cell_start.len() {
+            self.cell_start[c] += self.cell_start[c - 1];
+        }
+        self.cell_robots.clear();
+        self.cell_robots.resize(self.robots.len(), 0);
+        let mut fill = self.cell_start.clone();
+        for (i, r) in self.robots.iter().enumerate() {
+            let c = cell(r);
+            self.cell_robots[fill[c] as usize] = i as u32;
+            fill[c] += 1;
+        }
     }
 
-    /// Other robots within `r` of robot `i` (by cells; a superset).
-    fn bodies_near(&self, i: usize, r: f64) -> Vec<Body> {
+    /// Other robots within `r` of robot `i` (by cells; a superset), into
+    /// `out`.
+    fn bodies_near(&self, i: usize, r: f64, out: &mut Vec<Body>) {
+        out.clear();
         let me = &self.robots[i];
-        let (kx, ky) = cell_key((me.pose.x, me.pose.y));
-        let span = (r / ROBOT_CELL_MM).ceil() as i64;
-        let mut out = Vec::new();
-        for dx in -span..=span {
-            for dy in -span..=span {
-                let key = pack((kx + dx, ky + dy));
-                let start = self.cells.partition_point(|&(k, _)| k < key);
-                for &(k, j) in &self.cells[start..] {
-                    if k != key {
-                        break;
-                    }
-                    if j != i {
-                        let o = &self.robots[j];
+        let (cols, _) = self.scene.grid();
+        let (x0, y0) = self.scene.cell_xy((me.pose.x - r, me.pose.y - r));
+        let (x1, y1) = self.scene.cell_xy((me.pose.x + r, me.pose.y + r));
+        for cy in y0..=y1 {
+            for cx in x0..=x1 {
+                let c = cy * cols + cx;
+                let (a, b) = (self.cell_start[c] as usize, self.cell_start[c + 1] as usize);
+                for &j in &self.cell_robots[a..b] {
+                    if j as usize != i {
+                        let o = &self.robots[j as usize];
                         out.push(Body {
                             at: (o.pose.x, o.pose.y),
                         });
@@ -471,11 +484,11 @@ impl Sim {
                 }
             }
         }
-        out
     }
 
     fn move_robot(&mut self, i: usize, dt: f64) {
-        let others = self.bodies_near(i, 3.0 * ROBOT_RADIUS_MM);
+        let mut others = std::mem::take(&mut self.near);
+        self.bodies_near(i, 3.0 * ROBOT_RADIUS_MM, &mut others);
         let on_metal = {
             let r = &self.robots[i];
             !self.scene.metal.is_empty() && self.scene.on_metal((r.pose.x, r.pose.y))
@@ -503,9 +516,10 @@ impl Sim {
                 .scene
                 .nearest_solid(to, ROBOT_RADIUS_MM, &self.open, &mut self.walls)
                 .is_some()
-                || others
-                    .iter()
-                    .any(|o| (o.at.0 - to.0).hypot(o.at.1 - to.1) < 2.0 * ROBOT_RADIUS_MM);
+                || others.iter().any(|o| {
+                    (o.at.0 - to.0).powi(2) + (o.at.1 - to.1).powi(2)
+                        < (2.0 * ROBOT_RADIUS_MM).powi(2)
+                });
             if blocked {
                 // Turning in place never makes a disc touch anything new.
                 r.pose.heading = truth.heading;
@@ -532,7 +546,8 @@ impl Sim {
                 others
                     .iter()
                     .find(|o| {
-                        (o.at.0 - at.0).hypot(o.at.1 - at.1) < 2.0 * ROBOT_RADIUS_MM + CONTACT_MM
+                        (o.at.0 - at.0).powi(2) + (o.at.1 - at.1).powi(2)
+                            < (2.0 * ROBOT_RADIUS_MM + CONTACT_MM).powi(2)
                     })
                     .map(|o| ((o.at.0 + at.0) / 2.0, (o.at.1 + at.1) / 2.0))
             });
@@ -547,5 +562,6 @@ impl Sim {
         if blocked && r.bumpers.watch {
             r.drive.stop(true);
         }
+        self.near = others;
     }
 }

@@ -68,11 +68,14 @@ fn populate(sim: &mut Sim, n: usize, rng: &mut Rng) -> anyhow::Result<()> {
     let mut tries = 0;
     while placed < n {
         tries += 1;
-        anyhow::ensure!(tries < 200 * n + 1000, "the map has no room for {n} robots ({placed} placed)");
+        anyhow::ensure!(
+            tries < 2_000 * n + 1_000,
+            "the map has no room for {n} robots ({placed} placed)"
+        );
         let (x, y, h, lateral) = spots[(rng.next_u64() % spots.len() as u64) as usize];
         let along = direction(h);
         let across = direction(h - 90.0);
-        let u = (rng.uniform() - 0.5) * 6_000.0;
+        let u = (rng.uniform() - 0.5) * 12_000.0;
         let v = (rng.uniform() - 0.5) * (lateral - 500.0).max(0.0);
         let heading = if rng.chance(0.5) { h } else { h + 180.0 };
         let pose = Pose {
@@ -124,7 +127,12 @@ fn wander(sim: &mut Sim, rng: &mut Rng) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn measure(args: &SimBench, map: &rome_maps::Map, n: usize, cameras: bool) -> anyhow::Result<SimRow> {
+fn measure(
+    args: &SimBench,
+    map: &rome_maps::Map,
+    n: usize,
+    cameras: bool,
+) -> anyhow::Result<SimRow> {
     let config = SimConfig {
         seed: args.seed,
         sonar_period_ms: 100,
@@ -139,7 +147,7 @@ fn measure(args: &SimBench, map: &rome_maps::Map, n: usize, cameras: bool) -> an
     let started = Instant::now();
     while started.elapsed() < budget || sim.time_ms() - start_ms < 1_000 {
         sim.step();
-        if sim.time_ms() % 500 == 0 {
+        if sim.time_ms().is_multiple_of(500) {
             wander(&mut sim, &mut rng)?;
         }
         if sim.time_ms() - start_ms >= 600_000 {
