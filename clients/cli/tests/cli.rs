@@ -319,3 +319,131 @@ fn map_render_writes_png_and_svg() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("name the output .png or .svg"));
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn map_check_on_eb3_and_a_broken_copy_of_it() {
+    let out = Command::new(ROME)
+        .args(["map", "check", "eb3"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("4 ring(s)") && text.contains("9 links"),
+        "{text}"
+    );
+
+    let dir = std::env::temp_dir().join(format!("rome-eb3-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let broken = dir.join("eb3.stk");
+    let good = std::fs::read_to_string(map_file("eb3.stk")).unwrap();
+    // A door one metre too long: the outer ring no longer closes; and a link
+    // to a node that does not exist.
+    let text = good
+        .replacen(
+            "door 900  lights 804 number 381",
+            "door 1900  lights 804 number 381",
+            1,
+        )
+        .replace("link outer.NE A.NE", "link outer.NE A.NX");
+    assert_ne!(text, good);
+    std::fs::write(&broken, &text).unwrap();
+    let out = Command::new(ROME)
+        .args(["map", "check"])
+        .arg(&broken)
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    let line_of = |needle: &str| text.lines().position(|l| l.starts_with(needle)).unwrap() + 1;
+    assert!(
+        err.contains(&format!("{}:{}:", broken.display(), line_of("ring outer")))
+            && err.contains("misses closing"),
+        "{err}"
+    );
+    assert!(
+        err.contains(&format!(
+            "{}:{}:",
+            broken.display(),
+            line_of("link outer.NE")
+        )) && err.contains("NX"),
+        "{err}"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn map_route_measures_table_6_1_routes_and_names_unknown_rooms() {
+    let out = Command::new(ROME)
+        .args(["map", "route", "eb3", "341L", "311R", "--legs"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    // Table 6.1, run 15: 91.795 m with two corners.
+    assert!(
+        text.contains("341L -> 311R: 91.79") && text.contains("2 corner(s), 3 leg(s)"),
+        "{text}"
+    );
+    assert_eq!(
+        text.lines().filter(|l| l.contains("heading")).count(),
+        3,
+        "{text}"
+    );
+
+    let out = Command::new(ROME)
+        .args(["map", "route", "eb3", "350X", "376L"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("no position '350X'") && err.contains("350L, 350R"),
+        "{err}"
+    );
+}
+
+#[test]
+fn bench_sim_reports_each_robot_count() {
+    let out = Command::new(ROME)
+        .args([
+            "bench",
+            "sim",
+            "--robots",
+            "1,3",
+            "--seconds",
+            "0.1",
+            "--no-cameras",
+            "--json",
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let rows: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let rows = rows.as_array().unwrap();
+    assert_eq!(rows.len(), 2);
+    for (row, n) in rows.iter().zip([1, 3]) {
+        assert_eq!(row["robots"], n);
+        assert_eq!(row["cameras"], false);
+        let (sim, wall, speed) = (
+            row["sim_s"].as_f64().unwrap(),
+            row["wall_s"].as_f64().unwrap(),
+            row["speed"].as_f64().unwrap(),
+        );
+        assert!(sim >= 1.0, "at least one simulated second: {sim}");
+        assert!((speed - sim / wall).abs() < 1e-6 * speed.max(1.0));
+    }
+    assert!(String::from_utf8_lossy(&out.stderr).contains("3 robot(s), cameras off"));
+}

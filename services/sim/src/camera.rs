@@ -28,11 +28,36 @@ const FAR_GREY: u8 = 30;
 const WALL_HEIGHT_MM: f64 = 2_700.0;
 const SIDE_RANGE_MM: f64 = 15_000.0;
 
-fn noisy(v: u8, sd: f64, rng: &mut Rng) -> u8 {
-    if sd == 0.0 {
-        v
-    } else {
-        (f64::from(v) + rng.normal(sd)).round().clamp(0.0, 255.0) as u8
+/// Pixel noise drawn once per world: a table of Gaussian grey-level
+/// offsets, read from a random place for each image (drawing a normal per
+/// pixel would cost more than the rendering).
+#[derive(Debug, Clone)]
+pub struct PixelNoise {
+    table: Vec<i16>,
+}
+
+impl PixelNoise {
+    /// A table of offsets with standard deviation `sd` grey levels.
+    pub fn new(sd: f64, rng: &mut Rng) -> PixelNoise {
+        let table = if sd == 0.0 {
+            Vec::new()
+        } else {
+            (0..1 << 16).map(|_| rng.normal(sd).round() as i16).collect()
+        };
+        PixelNoise { table }
+    }
+
+    /// A reader over the table from a random start.
+    fn reader(&self, rng: &mut Rng) -> impl FnMut(u8) -> u8 + '_ {
+        let mut k = rng.next_u64() as usize;
+        let stride = 1 + 2 * (rng.next_u64() as usize % 1000);
+        move |v| {
+            if self.table.is_empty() {
+                return v;
+            }
+            k = k.wrapping_add(stride);
+            (i16::from(v) + self.table[k & 0xFFFF]).clamp(0, 255) as u8
+        }
     }
 }
 
@@ -54,9 +79,10 @@ pub fn up_image(
     at: Point,
     heading: f64,
     size: (u32, u32),
-    pixel_noise: f64,
+    pixel_noise: &PixelNoise,
     rng: &mut Rng,
 ) -> GrayImage {
+    let mut noisy = pixel_noise.reader(rng);
     let (w, h) = size;
     let f = direction(heading);
     let r = direction(heading - 90.0);
@@ -79,7 +105,7 @@ pub fn up_image(
             } else {
                 CEILING_GREY
             };
-            img.put_pixel(col, row, image::Luma([noisy(v, pixel_noise, rng)]));
+            img.put_pixel(col, row, image::Luma([noisy(v)]));
         }
     }
     img
@@ -94,9 +120,10 @@ pub fn side_image(
     at: Point,
     heading: f64,
     size: (u32, u32),
-    pixel_noise: f64,
+    pixel_noise: &PixelNoise,
     rng: &mut Rng,
 ) -> GrayImage {
+    let mut noisy = pixel_noise.reader(rng);
     let (w, h) = size;
     let axis = heading + sonar_bearing_deg(18);
     let ad = direction(axis);
@@ -124,7 +151,7 @@ pub fn side_image(
                     }
                 }
             };
-            img.put_pixel(col, row, image::Luma([noisy(v, pixel_noise, rng)]));
+            img.put_pixel(col, row, image::Luma([noisy(v)]));
         }
     }
     img

@@ -136,6 +136,7 @@ pub struct Sim {
     cell_start: Vec<u32>,
     cell_robots: Vec<u32>,
     near: Vec<Body>,
+    pixel_noise: camera::PixelNoise,
 }
 
 /// How close a wall or robot must be to press a bumper, mm.
@@ -148,8 +149,11 @@ impl Sim {
     pub fn new(map: &Map, config: SimConfig) -> Sim {
         let scene = Scene::new(map);
         let n = scene.elevators.len();
+        let mut rng = Rng::new(config.seed);
+        let pixel_noise = camera::PixelNoise::new(config.noise.pixel, &mut rng);
         Sim {
-            rng: Rng::new(config.seed),
+            rng,
+            pixel_noise,
             scene,
             config,
             robots: Vec::new(),
@@ -418,7 +422,7 @@ impl Sim {
         let r = &mut self.robots[i];
         let at = (r.pose.x, r.pose.y);
         let size = self.config.image_size;
-        let px = self.config.noise.pixel;
+        let px = &self.pixel_noise;
         r.up = Some(camera::up_image(
             &self.scene,
             at,
