@@ -42,7 +42,9 @@ impl PixelNoise {
         let table = if sd == 0.0 {
             Vec::new()
         } else {
-            (0..1 << 16).map(|_| rng.normal(sd).round() as i16).collect()
+            (0..1 << 16)
+                .map(|_| rng.normal(sd).round() as i16)
+                .collect()
         };
         PixelNoise { table }
     }

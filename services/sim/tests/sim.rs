@@ -518,3 +518,53 @@ fn a_turn_while_going_resumes_going_and_a_turn_from_standstill_stands() {
     assert_eq!(sim.robot(still).drive.mode, Mode::Go { velocity: 0.0 });
     assert!((sim.robot(still).pose.heading - 30.0).abs() < 0.2);
 }
+
+#[test]
+fn a_continuous_turn_follows_its_arc_then_goes_on() {
+    let mut sim = room(quiet());
+    let r = sim.add_robot("r", at(3_000.0, 1_500.0, 0.0)).unwrap(); // North
+    sim.robot_mut(r).drive.speed_setting = 200.0;
+    // A quarter circle of 1 m radius to the right (clockwise).
+    sim.robot_mut(r)
+        .drive
+        .continuous_turn(90.0, 1_000.0)
+        .unwrap();
+    sim.run_for(12_000);
+    let robot = sim.robot(r);
+    assert!(
+        matches!(robot.drive.mode, Mode::Go { .. }),
+        "{:?}",
+        robot.drive.mode
+    );
+    // After the arc the robot goes on East; its track crossed the arc's end
+    // (4000, 2500) within a few centimetres.
+    let closest = robot
+        .trail
+        .iter()
+        .map(|p| (p.x - 4_000.0).hypot(p.y - 2_500.0))
+        .fold(f64::INFINITY, f64::min);
+    assert!(closest < 60.0, "{closest}");
+    assert!(
+        (robot.pose.y - 2_500.0).abs() < 60.0 && robot.pose.x > 4_000.0,
+        "{:?}",
+        robot.pose
+    );
+}
+
+#[test]
+fn the_pacer_holds_simulated_time_to_a_multiple_of_real_time() {
+    let free = rome_sim::Pacer::new(None, 0);
+    assert_eq!(free.wait(3_600_000), std::time::Duration::ZERO);
+    let paced = rome_sim::Pacer::new(Some(2.0), 1_000);
+    // 10 simulated seconds after the start are due 5 wall seconds after it.
+    let wait = paced.wait(11_000);
+    assert!(
+        wait > std::time::Duration::from_millis(4_900) && wait <= std::time::Duration::from_secs(5)
+    );
+    assert_eq!(paced.wait(1_000), std::time::Duration::ZERO);
+    assert_eq!(
+        rome_sim::Pacer::new(Some(-1.0), 0).speed(),
+        None,
+        "nonsense pace runs free"
+    );
+}
