@@ -106,15 +106,9 @@ fn wander(sim: &mut Sim, rng: &mut Rng) -> anyhow::Result<()> {
         let ahead = sonar[10..=14].iter().copied().min().unwrap_or(10_000);
         let drive = &mut sim.robot_mut(i).drive;
         if bumped || ahead < 900 || mode == Mode::Joystick {
-            drive.go(0.0)?;
+            // Turned from Go, the base goes on at 400 mm/s after the turn.
+            drive.go(400.0)?;
             drive.turn(120.0 + 60.0 * rng.uniform(), 60.0, 120.0)?;
-            drive.mode = match drive.mode {
-                Mode::PointTurn { remaining_deg, .. } => Mode::PointTurn {
-                    remaining_deg,
-                    resume_mm_s: 400.0,
-                },
-                other => other,
-            };
         } else {
             // Towards the side with more room: left is sonar 18.
             let lean = (f64::from(sonar[18]) - f64::from(sonar[6])) / 200.0;
