@@ -238,8 +238,10 @@ fn edge(kind: EdgeKind, words: &[&str], line: usize) -> Result<Edge, String> {
         match word {
             "lights" => {
                 let mut any = false;
-                while let Some(v) = it.peek().and_then(|w| w.parse::<f64>().ok()) {
-                    edge.lights_mm.push(v);
+                // Offsets run until the next option; a word that reads as a
+                // number but is not finite ('nan', 'inf') is an error.
+                while let Some(&w) = it.peek().filter(|w| w.parse::<f64>().is_ok()) {
+                    edge.lights_mm.push(number(Some(w), "light offset (mm)")?);
                     it.next();
                     any = true;
                 }

@@ -194,6 +194,11 @@ fn syntax_errors_name_file_and_line() {
             "'lights' needs at least one offset",
         ),
         (
+            broken(line_of("wall 2000"), "  wall 2000 lights 500 nan"),
+            line_of("wall 2000"),
+            "light offset (mm) must be finite, got 'nan'",
+        ),
+        (
             broken(line_of("wall 4000"), "  node Z 180"),
             line_of("wall 4000"),
             "two nodes in a row",

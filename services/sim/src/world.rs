@@ -219,6 +219,11 @@ impl Sim {
             y: pose.y,
             why,
         };
+        if ![pose.x, pose.y, pose.heading].iter().all(|v| v.is_finite()) {
+            return Err(blocked(format!(
+                "the pose must be finite numbers, got {pose:?}"
+            )));
+        }
         if let Some((d, _)) =
             self.scene
                 .nearest_solid(at, ROBOT_RADIUS_MM, &self.open, &mut self.walls)

@@ -420,6 +420,11 @@ fn robots_cannot_be_placed_in_walls_or_on_each_other() {
         .unwrap_err()
         .to_string();
     assert!(e.contains("already"), "{e}");
+    let e = sim
+        .add_robot("d", at(f64::NAN, 3_000.0, 0.0))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("must be finite"), "{e}");
     let e = sim.add_robot_at("c", "999L", 0.0).unwrap_err().to_string();
     assert!(e.contains("'999L'"), "{e}");
 }
