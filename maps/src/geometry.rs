@@ -13,6 +13,11 @@ pub fn direction(heading_deg: f64) -> Point {
     (-h.sin(), h.cos())
 }
 
+/// Heading from p towards q, degrees (North 0, West 90).
+pub fn heading_to(p: Point, q: Point) -> f64 {
+    normalize_deg((-(q.0 - p.0)).atan2(q.1 - p.1).to_degrees())
+}
+
 /// Normalises an angle to (-180, 180].
 pub fn normalize_deg(a: f64) -> f64 {
     let mut a = a % 360.0;
@@ -263,6 +268,13 @@ impl World {
             }
         }
         world
+    }
+
+    /// Index in [`World::segments`] of edge `edge` of ring `ring`.
+    pub fn segment(&self, ring: usize, edge: usize) -> Option<usize> {
+        self.segments
+            .iter()
+            .position(|s| s.ring == ring && s.edge == edge)
     }
 
     /// Finds a position by name, accepting the thesis' spellings

@@ -11,7 +11,9 @@
 //! (§7.2) thus add their waypoints, and a corridor shared by two rings (one
 //! ring on each side) is one corridor.
 
-use crate::geometry::{add, direction, distance, intersect, normalize_deg, scale, Point, World};
+use crate::geometry::{
+    add, direction, distance, heading_to as heading, intersect, normalize_deg, scale, Point, World,
+};
 use crate::model::{EdgeKind, Map};
 
 /// A route between two positions.
@@ -67,11 +69,6 @@ fn hint(similar: &[String]) -> String {
     }
 }
 
-/// Heading from p to q, degrees (North 0, West 90).
-pub fn heading(p: Point, q: Point) -> f64 {
-    normalize_deg((-(q.0 - p.0)).atan2(q.1 - p.1).to_degrees())
-}
-
 /// The corridor network of a map: waypoints and the walls that block lines.
 #[derive(Debug, Clone)]
 pub struct Network {
@@ -104,14 +101,12 @@ impl Network {
                     continue;
                 }
                 let at = world.nodes[ri][i].1;
-                let prev = world
-                    .segments
-                    .iter()
-                    .find(|s| s.ring == ri && s.edge == (i + n - 1) % n);
-                let next = world.segments.iter().find(|s| s.ring == ri && s.edge == i);
-                let (Some(prev), Some(next)) = (prev, next) else {
+                let (Some(prev), Some(next)) =
+                    (world.segment(ri, (i + n - 1) % n), world.segment(ri, i))
+                else {
                     continue;
                 };
+                let (prev, next) = (&world.segments[prev], &world.segments[next]);
                 let lat = |e: usize| ring.edges[e].lateral_mm.unwrap_or(map.lateral_mm);
                 let h1 = heading(prev.a, prev.b);
                 let h2 = heading(next.a, next.b);

@@ -38,6 +38,27 @@ pub struct Wall {
     pub number: Option<String>,
 }
 
+impl Wall {
+    /// A plain wall of a kind from a to b: no elevator, plates or posters.
+    pub fn plain(a: Point, b: Point, kind: EdgeKind) -> Wall {
+        let len = rome_maps::geometry::distance(a, b).max(1e-9);
+        let dir = ((b.0 - a.0) / len, (b.1 - a.1) / len);
+        Wall {
+            a,
+            b,
+            dir,
+            len,
+            normal: (dir.1, -dir.0),
+            kind,
+            elevator: None,
+            bricks: false,
+            posters: Vec::new(),
+            plates: Vec::new(),
+            number: None,
+        }
+    }
+}
+
 /// A ceiling light.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Lamp {
@@ -99,10 +120,9 @@ impl Scene {
         let mut cabins = Vec::new();
         for s in &world.segments {
             let edge = &map.rings[s.ring].edges[s.edge];
-            let len = rome_maps::geometry::distance(s.a, s.b).max(1e-9);
-            let dir = ((s.b.0 - s.a.0) / len, (s.b.1 - s.a.1) / len);
-            let normal = (dir.1, -dir.0);
-            let elevator = if edge.kind == EdgeKind::Elevator {
+            let mut wall = Wall::plain(s.a, s.b, s.kind);
+            let normal = wall.normal;
+            wall.elevator = if edge.kind == EdgeKind::Elevator {
                 elevators.push(Elevator {
                     number: edge
                         .number
@@ -123,7 +143,7 @@ impl Scene {
                 let out = |p: Point| (p.0 + normal.0 * depth, p.1 + normal.1 * depth);
                 metal.push([s.a, s.b, out(s.b), out(s.a)]);
             }
-            let posters = edge
+            wall.posters = edge
                 .tags
                 .get("poster")
                 .map(|v| {
@@ -132,42 +152,21 @@ impl Scene {
                         .collect()
                 })
                 .unwrap_or_default();
-            let plates = edge
+            wall.plates = edge
                 .plates
                 .iter()
                 .map(|p| (p.label.clone(), p.offset_mm))
                 .collect();
-            walls.push(Wall {
-                a: s.a,
-                b: s.b,
-                dir,
-                len,
-                normal,
-                kind: s.kind,
-                elevator,
-                bricks: edge.tags.get("bricks").map(String::as_str) == Some("yes"),
-                posters,
-                plates,
-                number: edge.number.clone(),
-            });
+            wall.bricks = edge.tags.get("bricks").map(String::as_str) == Some("yes");
+            wall.number = edge.number.clone();
+            walls.push(wall);
         }
-        for (a, b) in cabins {
-            let len = rome_maps::geometry::distance(a, b).max(1e-9);
-            let dir = ((b.0 - a.0) / len, (b.1 - a.1) / len);
-            walls.push(Wall {
-                a,
-                b,
-                dir,
-                len,
-                normal: (dir.1, -dir.0),
-                kind: EdgeKind::Wall,
-                elevator: None,
-                bricks: false,
-                posters: Vec::new(),
-                plates: Vec::new(),
-                number: None,
-            });
-        }
+        // Walls of the map come first, in the order of `world.segments`.
+        walls.extend(
+            cabins
+                .into_iter()
+                .map(|(a, b)| Wall::plain(a, b, EdgeKind::Wall)),
+        );
         // Corners: nodes where the wall changes direction.
         let mut reflectors = Vec::new();
         for (ri, ring) in map.rings.iter().enumerate() {
@@ -180,16 +179,11 @@ impl Scene {
         let lamps = world
             .lights
             .iter()
-            .map(|l| {
-                let s = world
-                    .segments
-                    .iter()
-                    .find(|s| s.ring == l.ring && s.edge == l.edge);
-                let along = s.map_or((1.0, 0.0), |s| {
-                    let len = rome_maps::geometry::distance(s.a, s.b).max(1e-9);
-                    ((s.b.0 - s.a.0) / len, (s.b.1 - s.a.1) / len)
-                });
-                Lamp { at: l.at, along }
+            .map(|l| Lamp {
+                at: l.at,
+                along: world
+                    .segment(l.ring, l.edge)
+                    .map_or((1.0, 0.0), |i| walls[i].dir),
             })
             .collect();
         let (lo, hi) = world.bounds();

@@ -16,7 +16,7 @@ use crate::spec::{
     ir_bearing_deg, sonar_bearing_deg, Noise, IR_RANGE_MM, IR_SENSORS, ROBOT_RADIUS_MM, SONARS,
     SONAR_HALF_BEAM_DEG, SONAR_MAX_INCIDENCE_DEG, SONAR_MAX_MM, SONAR_MIN_MM,
 };
-use rome_maps::geometry::{direction, normalize_deg, Point};
+use rome_maps::geometry::{direction, heading_to, normalize_deg, Point};
 
 /// Where a robot is, for the sensors of others.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -32,10 +32,6 @@ pub struct Scratch {
     corners: Vec<u32>,
     /// Candidate echoes: (sonar, range, wall or usize::MAX, point).
     echoes: Vec<(usize, f64, usize, Point)>,
-}
-
-fn bearing(from: Point, to: Point) -> f64 {
-    normalize_deg((-(to.0 - from.0)).atan2(to.1 - from.1).to_degrees())
 }
 
 /// Fires all sonars of a robot at `at` heading `heading`: ranges in mm.
@@ -260,7 +256,7 @@ pub fn infrared(
                 let dist = (o.at.0 - s.0).hypot(o.at.1 - s.1) - ROBOT_RADIUS_MM;
                 dist <= IR_RANGE_MM
                     && dist > -ROBOT_RADIUS_MM
-                    && normalize_deg(bearing(s, o.at) - b).abs() <= 30.0
+                    && normalize_deg(heading_to(s, o.at) - b).abs() <= 30.0
             });
         }
         if seen {
