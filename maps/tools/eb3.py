@@ -50,6 +50,17 @@ def feature(kind, a, b, **tags):
     return {"kind": kind, "a": min(a, b), "b": max(a, b), "number": None, "plate": False, "tags": tags}
 
 
+def island(west, east, south, north):
+    """The corners of a block of rooms, traced anticlockwise from its
+    north-east corner (the wall on the left, walking in the corridor)."""
+    return [
+        ("NE", east, north, True),
+        ("NW", west, north, True),
+        ("SW", west, south, True),
+        ("SE", east, south, True),
+    ]
+
+
 def lights(lo, hi, step):
     n = int((hi - lo) // step)
     return [lo + i * step for i in range(n + 1)]
@@ -152,12 +163,7 @@ outer = {
 
 island_a = {
     "name": "A",
-    "vertices": [
-        ("NE", X_C - OLD, Y_A - OLD, True),
-        ("NW", X_B + OLD, Y_A - OLD, True),
-        ("SW", X_B + OLD, Y_M + OLD, True),
-        ("SE", X_C - OLD, Y_M + OLD, True),
-    ],
+    "vertices": island(X_B + OLD, X_C - OLD, Y_M + OLD, Y_A - OLD),
     "sides": [
         # South wall of corridor A, East to West: even rooms, elevators.
         {
@@ -216,12 +222,7 @@ island_a = {
 
 island_b = {
     "name": "B",
-    "vertices": [
-        ("NE", X_N - NEW, Y_M - OLD, True),
-        ("NW", X_B + NEW, Y_M - OLD, True),
-        ("SW", X_B + NEW, Y_P + NEW, True),
-        ("SE", X_N - NEW, Y_P + NEW, True),
-    ],
+    "vertices": island(X_B + NEW, X_N - NEW, Y_P + NEW, Y_M - OLD),
     "sides": [
         # South wall of corridor M, East to West.
         {"lateral": OLD, "lights": [], "features": rooms(["A318", "A316", "A312"], 56.0, 12.0)},
@@ -251,12 +252,7 @@ island_b = {
 
 island_c = {
     "name": "C",
-    "vertices": [
-        ("NE", X_J - NEW, Y_M - OLD, True),
-        ("NW", X_N + NEW, Y_M - OLD, True),
-        ("SW", X_N + NEW, Y_P + NEW, True),
-        ("SE", X_J - NEW, Y_P + NEW, True),
-    ],
+    "vertices": island(X_N + NEW, X_J - NEW, Y_P + NEW, Y_M - OLD),
     "sides": [
         # South wall of corridor M, East to West: 311, 311.double, A313, A314.
         {
