@@ -191,12 +191,7 @@ fn no_server_is_a_clear_error() {
 
 #[test]
 fn demo_runs_with_no_configuration() {
-    let out = Command::new(ROME).arg("demo").output().unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let out = offline_ok(["demo"]);
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(
         text.contains("PosX = 1500 (one write ago 1250, two ago 1000)"),
@@ -229,6 +224,19 @@ fn help_names_the_commands_and_exit_codes() {
     assert_eq!(out.status.code(), Some(2));
 }
 
+/// Runs `rome` with `args` and no server, and checks it succeeded.
+fn offline_ok<S: AsRef<std::ffi::OsStr>>(
+    args: impl IntoIterator<Item = S>,
+) -> std::process::Output {
+    let out = Command::new(ROME).args(args).output().unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out
+}
+
 fn map_file(name: &str) -> std::path::PathBuf {
     std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../../maps/data")
@@ -238,16 +246,11 @@ fn map_file(name: &str) -> std::path::PathBuf {
 #[test]
 fn map_check_passes_good_maps_and_names_file_and_line_in_broken_ones() {
     let good = map_file("fig5_3.stk");
-    let out = Command::new(ROME)
-        .args(["map", "check"])
-        .arg(&good)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let out = offline_ok([
+        std::ffi::OsStr::new("map"),
+        "check".as_ref(),
+        good.as_os_str(),
+    ]);
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(text.contains("2 ring(s), 20 nodes"), "{text}");
     assert!(
@@ -282,19 +285,16 @@ fn map_render_writes_png_and_svg() {
     std::fs::create_dir_all(&dir).unwrap();
     for (name, width) in [("fig.png", "800"), ("fig.svg", "900")] {
         let out_path = dir.join(name);
-        let out = Command::new(ROME)
-            .args(["map", "render"])
-            .arg(map_file("fig5_3.stk"))
-            .arg("-o")
-            .arg(&out_path)
-            .args(["--width", width])
-            .output()
-            .unwrap();
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
+        let map = map_file("fig5_3.stk");
+        offline_ok([
+            std::ffi::OsStr::new("map"),
+            "render".as_ref(),
+            map.as_os_str(),
+            "-o".as_ref(),
+            out_path.as_os_str(),
+            "--width".as_ref(),
+            width.as_ref(),
+        ]);
         let bytes = std::fs::read(&out_path).unwrap();
         if name.ends_with(".png") {
             assert_eq!(&bytes[1..4], b"PNG");
@@ -322,15 +322,7 @@ fn map_render_writes_png_and_svg() {
 
 #[test]
 fn map_check_on_eb3_and_a_broken_copy_of_it() {
-    let out = Command::new(ROME)
-        .args(["map", "check", "eb3"])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let out = offline_ok(["map", "check", "eb3"]);
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(
         text.contains("4 ring(s)") && text.contains("9 links"),
@@ -378,15 +370,7 @@ fn map_check_on_eb3_and_a_broken_copy_of_it() {
 
 #[test]
 fn map_route_measures_table_6_1_routes_and_names_unknown_rooms() {
-    let out = Command::new(ROME)
-        .args(["map", "route", "eb3", "341L", "311R", "--legs"])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let out = offline_ok(["map", "route", "eb3", "341L", "311R", "--legs"]);
     let text = String::from_utf8_lossy(&out.stdout);
     // Table 6.1, run 15: 91.795 m with two corners.
     assert!(
@@ -413,24 +397,16 @@ fn map_route_measures_table_6_1_routes_and_names_unknown_rooms() {
 
 #[test]
 fn bench_sim_reports_each_robot_count() {
-    let out = Command::new(ROME)
-        .args([
-            "bench",
-            "sim",
-            "--robots",
-            "1,3",
-            "--seconds",
-            "0.1",
-            "--no-cameras",
-            "--json",
-        ])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let out = offline_ok([
+        "bench",
+        "sim",
+        "--robots",
+        "1,3",
+        "--seconds",
+        "0.1",
+        "--no-cameras",
+        "--json",
+    ]);
     let rows: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let rows = rows.as_array().unwrap();
     assert_eq!(rows.len(), 2);
