@@ -135,6 +135,9 @@ pub struct Sim {
     /// `cell_robots[cell_start[c]..cell_start[c + 1]]`.
     cell_start: Vec<u32>,
     cell_robots: Vec<u32>,
+    /// Whether the cells match the robots' poses (a caller may have moved
+    /// one through [`Sim::robot_mut`]).
+    cells_fresh: bool,
     near: Vec<Body>,
     pixel_noise: camera::PixelNoise,
 }
@@ -164,6 +167,7 @@ impl Sim {
             walls: Vec::new(),
             cell_start: Vec::new(),
             cell_robots: Vec::new(),
+            cells_fresh: false,
             near: Vec::new(),
         }
     }
@@ -203,6 +207,7 @@ impl Sim {
 
     /// A robot's controller and odometry, to command it.
     pub fn robot_mut(&mut self, i: usize) -> &mut Robot {
+        self.cells_fresh = false;
         &mut self.robots[i]
     }
 
@@ -360,17 +365,18 @@ impl Sim {
                 _ => {}
             }
         }
-        self.rebuild_cells();
+        if !self.cells_fresh {
+            self.rebuild_cells();
+        }
         for i in 0..self.robots.len() {
             self.move_robot(i, dt);
         }
+        // Once per step, for the sensors now and the motion next step.
+        self.rebuild_cells();
         let sonar_due = self.config.sonar_period_ms > 0
             && self.time_ms % u64::from(self.config.sonar_period_ms) < dt_ms;
         let camera_due = self.config.camera_period_ms > 0
             && self.time_ms % u64::from(self.config.camera_period_ms) < dt_ms;
-        if sonar_due || camera_due {
-            self.rebuild_cells();
-        }
         for i in 0..self.robots.len() {
             if sonar_due {
                 self.sense(i);
@@ -395,6 +401,9 @@ impl Sim {
 
     /// Fires robot `i`'s sonars and reads its infrared now.
     pub fn sense(&mut self, i: usize) {
+        if !self.cells_fresh {
+            self.rebuild_cells();
+        }
         let mut others = std::mem::take(&mut self.near);
         self.bodies_near(i, SONAR_MAX_MM + 2.0 * ROBOT_RADIUS_MM, &mut others);
         let r = &mut self.robots[i];
@@ -463,12 +472,17 @@ impl Sim {
         }
         self.cell_robots.clear();
         self.cell_robots.resize(self.robots.len(), 0);
-        let mut fill = self.cell_start.clone();
-        for (i, r) in self.robots.iter().enumerate() {
+        // cell_start[c + 1] is where cell c ends; fill each cell from its
+        // end backwards, which leaves cell_start[c] where it starts.
+        for (i, r) in self.robots.iter().enumerate().rev() {
             let c = cell(r);
-            self.cell_robots[fill[c] as usize] = i as u32;
-            fill[c] += 1;
+            self.cell_start[c + 1] -= 1;
+            self.cell_robots[self.cell_start[c + 1] as usize] = i as u32;
         }
+        self.cell_start.rotate_left(1);
+        let n = self.cell_start.len();
+        self.cell_start[n - 1] = self.robots.len() as u32;
+        self.cells_fresh = true;
     }
 
     /// Other robots within `r` of robot `i` (by cells; a superset), into

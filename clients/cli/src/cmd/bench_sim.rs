@@ -156,7 +156,7 @@ fn measure(
         sim_s,
         wall_s,
         speed: sim_s / wall_s,
-        scans_per_s: n as f64 * sim_s * 10.0 / wall_s,
+        scans_per_s: n as f64 * sim_s * 1000.0 / f64::from(sim.config().sonar_period_ms) / wall_s,
     })
 }
 
