@@ -30,6 +30,12 @@ pub enum ErrorCode {
     Conflict,
     /// The server is shutting down and will not carry out the request.
     ShuttingDown,
+    /// The request carried a lock fence that is not the current grant's.
+    StaleFence,
+    /// The request waited in a queue longer than it allowed (`wait_ms`).
+    TimedOut,
+    /// The device did not answer or refused the command.
+    Device,
 }
 
 impl ErrorCode {
@@ -46,6 +52,9 @@ impl ErrorCode {
             ErrorCode::UnknownSemaphore => "unknown_semaphore",
             ErrorCode::Conflict => "conflict",
             ErrorCode::ShuttingDown => "shutting_down",
+            ErrorCode::StaleFence => "stale_fence",
+            ErrorCode::TimedOut => "timed_out",
+            ErrorCode::Device => "device",
         }
     }
 }

@@ -7,6 +7,10 @@
 //!   keys by hand.
 //! - [`data`]: the messages of the data server (the thesis' DServer, §4.6.1),
 //!   grouped by who sends them to whom.
+//! - [`robot`]: the hardware servers' commands, replies and streams (base,
+//!   proximity, cameras; §4.6.2–4.6.4), with their priority and lock
+//!   parameters.
+//! - [`params`]: strict selector-parameter parsing shared by every server.
 //! - [`error`]: the error reply every server sends instead of a silent drop.
 //! - [`codec`]: the one encode and the one strict decode entry point.
 //!
@@ -17,7 +21,10 @@ pub mod codec;
 pub mod data;
 pub mod error;
 pub mod keys;
+pub mod params;
+pub mod robot;
 
 pub use codec::{decode, encode, DecodeError};
 pub use error::{ErrorCode, ErrorReply};
 pub use keys::{DataKey, KeyError, Name, Root};
+pub use params::Params;

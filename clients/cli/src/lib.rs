@@ -5,7 +5,7 @@
 //!   every command (`--connect`, `--listen`, `--mode`, `--config`,
 //!   `--no-multicast`, `--root`), flattened into [`Cli`].
 //! - [`cmd`]: one module per command group (`data-server`, `data`, `sem`,
-//!   `ls`, `map`, `demo`, `bench`), each with a `run` taking parsed arguments.
+//!   `ls`, `map`, `sim`, `robot`, `storage`, `demo`, `bench`), each with a `run` taking parsed arguments.
 //! - [`exit`]: the exit codes, documented in `rome --help`.
 //!
 //! `main` only parses flags and calls [`main`]; everything else is here so
@@ -58,6 +58,12 @@ pub enum Command {
     /// Check and draw StickRep maps.
     #[command(subcommand)]
     Map(cmd::map::MapCmd),
+    /// Run a simulated world and every robot's base, proximity and camera servers.
+    Sim(cmd::sim::Args),
+    /// Send commands to a robot's hardware servers (base, proximity, cameras).
+    Robot(cmd::robot::Args),
+    /// Keep the servers' lock state in memory (a Zenoh storage on <root>/store/**).
+    Storage(cmd::storage::Args),
     /// Run everything in one process and show it working (no router, no configuration).
     Demo(cmd::demo::Args),
     /// Measure round trips and throughput.
@@ -67,7 +73,10 @@ pub enum Command {
 
 /// Runs a parsed command line and returns the process exit code.
 pub fn main(cli: Cli) -> ExitCode {
-    let server = matches!(cli.command, Command::DataServer(_));
+    let server = matches!(
+        cli.command,
+        Command::DataServer(_) | Command::Sim(_) | Command::Storage(_)
+    );
     cli.common.init_logging(server);
     let runtime = match tokio::runtime::Builder::new_multi_thread()
         .enable_all()
@@ -108,6 +117,9 @@ pub async fn run(cli: Cli) -> anyhow::Result<u8> {
         Command::Sem(c) => cmd::sem::run(&common, c).await,
         Command::Ls(args) => cmd::ls::run(&common, args).await,
         Command::Map(c) => cmd::map::run(c),
+        Command::Sim(args) => cmd::sim::run(&common, args).await,
+        Command::Robot(args) => cmd::robot::run(&common, args).await,
+        Command::Storage(args) => cmd::storage::run(&common, args).await,
         Command::Demo(args) => cmd::demo::run(&common, args).await,
         Command::Bench(c) => cmd::bench::run(&common, c).await,
     }

@@ -569,14 +569,14 @@ impl DataClient {
 const ZENOH_TIMEOUT: &[u8] = b"Timeout";
 
 /// A server's error reply, or `None` for Zenoh's local timeout (silence).
-fn refusal(body: &[u8]) -> Result<Option<ErrorReply>, ClientError> {
+pub(crate) fn refusal(body: &[u8]) -> Result<Option<ErrorReply>, ClientError> {
     if body == ZENOH_TIMEOUT {
         return Ok(None);
     }
     Ok(Some(decode(body, "error reply")?))
 }
 
-fn selector(key: &str, params: &[(&str, String)]) -> String {
+pub(crate) fn selector(key: &str, params: &[(&str, String)]) -> String {
     if params.is_empty() {
         return key.to_string();
     }

@@ -7,6 +7,8 @@
 //! - [`data`]: [`DataClient`], the data-server library of §4.6.1
 //!   (`DataSetValue`, `DataGetValue`, `DataSetHistory`, `DataCreateSemaphore`,
 //!   `DataSignal`, `DataWait` …) as typed async methods.
+//! - [`robot`]: [`RobotClient`], the hardware servers' libraries (base,
+//!   proximity, cameras: `RobotMove`, `ProxReadSonar`, `CameraGrabRow` …).
 //! - [`goals`]: the Planner → Navigator goal hand-over of Table 5.4.
 //! - [`alive`]: who is alive (servers and clients), from liveliness tokens.
 //! - [`error`]: [`ClientError`], what every call can fail with.
@@ -29,6 +31,8 @@ pub mod data;
 pub mod error;
 pub mod goals;
 pub mod net;
+pub mod robot;
 
 pub use data::{DataClient, DataOptions, Watch};
 pub use error::ClientError;
+pub use robot::{RobotClient, RobotOptions};

@@ -119,6 +119,28 @@ enum Door {
     Open { until_ms: u64 },
 }
 
+/// One of a robot's two cameras (Table 5.3).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Camera {
+    /// Looks up at the ceiling lights (§5.6).
+    Up,
+    /// Looks sideways at the door plates (§5.7).
+    Side,
+}
+
+impl Camera {
+    /// Both cameras.
+    pub const ALL: [Camera; 2] = [Camera::Up, Camera::Side];
+
+    /// The camera's name, as its server's key uses it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Camera::Up => "up",
+            Camera::Side => "side",
+        }
+    }
+}
+
 /// A world: building, robots, time.
 #[derive(Debug)]
 pub struct Sim {
@@ -433,27 +455,34 @@ impl Sim {
 
     /// Grabs both of robot `i`'s cameras now.
     pub fn grab(&mut self, i: usize) {
+        self.grab_camera(i, Camera::Up);
+        self.grab_camera(i, Camera::Side);
+    }
+
+    /// Grabs one of robot `i`'s cameras now and returns the image (also
+    /// kept in the robot's `up` or `side`).
+    pub fn grab_camera(&mut self, i: usize, which: Camera) -> GrayImage {
         let r = &mut self.robots[i];
         let at = (r.pose.x, r.pose.y);
         let size = self.config.image_size;
         let px = &self.pixel_noise;
-        r.up = Some(camera::up_image(
-            &self.scene,
-            at,
-            r.pose.heading,
-            size,
-            px,
-            &mut r.rng,
-        ));
-        r.side = Some(camera::side_image(
-            &self.scene,
-            &self.open,
-            at,
-            r.pose.heading,
-            size,
-            px,
-            &mut r.rng,
-        ));
+        let image = match which {
+            Camera::Up => camera::up_image(&self.scene, at, r.pose.heading, size, px, &mut r.rng),
+            Camera::Side => camera::side_image(
+                &self.scene,
+                &self.open,
+                at,
+                r.pose.heading,
+                size,
+                px,
+                &mut r.rng,
+            ),
+        };
+        match which {
+            Camera::Up => r.up = Some(image.clone()),
+            Camera::Side => r.side = Some(image.clone()),
+        }
+        image
     }
 
     fn rebuild_cells(&mut self) {

@@ -7,7 +7,10 @@ pub mod data_server;
 pub mod demo;
 pub mod ls;
 pub mod map;
+pub mod robot;
 pub mod sem;
+pub mod sim;
+pub mod storage;
 
 use crate::args::{CommonArgs, Side};
 use anyhow::Context;

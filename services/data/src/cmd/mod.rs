@@ -10,7 +10,7 @@ mod cancel;
 mod create;
 mod get;
 mod history;
-mod params;
+
 mod sem;
 mod set;
 mod signal;
@@ -22,7 +22,7 @@ pub use cancel::Cancel;
 pub use create::Create;
 pub use get::Get;
 pub use history::History;
-pub use params::Params;
+pub use rome_schema::Params;
 pub use sem::Read;
 pub use set::{value_from_payload as set_value_from_payload, Set};
 pub use signal::Signal;

@@ -1,6 +1,6 @@
 //! Strict selector-parameter parsing shared by every request.
 
-use rome_schema::{ErrorCode, ErrorReply, Name};
+use crate::{ErrorCode, ErrorReply, Name};
 
 /// The selector parameters of one request; each command takes what it
 /// knows and [`Params::finish`] refuses whatever is left.
@@ -33,6 +33,11 @@ impl Params {
     fn take(&mut self, name: &str) -> Option<String> {
         let i = self.pairs.iter().position(|(k, _)| k == name)?;
         Some(self.pairs.remove(i).1)
+    }
+
+    /// Takes a parameter's raw text.
+    pub fn take_text(&mut self, name: &str) -> Option<String> {
+        self.take(name)
     }
 
     /// Takes a whole number within `min..=max`.

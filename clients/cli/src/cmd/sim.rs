@@ -1,0 +1,202 @@
+//! `rome sim`: one simulated world and the base, proximity and camera
+//! servers of every robot in it, until Ctrl-C or SIGTERM.
+
+use crate::args::{CommonArgs, Side};
+use crate::exit;
+use anyhow::Context;
+use rome_hardware::robot::{spawn_sim_robot, Rates};
+use rome_hardware::sim::SimWorld;
+use rome_sim::{Noise, Sim, SimConfig};
+use std::time::Duration;
+
+/// Flags of `rome sim`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// The map: a built-in name (eb3, fig5_3) or a StickRep file.
+    #[arg(long, default_value = "eb3", value_name = "MAP")]
+    pub map: String,
+    /// How many robots (named r1, r2, …).
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=1000))]
+    pub robots: u32,
+    /// Where they start: named positions (350R, 376L …), one per robot;
+    /// without it robots are spread over the map's doors.
+    #[arg(long, value_delimiter = ',', value_name = "POS")]
+    pub at: Vec<String>,
+    /// Seed of the world's randomness: the same seed gives the same run.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Simulated time per real time (1 = real time).
+    #[arg(long, default_value_t = 1.0, conflicts_with = "free")]
+    pub speed: f64,
+    /// Run as fast as the machine allows.
+    #[arg(long)]
+    pub free: bool,
+    /// No sensor noise, slip or drift.
+    #[arg(long)]
+    pub no_noise: bool,
+    /// Base state stream rate, Hz (0: off).
+    #[arg(long, default_value_t = 10.0, value_name = "HZ")]
+    pub state_hz: f64,
+    /// How often the proximity server looks for a new scan, Hz (0: off).
+    #[arg(long, default_value_t = 20.0, value_name = "HZ")]
+    pub scan_hz: f64,
+    /// Camera grab period, ms (the thesis: 500).
+    #[arg(long, default_value_t = 500, value_name = "MS", value_parser = clap::value_parser!(u64).range(10..=60_000))]
+    pub camera_period_ms: u64,
+    /// Do not run a storage for lock state (use a router's storage instead).
+    #[arg(long)]
+    pub no_storage: bool,
+}
+
+fn period(hz: f64, flag: &str) -> anyhow::Result<Option<Duration>> {
+    anyhow::ensure!(
+        hz.is_finite() && (0.0..=1000.0).contains(&hz),
+        "{flag} must be 0 … 1000 Hz, got {hz}"
+    );
+    Ok((hz > 0.0).then(|| Duration::from_secs_f64(1.0 / hz)))
+}
+
+/// Builds the world with its robots placed; returns it and the names.
+pub fn world(args: &Args) -> anyhow::Result<(Sim, Vec<String>)> {
+    let map = rome_maps::load_named(&args.map)
+        .with_context(|| format!("cannot load the map '{}'", args.map))?;
+    let config = SimConfig {
+        seed: args.seed,
+        noise: if args.no_noise {
+            Noise::none()
+        } else {
+            Noise::default()
+        },
+        camera_period_ms: 0,
+        ..SimConfig::default()
+    };
+    let mut sim = Sim::new(&map, config);
+    let n = args.robots as usize;
+    anyhow::ensure!(
+        args.at.is_empty() || args.at.len() == n,
+        "--at names {} position(s) for {n} robot(s); give one per robot",
+        args.at.len()
+    );
+    let mut names = Vec::new();
+    if !args.at.is_empty() {
+        for (k, pos) in args.at.iter().enumerate() {
+            let name = format!("r{}", k + 1);
+            let heading = sim
+                .scene()
+                .world
+                .position(pos)
+                .map_or(0.0, |p| p.wall_heading_deg);
+            sim.add_robot_at(&name, pos, heading)
+                .with_context(|| format!("cannot place {name} at {pos}"))?;
+            names.push(name);
+        }
+        return Ok((sim, names));
+    }
+    let mut spots: Vec<(String, f64)> = sim
+        .scene()
+        .world
+        .positions
+        .iter()
+        .map(|(name, p)| (name.clone(), p.wall_heading_deg))
+        .collect();
+    spots.sort_by(|a, b| a.0.cmp(&b.0));
+    anyhow::ensure!(!spots.is_empty(), "the map '{}' has no named positions", args.map);
+    let mut tried = 0;
+    while names.len() < n && tried < spots.len() * 2 {
+        let (pos, heading) = &spots[(tried * 7919 + names.len() * spots.len() / n) % spots.len()];
+        tried += 1;
+        let name = format!("r{}", names.len() + 1);
+        if sim.add_robot_at(&name, pos, *heading).is_ok() {
+            names.push(name);
+        }
+    }
+    anyhow::ensure!(
+        names.len() == n,
+        "the map '{}' has room for only {} robot(s) at its doors",
+        args.map,
+        names.len()
+    );
+    Ok((sim, names))
+}
+
+/// Runs the world and its servers.
+pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
+    let rates = Rates {
+        state: period(args.state_hz, "--state-hz")?,
+        scan: period(args.scan_hz, "--scan-hz")?,
+        camera: Duration::from_millis(args.camera_period_ms),
+    };
+    anyhow::ensure!(
+        args.free || (args.speed.is_finite() && args.speed > 0.0),
+        "--speed must be a positive number, got {}",
+        args.speed
+    );
+    let (sim, names) = world(&args)?;
+    let root = common.root()?;
+    let net = common.net(Side::Server);
+    let session = net.open().await?;
+    let world = SimWorld::new(sim);
+    let _stepper = world.start((!args.free).then_some(args.speed));
+    let (storage_stop, storage_stopped) = tokio::sync::oneshot::channel::<()>();
+    let storage = (!args.no_storage).then(|| {
+        tokio::spawn(rome_hardware::storage::run(
+            session.clone(),
+            root.store_all(),
+            async move {
+                let _ = storage_stopped.await;
+            },
+        ))
+    });
+    let mut servers = Vec::new();
+    for name in &names {
+        servers.extend(spawn_sim_robot(&session, &root, &world, name, rates)?);
+    }
+    {
+        let sim = world.lock();
+        for r in sim.robots() {
+            eprintln!(
+                "{}: at ({:.0}, {:.0}) mm heading {:.0}°",
+                r.name, r.pose.x, r.pose.y, r.pose.heading
+            );
+        }
+    }
+    eprintln!(
+        "rome sim: map '{}', {} robot(s), {} (listen {:?}, connect {:?}); serving '{}/robot/<robot>/{{base,proximity,camera/up,camera/side}}/*'; Ctrl-C to stop",
+        args.map,
+        names.len(),
+        if args.free { "free-running".to_string() } else { format!("{}× real time", args.speed) },
+        net.listen,
+        net.connect,
+        root.as_str()
+    );
+    let mut watch = tokio::time::interval(Duration::from_millis(500));
+    let interrupted = exit::interrupted();
+    tokio::pin!(interrupted);
+    loop {
+        tokio::select! {
+            _ = &mut interrupted => break,
+            _ = watch.tick() => {
+                // A server that ended is reported once; the others go on.
+                servers.retain(|s| {
+                    if s.is_finished() {
+                        eprintln!("rome sim: the server of {} has stopped; the others go on", s.label());
+                        false
+                    } else {
+                        true
+                    }
+                });
+            }
+        }
+    }
+    for s in servers {
+        if let Err(e) = s.stop().await {
+            eprintln!("rome sim: {e}");
+        }
+    }
+    let _ = storage_stop.send(());
+    if let Some(task) = storage {
+        let _ = task.await;
+    }
+    let _ = session.close().await;
+    Ok(exit::OK)
+}

@@ -1,0 +1,628 @@
+//! [`RobotClient`]: the hardware servers' function libraries (Fig. 4.8):
+//! the base (`RobotMove`, `RobotTurn`, `RobotGetPos`, `RobotLock` …), the
+//! proximity subsystem (`ProxReadSonar`, `ProxReadInfraRed`,
+//! `ProxSetTimeout`) and the cameras (`CameraGetSize`, `CameraGrab`,
+//! `CameraGrabRow`, `CameraLock`).
+//!
+//! Every call is one Zenoh query to `<root>/robot/<robot>/<device>/<command>`
+//! (see `docs/keys.md`) carrying the client's priority, both as the
+//! `priority` parameter the server queues by and as the query's Zenoh QoS
+//! priority. Motion commands are not retried: a lost reply must not move
+//! the robot twice.
+//!
+//! While this client holds a device's lock, its commands to that device
+//! carry the grant's fence and a task renews the grant; dropping the
+//! [`Lock`] releases it.
+
+use crate::data::{refusal, selector};
+use crate::ClientError;
+use rome_schema::robot::{
+    param, robot_name, AdjustPose, BaseState, BumperReply, Device, Done, Go, Gray8, IrReply, Jog,
+    LockGrant, MaxRange, ModeReply, Move, PoseReply, Scan, SetBumper, SetPose, SetTimeout,
+    SizeReply, SonarReply, SpeedReply, Stop, TimeoutReply, Turn, Unlocked, WheelSpeedReply,
+    DEFAULT_LOCK_TTL_MS, DEFAULT_PRIORITY, SONARS,
+};
+use rome_schema::{decode, encode, ErrorCode, Name, Root};
+use serde::de::DeserializeOwned;
+use serde::Serialize;
+use std::collections::HashMap;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+use zenoh::bytes::Encoding;
+use zenoh::handlers::FifoChannelHandler;
+use zenoh::liveliness::LivelinessToken;
+use zenoh::pubsub::Subscriber;
+use zenoh::qos::Priority;
+use zenoh::sample::Sample;
+use zenoh::Session;
+
+static NEXT_CLIENT: AtomicU64 = AtomicU64::new(1);
+
+/// The Zenoh QoS band a RoME priority (0 … 255) travels in; see
+/// [`rome_schema::robot::zenoh_band`].
+pub fn zenoh_priority(priority: u8) -> Priority {
+    match rome_schema::robot::zenoh_band(priority) {
+        "interactive_high" => Priority::InteractiveHigh,
+        "interactive_low" => Priority::InteractiveLow,
+        "data_high" => Priority::DataHigh,
+        "data" => Priority::Data,
+        "data_low" => Priority::DataLow,
+        _ => Priority::Background,
+    }
+}
+
+/// How a [`RobotClient`] behaves.
+#[derive(Debug, Clone)]
+pub struct RobotOptions {
+    /// The deployment's root prefix.
+    pub root: Root,
+    /// What this client is (`navigator`, `cli` …): shown by `rome ls`.
+    pub role: String,
+    /// This client's priority at every hardware server, 0 … 255 (§4.3).
+    pub priority: u8,
+    /// How long a request may wait in a server's queue (behind a lock).
+    pub queue_wait: Duration,
+    /// How long a reply may take once the request is served.
+    pub reply_timeout: Duration,
+    /// A lock grant's life between renewals.
+    pub lock_ttl: Duration,
+}
+
+impl RobotOptions {
+    /// Defaults for a client with this role.
+    pub fn new(role: &str) -> Self {
+        RobotOptions {
+            root: Root::default(),
+            role: role.to_string(),
+            priority: DEFAULT_PRIORITY,
+            queue_wait: Duration::from_secs(10),
+            reply_timeout: Duration::from_secs(5),
+            lock_ttl: Duration::from_millis(DEFAULT_LOCK_TTL_MS),
+        }
+    }
+}
+
+struct Inner {
+    session: Session,
+    options: RobotOptions,
+    robot: Name,
+    owner: String,
+    fences: Mutex<HashMap<String, u64>>,
+    _token: LivelinessToken,
+}
+
+/// A client of one robot's hardware servers. Cheap to clone; clones share
+/// one owner id, one liveliness token and the locks they hold.
+#[derive(Clone)]
+pub struct RobotClient {
+    inner: Arc<Inner>,
+}
+
+/// An image (or some of its rows) from a camera server, 8-bit gray.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Image {
+    /// Columns.
+    pub width: u32,
+    /// Rows of the whole image.
+    pub height: u32,
+    /// The grab it came from.
+    pub frame: u64,
+    /// When it was grabbed, device ms.
+    pub time_ms: u64,
+    /// The rows carried, in order (every row for a full grab).
+    pub rows: Vec<u32>,
+    /// `rows.len() × width` bytes.
+    pub pixels: Vec<u8>,
+}
+
+impl Image {
+    /// The pixels of the `k`-th row carried.
+    pub fn row(&self, k: usize) -> &[u8] {
+        let w = self.width as usize;
+        &self.pixels[k * w..(k + 1) * w]
+    }
+}
+
+/// A held lock on a device (`RobotLock`, `CameraLock`). Renewed in the
+/// background while it lives; released when dropped or [`Lock::unlock`]ed.
+pub struct Lock {
+    client: RobotClient,
+    device: Device,
+    grant: LockGrant,
+    renew: tokio::task::JoinHandle<()>,
+    released: bool,
+}
+
+impl Lock {
+    /// The grant's fencing number.
+    pub fn fence(&self) -> u64 {
+        self.grant.fence
+    }
+
+    /// The grant.
+    pub fn grant(&self) -> &LockGrant {
+        &self.grant
+    }
+
+    /// Whether the grant is still this client's (false once the server
+    /// refused a renewal: the lock lapsed or another client has it).
+    pub fn held(&self) -> bool {
+        self.client.fence(&self.device) == Some(self.grant.fence)
+    }
+
+    /// Releases the lock (`RobotUnlock`, `CameraUnLock`).
+    pub async fn unlock(mut self) -> Result<(), ClientError> {
+        self.released = true;
+        self.renew.abort();
+        let fence = self.grant.fence;
+        self.client.forget(&self.device, fence);
+        let params = [(param::FENCE, fence.to_string())];
+        let _: Unlocked = self
+            .client
+            .json(&self.device, "unlock", &params, None::<&()>, false)
+            .await?;
+        Ok(())
+    }
+}
+
+impl Drop for Lock {
+    fn drop(&mut self) {
+        self.renew.abort();
+        if self.released {
+            return;
+        }
+        let fence = self.grant.fence;
+        self.client.forget(&self.device, fence);
+        let client = self.client.clone();
+        let device = self.device.clone();
+        if let Ok(rt) = tokio::runtime::Handle::try_current() {
+            rt.spawn(async move {
+                let params = [(param::FENCE, fence.to_string())];
+                let _: Result<Unlocked, _> = client
+                    .json(&device, "unlock", &params, None::<&()>, false)
+                    .await;
+            });
+        }
+    }
+}
+
+impl RobotClient {
+    /// A client of robot `robot`'s servers; declares this client alive
+    /// (`<root>/alive/client/<role>/<owner>`), which is what ties its locks
+    /// to its life.
+    pub async fn connect(
+        session: &Session,
+        robot: &str,
+        options: RobotOptions,
+    ) -> Result<Self, ClientError> {
+        let robot = robot_name(robot)?;
+        let role = Name::new(options.role.as_str())?;
+        let n = NEXT_CLIENT.fetch_add(1, Ordering::Relaxed);
+        let owner = format!("{}-r{n}", session.zid());
+        let token = session
+            .liveliness()
+            .declare_token(options.root.alive_client(role.as_str(), &owner))
+            .await
+            .map_err(ClientError::zenoh)?;
+        Ok(RobotClient {
+            inner: Arc::new(Inner {
+                session: session.clone(),
+                options,
+                robot,
+                owner,
+                fences: Mutex::new(HashMap::new()),
+                _token: token,
+            }),
+        })
+    }
+
+    /// The robot's name.
+    pub fn robot(&self) -> &str {
+        self.inner.robot.as_str()
+    }
+
+    /// This client's owner id (the last chunk of its liveliness token).
+    pub fn owner(&self) -> &str {
+        &self.inner.owner
+    }
+
+    fn fences(&self) -> std::sync::MutexGuard<'_, HashMap<String, u64>> {
+        self.inner
+            .fences
+            .lock()
+            .unwrap_or_else(|poisoned| poisoned.into_inner())
+    }
+
+    fn fence(&self, device: &Device) -> Option<u64> {
+        self.fences().get(&device.path()).copied()
+    }
+
+    fn forget(&self, device: &Device, fence: u64) {
+        let mut fences = self.fences();
+        if fences.get(&device.path()) == Some(&fence) {
+            fences.remove(&device.path());
+        }
+    }
+
+    /// One query; the reply's bytes and encoding.
+    async fn raw(
+        &self,
+        device: &Device,
+        command: &str,
+        extra: &[(&str, String)],
+        payload: Option<Vec<u8>>,
+        queued: bool,
+    ) -> Result<(Vec<u8>, Encoding), ClientError> {
+        let o = &self.inner.options;
+        let key = o.root.robot(&self.inner.robot, device, command);
+        let mut params: Vec<(&str, String)> = extra.to_vec();
+        if o.priority != DEFAULT_PRIORITY {
+            params.push((param::PRIORITY, o.priority.to_string()));
+        }
+        let holds = self.fence(device);
+        if let (Some(f), false) = (holds, extra.iter().any(|(k, _)| *k == param::FENCE)) {
+            params.push((param::FENCE, f.to_string()));
+        }
+        let wait = if queued && holds.is_none() {
+            params.push((param::WAIT_MS, o.queue_wait.as_millis().to_string()));
+            o.queue_wait
+        } else {
+            Duration::ZERO
+        };
+        let timeout = wait + o.reply_timeout;
+        let selector = selector(&key, &params);
+        let mut get = self
+            .inner
+            .session
+            .get(selector.as_str())
+            .timeout(timeout)
+            .priority(zenoh_priority(o.priority));
+        if let Some(p) = payload {
+            get = get.payload(p).encoding(Encoding::APPLICATION_JSON);
+        }
+        let started = std::time::Instant::now();
+        let replies = get.await.map_err(ClientError::zenoh)?;
+        match replies.recv_async().await {
+            Ok(reply) => match reply.result() {
+                Ok(sample) => Ok((
+                    sample.payload().to_bytes().into_owned(),
+                    sample.encoding().clone(),
+                )),
+                Err(err) => match refusal(&err.payload().to_bytes())? {
+                    Some(e) => Err(ClientError::Server(e)),
+                    None => Err(no_reply(device, key, started.elapsed())),
+                },
+            },
+            Err(_) => Err(no_reply(device, key, started.elapsed())),
+        }
+    }
+
+    async fn json<T: DeserializeOwned>(
+        &self,
+        device: &Device,
+        command: &str,
+        params: &[(&str, String)],
+        body: Option<&(impl Serialize + ?Sized)>,
+        queued: bool,
+    ) -> Result<T, ClientError> {
+        let (bytes, _) = self
+            .raw(device, command, params, body.map(|b| encode(b)), queued)
+            .await?;
+        Ok(decode(&bytes, &format!("'{command}' reply"))?)
+    }
+
+    async fn base<T: DeserializeOwned>(
+        &self,
+        command: &str,
+        body: Option<&(impl Serialize + ?Sized)>,
+    ) -> Result<T, ClientError> {
+        self.json(&Device::Base, command, &[], body, true).await
+    }
+
+    // ----- base (RServer, Table 4.1) ---------------------------------------
+
+    /// `RobotMove`: go `distance_mm` (negative backwards) at a velocity and
+    /// acceleration (negative: keep the current settings).
+    pub async fn move_by(
+        &self,
+        distance_mm: f64,
+        velocity_mm_s: f64,
+        accel_mm_s2: f64,
+    ) -> Result<Done, ClientError> {
+        let m = Move {
+            distance_mm,
+            velocity_mm_s,
+            accel_mm_s2,
+        };
+        self.base("move", Some(&m)).await
+    }
+
+    /// `RobotTurn`: turn by `degrees`, positive clockwise.
+    pub async fn turn(
+        &self,
+        degrees: f64,
+        velocity_deg_s: f64,
+        accel_deg_s2: f64,
+    ) -> Result<Done, ClientError> {
+        let t = Turn {
+            degrees,
+            velocity_deg_s,
+            accel_deg_s2,
+        };
+        self.base("turn", Some(&t)).await
+    }
+
+    /// `RobotGo`: Go mode at a velocity.
+    pub async fn go(&self, velocity_mm_s: f64) -> Result<Done, ClientError> {
+        self.base("go", Some(&Go { velocity_mm_s })).await
+    }
+
+    /// `RobotJog`: Jog mode at a turn rate, positive clockwise.
+    pub async fn jog(&self, rate_deg_s: f64) -> Result<Done, ClientError> {
+        self.base("jog", Some(&Jog { rate_deg_s })).await
+    }
+
+    /// `RobotStop`: at once (`emergency`) or gradually.
+    pub async fn stop(&self, emergency: bool) -> Result<Done, ClientError> {
+        self.base("stop", Some(&Stop { emergency })).await
+    }
+
+    /// `RobotGetPos`: the pose in virtual 32-bit coordinates.
+    pub async fn pose(&self) -> Result<PoseReply, ClientError> {
+        self.base("pose", None::<&()>).await
+    }
+
+    /// `RobotSetPos`: sets the position registers.
+    pub async fn set_pose(
+        &self,
+        x_mm: i64,
+        y_mm: i64,
+        heading_deg: f64,
+    ) -> Result<Done, ClientError> {
+        let p = SetPose {
+            x_mm,
+            y_mm,
+            heading_deg,
+        };
+        self.base("set-pose", Some(&p)).await
+    }
+
+    /// `RobotAdjPos`: adds to the position and heading.
+    pub async fn adjust_pose(
+        &self,
+        dx_mm: i64,
+        dy_mm: i64,
+        dheading_deg: f64,
+    ) -> Result<Done, ClientError> {
+        let a = AdjustPose {
+            dx_mm,
+            dy_mm,
+            dheading_deg,
+        };
+        self.base("adjust-pose", Some(&a)).await
+    }
+
+    /// `RobotGetBumper`: the bumper status.
+    pub async fn bumper(&self) -> Result<BumperReply, ClientError> {
+        self.base("bumper", None::<&()>).await
+    }
+
+    /// `RobotSetBumper`: watch (stop on contact) or ignore the bumpers.
+    pub async fn set_bumper(&self, watch: bool) -> Result<Done, ClientError> {
+        self.base("set-bumper", Some(&SetBumper { watch })).await
+    }
+
+    /// `RobotGetSpeed`: the velocity setting.
+    pub async fn speed(&self) -> Result<SpeedReply, ClientError> {
+        self.base("speed", None::<&()>).await
+    }
+
+    /// `RobotGetWSpeed`: the mean wheel speed.
+    pub async fn wheel_speed(&self) -> Result<WheelSpeedReply, ClientError> {
+        self.base("wheel-speed", None::<&()>).await
+    }
+
+    /// `RobotGetMode`: the operating mode.
+    pub async fn mode(&self) -> Result<ModeReply, ClientError> {
+        self.base("mode", None::<&()>).await
+    }
+
+    /// `RobotLock`: waits for the base's lock token (in the queue like any
+    /// request) and holds it until the [`Lock`] is dropped.
+    pub async fn lock(&self) -> Result<Lock, ClientError> {
+        self.lock_device(Device::Base).await
+    }
+
+    /// Subscribes to the base's state stream.
+    pub async fn state(&self) -> Result<Stream<BaseState>, ClientError> {
+        self.stream(&Device::Base, "state").await
+    }
+
+    // ----- proximity (PServer, §4.6.2) -------------------------------------
+
+    /// `ProxReadSonar`: the 24 sonar ranges, mm.
+    pub async fn sonar(&self) -> Result<SonarReply, ClientError> {
+        self.json(&Device::Proximity, "sonar", &[], None::<&()>, true)
+            .await
+    }
+
+    /// `ProxReadInfraRed`: 24 infrared slots, 1 = something near.
+    pub async fn infrared(&self) -> Result<IrReply, ClientError> {
+        self.json(&Device::Proximity, "ir", &[], None::<&()>, true)
+            .await
+    }
+
+    /// `ProxSetTimeout`: each sonar's maximum range, mm.
+    pub async fn set_timeout(&self, max_mm: [u32; SONARS]) -> Result<TimeoutReply, ClientError> {
+        let body = SetTimeout {
+            max_mm: MaxRange::Each(max_mm.to_vec()),
+        };
+        self.json(&Device::Proximity, "timeout", &[], Some(&body), true)
+            .await
+    }
+
+    /// Subscribes to the scan stream.
+    pub async fn scans(&self) -> Result<Stream<Scan>, ClientError> {
+        self.stream(&Device::Proximity, "scan").await
+    }
+
+    // ----- cameras (CServer, §4.6.4) ---------------------------------------
+
+    fn camera(name: &str) -> Result<Device, ClientError> {
+        Ok(Device::Camera(robot_name(name)?))
+    }
+
+    /// `CameraGetSize`.
+    pub async fn camera_size(&self, camera: &str) -> Result<SizeReply, ClientError> {
+        self.json(&Self::camera(camera)?, "size", &[], None::<&()>, true)
+            .await
+    }
+
+    /// `CameraGrab`: the last image the server grabbed.
+    pub async fn camera_grab(&self, camera: &str) -> Result<Image, ClientError> {
+        let (bytes, encoding) = self
+            .raw(&Self::camera(camera)?, "grab", &[], None, true)
+            .await?;
+        image(bytes, &encoding)
+    }
+
+    /// `CameraGrabRow`: some rows of the last image, in one round trip.
+    pub async fn camera_rows(&self, camera: &str, rows: &[u32]) -> Result<Image, ClientError> {
+        let list: Vec<String> = rows.iter().map(u32::to_string).collect();
+        let params = [(param::ROWS, list.join(","))];
+        let (bytes, encoding) = self
+            .raw(&Self::camera(camera)?, "rows", &params, None, true)
+            .await?;
+        image(bytes, &encoding)
+    }
+
+    /// `CameraLock`: freezes the camera's grabbing for this client.
+    pub async fn camera_lock(&self, camera: &str) -> Result<Lock, ClientError> {
+        self.lock_device(Self::camera(camera)?).await
+    }
+
+    // ----- locks and streams ----------------------------------------------
+
+    async fn lock_device(&self, device: Device) -> Result<Lock, ClientError> {
+        let o = &self.inner.options;
+        let params = [
+            (param::OWNER, self.inner.owner.clone()),
+            (param::TTL_MS, o.lock_ttl.as_millis().to_string()),
+        ];
+        let grant: LockGrant = self
+            .json(&device, "lock", &params, None::<&()>, true)
+            .await?;
+        self.fences().insert(device.path(), grant.fence);
+        let renew = tokio::spawn(renew(self.clone(), device.clone(), grant.fence, o.lock_ttl));
+        Ok(Lock {
+            client: self.clone(),
+            device,
+            grant,
+            renew,
+            released: false,
+        })
+    }
+
+    async fn stream<T: DeserializeOwned>(
+        &self,
+        device: &Device,
+        chunk: &str,
+    ) -> Result<Stream<T>, ClientError> {
+        let key = self
+            .inner
+            .options
+            .root
+            .robot(&self.inner.robot, device, chunk);
+        let subscriber = self
+            .inner
+            .session
+            .declare_subscriber(&key)
+            .await
+            .map_err(ClientError::zenoh)?;
+        Ok(Stream {
+            subscriber,
+            what: chunk.to_string(),
+            _t: std::marker::PhantomData,
+        })
+    }
+}
+
+/// Keeps a grant alive: a renewal every third of its life.
+async fn renew(client: RobotClient, device: Device, fence: u64, ttl: Duration) {
+    let every = ttl / 3;
+    loop {
+        tokio::time::sleep(every).await;
+        let params = [
+            (param::OWNER, client.inner.owner.clone()),
+            (param::FENCE, fence.to_string()),
+        ];
+        let renewed: Result<LockGrant, ClientError> =
+            client.json(&device, "lock", &params, None::<&()>, false).await;
+        match renewed {
+            Ok(_) => {}
+            Err(e) if e.code() == Some(ErrorCode::StaleFence) => {
+                tracing::warn!(device = %device.path(), fence, "lock lost: {e}");
+                client.forget(&device, fence);
+                return;
+            }
+            // A lost renewal is retried next time; the grant outlives two.
+            Err(e) => tracing::debug!(device = %device.path(), error = %e, "lock renewal unanswered"),
+        }
+    }
+}
+
+fn no_reply(device: &Device, key: String, waited: Duration) -> ClientError {
+    ClientError::NoReply {
+        what: match device {
+            Device::Base => "the base server",
+            Device::Proximity => "the proximity server",
+            Device::Camera(_) => "the camera server",
+        },
+        key,
+        waited,
+    }
+}
+
+fn image(bytes: Vec<u8>, encoding: &Encoding) -> Result<Image, ClientError> {
+    let text = encoding.to_string();
+    let schema = text.split_once(';').map(|(_, s)| s).unwrap_or_default();
+    let g = Gray8::parse(schema)?;
+    let rows = g.rows.unwrap_or_else(|| (0..g.height).collect());
+    if bytes.len() != rows.len() * g.width as usize {
+        return Err(ClientError::Server(rome_schema::ErrorReply::new(
+            ErrorCode::Device,
+            format!(
+                "image reply has {} bytes, not {} rows × {} columns",
+                bytes.len(),
+                rows.len(),
+                g.width
+            ),
+        )));
+    }
+    Ok(Image {
+        width: g.width,
+        height: g.height,
+        frame: g.frame,
+        time_ms: g.time_ms,
+        rows,
+        pixels: bytes,
+    })
+}
+
+/// A subscription to a server's stream (`state`, `scan`).
+pub struct Stream<T> {
+    subscriber: Subscriber<FifoChannelHandler<Sample>>,
+    what: String,
+    _t: std::marker::PhantomData<T>,
+}
+
+impl<T: DeserializeOwned> Stream<T> {
+    /// The next message; `None` when the session closed.
+    pub async fn next(&self) -> Option<Result<T, ClientError>> {
+        let sample = self.subscriber.recv_async().await.ok()?;
+        Some(
+            decode(&sample.payload().to_bytes(), &self.what).map_err(ClientError::from),
+        )
+    }
+}

@@ -1,0 +1,372 @@
+//! The base server (the thesis' RServer, §4.6.3): Table 4.1 over Zenoh.
+//!
+//! ```text
+//! rome/robot/<robot>/base/move          {"distance_mm":2000,"velocity_mm_s":300,"accel_mm_s2":-1}
+//! rome/robot/<robot>/base/turn          {"degrees":90,"velocity_deg_s":-1,"accel_deg_s2":-1}
+//! rome/robot/<robot>/base/go            {"velocity_mm_s":400}
+//! rome/robot/<robot>/base/jog           {"rate_deg_s":-4}
+//! rome/robot/<robot>/base/stop          {"emergency":true}
+//! rome/robot/<robot>/base/pose          (Get Position, 32-bit virtual coordinates)
+//! rome/robot/<robot>/base/set-pose      {"x_mm":0,"y_mm":0,"heading_deg":90}
+//! rome/robot/<robot>/base/adjust-pose   {"dx_mm":-120,"dy_mm":0,"dheading_deg":1.5}
+//! rome/robot/<robot>/base/bumper        (Get Bumper Status)
+//! rome/robot/<robot>/base/set-bumper    {"watch":true}
+//! rome/robot/<robot>/base/speed         (Get Speed Setting)
+//! rome/robot/<robot>/base/wheel-speed   (Get Wheel Speed)
+//! rome/robot/<robot>/base/mode          (Get Mode)
+//! rome/robot/<robot>/base/lock          ?owner=ID;ttl_ms=2500
+//! rome/robot/<robot>/base/unlock        ?fence=N
+//! rome/robot/<robot>/base/state         published at --state-hz
+//! ```
+
+use crate::device::{BaseDevice, BaseOp, BaseStatus, DeviceError};
+use crate::server::{Body, Service};
+use crate::vxy::{Pose32, Pose32Target, VirtualPose};
+use rome_schema::robot::{
+    AdjustPose, BaseState, BumperReply, Done, Go, Jog, LockInfo, ModeReply, Move, PoseReply,
+    SetBumper, SetPose, SpeedReply, Stop, Turn, WheelSpeedReply,
+};
+use rome_schema::{decode, ErrorCode, ErrorReply, Params};
+use serde::de::DeserializeOwned;
+use std::time::Duration;
+
+/// The base server's commands (lock and unlock come with every lockable server).
+pub const COMMANDS: &[&str] = &[
+    "move",
+    "turn",
+    "go",
+    "jog",
+    "stop",
+    "pose",
+    "set-pose",
+    "adjust-pose",
+    "bumper",
+    "set-bumper",
+    "speed",
+    "wheel-speed",
+    "mode",
+];
+
+/// A parsed base command.
+#[derive(Debug, Clone, PartialEq)]
+pub enum BaseCmd {
+    /// A motion or setting carried to the device.
+    Op(BaseOp),
+    /// `pose`.
+    Pose,
+    /// `set-pose`.
+    SetPose(SetPose),
+    /// `adjust-pose`.
+    AdjustPose(AdjustPose),
+    /// `bumper`.
+    Bumper,
+    /// `speed`.
+    Speed,
+    /// `wheel-speed`.
+    WheelSpeed,
+    /// `mode`.
+    Mode,
+}
+
+/// The base server's state: its device and the virtual coordinate frame.
+pub struct Base<D: BaseDevice> {
+    robot: String,
+    device: D,
+    frame: VirtualPose,
+    state_period: Option<Duration>,
+}
+
+impl<D: BaseDevice> Base<D> {
+    /// A base server for `device`, publishing its state every `state_period`.
+    pub fn new(robot: &str, device: D, state_period: Option<Duration>) -> Self {
+        Base {
+            robot: robot.to_string(),
+            device,
+            frame: VirtualPose::default(),
+            state_period,
+        }
+    }
+
+    async fn status(&mut self, op: BaseOp) -> Result<(BaseStatus, Pose32), ErrorReply> {
+        let status = self.device.command(op).await.map_err(device_error)?;
+        let pose = self
+            .frame
+            .read(status.raw_x, status.raw_y, status.heading_deg);
+        Ok((status, pose))
+    }
+
+    fn set_frame(&mut self, raw_heading: f64, to: Pose32Target) -> Result<(), ErrorReply> {
+        if !(to.x_mm.abs() <= f64::from(i32::MAX)
+            && to.y_mm.abs() <= f64::from(i32::MAX)
+            && to.heading_deg.is_finite())
+        {
+            return Err(ErrorReply::new(
+                ErrorCode::OutOfRange,
+                "the position must fit 32-bit millimetres and the heading be finite",
+            ));
+        }
+        self.frame.set(raw_heading, to);
+        Ok(())
+    }
+}
+
+fn device_error(e: DeviceError) -> ErrorReply {
+    match e {
+        DeviceError::OutOfRange(m) => ErrorReply::new(ErrorCode::OutOfRange, m),
+        other => ErrorReply::new(ErrorCode::Device, other.to_string()),
+    }
+}
+
+/// Decodes a command's JSON payload strictly, naming the command.
+pub(crate) fn payload<T: DeserializeOwned>(
+    command: &str,
+    payload: Option<&[u8]>,
+    example: &str,
+) -> Result<T, ErrorReply> {
+    let bytes = payload.filter(|p| !p.is_empty()).ok_or_else(|| {
+        ErrorReply::new(
+            ErrorCode::BadJson,
+            format!("'{command}' needs a JSON payload such as {example}"),
+        )
+    })?;
+    decode(bytes, &format!("'{command}' payload")).map_err(|e| {
+        let text = e.to_string();
+        let code = if text.contains("invalid type") || text.contains("missing field") {
+            ErrorCode::WrongType
+        } else {
+            ErrorCode::BadJson
+        };
+        ErrorReply::new(code, format!("{text}; expected {example}"))
+    })
+}
+
+fn finite(command: &str, fields: &[(&str, f64)]) -> Result<(), ErrorReply> {
+    for (name, v) in fields {
+        if !v.is_finite() {
+            return Err(ErrorReply::new(
+                ErrorCode::OutOfRange,
+                format!("'{command}': {name} must be a finite number"),
+            ));
+        }
+    }
+    Ok(())
+}
+
+impl<D: BaseDevice> Service for Base<D> {
+    type Cmd = BaseCmd;
+
+    fn commands(&self) -> &'static [&'static str] {
+        COMMANDS
+    }
+
+    fn lockable(&self) -> bool {
+        true
+    }
+
+    fn parse(
+        &self,
+        command: &str,
+        params: Params,
+        body: Option<&[u8]>,
+    ) -> Result<BaseCmd, ErrorReply> {
+        params.finish(command, &["priority", "fence", "wait_ms"])?;
+        let no_payload = |cmd: BaseCmd| -> Result<BaseCmd, ErrorReply> {
+            match body {
+                Some(b) if !b.is_empty() && b.iter().any(|c| !c.is_ascii_whitespace()) => {
+                    Err(ErrorReply::new(
+                        ErrorCode::BadJson,
+                        format!("'{command}' takes no payload"),
+                    ))
+                }
+                _ => Ok(cmd),
+            }
+        };
+        Ok(match command {
+            "move" => {
+                let m: Move = payload(command, body, r#"{"distance_mm":2000,"velocity_mm_s":300}"#)?;
+                finite(
+                    command,
+                    &[
+                        ("distance_mm", m.distance_mm),
+                        ("velocity_mm_s", m.velocity_mm_s),
+                        ("accel_mm_s2", m.accel_mm_s2),
+                    ],
+                )?;
+                BaseCmd::Op(BaseOp::Move(m))
+            }
+            "turn" => {
+                let t: Turn = payload(command, body, r#"{"degrees":90}"#)?;
+                finite(
+                    command,
+                    &[
+                        ("degrees", t.degrees),
+                        ("velocity_deg_s", t.velocity_deg_s),
+                        ("accel_deg_s2", t.accel_deg_s2),
+                    ],
+                )?;
+                BaseCmd::Op(BaseOp::Turn(t))
+            }
+            "go" => {
+                let g: Go = payload(command, body, r#"{"velocity_mm_s":400}"#)?;
+                finite(command, &[("velocity_mm_s", g.velocity_mm_s)])?;
+                BaseCmd::Op(BaseOp::Go(g.velocity_mm_s))
+            }
+            "jog" => {
+                let j: Jog = payload(command, body, r#"{"rate_deg_s":-4}"#)?;
+                finite(command, &[("rate_deg_s", j.rate_deg_s)])?;
+                BaseCmd::Op(BaseOp::Jog(j.rate_deg_s))
+            }
+            "stop" => {
+                let s: Stop = match body {
+                    Some(b) if !b.is_empty() => payload(command, body, r#"{"emergency":true}"#)?,
+                    _ => Stop::default(),
+                };
+                BaseCmd::Op(BaseOp::Stop(s.emergency))
+            }
+            "set-pose" => {
+                let p: SetPose =
+                    payload(command, body, r#"{"x_mm":0,"y_mm":0,"heading_deg":90}"#)?;
+                finite(command, &[("heading_deg", p.heading_deg)])?;
+                BaseCmd::SetPose(p)
+            }
+            "adjust-pose" => {
+                let a: AdjustPose =
+                    payload(command, body, r#"{"dx_mm":-120,"dy_mm":0,"dheading_deg":1.5}"#)?;
+                finite(command, &[("dheading_deg", a.dheading_deg)])?;
+                BaseCmd::AdjustPose(a)
+            }
+            "set-bumper" => {
+                let s: SetBumper = payload(command, body, r#"{"watch":true}"#)?;
+                BaseCmd::Op(BaseOp::SetBumper(s.watch))
+            }
+            "pose" => no_payload(BaseCmd::Pose)?,
+            "bumper" => no_payload(BaseCmd::Bumper)?,
+            "speed" => no_payload(BaseCmd::Speed)?,
+            "wheel-speed" => no_payload(BaseCmd::WheelSpeed)?,
+            "mode" => no_payload(BaseCmd::Mode)?,
+            other => {
+                return Err(ErrorReply::new(
+                    ErrorCode::UnknownKey,
+                    format!("the base has no command '{other}'"),
+                ))
+            }
+        })
+    }
+
+    async fn apply(&mut self, cmd: BaseCmd, _lock: Option<LockInfo>) -> Result<Body, ErrorReply> {
+        match cmd {
+            BaseCmd::Op(op) => {
+                let name = match op {
+                    BaseOp::Move(_) => "move",
+                    BaseOp::Turn(_) => "turn",
+                    BaseOp::Go(_) => "go",
+                    BaseOp::Jog(_) => "jog",
+                    BaseOp::Stop(_) => "stop",
+                    BaseOp::SetBumper(_) => "set-bumper",
+                    BaseOp::Status => "status",
+                };
+                let (status, _) = self.status(op).await?;
+                Ok(Body::json(&Done {
+                    command: name.into(),
+                    mode: status.mode,
+                }))
+            }
+            BaseCmd::Pose => {
+                let (s, p) = self.status(BaseOp::Status).await?;
+                Ok(Body::json(&PoseReply {
+                    x_mm: p.x_mm,
+                    y_mm: p.y_mm,
+                    heading_deg: p.heading_deg,
+                    raw_x: s.raw_x,
+                    raw_y: s.raw_y,
+                    wraps_x: self.frame.x.wraps(),
+                    wraps_y: self.frame.y.wraps(),
+                }))
+            }
+            BaseCmd::SetPose(to) => {
+                let (s, _) = self.status(BaseOp::Status).await?;
+                self.set_frame(
+                    s.heading_deg,
+                    Pose32Target {
+                        x_mm: to.x_mm as f64,
+                        y_mm: to.y_mm as f64,
+                        heading_deg: to.heading_deg,
+                    },
+                )?;
+                Ok(Body::json(&Done {
+                    command: "set-pose".into(),
+                    mode: s.mode,
+                }))
+            }
+            BaseCmd::AdjustPose(d) => {
+                let (s, p) = self.status(BaseOp::Status).await?;
+                self.set_frame(
+                    s.heading_deg,
+                    Pose32Target {
+                        x_mm: f64::from(p.x_mm) + d.dx_mm as f64,
+                        y_mm: f64::from(p.y_mm) + d.dy_mm as f64,
+                        heading_deg: p.heading_deg + d.dheading_deg,
+                    },
+                )?;
+                Ok(Body::json(&Done {
+                    command: "adjust-pose".into(),
+                    mode: s.mode,
+                }))
+            }
+            BaseCmd::Bumper => {
+                let (s, _) = self.status(BaseOp::Status).await?;
+                Ok(Body::json(&BumperReply {
+                    status: s.bumpers,
+                    front: s.bumpers & 1 != 0,
+                    rear: s.bumpers & 2 != 0,
+                    watch: s.watch_bumpers,
+                }))
+            }
+            BaseCmd::Speed => {
+                let (s, _) = self.status(BaseOp::Status).await?;
+                Ok(Body::json(&SpeedReply {
+                    speed_mm_s: s.speed_mm_s,
+                }))
+            }
+            BaseCmd::WheelSpeed => {
+                let (s, _) = self.status(BaseOp::Status).await?;
+                Ok(Body::json(&WheelSpeedReply {
+                    wheel_speed_mm_s: s.wheel_speed_mm_s,
+                }))
+            }
+            BaseCmd::Mode => {
+                let (s, _) = self.status(BaseOp::Status).await?;
+                Ok(Body::json(&ModeReply { mode: s.mode }))
+            }
+        }
+    }
+
+    fn period(&self) -> Option<Duration> {
+        self.state_period
+    }
+
+    async fn tick(&mut self, lock: Option<LockInfo>) -> Option<(&'static str, Body)> {
+        match self.status(BaseOp::Status).await {
+            Ok((s, p)) => Some((
+                "state",
+                Body::json(&BaseState {
+                    robot: self.robot.clone(),
+                    time_ms: s.time_ms,
+                    x_mm: p.x_mm,
+                    y_mm: p.y_mm,
+                    heading_deg: p.heading_deg,
+                    speed_mm_s: s.speed_mm_s,
+                    wheel_speed_mm_s: s.wheel_speed_mm_s,
+                    mode: s.mode,
+                    bumpers: s.bumpers,
+                    watch_bumpers: s.watch_bumpers,
+                    lock,
+                }),
+            )),
+            Err(e) => {
+                tracing::warn!(robot = %self.robot, error = %e, "base state not read");
+                None
+            }
+        }
+    }
+}

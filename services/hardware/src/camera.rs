@@ -1,0 +1,228 @@
+//! The camera server (the thesis' CServer, §4.6.4): one per camera, each
+//! under its own key. It grabs periodically (every 0.5 s by default) and
+//! serves the last frame; while a client holds its lock it stops grabbing,
+//! so the holder reads one frozen image row by row.
+//!
+//! ```text
+//! rome/robot/<robot>/camera/<camera>/size    → {"width":512,"height":482}
+//! rome/robot/<robot>/camera/<camera>/grab    → gray8 bytes (?format=png for PNG)
+//! rome/robot/<robot>/camera/<camera>/rows    ?rows=120,241,360 → those rows' bytes, in order
+//! rome/robot/<robot>/camera/<camera>/lock    ?owner=ID;ttl_ms=2500
+//! rome/robot/<robot>/camera/<camera>/unlock  ?fence=N
+//! rome/robot/<robot>/camera/<camera>/frame   published after each grab
+//! ```
+
+use crate::device::{CameraDevice, Frame};
+use crate::server::{Body, Service};
+use rome_schema::robot::{parse_rows, param, FrameInfo, Gray8, LockInfo, SizeReply};
+use rome_schema::{ErrorCode, ErrorReply, Params};
+use std::time::Duration;
+use zenoh::bytes::Encoding;
+
+/// The camera server's commands.
+pub const COMMANDS: &[&str] = &["size", "grab", "rows"];
+/// The thesis' grab period.
+pub const DEFAULT_PERIOD: Duration = Duration::from_millis(500);
+/// The most rows one `rows` request may ask for.
+pub const MAX_ROWS: usize = 64;
+
+/// A parsed camera command.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum CameraCmd {
+    /// `size`.
+    Size,
+    /// `grab`, as PNG when true.
+    Grab {
+        /// PNG instead of raw gray8.
+        png: bool,
+    },
+    /// `rows`.
+    Rows(Vec<u32>),
+}
+
+/// The camera server's state: the device and the last frame.
+pub struct Camera<D: CameraDevice> {
+    robot: String,
+    name: String,
+    device: D,
+    period: Duration,
+    frame: Option<Frame>,
+    frames: u64,
+}
+
+impl<D: CameraDevice> Camera<D> {
+    /// A camera server for `device`, grabbing every `period`.
+    pub fn new(robot: &str, name: &str, device: D, period: Duration) -> Self {
+        Camera {
+            robot: robot.to_string(),
+            name: name.to_string(),
+            device,
+            period,
+            frame: None,
+            frames: 0,
+        }
+    }
+
+    async fn grab(&mut self) -> Result<(), ErrorReply> {
+        let frame = self
+            .device
+            .grab()
+            .await
+            .map_err(|e| ErrorReply::new(ErrorCode::Device, e.to_string()))?;
+        self.frames += 1;
+        self.frame = Some(frame);
+        Ok(())
+    }
+
+    /// The last frame, grabbing one first if there is none yet.
+    async fn current(&mut self) -> Result<&Frame, ErrorReply> {
+        if self.frame.is_none() {
+            self.grab().await?;
+        }
+        self.frame
+            .as_ref()
+            .ok_or_else(|| ErrorReply::new(ErrorCode::Device, "no frame grabbed"))
+    }
+
+    fn schema(&self, frame: &Frame, rows: Option<Vec<u32>>) -> Encoding {
+        let g = Gray8 {
+            width: frame.width,
+            height: frame.height,
+            frame: self.frames,
+            time_ms: frame.time_ms,
+            rows,
+        };
+        Encoding::APPLICATION_OCTET_STREAM.with_schema(g.schema())
+    }
+}
+
+fn png(frame: &Frame) -> Result<Vec<u8>, ErrorReply> {
+    let img = image::GrayImage::from_raw(frame.width, frame.height, frame.pixels.clone())
+        .ok_or_else(|| ErrorReply::new(ErrorCode::Device, "frame size does not match its pixels"))?;
+    let mut out = std::io::Cursor::new(Vec::new());
+    img.write_to(&mut out, image::ImageFormat::Png)
+        .map_err(|e| ErrorReply::new(ErrorCode::Device, format!("PNG encoding failed: {e}")))?;
+    Ok(out.into_inner())
+}
+
+impl<D: CameraDevice> Service for Camera<D> {
+    type Cmd = CameraCmd;
+
+    fn commands(&self) -> &'static [&'static str] {
+        COMMANDS
+    }
+
+    fn lockable(&self) -> bool {
+        true
+    }
+
+    fn parse(
+        &self,
+        command: &str,
+        mut params: Params,
+        _body: Option<&[u8]>,
+    ) -> Result<CameraCmd, ErrorReply> {
+        match command {
+            "size" => {
+                params.finish(command, &["priority", "fence", "wait_ms"])?;
+                Ok(CameraCmd::Size)
+            }
+            "grab" => {
+                let format = params.take_id(param::FORMAT)?;
+                params.finish(command, &["format", "priority", "fence", "wait_ms"])?;
+                match format.as_deref() {
+                    None | Some("raw") => Ok(CameraCmd::Grab { png: false }),
+                    Some("png") => Ok(CameraCmd::Grab { png: true }),
+                    Some(other) => Err(ErrorReply::new(
+                        ErrorCode::BadParameter,
+                        format!("'grab': format must be 'raw' or 'png', got '{other}'"),
+                    )),
+                }
+            }
+            "rows" => {
+                let list = params.take_text(param::ROWS).ok_or_else(|| {
+                    ErrorReply::new(
+                        ErrorCode::BadParameter,
+                        "'rows' needs the parameter 'rows' (e.g. rows=120,241,360)",
+                    )
+                })?;
+                params.finish(command, &["rows", "priority", "fence", "wait_ms"])?;
+                let rows = parse_rows(&list)?;
+                let (_, height) = self.device.size();
+                if rows.is_empty() || rows.len() > MAX_ROWS {
+                    return Err(ErrorReply::new(
+                        ErrorCode::OutOfRange,
+                        format!("'rows': ask for 1 … {MAX_ROWS} rows, got {}", rows.len()),
+                    ));
+                }
+                if let Some(r) = rows.iter().find(|r| **r >= height) {
+                    return Err(ErrorReply::new(
+                        ErrorCode::OutOfRange,
+                        format!("'rows': row {r} is outside the image (rows 0 … {})", height - 1),
+                    ));
+                }
+                Ok(CameraCmd::Rows(rows))
+            }
+            other => Err(ErrorReply::new(
+                ErrorCode::UnknownKey,
+                format!("the camera server has no command '{other}'"),
+            )),
+        }
+    }
+
+    async fn apply(&mut self, cmd: CameraCmd, _lock: Option<LockInfo>) -> Result<Body, ErrorReply> {
+        match cmd {
+            CameraCmd::Size => {
+                let (width, height) = self.device.size();
+                Ok(Body::json(&SizeReply { width, height }))
+            }
+            CameraCmd::Grab { png: as_png } => {
+                let frame = self.current().await?.clone();
+                if as_png {
+                    Ok(Body::Binary(png(&frame)?, Encoding::IMAGE_PNG))
+                } else {
+                    let encoding = self.schema(&frame, None);
+                    Ok(Body::Binary(frame.pixels, encoding))
+                }
+            }
+            CameraCmd::Rows(rows) => {
+                let frame = self.current().await?.clone();
+                let w = frame.width as usize;
+                let mut out = Vec::with_capacity(w * rows.len());
+                for r in &rows {
+                    let start = *r as usize * w;
+                    out.extend_from_slice(&frame.pixels[start..start + w]);
+                }
+                let encoding = self.schema(&frame, Some(rows));
+                Ok(Body::Binary(out, encoding))
+            }
+        }
+    }
+
+    fn period(&self) -> Option<Duration> {
+        Some(self.period)
+    }
+
+    async fn tick(&mut self, lock: Option<LockInfo>) -> Option<(&'static str, Body)> {
+        if lock.is_some() {
+            // Frozen while locked (§4.6.4).
+            return None;
+        }
+        if let Err(e) = self.grab().await {
+            tracing::warn!(robot = %self.robot, camera = %self.name, error = %e, "grab failed");
+            return None;
+        }
+        let frame = self.frame.as_ref()?;
+        Some((
+            "frame",
+            Body::json(&FrameInfo {
+                robot: self.robot.clone(),
+                camera: self.name.clone(),
+                frame: self.frames,
+                time_ms: frame.time_ms,
+                width: frame.width,
+                height: frame.height,
+            }),
+        ))
+    }
+}

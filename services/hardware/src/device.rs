@@ -1,0 +1,128 @@
+//! One trait per device kind; a hardware server owns one device through it.
+//!
+//! The simulated backend ([`crate::sim`]) and the serial Pioneer backend
+//! ([`crate::serial`]) implement these, and tests can script their own.
+
+use rome_schema::robot::{Move, Turn, SONARS};
+use std::future::Future;
+
+/// A device could not carry out a command.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum DeviceError {
+    /// The device did not answer within its timeout.
+    #[error("the {device} did not answer within {waited_ms} ms; it is being reconnected")]
+    NoAnswer {
+        /// Which device.
+        device: String,
+        /// How long the server waited.
+        waited_ms: u64,
+    },
+    /// The device is not connected (yet, or any more).
+    #[error("the {device} is not connected: {why}")]
+    Disconnected {
+        /// Which device.
+        device: String,
+        /// What the last attempt said.
+        why: String,
+    },
+    /// A value is outside what the device accepts.
+    #[error("{0}")]
+    OutOfRange(String),
+    /// The device cannot do this.
+    #[error("{0}")]
+    Unsupported(String),
+}
+
+/// What the base can be told to do (Table 4.1's motion and setting commands).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum BaseOp {
+    /// Read the status only.
+    Status,
+    /// Point-to-point go.
+    Move(Move),
+    /// Point-to-point turn.
+    Turn(Turn),
+    /// Go mode at a velocity, mm/s.
+    Go(f64),
+    /// Jog mode at a turn rate, °/s, positive clockwise.
+    Jog(f64),
+    /// Stop: emergency (true) or gradual.
+    Stop(bool),
+    /// Watch (true) or ignore the bumpers.
+    SetBumper(bool),
+}
+
+/// The base's registers and settings after a command.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BaseStatus {
+    /// The device's clock, ms.
+    pub time_ms: u64,
+    /// x register, mm (16-bit, wraps).
+    pub raw_x: i16,
+    /// y register, mm (16-bit, wraps).
+    pub raw_y: i16,
+    /// Heading, degrees (North 0, West 90).
+    pub heading_deg: f64,
+    /// Velocity setting, mm/s.
+    pub speed_mm_s: f64,
+    /// Mean magnitude of the wheel velocities, mm/s.
+    pub wheel_speed_mm_s: f64,
+    /// Operating mode name.
+    pub mode: String,
+    /// Bumpers: bit 0 front, bit 1 rear.
+    pub bumpers: u8,
+    /// Whether contact stops the robot.
+    pub watch_bumpers: bool,
+}
+
+/// A robot base (the LABMATE of §4.6.3, a Pioneer, a simulated one).
+pub trait BaseDevice: Send + Sync + 'static {
+    /// Carries out `op` and returns the status afterwards.
+    fn command(
+        &mut self,
+        op: BaseOp,
+    ) -> impl Future<Output = Result<BaseStatus, DeviceError>> + Send;
+}
+
+/// One reading of the sonar ring and infrared detectors.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct RawScan {
+    /// When the ring fired, device ms.
+    pub time_ms: u64,
+    /// 24 ranges, mm.
+    pub sonar_mm: [u32; SONARS],
+    /// Infrared bits, bit i = detector i (8 fitted).
+    pub ir: u32,
+}
+
+/// The proximity subsystem (§4.6.2).
+pub trait ProximityDevice: Send + Sync + 'static {
+    /// The latest scan.
+    fn scan(&mut self) -> impl Future<Output = Result<RawScan, DeviceError>> + Send;
+    /// Sets each sonar's maximum range, mm; returns what is in force.
+    fn set_timeout(
+        &mut self,
+        max_mm: [u32; SONARS],
+    ) -> impl Future<Output = Result<[u32; SONARS], DeviceError>> + Send;
+}
+
+/// One grabbed image, 8-bit gray, row-major.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Frame {
+    /// When it was grabbed, device ms.
+    pub time_ms: u64,
+    /// Columns.
+    pub width: u32,
+    /// Rows.
+    pub height: u32,
+    /// width × height bytes.
+    pub pixels: Vec<u8>,
+}
+
+/// A camera and its frame grabber (§4.6.4).
+pub trait CameraDevice: Send + Sync + 'static {
+    /// The image size, (width, height).
+    fn size(&self) -> (u32, u32);
+    /// Grabs a new image.
+    fn grab(&mut self) -> impl Future<Output = Result<Frame, DeviceError>> + Send;
+}

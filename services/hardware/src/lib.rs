@@ -1,0 +1,29 @@
+//! The RoME hardware servers: one server per device, each the only owner of
+//! its device (§4.6.2–4.6.4).
+//!
+//! How this crate is laid out:
+//! - [`server`]: what every hardware server shares on Zenoh: the queryable,
+//!   the [`gate`] (client priorities, the lock token with fencing numbers),
+//!   the lock's storage record and liveliness watch, the publication stream.
+//! - [`base`] (RServer, Table 4.1), [`proximity`] (PServer) and [`camera`]
+//!   (CServer): each device's commands, one `parse` and one `apply`.
+//! - [`vxy`]: virtual 32-bit coordinates over 16-bit registers (§4.6.3).
+//! - [`device`]: one trait per device kind; [`sim`] implements them on the
+//!   simulated world, [`serial`] for a Pioneer base over a serial line
+//!   (P2OS/ARCOS).
+//! - [`storage`]: a Zenoh storage in memory, for runs without a router.
+//! - [`robot`]: starts every server of a simulated robot as its own task.
+
+pub mod base;
+pub mod camera;
+pub mod device;
+pub mod gate;
+pub mod proximity;
+pub mod robot;
+// pub mod serial;
+pub mod server;
+pub mod sim;
+pub mod storage;
+pub mod vxy;
+
+pub use server::{Body, ServerConfig, ServerError, Service};

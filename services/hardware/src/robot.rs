@@ -1,0 +1,119 @@
+//! Starting hardware servers as tasks: one task per device, so one
+//! failing does not stop the others (§4.7: servers stay independent).
+
+use crate::base::Base;
+use crate::camera::{self, Camera};
+use crate::proximity::Proximity;
+use crate::server::{self, ServerConfig, ServerError, Service};
+use crate::sim::SimWorld;
+use rome_schema::robot::Device;
+use rome_schema::{Name, Root};
+use std::time::Duration;
+use zenoh::Session;
+
+/// Rates of a robot's servers.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Rates {
+    /// How often the base publishes its state (`None`: never).
+    pub state: Option<Duration>,
+    /// How often the proximity server looks for a new scan to publish.
+    pub scan: Option<Duration>,
+    /// How often each camera grabs.
+    pub camera: Duration,
+}
+
+impl Default for Rates {
+    fn default() -> Self {
+        Rates {
+            state: Some(Duration::from_millis(100)),
+            scan: Some(Duration::from_millis(50)),
+            camera: camera::DEFAULT_PERIOD,
+        }
+    }
+}
+
+/// A hardware server running in a task of this process.
+pub struct Running {
+    label: String,
+    stop: Option<tokio::sync::oneshot::Sender<()>>,
+    task: tokio::task::JoinHandle<Result<(), ServerError>>,
+}
+
+impl Running {
+    /// `robot r1 base` …
+    pub fn label(&self) -> &str {
+        &self.label
+    }
+
+    /// Whether the task has ended (stopped, failed or aborted).
+    pub fn is_finished(&self) -> bool {
+        self.task.is_finished()
+    }
+
+    /// Kills the server at once, as a crash would.
+    pub fn abort(&self) {
+        self.task.abort();
+    }
+
+    /// Stops the server and waits for it; `Ok` if it had already ended.
+    pub async fn stop(mut self) -> Result<(), ServerError> {
+        if let Some(stop) = self.stop.take() {
+            let _ = stop.send(());
+        }
+        match self.task.await {
+            Ok(result) => result,
+            Err(_) => Ok(()),
+        }
+    }
+}
+
+/// Runs `service` as a hardware server in a task.
+pub fn spawn<S: Service>(session: &Session, config: ServerConfig, service: S) -> Running {
+    let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
+    let label = config.label();
+    let task = tokio::spawn(server::run(session.clone(), config, service, async move {
+        let _ = stopped.await;
+    }));
+    Running {
+        label,
+        stop: Some(stop),
+        task,
+    }
+}
+
+/// Starts the base, proximity and both camera servers of simulated robot
+/// `robot`, each in its own task.
+pub fn spawn_sim_robot(
+    session: &Session,
+    root: &Root,
+    world: &SimWorld,
+    robot: &str,
+    rates: Rates,
+) -> Result<Vec<Running>, ServerError> {
+    let sim_err = |e: rome_sim::SimError| ServerError::Config(e.to_string());
+    let mut out = Vec::new();
+    out.push(spawn(
+        session,
+        ServerConfig::new(root, robot, Device::Base)?,
+        Base::new(robot, world.base(robot).map_err(sim_err)?, rates.state),
+    ));
+    out.push(spawn(
+        session,
+        ServerConfig::new(root, robot, Device::Proximity)?,
+        Proximity::new(robot, world.proximity(robot).map_err(sim_err)?, rates.scan),
+    ));
+    for which in rome_sim::Camera::ALL {
+        let name = Name::new(which.name()).map_err(|e| ServerError::Config(e.to_string()))?;
+        out.push(spawn(
+            session,
+            ServerConfig::new(root, robot, Device::Camera(name))?,
+            Camera::new(
+                robot,
+                which.name(),
+                world.camera(robot, which).map_err(sim_err)?,
+                rates.camera,
+            ),
+        ));
+    }
+    Ok(out)
+}

@@ -1,0 +1,601 @@
+//! The Zenoh side every hardware server shares: one queryable on
+//! `<root>/robot/<robot>/<device>/*`, the [`Gate`] (priorities and lock),
+//! the lock's storage record, its liveliness watch, and the publication
+//! stream.
+//!
+//! As in the data server, every input becomes an event on one channel and
+//! one task owns the device, so requests reach the device one at a time.
+//! Before serving, the task takes in every request that has arrived, so
+//! when the device is slower than its clients the queue, not arrival
+//! order, decides who goes next.
+
+use crate::gate::{Admit, Gate, Holder};
+use rome_schema::robot::{
+    param, robot_name, Device, LockGrant, LockInfo, LockRecord, Meta, Unlocked,
+    DEFAULT_LOCK_TTL_MS, LOCK_TTL_RANGE_MS,
+};
+use rome_schema::{decode, encode, ErrorCode, ErrorReply, Name, Params, Root};
+use std::future::Future;
+use std::time::{Duration, Instant, SystemTime};
+use zenoh::bytes::Encoding;
+use zenoh::qos::CongestionControl;
+use zenoh::query::{ConsolidationMode, Query};
+use zenoh::sample::{Sample, SampleKind};
+use zenoh::Session;
+
+/// How many events may wait for a server before Zenoh is pushed back.
+pub const EVENT_QUEUE: usize = 1024;
+/// How often lapsed grants and overdue requests are swept.
+pub const SWEEP: Duration = Duration::from_millis(100);
+
+/// A reply or publication body.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Body {
+    /// A JSON message.
+    Json(Vec<u8>),
+    /// Binary data with its encoding (images, rows).
+    Binary(Vec<u8>, Encoding),
+}
+
+impl Body {
+    /// A JSON body from a message.
+    pub fn json(message: &impl serde::Serialize) -> Self {
+        Body::Json(encode(message))
+    }
+}
+
+/// A device's commands: what a hardware server needs to know of them.
+pub trait Service: Send + Sync + 'static {
+    /// A parsed command.
+    type Cmd: Send + Sync + 'static;
+
+    /// The commands, for error messages and docs (lock/unlock excepted).
+    fn commands(&self) -> &'static [&'static str];
+
+    /// Whether the device has a lock token (base, cameras).
+    fn lockable(&self) -> bool;
+
+    /// Parses a command from its key chunk, parameters and payload; takes
+    /// the parameters it knows and refuses the rest.
+    fn parse(
+        &self,
+        command: &str,
+        params: Params,
+        payload: Option<&[u8]>,
+    ) -> Result<Self::Cmd, ErrorReply>;
+
+    /// Carries a command out on the device.
+    fn apply(
+        &mut self,
+        cmd: Self::Cmd,
+        lock: Option<LockInfo>,
+    ) -> impl Future<Output = Result<Body, ErrorReply>> + Send;
+
+    /// How often [`Service::tick`] runs; `None` for never.
+    fn period(&self) -> Option<Duration>;
+
+    /// Periodic work (the state stream, a scan, a grab): what to publish,
+    /// on which command chunk.
+    fn tick(
+        &mut self,
+        lock: Option<LockInfo>,
+    ) -> impl Future<Output = Option<(&'static str, Body)>> + Send;
+}
+
+/// Where and how a hardware server runs.
+#[derive(Debug, Clone)]
+pub struct ServerConfig {
+    /// The deployment's root prefix.
+    pub root: Root,
+    /// The robot's name (one key chunk).
+    pub robot: Name,
+    /// Which of its devices this server owns.
+    pub device: Device,
+}
+
+impl ServerConfig {
+    /// A server of `device` on robot `robot` under `root`.
+    pub fn new(root: &Root, robot: &str, device: Device) -> Result<Self, ServerError> {
+        let robot = robot_name(robot).map_err(|e| ServerError::Config(e.to_string()))?;
+        Ok(ServerConfig {
+            root: root.clone(),
+            robot,
+            device,
+        })
+    }
+
+    /// `robot r1 base`, `robot r1 camera up`: for logs and errors.
+    pub fn label(&self) -> String {
+        format!("robot {} {}", self.robot, self.device.path().replace('/', " "))
+    }
+
+    /// The server's liveliness token: `<root>/alive/server/robot/<robot>/<device>`.
+    pub fn alive_key(&self) -> String {
+        format!(
+            "{}/alive/server/robot/{}/{}",
+            self.root.as_str(),
+            self.robot,
+            self.device.path()
+        )
+    }
+}
+
+/// A hardware server could not start or failed.
+#[derive(Debug, thiserror::Error)]
+pub enum ServerError {
+    /// A Zenoh declaration failed.
+    #[error("could not declare {what}: {detail}")]
+    Declare {
+        /// What was being declared.
+        what: String,
+        /// Zenoh's error.
+        detail: String,
+    },
+    /// Another server already owns this device.
+    #[error("{label} is already served (liveliness token '{key}'): each device has one server")]
+    AlreadyServed {
+        /// Which device.
+        label: String,
+        /// The token seen.
+        key: String,
+    },
+    /// The configuration is not valid.
+    #[error("{0}")]
+    Config(String),
+}
+
+fn declare_err(what: &str, e: zenoh::Error) -> ServerError {
+    ServerError::Declare {
+        what: what.to_string(),
+        detail: e.to_string(),
+    }
+}
+
+enum Op<C> {
+    Lock { owner: String, ttl: Duration },
+    Unlock,
+    Do(C),
+}
+
+struct Pending<C> {
+    query: Query,
+    command: String,
+    arrived: Instant,
+    op: Op<C>,
+}
+
+enum Event {
+    Query(Query),
+    Alive(Sample),
+}
+
+struct Server<S: Service> {
+    session: Session,
+    config: ServerConfig,
+    service: S,
+    gate: Gate<Pending<S::Cmd>>,
+}
+
+/// Runs a hardware server for `service` until `shutdown` completes.
+///
+/// Refuses to start if another server already owns the device. Reads the
+/// lock's last state from the storage (`<root>/store/...`), so a restarted
+/// server knows the holder and never reuses a fence.
+pub async fn run<S: Service>(
+    session: Session,
+    config: ServerConfig,
+    service: S,
+    shutdown: impl Future<Output = ()>,
+) -> Result<(), ServerError> {
+    let alive_key = config.alive_key();
+    let existing = session
+        .liveliness()
+        .get(&alive_key)
+        .timeout(Duration::from_millis(500))
+        .await
+        .map_err(|e| declare_err("the liveliness query", e))?;
+    if let Ok(reply) = existing.recv_async().await {
+        if let Ok(sample) = reply.result() {
+            return Err(ServerError::AlreadyServed {
+                label: config.label(),
+                key: sample.key_expr().to_string(),
+            });
+        }
+    }
+
+    let (tx, rx) = flume::bounded(EVENT_QUEUE);
+    let sender = tx.clone();
+    let _queryable = session
+        .declare_queryable(config.root.robot_device_all(&config.robot, &config.device))
+        .callback(move |q| {
+            let _ = sender.send(Event::Query(q));
+        })
+        .await
+        .map_err(|e| declare_err("the device queryable", e))?;
+    let sender = tx;
+    let _alive = session
+        .liveliness()
+        .declare_subscriber(config.root.alive_clients())
+        .callback(move |s| {
+            let _ = sender.send(Event::Alive(s));
+        })
+        .await
+        .map_err(|e| declare_err("the liveliness subscriber", e))?;
+
+    let mut server = Server {
+        gate: Gate::new(0),
+        session,
+        config,
+        service,
+    };
+    if server.service.lockable() {
+        server.restore_lock().await;
+    }
+    let _token = server
+        .session
+        .liveliness()
+        .declare_token(&alive_key)
+        .await
+        .map_err(|e| declare_err("the liveliness token", e))?;
+    tracing::info!(server = %server.config.label(), "ready");
+
+    let mut sweep = tokio::time::interval(SWEEP);
+    let period = server.service.period();
+    let mut tick = tokio::time::interval(period.unwrap_or(Duration::from_secs(3600)));
+    tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+    tokio::pin!(shutdown);
+    loop {
+        tokio::select! {
+            biased;
+            _ = &mut shutdown => break,
+            Ok(event) = rx.recv_async() => {
+                server.take(event).await;
+                // Everything that arrived meanwhile joins the queue before
+                // the next request is chosen.
+                while let Ok(event) = rx.try_recv() {
+                    server.take(event).await;
+                }
+                server.drain().await;
+            }
+            _ = sweep.tick() => server.sweep().await,
+            _ = tick.tick(), if period.is_some() => server.tick().await,
+        }
+    }
+    for pending in server.gate.drain_all() {
+        let e = ErrorReply::new(
+            ErrorCode::ShuttingDown,
+            format!("{} is shutting down", server.config.label()),
+        );
+        reply_err(&pending.query, &e).await;
+    }
+    tracing::info!(server = %server.config.label(), "stopped");
+    Ok(())
+}
+
+impl<S: Service> Server<S> {
+    fn lock(&self) -> Option<LockInfo> {
+        self.gate.holder().map(Holder::info)
+    }
+
+    async fn take(&mut self, event: Event) {
+        match event {
+            Event::Query(q) => self.query(q).await,
+            Event::Alive(s) => self.alive(s).await,
+        }
+    }
+
+    fn parse(&self, command: &str, mut params: Params, payload: Option<&[u8]>) -> Result<Op<S::Cmd>, ErrorReply> {
+        let lockable = self.service.lockable();
+        match command {
+            "lock" if lockable => {
+                let owner = params
+                    .take_id(param::OWNER)?
+                    .unwrap_or_else(|| "anonymous".into());
+                let (lo, hi) = LOCK_TTL_RANGE_MS;
+                let ttl = params
+                    .take_int(param::TTL_MS, i128::from(lo), i128::from(hi))?
+                    .map_or(DEFAULT_LOCK_TTL_MS, |t| t as u64);
+                params.finish("lock", &[param::OWNER, param::TTL_MS])?;
+                Ok(Op::Lock {
+                    owner,
+                    ttl: Duration::from_millis(ttl),
+                })
+            }
+            "unlock" if lockable => {
+                params.finish("unlock", &[])?;
+                Ok(Op::Unlock)
+            }
+            _ => {
+                let known = self.service.commands();
+                if !known.contains(&command) {
+                    let mut all: Vec<&str> = known.to_vec();
+                    if lockable {
+                        all.extend(["lock", "unlock"]);
+                    }
+                    return Err(ErrorReply::new(
+                        ErrorCode::UnknownKey,
+                        format!(
+                            "{} has no command '{command}'; it has {}",
+                            self.config.label(),
+                            all.join(", ")
+                        ),
+                    ));
+                }
+                self.service.parse(command, params, payload).map(Op::Do)
+            }
+        }
+    }
+
+    async fn query(&mut self, query: Query) {
+        let key = query.key_expr().as_str().to_string();
+        if key.contains('*') {
+            // A wildcard sweep (`z_get rome/**`) is not a command to this
+            // server; let it finish without an answer from us.
+            return;
+        }
+        let mut params = Params::new(query.parameters().iter());
+        let meta = match Meta::take(&mut params) {
+            Ok(m) => m,
+            Err(e) => return reply_err(&query, &e).await,
+        };
+        let command = key.rsplit('/').next().unwrap_or_default().to_string();
+        let payload = query.payload().map(|p| p.to_bytes().into_owned());
+        let op = match self.parse(&command, params, payload.as_deref()) {
+            Ok(op) => op,
+            Err(e) => {
+                tracing::debug!(%key, error = %e, "request refused");
+                return reply_err(&query, &e).await;
+            }
+        };
+        if matches!(op, Op::Unlock) && meta.fence.is_none() {
+            let e = ErrorReply::new(
+                ErrorCode::BadParameter,
+                "'unlock' needs the grant's 'fence' parameter (the number 'lock' answered)",
+            );
+            return reply_err(&query, &e).await;
+        }
+        let now = Instant::now();
+        let pending = Pending {
+            query,
+            command,
+            arrived: now,
+            op,
+        };
+        let wait = Duration::from_millis(meta.wait_ms);
+        match self
+            .gate
+            .admit(meta.priority, meta.fence, wait, pending, now)
+        {
+            Admit::Now(p) => self.serve(p).await,
+            Admit::Queued => {}
+            Admit::Stale { fence, item } => {
+                let current = match self.gate.holder() {
+                    Some(h) => format!("the lock is held by '{}' with fence {}", h.owner, h.fence),
+                    None => "the lock is free".to_string(),
+                };
+                let e = ErrorReply::new(
+                    ErrorCode::StaleFence,
+                    format!(
+                        "fence {fence} on {} is stale: {current}; lock again to get a new fence",
+                        self.config.label()
+                    ),
+                );
+                reply_err(&item.query, &e).await;
+            }
+        }
+    }
+
+    /// Serves queued requests while the lock is free.
+    async fn drain(&mut self) {
+        while let Some(p) = self.gate.next() {
+            self.serve(p).await;
+        }
+    }
+
+    async fn serve(&mut self, p: Pending<S::Cmd>) {
+        let now = Instant::now();
+        let result = match p.op {
+            Op::Lock { owner, ttl } => {
+                // The holder's own lock request renews; anyone else's is
+                // served only while the lock is free.
+                let holder = match self.gate.holder() {
+                    Some(h) => h.clone(),
+                    None => {
+                        let h = self.gate.grant(&owner, ttl, now);
+                        tracing::info!(server = %self.config.label(), holder = %h.owner, fence = h.fence, "lock granted");
+                        self.persist().await;
+                        h
+                    }
+                };
+                Ok(Body::json(&LockGrant {
+                    holder: holder.owner,
+                    fence: holder.fence,
+                    ttl_ms: holder.ttl.as_millis() as u64,
+                }))
+            }
+            Op::Unlock => {
+                let fence = self.gate.holder().map_or(0, |h| h.fence);
+                match self.gate.release(fence) {
+                    Ok(h) => {
+                        tracing::info!(server = %self.config.label(), holder = %h.owner, fence = h.fence, "lock released");
+                        self.persist().await;
+                        Ok(Body::json(&Unlocked {
+                            released: true,
+                            fence: h.fence,
+                        }))
+                    }
+                    Err(_) => Err(ErrorReply::new(
+                        ErrorCode::Conflict,
+                        "the lock is not held",
+                    )),
+                }
+            }
+            Op::Do(cmd) => {
+                let lock = self.lock();
+                self.service.apply(cmd, lock).await
+            }
+        };
+        let key = p.query.key_expr().as_str().to_string();
+        match result {
+            Ok(body) => reply(&p.query, &key, body).await,
+            Err(e) => {
+                tracing::debug!(%key, command = %p.command, error = %e, "command failed");
+                reply_err(&p.query, &e).await
+            }
+        }
+    }
+
+    async fn alive(&mut self, sample: Sample) {
+        if sample.kind() != SampleKind::Delete {
+            return;
+        }
+        let Some(alive) = self.config.root.parse_alive(sample.key_expr().as_str()) else {
+            return;
+        };
+        if let Some(h) = self.gate.owner_gone(alive.id) {
+            tracing::warn!(server = %self.config.label(), holder = %h.owner, fence = h.fence, "lock holder gone; lock released");
+            self.persist().await;
+            self.drain().await;
+        }
+    }
+
+    async fn sweep(&mut self) {
+        let now = Instant::now();
+        if let Some(h) = self.gate.expire(now) {
+            tracing::warn!(server = %self.config.label(), holder = %h.owner, fence = h.fence, "lock not renewed in time; released");
+            self.persist().await;
+            self.drain().await;
+        }
+        for p in self.gate.overdue(now) {
+            let why = match self.gate.holder() {
+                Some(h) => format!("behind the lock held by '{}' (fence {})", h.owner, h.fence),
+                None => "in the queue".into(),
+            };
+            let e = ErrorReply::new(
+                ErrorCode::TimedOut,
+                format!(
+                    "'{}' waited {} ms {why} on {} and was not carried out (raise 'wait_ms' to wait longer)",
+                    p.command,
+                    p.arrived.elapsed().as_millis(),
+                    self.config.label()
+                ),
+            );
+            reply_err(&p.query, &e).await;
+        }
+    }
+
+    async fn tick(&mut self) {
+        let lock = self.lock();
+        if let Some((chunk, body)) = self.service.tick(lock).await {
+            let key = self
+                .config
+                .root
+                .robot(&self.config.robot, &self.config.device, chunk);
+            let (bytes, encoding) = match body {
+                Body::Json(b) => (b, Encoding::APPLICATION_JSON),
+                Body::Binary(b, e) => (b, e),
+            };
+            let sent = self
+                .session
+                .put(&key, bytes)
+                .encoding(encoding)
+                .congestion_control(CongestionControl::Drop)
+                .await;
+            if let Err(e) = sent {
+                tracing::warn!(%key, error = %e, "publication failed");
+            }
+        }
+    }
+
+    /// Writes the lock state to the storage.
+    async fn persist(&self) {
+        let key = self
+            .config
+            .root
+            .lock_store(&self.config.robot, &self.config.device);
+        let record = LockRecord {
+            holder: self.lock(),
+            last_fence: self.gate.last_fence(),
+            ttl_ms: self
+                .gate
+                .holder()
+                .map_or(DEFAULT_LOCK_TTL_MS, |h| h.ttl.as_millis() as u64),
+        };
+        let sent = self
+            .session
+            .put(&key, encode(&record))
+            .encoding(Encoding::APPLICATION_JSON)
+            .congestion_control(CongestionControl::Block)
+            .await;
+        if let Err(e) = sent {
+            tracing::error!(%key, error = %e, "lock state not stored");
+        }
+    }
+
+    /// Reads the lock state a previous run stored; without one, fences
+    /// start from the clock so they never repeat a lost run's.
+    async fn restore_lock(&mut self) {
+        let key = self
+            .config
+            .root
+            .lock_store(&self.config.robot, &self.config.device);
+        let mut record: Option<LockRecord> = None;
+        if let Ok(replies) = self
+            .session
+            .get(&key)
+            .consolidation(ConsolidationMode::Latest)
+            .timeout(Duration::from_secs(1))
+            .await
+        {
+            while let Ok(reply) = replies.recv_async().await {
+                if let Ok(sample) = reply.result() {
+                    match decode::<LockRecord>(&sample.payload().to_bytes(), "lock record") {
+                        Ok(r) => record = Some(r),
+                        Err(e) => tracing::warn!(%key, error = %e, "stored lock state unreadable"),
+                    }
+                }
+            }
+        }
+        let clock = SystemTime::now()
+            .duration_since(SystemTime::UNIX_EPOCH)
+            .map_or(0, |d| d.as_millis() as u64);
+        match record {
+            Some(r) => {
+                self.gate = Gate::new(r.last_fence);
+                if let Some(holder) = &r.holder {
+                    // The holder gets one grant life to show it is still there.
+                    self.gate
+                        .restore(holder, Duration::from_millis(r.ttl_ms), Instant::now());
+                    tracing::info!(server = %self.config.label(), holder = %holder.holder, fence = holder.fence, "lock restored from the storage");
+                }
+            }
+            None => self.gate = Gate::new(clock * 1000),
+        }
+    }
+}
+
+/// Zenoh sends a reply in its query's priority band, so a client's
+/// priority rides both ways without more work here.
+async fn reply(query: &Query, key: &str, body: Body) {
+    let (bytes, encoding) = match body {
+        Body::Json(b) => (b, Encoding::APPLICATION_JSON),
+        Body::Binary(b, e) => (b, e),
+    };
+    if let Err(e) = query
+        .reply(key, bytes)
+        .encoding(encoding)
+        .await
+    {
+        tracing::warn!(%key, error = %e, "reply failed");
+    }
+}
+
+async fn reply_err(query: &Query, e: &ErrorReply) {
+    if let Err(err) = query
+        .reply_err(encode(e))
+        .encoding(Encoding::APPLICATION_JSON)
+        .await
+    {
+        tracing::warn!(error = %err, "error reply failed");
+    }
+}

@@ -1,0 +1,217 @@
+//! The simulated devices: one [`rome_sim::Sim`] world, stepped on its own
+//! thread at a chosen pace, and each robot's base, proximity subsystem and
+//! cameras as [`BaseDevice`], [`ProximityDevice`] and [`CameraDevice`].
+
+use crate::device::{
+    BaseDevice, BaseOp, BaseStatus, CameraDevice, DeviceError, Frame, ProximityDevice, RawScan,
+};
+use rome_schema::robot::SONARS;
+use rome_sim::{Camera, Pacer, Sim, SimError};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex, MutexGuard};
+
+/// A world shared by its stepping thread and the devices of its robots.
+#[derive(Clone)]
+pub struct SimWorld {
+    sim: Arc<Mutex<Sim>>,
+}
+
+/// The stepping thread; stops when dropped.
+pub struct Stepper {
+    stop: Arc<AtomicBool>,
+    thread: Option<std::thread::JoinHandle<()>>,
+}
+
+impl Drop for Stepper {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+impl SimWorld {
+    /// Shares a world.
+    pub fn new(sim: Sim) -> Self {
+        SimWorld {
+            sim: Arc::new(Mutex::new(sim)),
+        }
+    }
+
+    /// The world, locked (a device that panicked mid-step leaves it usable).
+    pub fn lock(&self) -> MutexGuard<'_, Sim> {
+        self.sim.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
+    }
+
+    /// Steps the world on its own thread at `speed` × real time (`None`:
+    /// as fast as it goes).
+    pub fn start(&self, speed: Option<f64>) -> Stepper {
+        let stop = Arc::new(AtomicBool::new(false));
+        let world = self.clone();
+        let stopping = stop.clone();
+        let thread = std::thread::Builder::new()
+            .name("rome-sim".into())
+            .spawn(move || {
+                let pacer = Pacer::new(speed, world.lock().time_ms());
+                while !stopping.load(Ordering::Relaxed) {
+                    let now = {
+                        let mut sim = world.lock();
+                        sim.step();
+                        sim.time_ms()
+                    };
+                    let wait = pacer.wait(now);
+                    if !wait.is_zero() {
+                        std::thread::sleep(wait);
+                    } else if pacer.speed().is_none() {
+                        // Free-running: let the servers at the world now and then.
+                        std::thread::yield_now();
+                    }
+                }
+            })
+            .ok();
+        Stepper { stop, thread }
+    }
+
+    fn index(&self, robot: &str) -> Result<usize, SimError> {
+        self.lock().index(robot)
+    }
+
+    /// Robot `robot`'s base.
+    pub fn base(&self, robot: &str) -> Result<SimBase, SimError> {
+        Ok(SimBase {
+            world: self.clone(),
+            i: self.index(robot)?,
+        })
+    }
+
+    /// Robot `robot`'s sonars and infrared detectors.
+    pub fn proximity(&self, robot: &str) -> Result<SimProximity, SimError> {
+        Ok(SimProximity {
+            world: self.clone(),
+            i: self.index(robot)?,
+        })
+    }
+
+    /// One of robot `robot`'s cameras.
+    pub fn camera(&self, robot: &str, which: Camera) -> Result<SimCamera, SimError> {
+        let size = self.lock().config().image_size;
+        Ok(SimCamera {
+            world: self.clone(),
+            i: self.index(robot)?,
+            which,
+            size,
+        })
+    }
+}
+
+/// A simulated robot's base.
+pub struct SimBase {
+    world: SimWorld,
+    i: usize,
+}
+
+impl BaseDevice for SimBase {
+    async fn command(&mut self, op: BaseOp) -> Result<BaseStatus, DeviceError> {
+        let mut sim = self.world.lock();
+        let time_ms = sim.time_ms();
+        if op != BaseOp::Status {
+            let r = sim.robot_mut(self.i);
+            let d = &mut r.drive;
+            let done = match op {
+                BaseOp::Status => Ok(()),
+                BaseOp::Move(m) => d.move_by(m.distance_mm, m.velocity_mm_s, m.accel_mm_s2),
+                BaseOp::Turn(t) => d.turn(t.degrees, t.velocity_deg_s, t.accel_deg_s2),
+                BaseOp::Go(v) => d.go(v),
+                BaseOp::Jog(rate) => d.jog(rate),
+                BaseOp::Stop(emergency) => {
+                    d.stop(emergency);
+                    Ok(())
+                }
+                BaseOp::SetBumper(watch) => {
+                    r.bumpers.watch = watch;
+                    Ok(())
+                }
+            };
+            done.map_err(|e| DeviceError::OutOfRange(e.to_string()))?;
+        }
+        let r = sim.robot(self.i);
+        let regs = r.odometry.registers();
+        Ok(BaseStatus {
+            time_ms,
+            raw_x: regs.x,
+            raw_y: regs.y,
+            heading_deg: f64::from(regs.heading_centideg) / 100.0,
+            speed_mm_s: r.drive.speed_setting,
+            wheel_speed_mm_s: r.drive.wheel_speed(),
+            mode: r.drive.mode.name().to_string(),
+            bumpers: r.bumpers.status(),
+            watch_bumpers: r.bumpers.watch,
+        })
+    }
+}
+
+/// A simulated robot's proximity subsystem.
+pub struct SimProximity {
+    world: SimWorld,
+    i: usize,
+}
+
+impl ProximityDevice for SimProximity {
+    async fn scan(&mut self) -> Result<RawScan, DeviceError> {
+        let sim = self.world.lock();
+        let r = sim.robot(self.i);
+        Ok(RawScan {
+            time_ms: r.sonar_at_ms,
+            sonar_mm: r.sonar.map(u32::from),
+            ir: r.infrared,
+        })
+    }
+
+    async fn set_timeout(&mut self, max_mm: [u32; SONARS]) -> Result<[u32; SONARS], DeviceError> {
+        let mut sim = self.world.lock();
+        for (s, mm) in max_mm.iter().enumerate() {
+            let mm = u16::try_from(*mm)
+                .map_err(|_| DeviceError::OutOfRange(format!("sonar {s}: {mm} mm is too far")))?;
+            sim.set_timeout(self.i, s, mm)
+                .map_err(|e| DeviceError::OutOfRange(e.to_string()))?;
+        }
+        Ok(sim.robot(self.i).timeouts.map(u32::from))
+    }
+}
+
+/// A simulated robot's camera.
+pub struct SimCamera {
+    world: SimWorld,
+    i: usize,
+    which: Camera,
+    size: (u32, u32),
+}
+
+impl CameraDevice for SimCamera {
+    fn size(&self) -> (u32, u32) {
+        self.size
+    }
+
+    async fn grab(&mut self) -> Result<Frame, DeviceError> {
+        let world = self.world.clone();
+        let (i, which) = (self.i, self.which);
+        // Rendering takes milliseconds: off the async workers.
+        tokio::task::spawn_blocking(move || {
+            let mut sim = world.lock();
+            let time_ms = sim.time_ms();
+            let img = sim.grab_camera(i, which);
+            Frame {
+                time_ms,
+                width: img.width(),
+                height: img.height(),
+                pixels: img.into_raw(),
+            }
+        })
+        .await
+        .map_err(|e| DeviceError::Disconnected {
+            device: format!("{} camera", which.name()),
+            why: e.to_string(),
+        })
+    }
+}
