@@ -97,7 +97,11 @@ pub struct RobotKey {
 impl Root {
     /// `<root>/robot/<robot>/<device>/<command>`.
     pub fn robot(&self, robot: &Name, device: &Device, command: &str) -> String {
-        format!("{}/robot/{robot}/{}/{command}", self.as_str(), device.path())
+        format!(
+            "{}/robot/{robot}/{}/{command}",
+            self.as_str(),
+            device.path()
+        )
     }
 
     /// `<root>/robot/<robot>/<device>/*`: the key a device server answers.
@@ -108,7 +112,11 @@ impl Root {
     /// `<root>/store/robot/<robot>/<device>/lock`: where a device's lock
     /// state is kept (a Zenoh storage on `<root>/store/**` holds it).
     pub fn lock_store(&self, robot: &Name, device: &Device) -> String {
-        format!("{}/store/robot/{robot}/{}/lock", self.as_str(), device.path())
+        format!(
+            "{}/store/robot/{robot}/{}/lock",
+            self.as_str(),
+            device.path()
+        )
     }
 
     /// `<root>/store/**`: what a storage for RoME's servers must cover.
@@ -501,7 +509,7 @@ pub struct LockRecord {
 /// ```text
 /// {"robot":"r1","time_ms":120400,"x_mm":1200,"y_mm":-40,"heading_deg":90.0,
 ///  "speed_mm_s":300,"wheel_speed_mm_s":298.2,"mode":"go","bumpers":0,
-///  "watch_bumpers":true,"lock":null}
+///  "watch_bumpers":true,"lock":null,"queued":0}
 /// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -528,6 +536,8 @@ pub struct BaseState {
     pub watch_bumpers: bool,
     /// The lock holder, if any.
     pub lock: Option<LockInfo>,
+    /// Requests waiting in the server's queue (behind the lock).
+    pub queued: usize,
 }
 
 // ---------------------------------------------------------------------------
@@ -710,7 +720,9 @@ impl Gray8 {
             rows: None,
         };
         for word in words {
-            let (k, v) = word.split_once('=').ok_or_else(|| bad("a word without '='"))?;
+            let (k, v) = word
+                .split_once('=')
+                .ok_or_else(|| bad("a word without '='"))?;
             let num = |v: &str| v.parse::<u64>().map_err(|_| bad("a field is not a number"));
             match k {
                 "width" => g.width = num(v)? as u32,

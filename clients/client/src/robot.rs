@@ -557,8 +557,9 @@ async fn renew(client: RobotClient, device: Device, fence: u64, ttl: Duration) {
             (param::OWNER, client.inner.owner.clone()),
             (param::FENCE, fence.to_string()),
         ];
-        let renewed: Result<LockGrant, ClientError> =
-            client.json(&device, "lock", &params, None::<&()>, false).await;
+        let renewed: Result<LockGrant, ClientError> = client
+            .json(&device, "lock", &params, None::<&()>, false)
+            .await;
         match renewed {
             Ok(_) => {}
             Err(e) if e.code() == Some(ErrorCode::StaleFence) => {
@@ -567,7 +568,9 @@ async fn renew(client: RobotClient, device: Device, fence: u64, ttl: Duration) {
                 return;
             }
             // A lost renewal is retried next time; the grant outlives two.
-            Err(e) => tracing::debug!(device = %device.path(), error = %e, "lock renewal unanswered"),
+            Err(e) => {
+                tracing::debug!(device = %device.path(), error = %e, "lock renewal unanswered")
+            }
         }
     }
 }
@@ -621,8 +624,6 @@ impl<T: DeserializeOwned> Stream<T> {
     /// The next message; `None` when the session closed.
     pub async fn next(&self) -> Option<Result<T, ClientError>> {
         let sample = self.subscriber.recv_async().await.ok()?;
-        Some(
-            decode(&sample.payload().to_bytes(), &self.what).map_err(ClientError::from),
-        )
+        Some(decode(&sample.payload().to_bytes(), &self.what).map_err(ClientError::from))
     }
 }

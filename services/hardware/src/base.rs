@@ -172,18 +172,16 @@ impl<D: BaseDevice> Service for Base<D> {
         params.finish(command, &["priority", "fence", "wait_ms"])?;
         let no_payload = |cmd: BaseCmd| -> Result<BaseCmd, ErrorReply> {
             match body {
-                Some(b) if !b.is_empty() && b.iter().any(|c| !c.is_ascii_whitespace()) => {
-                    Err(ErrorReply::new(
-                        ErrorCode::BadJson,
-                        format!("'{command}' takes no payload"),
-                    ))
-                }
+                Some(b) if !b.is_empty() && b.iter().any(|c| !c.is_ascii_whitespace()) => Err(
+                    ErrorReply::new(ErrorCode::BadJson, format!("'{command}' takes no payload")),
+                ),
                 _ => Ok(cmd),
             }
         };
         Ok(match command {
             "move" => {
-                let m: Move = payload(command, body, r#"{"distance_mm":2000,"velocity_mm_s":300}"#)?;
+                let m: Move =
+                    payload(command, body, r#"{"distance_mm":2000,"velocity_mm_s":300}"#)?;
                 finite(
                     command,
                     &[
@@ -224,14 +222,16 @@ impl<D: BaseDevice> Service for Base<D> {
                 BaseCmd::Op(BaseOp::Stop(s.emergency))
             }
             "set-pose" => {
-                let p: SetPose =
-                    payload(command, body, r#"{"x_mm":0,"y_mm":0,"heading_deg":90}"#)?;
+                let p: SetPose = payload(command, body, r#"{"x_mm":0,"y_mm":0,"heading_deg":90}"#)?;
                 finite(command, &[("heading_deg", p.heading_deg)])?;
                 BaseCmd::SetPose(p)
             }
             "adjust-pose" => {
-                let a: AdjustPose =
-                    payload(command, body, r#"{"dx_mm":-120,"dy_mm":0,"dheading_deg":1.5}"#)?;
+                let a: AdjustPose = payload(
+                    command,
+                    body,
+                    r#"{"dx_mm":-120,"dy_mm":0,"dheading_deg":1.5}"#,
+                )?;
                 finite(command, &[("dheading_deg", a.dheading_deg)])?;
                 BaseCmd::AdjustPose(a)
             }
@@ -345,7 +345,11 @@ impl<D: BaseDevice> Service for Base<D> {
         self.state_period
     }
 
-    async fn tick(&mut self, lock: Option<LockInfo>) -> Option<(&'static str, Body)> {
+    async fn tick(
+        &mut self,
+        lock: Option<LockInfo>,
+        queued: usize,
+    ) -> Option<(&'static str, Body)> {
         match self.status(BaseOp::Status).await {
             Ok((s, p)) => Some((
                 "state",
@@ -361,6 +365,7 @@ impl<D: BaseDevice> Service for Base<D> {
                     bumpers: s.bumpers,
                     watch_bumpers: s.watch_bumpers,
                     lock,
+                    queued,
                 }),
             )),
             Err(e) => {

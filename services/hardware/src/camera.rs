@@ -14,7 +14,7 @@
 
 use crate::device::{CameraDevice, Frame};
 use crate::server::{Body, Service};
-use rome_schema::robot::{parse_rows, param, FrameInfo, Gray8, LockInfo, SizeReply};
+use rome_schema::robot::{param, parse_rows, FrameInfo, Gray8, LockInfo, SizeReply};
 use rome_schema::{ErrorCode, ErrorReply, Params};
 use std::time::Duration;
 use zenoh::bytes::Encoding;
@@ -98,7 +98,9 @@ impl<D: CameraDevice> Camera<D> {
 
 fn png(frame: &Frame) -> Result<Vec<u8>, ErrorReply> {
     let img = image::GrayImage::from_raw(frame.width, frame.height, frame.pixels.clone())
-        .ok_or_else(|| ErrorReply::new(ErrorCode::Device, "frame size does not match its pixels"))?;
+        .ok_or_else(|| {
+            ErrorReply::new(ErrorCode::Device, "frame size does not match its pixels")
+        })?;
     let mut out = std::io::Cursor::new(Vec::new());
     img.write_to(&mut out, image::ImageFormat::Png)
         .map_err(|e| ErrorReply::new(ErrorCode::Device, format!("PNG encoding failed: {e}")))?;
@@ -158,7 +160,10 @@ impl<D: CameraDevice> Service for Camera<D> {
                 if let Some(r) = rows.iter().find(|r| **r >= height) {
                     return Err(ErrorReply::new(
                         ErrorCode::OutOfRange,
-                        format!("'rows': row {r} is outside the image (rows 0 … {})", height - 1),
+                        format!(
+                            "'rows': row {r} is outside the image (rows 0 … {})",
+                            height - 1
+                        ),
                     ));
                 }
                 Ok(CameraCmd::Rows(rows))
@@ -203,7 +208,11 @@ impl<D: CameraDevice> Service for Camera<D> {
         Some(self.period)
     }
 
-    async fn tick(&mut self, lock: Option<LockInfo>) -> Option<(&'static str, Body)> {
+    async fn tick(
+        &mut self,
+        lock: Option<LockInfo>,
+        _queued: usize,
+    ) -> Option<(&'static str, Body)> {
         if lock.is_some() {
             // Frozen while locked (§4.6.4).
             return None;

@@ -143,7 +143,7 @@ impl<T> Gate<T> {
     }
 
     /// The next request to serve: none while the lock is held.
-    pub fn next(&mut self) -> Option<T> {
+    pub fn next_due(&mut self) -> Option<T> {
         if self.holder.is_some() {
             return None;
         }
@@ -238,7 +238,7 @@ mod tests {
         for (p, name) in [(10, "a"), (200, "b"), (10, "c"), (200, "d"), (128, "e")] {
             assert_eq!(g.admit(p, None, WAIT, name, now), Admit::Queued);
         }
-        let order: Vec<_> = std::iter::from_fn(|| g.next()).collect();
+        let order: Vec<_> = std::iter::from_fn(|| g.next_due()).collect();
         assert_eq!(order, ["b", "d", "e", "a", "c"]);
     }
 
@@ -249,8 +249,11 @@ mod tests {
         let h = g.grant("alice", Duration::from_secs(3), now);
         assert_eq!(h.fence, 42);
         assert_eq!(g.admit(128, None, WAIT, "bob", now), Admit::Queued);
-        assert_eq!(g.next(), None, "nothing passes a held lock");
-        assert_eq!(g.admit(128, Some(42), WAIT, "alice", now), Admit::Now("alice"));
+        assert_eq!(g.next_due(), None, "nothing passes a held lock");
+        assert_eq!(
+            g.admit(128, Some(42), WAIT, "alice", now),
+            Admit::Now("alice")
+        );
         assert_eq!(
             g.admit(128, Some(41), WAIT, "old", now),
             Admit::Stale {
@@ -260,7 +263,7 @@ mod tests {
         );
         assert_eq!(g.release(41), Err(Some(42)));
         assert!(g.release(42).is_ok());
-        assert_eq!(g.next(), Some("bob"));
+        assert_eq!(g.next_due(), Some("bob"));
         // After the release, the old fence is stale too.
         assert!(matches!(
             g.admit(1, Some(42), WAIT, "x", now),
@@ -317,7 +320,10 @@ mod tests {
             Duration::from_secs(3),
             now,
         );
-        assert!(matches!(g.admit(1, Some(77), WAIT, (), now), Admit::Now(())));
+        assert!(matches!(
+            g.admit(1, Some(77), WAIT, (), now),
+            Admit::Now(())
+        ));
         g.release(77).unwrap();
         assert_eq!(g.grant("bob", Duration::from_secs(3), now).fence, 78);
     }

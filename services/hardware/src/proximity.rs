@@ -75,7 +75,10 @@ fn ranges(max: MaxRange) -> Result<[u32; SONARS], ErrorReply> {
     let arr: [u32; SONARS] = each.as_slice().try_into().map_err(|_| {
         ErrorReply::new(
             ErrorCode::WrongType,
-            format!("'timeout': max_mm must be one number or {SONARS} numbers, got {}", each.len()),
+            format!(
+                "'timeout': max_mm must be one number or {SONARS} numbers, got {}",
+                each.len()
+            ),
         )
     })?;
     if let Some((i, v)) = arr
@@ -152,7 +155,11 @@ impl<D: ProximityDevice> Service for Proximity<D> {
         self.scan_period
     }
 
-    async fn tick(&mut self, _lock: Option<LockInfo>) -> Option<(&'static str, Body)> {
+    async fn tick(
+        &mut self,
+        _lock: Option<LockInfo>,
+        _queued: usize,
+    ) -> Option<(&'static str, Body)> {
         let scan: RawScan = match self.device.scan().await {
             Ok(s) => s,
             Err(e) => {

@@ -79,6 +79,7 @@ pub trait Service: Send + Sync + 'static {
     fn tick(
         &mut self,
         lock: Option<LockInfo>,
+        queued: usize,
     ) -> impl Future<Output = Option<(&'static str, Body)>> + Send;
 }
 
@@ -106,7 +107,11 @@ impl ServerConfig {
 
     /// `robot r1 base`, `robot r1 camera up`: for logs and errors.
     pub fn label(&self) -> String {
-        format!("robot {} {}", self.robot, self.device.path().replace('/', " "))
+        format!(
+            "robot {} {}",
+            self.robot,
+            self.device.path().replace('/', " ")
+        )
     }
 
     /// The server's liveliness token: `<root>/alive/server/robot/<robot>/<device>`.
@@ -284,7 +289,12 @@ impl<S: Service> Server<S> {
         }
     }
 
-    fn parse(&self, command: &str, mut params: Params, payload: Option<&[u8]>) -> Result<Op<S::Cmd>, ErrorReply> {
+    fn parse(
+        &self,
+        command: &str,
+        mut params: Params,
+        payload: Option<&[u8]>,
+    ) -> Result<Op<S::Cmd>, ErrorReply> {
         let lockable = self.service.lockable();
         match command {
             "lock" if lockable => {
@@ -387,7 +397,7 @@ impl<S: Service> Server<S> {
 
     /// Serves queued requests while the lock is free.
     async fn drain(&mut self) {
-        while let Some(p) = self.gate.next() {
+        while let Some(p) = self.gate.next_due() {
             self.serve(p).await;
         }
     }
@@ -424,10 +434,7 @@ impl<S: Service> Server<S> {
                             fence: h.fence,
                         }))
                     }
-                    Err(_) => Err(ErrorReply::new(
-                        ErrorCode::Conflict,
-                        "the lock is not held",
-                    )),
+                    Err(_) => Err(ErrorReply::new(ErrorCode::Conflict, "the lock is not held")),
                 }
             }
             Op::Do(cmd) => {
@@ -486,7 +493,8 @@ impl<S: Service> Server<S> {
 
     async fn tick(&mut self) {
         let lock = self.lock();
-        if let Some((chunk, body)) = self.service.tick(lock).await {
+        let queued = self.gate.queued();
+        if let Some((chunk, body)) = self.service.tick(lock, queued).await {
             let key = self
                 .config
                 .root
@@ -581,11 +589,7 @@ async fn reply(query: &Query, key: &str, body: Body) {
         Body::Json(b) => (b, Encoding::APPLICATION_JSON),
         Body::Binary(b, e) => (b, e),
     };
-    if let Err(e) = query
-        .reply(key, bytes)
-        .encoding(encoding)
-        .await
-    {
+    if let Err(e) = query.reply(key, bytes).encoding(encoding).await {
         tracing::warn!(%key, error = %e, "reply failed");
     }
 }

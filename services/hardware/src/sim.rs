@@ -41,7 +41,9 @@ impl SimWorld {
 
     /// The world, locked (a device that panicked mid-step leaves it usable).
     pub fn lock(&self) -> MutexGuard<'_, Sim> {
-        self.sim.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
+        self.sim
+            .lock()
+            .unwrap_or_else(|poisoned| poisoned.into_inner())
     }
 
     /// Steps the world on its own thread at `speed` × real time (`None`:

@@ -130,7 +130,7 @@ mod tests {
         let path: Vec<i64> = (0..200).map(|i| 30_000 + i * 500).collect();
         let (u, seen) = run(path.clone());
         assert_eq!(seen, path);
-        assert_eq!(u.wraps(), 1);
+        assert_eq!(u.wraps(), 2, "129.5 m is two wraps above the register's range");
     }
 
     #[test]
@@ -148,7 +148,7 @@ mod tests {
         path.extend((0..400).map(|i| 118_700 - i * 300));
         let (u, seen) = run(path.clone());
         assert_eq!(seen, path);
-        assert_eq!(u.wraps(), -1, "ends near -1000: one underflow below -32768");
+        assert_eq!(u.wraps(), 0, "back at -1000 mm: every overflow undone");
     }
 
     #[test]

@@ -4,7 +4,7 @@
 use clap::{Parser, Subcommand};
 use rome_client::goals::{self, Goal, GoalType};
 use rome_client::net::NetOptions;
-use rome_client::{DataClient, DataOptions};
+use rome_client::{DataClient, DataOptions, RobotClient, RobotOptions};
 
 #[derive(Parser)]
 struct Args {
@@ -32,6 +32,12 @@ enum Role {
         #[arg(long)]
         sem: String,
     },
+    /// Take a robot's base lock, print the grant as a JSON line and hold
+    /// it (renewing) until killed.
+    Locker {
+        #[arg(long)]
+        robot: String,
+    },
 }
 
 fn goal(i: u32) -> Goal {
@@ -51,6 +57,13 @@ async fn main() -> anyhow::Result<()> {
         Role::Planner { .. } => "planner",
         Role::Navigator { .. } => "navigator",
         Role::Waiter { .. } => "waiter",
+        Role::Locker { robot } => {
+            let r = RobotClient::connect(&session, robot, RobotOptions::new("locker")).await?;
+            let lock = r.lock().await?;
+            println!("{}", serde_json::to_string(lock.grant())?);
+            std::future::pending::<()>().await;
+            return Ok(());
+        }
     };
     let ds = DataClient::connect(&session, DataOptions::new(role)).await?;
     match args.role {
@@ -72,6 +85,7 @@ async fn main() -> anyhow::Result<()> {
             ds.wait(&sem).await?;
             println!("acquired");
         }
+        Role::Locker { .. } => {}
     }
     session.close().await.map_err(|e| anyhow::anyhow!("{e}"))?;
     Ok(())

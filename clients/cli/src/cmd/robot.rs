@@ -199,7 +199,10 @@ async fn hold(lock: Lock, secs: Option<f64>) -> anyhow::Result<u8> {
     print(lock.grant())?;
     match secs {
         Some(s) => {
-            anyhow::ensure!(s.is_finite() && s >= 0.0, "--hold must be a number of seconds");
+            anyhow::ensure!(
+                s.is_finite() && s >= 0.0,
+                "--hold must be a number of seconds"
+            );
             tokio::time::sleep(Duration::from_secs_f64(s)).await;
         }
         None => exit::interrupted().await,
@@ -229,7 +232,11 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
             distance_mm,
             velocity,
             accel,
-        } => print(&r.move_by(distance_mm, velocity, accel).await.with_context(what)?)?,
+        } => print(
+            &r.move_by(distance_mm, velocity, accel)
+                .await
+                .with_context(what)?,
+        )?,
         RobotCmd::Turn {
             degrees,
             velocity,
@@ -243,7 +250,11 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
             x_mm,
             y_mm,
             heading_deg,
-        } => print(&r.set_pose(x_mm, y_mm, heading_deg).await.with_context(what)?)?,
+        } => print(
+            &r.set_pose(x_mm, y_mm, heading_deg)
+                .await
+                .with_context(what)?,
+        )?,
         RobotCmd::AdjustPose {
             dx_mm,
             dy_mm,
@@ -301,8 +312,9 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
             CameraCmd::Grab { output } => {
                 let img = r.camera_grab(&camera).await.with_context(what)?;
                 if let Some(path) = output {
-                    let gray = image::GrayImage::from_raw(img.width, img.height, img.pixels.clone())
-                        .context("the image's size does not match its pixels")?;
+                    let gray =
+                        image::GrayImage::from_raw(img.width, img.height, img.pixels.clone())
+                            .context("the image's size does not match its pixels")?;
                     gray.save(&path)
                         .with_context(|| format!("cannot write {}", path.display()))?;
                     eprintln!("wrote {}", path.display());
@@ -317,7 +329,9 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
                     .enumerate()
                     .map(|(k, row)| serde_json::json!({"row": row, "pixels": img.row(k)}))
                     .collect();
-                print(&serde_json::json!({"frame": img.frame, "time_ms": img.time_ms, "width": img.width, "rows": out}))?
+                print(
+                    &serde_json::json!({"frame": img.frame, "time_ms": img.time_ms, "width": img.width, "rows": out}),
+                )?
             }
             CameraCmd::Lock { hold: secs } => {
                 return hold(r.camera_lock(&camera).await.with_context(what)?, secs).await

@@ -100,7 +100,11 @@ pub fn world(args: &Args) -> anyhow::Result<(Sim, Vec<String>)> {
         .map(|(name, p)| (name.clone(), p.wall_heading_deg))
         .collect();
     spots.sort_by(|a, b| a.0.cmp(&b.0));
-    anyhow::ensure!(!spots.is_empty(), "the map '{}' has no named positions", args.map);
+    anyhow::ensure!(
+        !spots.is_empty(),
+        "the map '{}' has no named positions",
+        args.map
+    );
     let mut tried = 0;
     while names.len() < n && tried < spots.len() * 2 {
         let (pos, heading) = &spots[(tried * 7919 + names.len() * spots.len() / n) % spots.len()];

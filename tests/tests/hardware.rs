@@ -1,0 +1,718 @@
+//! The hardware servers over real Zenoh sessions on loopback: locks,
+//! priorities, the lock's storage, virtual coordinates, cameras, bad input,
+//! and a holder in another process killed with SIGKILL.
+
+#![allow(clippy::unwrap_used)]
+
+use rome_client::net::{free_loopback_port, NetOptions};
+use rome_client::{ClientError, RobotClient, RobotOptions};
+use rome_hardware::base::Base;
+use rome_hardware::device::{BaseDevice, BaseOp, BaseStatus, DeviceError};
+use rome_hardware::robot::{self, spawn_sim_robot, Rates, Running};
+use rome_hardware::sim::{SimWorld, Stepper};
+use rome_hardware::ServerConfig;
+use rome_schema::robot::Device;
+use rome_schema::{ErrorCode, Root};
+use rome_sim::{Noise, Sim, SimConfig};
+use rome_tests::{eventually, peer};
+use std::collections::VecDeque;
+use std::io::BufRead;
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+use zenoh::Session;
+
+/// A base that records every command and plays back scripted x registers.
+#[derive(Clone, Default)]
+struct Recorder {
+    ops: Arc<Mutex<Vec<BaseOp>>>,
+    xs: Arc<Mutex<VecDeque<i16>>>,
+    x: Arc<Mutex<i16>>,
+}
+
+impl BaseDevice for Recorder {
+    async fn command(&mut self, op: BaseOp) -> Result<BaseStatus, DeviceError> {
+        if op != BaseOp::Status {
+            self.ops.lock().unwrap().push(op);
+        }
+        if let Some(x) = self.xs.lock().unwrap().pop_front() {
+            *self.x.lock().unwrap() = x;
+        }
+        Ok(BaseStatus {
+            time_ms: 0,
+            raw_x: *self.x.lock().unwrap(),
+            raw_y: 0,
+            heading_deg: 0.0,
+            speed_mm_s: 0.0,
+            wheel_speed_mm_s: 0.0,
+            mode: "joystick".into(),
+            bumpers: 0,
+            watch_bumpers: false,
+        })
+    }
+}
+
+/// Servers on their own loopback port, reached by client sessions.
+struct Rig {
+    port: u16,
+    state: Option<Duration>,
+    session: Session,
+    servers: Vec<Running>,
+    _stepper: Option<Stepper>,
+}
+
+impl Rig {
+    async fn session(port: u16) -> Session {
+        NetOptions::loopback(Some(port), &[]).open().await.unwrap()
+    }
+
+    /// A recording base for robot `r1`, with a storage in another session.
+    async fn recorder(rec: &Recorder, storage: bool) -> Rig {
+        let port = free_loopback_port().unwrap();
+        let session = Self::session(port).await;
+        let mut rig = Rig {
+            port,
+            state: Some(Duration::from_millis(20)),
+            session,
+            servers: Vec::new(),
+            _stepper: None,
+        };
+        if storage {
+            let s = rig.peer_session().await;
+            tokio::spawn(rome_hardware::storage::run(
+                s,
+                Root::default().store_all(),
+                std::future::pending::<()>(),
+            ));
+        }
+        rig.start_base(rec).await;
+        rig
+    }
+
+    async fn start_base(&mut self, rec: &Recorder) {
+        let config = ServerConfig::new(&Root::default(), "r1", Device::Base).unwrap();
+        self.servers.push(robot::spawn(
+            &self.session,
+            config,
+            Base::new("r1", rec.clone(), self.state),
+        ));
+        self.await_alive("base").await;
+    }
+
+    /// Robot r1 on the Figure 5.3 map, all its servers, world at real time.
+    async fn sim(camera: Duration) -> Rig {
+        let port = free_loopback_port().unwrap();
+        let session = Self::session(port).await;
+        let map = rome_maps::load_named("fig5_3").unwrap();
+        let mut sim = Sim::new(
+            &map,
+            SimConfig {
+                noise: Noise::none(),
+                camera_period_ms: 0,
+                ..SimConfig::default()
+            },
+        );
+        let heading = sim.scene().world.position("301L").unwrap().wall_heading_deg;
+        sim.add_robot_at("r1", "301L", heading).unwrap();
+        let world = SimWorld::new(sim);
+        let stepper = world.start(Some(1.0));
+        let rates = Rates {
+            state: Some(Duration::from_millis(50)),
+            scan: Some(Duration::from_millis(20)),
+            camera,
+        };
+        let servers = spawn_sim_robot(&session, &Root::default(), &world, "r1", rates).unwrap();
+        let rig = Rig {
+            port,
+            state: rates.state,
+            session,
+            servers,
+            _stepper: Some(stepper),
+        };
+        for d in ["base", "proximity", "camera/up", "camera/side"] {
+            rig.await_alive(d).await;
+        }
+        rig
+    }
+
+    async fn await_alive(&self, device: &str) {
+        let key = format!("rome/alive/server/robot/r1/{device}");
+        let sub = self
+            .session
+            .liveliness()
+            .declare_subscriber(&key)
+            .history(true)
+            .await
+            .unwrap();
+        tokio::time::timeout(Duration::from_secs(10), sub.recv_async())
+            .await
+            .expect("server alive")
+            .unwrap();
+    }
+
+    async fn peer_session(&self) -> Session {
+        NetOptions::loopback(None, &[self.port])
+            .open()
+            .await
+            .unwrap()
+    }
+
+    async fn client(&self, role: &str, priority: u8) -> RobotClient {
+        let session = NetOptions::loopback_client(self.port).open().await.unwrap();
+        let mut o = RobotOptions::new(role);
+        o.priority = priority;
+        RobotClient::connect(&session, "r1", o).await.unwrap()
+    }
+
+    /// Queue length as the base's state stream reports it.
+    async fn queued(&self) -> usize {
+        let c = self.client("watch", 128).await;
+        let s = c.state().await.unwrap();
+        s.next().await.unwrap().unwrap().queued
+    }
+}
+
+fn velocities(rec: &Recorder) -> Vec<f64> {
+    rec.ops
+        .lock()
+        .unwrap()
+        .iter()
+        .filter_map(|op| match op {
+            BaseOp::Go(v) => Some(*v),
+            _ => None,
+        })
+        .collect()
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 4)]
+async fn a_held_lock_postpones_others_who_are_then_served_by_priority() {
+    let rec = Recorder::default();
+    let rig = Rig::recorder(&rec, false).await;
+    let holder = rig.client("holder", 128).await;
+    let lock = holder.lock().await.unwrap();
+
+    // Four clients queue behind the lock, low and high priorities mixed.
+    let mut waiting = Vec::new();
+    for (k, prio) in [(1.0, 10u8), (2.0, 200), (3.0, 10), (4.0, 200), (5.0, 128)] {
+        let c = rig.client("contender", prio).await;
+        waiting.push(tokio::spawn(async move { c.go(k).await }));
+        // Arrival order must be known for the FIFO part of the check.
+        let n = waiting.len();
+        eventually(Duration::from_secs(5), "request queued", || async {
+            rig.queued().await == n
+        })
+        .await;
+    }
+    // The holder goes straight through; nobody else has been served.
+    holder.go(99.0).await.unwrap();
+    assert_eq!(velocities(&rec), [99.0]);
+
+    lock.unlock().await.unwrap();
+    for w in waiting {
+        w.await.unwrap().unwrap();
+    }
+    assert_eq!(velocities(&rec), [99.0, 2.0, 4.0, 5.0, 1.0, 3.0]);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 4)]
+async fn stale_fences_are_refused_and_queued_requests_time_out_with_a_reason() {
+    let rec = Recorder::default();
+    let rig = Rig::recorder(&rec, false).await;
+    let a = rig.client("a", 128).await;
+    let lock = a.lock().await.unwrap();
+    let fence = lock.fence();
+    lock.unlock().await.unwrap();
+
+    // A plain query with the old fence: refused, naming the fence.
+    let s = rig.peer_session().await;
+    let err = plain_err(
+        &s,
+        &format!("rome/robot/r1/base/go?fence={fence}"),
+        r#"{"velocity_mm_s":1}"#,
+    )
+    .await;
+    assert_eq!(err["code"], "stale_fence");
+    assert!(err["message"]
+        .as_str()
+        .unwrap()
+        .contains(&fence.to_string()));
+
+    // A waiting request gives up after its wait_ms, saying behind whom.
+    let lock = a.lock().await.unwrap();
+    let err = plain_err(&s, "rome/robot/r1/base/mode?wait_ms=200", "").await;
+    assert_eq!(err["code"], "timed_out");
+    assert!(
+        err["message"].as_str().unwrap().contains(a.owner()),
+        "{err}"
+    );
+    // A new grant's fence is above the old one.
+    assert!(lock.fence() > fence);
+    assert!(velocities(&rec).is_empty(), "nothing reached the device");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 4)]
+async fn a_killed_holder_loses_the_lock_within_three_seconds() {
+    let rec = Recorder::default();
+    let rig = Rig::recorder(&rec, false).await;
+    let mut holder = peer!(rig.port, ["locker", "--robot", "r1"]);
+    let stdout = holder.0.as_mut().unwrap().stdout.take().unwrap();
+    let line = tokio::task::spawn_blocking(move || {
+        let mut line = String::new();
+        std::io::BufReader::new(stdout)
+            .read_line(&mut line)
+            .unwrap();
+        line
+    })
+    .await
+    .unwrap();
+    let grant: serde_json::Value = serde_json::from_str(&line).unwrap();
+    let fence = grant["fence"].as_u64().unwrap();
+
+    let b = rig.client("b", 128).await;
+    let queued = tokio::spawn(async move { b.go(7.0).await });
+    eventually(Duration::from_secs(5), "b queued", || async {
+        rig.queued().await == 1
+    })
+    .await;
+    assert!(velocities(&rec).is_empty());
+    let killed = Instant::now();
+    holder.kill();
+    queued.await.unwrap().unwrap();
+    let took = killed.elapsed();
+    assert!(took < Duration::from_secs(3), "released after {took:?}");
+    assert_eq!(velocities(&rec), [7.0]);
+    let s = rig.peer_session().await;
+    let err = plain_err(&s, &format!("rome/robot/r1/base/stop?fence={fence}"), "").await;
+    assert_eq!(err["code"], "stale_fence");
+}
+
+/// A TCP relay that can be cut: bytes stop flowing, sockets stay open (a
+/// radio link gone quiet, not a closed connection).
+async fn relay(upstream: u16, cut: Arc<std::sync::atomic::AtomicBool>) -> u16 {
+    use std::sync::atomic::Ordering;
+    use tokio::io::{AsyncReadExt, AsyncWriteExt};
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+    let port = listener.local_addr().unwrap().port();
+    tokio::spawn(async move {
+        while let Ok((inbound, _)) = listener.accept().await {
+            let Ok(outbound) = tokio::net::TcpStream::connect(("127.0.0.1", upstream)).await else {
+                continue;
+            };
+            let (ri, wi) = inbound.into_split();
+            let (ro, wo) = outbound.into_split();
+            for (mut r, mut w) in [
+                (
+                    Box::new(ri) as Box<dyn tokio::io::AsyncRead + Unpin + Send>,
+                    Box::new(wo) as Box<dyn tokio::io::AsyncWrite + Unpin + Send>,
+                ),
+                (Box::new(ro), Box::new(wi)),
+            ] {
+                let cut = cut.clone();
+                tokio::spawn(async move {
+                    let mut buf = vec![0u8; 65536];
+                    while let Ok(n) = r.read(&mut buf).await {
+                        if n == 0 {
+                            break;
+                        }
+                        if !cut.load(Ordering::Relaxed) && w.write_all(&buf[..n]).await.is_err() {
+                            break;
+                        }
+                    }
+                    // Keep the socket open: a cut link says nothing.
+                    std::future::pending::<()>().await;
+                });
+            }
+        }
+    });
+    port
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 4)]
+async fn a_cut_off_holder_loses_the_lock_within_three_seconds() {
+    let rec = Recorder::default();
+    let rig = Rig::recorder(&rec, false).await;
+    let cut = Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let via = relay(rig.port, cut.clone()).await;
+    let far = NetOptions::loopback_client(via).open().await.unwrap();
+    let holder = RobotClient::connect(&far, "r1", RobotOptions::new("far"))
+        .await
+        .unwrap();
+    let lock = holder.lock().await.unwrap();
+
+    let b = rig.client("b", 128).await;
+    let queued = tokio::spawn(async move { b.go(7.0).await });
+    eventually(Duration::from_secs(5), "b queued", || async {
+        rig.queued().await == 1
+    })
+    .await;
+    let cut_at = Instant::now();
+    cut.store(true, std::sync::atomic::Ordering::Relaxed);
+    queued.await.unwrap().unwrap();
+    let took = cut_at.elapsed();
+    assert!(took < Duration::from_secs(3), "released after {took:?}");
+    assert_eq!(velocities(&rec), [7.0]);
+    drop(lock);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 4)]
+async fn a_restarted_server_knows_the_holder_and_its_fence_from_the_storage() {
+    let rec = Recorder::default();
+    let mut rig = Rig::recorder(&rec, true).await;
+    let a = rig.client("a", 128).await;
+    let lock = a.lock().await.unwrap();
+    let fence = lock.fence();
+    a.go(1.0).await.unwrap();
+
+    rig.servers.pop().unwrap().stop().await.unwrap();
+    rig.start_base(&rec).await;
+
+    // The holder's fence still works on the new server …
+    a.go(2.0).await.unwrap();
+    // … and the state shows it as the holder.
+    let state = a.state().await.unwrap();
+    let s = state.next().await.unwrap().unwrap();
+    assert_eq!(s.lock.unwrap().fence, fence);
+    // Others still wait, and an older fence is stale.
+    let s2 = rig.peer_session().await;
+    let err = plain_err(
+        &s2,
+        &format!("rome/robot/r1/base/go?fence={}", fence - 1),
+        r#"{"velocity_mm_s":3}"#,
+    )
+    .await;
+    assert_eq!(err["code"], "stale_fence");
+    lock.unlock().await.unwrap();
+    // The next grant goes above the stored fence.
+    let again = a.lock().await.unwrap();
+    assert_eq!(again.fence(), fence + 1);
+    assert_eq!(velocities(&rec), [1.0, 2.0]);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 4)]
+async fn virtual_coordinates_unwrap_16_bit_registers_both_ways() {
+    let rec = Recorder::default();
+    // Up past +32767 in 4 m steps, then down past -32768.
+    let mut path: Vec<i64> = (0..30).map(|i| 20_000 + i * 4_000).collect();
+    path.extend((0..60).map(|i| 136_000 - i * 4_000));
+    rec.xs
+        .lock()
+        .unwrap()
+        .extend(path.iter().map(|mm| mm.rem_euclid(65_536) as u16 as i16));
+    let port = free_loopback_port().unwrap();
+    let mut rig = Rig {
+        port,
+        state: None,
+        session: Rig::session(port).await,
+        servers: Vec::new(),
+        _stepper: None,
+    };
+    // No state stream: every register value is read by a `pose` request.
+    rig.start_base(&rec).await;
+    let c = rig.client("c", 128).await;
+    let mut seen = Vec::new();
+    while !rec.xs.lock().unwrap().is_empty() {
+        seen.push(i64::from(c.pose().await.unwrap().x_mm));
+    }
+    let last = *seen.last().unwrap();
+    assert_eq!(last, *path.last().unwrap());
+    let p = c.pose().await.unwrap();
+    assert_eq!(i64::from(p.x_mm), -100_000);
+    assert!(p.wraps_x < 0, "{p:?}");
+    let want: Vec<i64> = path[..seen.len()].to_vec();
+    assert_eq!(seen, want, "every read unwrapped exactly");
+}
+
+async fn plain_err(s: &Session, selector: &str, payload: &str) -> serde_json::Value {
+    match plain(s, selector, payload).await {
+        Err(e) => e,
+        Ok(v) => panic!("{selector}: expected an error, got {v}"),
+    }
+}
+
+async fn plain(
+    s: &Session,
+    selector: &str,
+    payload: &str,
+) -> Result<serde_json::Value, serde_json::Value> {
+    let mut get = s.get(selector).timeout(Duration::from_secs(5));
+    if !payload.is_empty() {
+        get = get.payload(payload);
+    }
+    let replies = get.await.unwrap();
+    let reply = replies.recv_async().await.expect("a reply");
+    match reply.result() {
+        Ok(sample) => Ok(serde_json::from_slice(&sample.payload().to_bytes()).unwrap()),
+        Err(e) => Err(serde_json::from_slice(&e.payload().to_bytes()).unwrap()),
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 4)]
+async fn every_base_command_as_plain_zenoh_json_and_bad_input_named() {
+    let rig = Rig::sim(Duration::from_millis(500)).await;
+    // A plain Zenoh session built by hand: no RoME code on this side.
+    let mut config = zenoh::Config::default();
+    config.insert_json5("mode", r#""client""#).unwrap();
+    config
+        .insert_json5(
+            "connect/endpoints",
+            &format!(r#"["tcp/127.0.0.1:{}"]"#, rig.port),
+        )
+        .unwrap();
+    config
+        .insert_json5("scouting/multicast/enabled", "false")
+        .unwrap();
+    let z = zenoh::open(config).await.unwrap();
+    let k = |c: &str| format!("rome/robot/r1/base/{c}");
+
+    let ok = |v: Result<serde_json::Value, serde_json::Value>| v.unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(
+        ok(plain(&z, &k("set-bumper"), r#"{"watch":true}"#).await)["command"],
+        "set-bumper"
+    );
+    assert_eq!(ok(plain(&z, &k("bumper"), "").await)["watch"], true);
+    ok(plain(
+        &z,
+        &k("set-pose"),
+        r#"{"x_mm":1000,"y_mm":2000,"heading_deg":90}"#,
+    )
+    .await);
+    let p = ok(plain(&z, &k("pose"), "").await);
+    assert_eq!(
+        (p["x_mm"].as_i64(), p["y_mm"].as_i64()),
+        (Some(1000), Some(2000))
+    );
+    assert_eq!(p["heading_deg"].as_f64(), Some(90.0));
+    ok(plain(
+        &z,
+        &k("adjust-pose"),
+        r#"{"dx_mm":-500,"dheading_deg":1.5}"#,
+    )
+    .await);
+    let p = ok(plain(&z, &k("pose"), "").await);
+    assert_eq!(p["x_mm"].as_i64(), Some(500));
+    assert_eq!(p["heading_deg"].as_f64(), Some(91.5));
+    assert_eq!(
+        ok(plain(&z, &k("go"), r#"{"velocity_mm_s":200}"#).await)["mode"],
+        "go"
+    );
+    assert_eq!(ok(plain(&z, &k("speed"), "").await)["speed_mm_s"], 200.0);
+    assert!(ok(plain(&z, &k("wheel-speed"), "").await)["wheel_speed_mm_s"].is_number());
+    assert_eq!(
+        ok(plain(&z, &k("jog"), r#"{"rate_deg_s":-4}"#).await)["mode"],
+        "jog"
+    );
+    assert_eq!(ok(plain(&z, &k("mode"), "").await)["mode"], "jog");
+    assert_eq!(
+        ok(plain(&z, &k("turn"), r#"{"degrees":30}"#).await)["mode"],
+        "point_turn"
+    );
+    assert_eq!(
+        ok(plain(&z, &k("move"), r#"{"distance_mm":-300,"velocity_mm_s":-1}"#).await)["mode"],
+        "point_go"
+    );
+    assert_eq!(
+        ok(plain(&z, &k("stop"), r#"{"emergency":true}"#).await)["command"],
+        "stop"
+    );
+    let g = ok(plain(&z, &format!("{}?owner=plain;ttl_ms=1000", k("lock")), "").await);
+    let fence = g["fence"].as_u64().unwrap();
+    ok(plain(&z, &format!("{}?fence={fence}", k("stop")), "").await);
+    assert_eq!(
+        ok(plain(&z, &format!("{}?fence={fence}", k("unlock")), "").await)["released"],
+        true
+    );
+
+    // Proximity and cameras.
+    let sonar = ok(plain(&z, "rome/robot/r1/proximity/sonar", "").await);
+    assert_eq!(sonar["sonar_mm"].as_array().unwrap().len(), 24);
+    assert_eq!(
+        ok(plain(&z, "rome/robot/r1/proximity/ir", "").await)["ir"]
+            .as_array()
+            .unwrap()
+            .len(),
+        24
+    );
+    let t = ok(plain(&z, "rome/robot/r1/proximity/timeout", r#"{"max_mm":3000}"#).await);
+    assert!(t["max_mm"].as_array().unwrap().iter().all(|v| v == 3000));
+    assert_eq!(
+        ok(plain(&z, "rome/robot/r1/camera/up/size", "").await)["width"],
+        512
+    );
+
+    // Bad input: each error names what was wrong.
+    let cases: &[(&str, &str, &str, &str)] = &[
+        ("rome/robot/r1/base/fly", "", "unknown_key", "fly"),
+        (
+            "rome/robot/r1/base/go",
+            r#"{"velocity_mm_s":"fast"}"#,
+            "wrong_type",
+            "velocity_mm_s",
+        ),
+        ("rome/robot/r1/base/go", "{not json", "bad_json", "go"),
+        (
+            "rome/robot/r1/base/go",
+            r#"{"velocity_mm_s":1,"x":2}"#,
+            "bad_json",
+            "x",
+        ),
+        (
+            "rome/robot/r1/base/go",
+            r#"{"velocity_mm_s":9000}"#,
+            "out_of_range",
+            "velocity",
+        ),
+        ("rome/robot/r1/base/move", "", "bad_json", "distance_mm"),
+        (
+            "rome/robot/r1/base/pose?priority=900",
+            "",
+            "out_of_range",
+            "priority",
+        ),
+        (
+            "rome/robot/r1/base/pose?speed=2",
+            "",
+            "bad_parameter",
+            "speed",
+        ),
+        ("rome/robot/r1/base/unlock", "", "bad_parameter", "fence"),
+        ("rome/robot/r1/base/stop?fence=12", "", "stale_fence", "12"),
+        (
+            "rome/robot/r1/proximity/timeout",
+            r#"{"max_mm":[1,2]}"#,
+            "wrong_type",
+            "24",
+        ),
+        (
+            "rome/robot/r1/proximity/timeout",
+            r#"{"max_mm":50000}"#,
+            "out_of_range",
+            "50000",
+        ),
+        ("rome/robot/r1/proximity/lock", "", "unknown_key", "lock"),
+        (
+            "rome/robot/r1/camera/up/rows?rows=10,999",
+            "",
+            "out_of_range",
+            "999",
+        ),
+        (
+            "rome/robot/r1/camera/up/rows?rows=a",
+            "",
+            "wrong_type",
+            "rows",
+        ),
+        (
+            "rome/robot/r1/camera/up/grab?format=gif",
+            "",
+            "bad_parameter",
+            "gif",
+        ),
+    ];
+    for (selector, payload, code, names) in cases {
+        let e = plain_err(&z, selector, payload).await;
+        assert_eq!(e["code"], *code, "{selector} {payload}: {e}");
+        let msg = e["message"].as_str().unwrap();
+        assert!(
+            msg.contains(names),
+            "{selector}: '{msg}' should name '{names}'"
+        );
+    }
+    // And the server still serves.
+    ok(plain(&z, &k("pose"), "").await);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 4)]
+async fn camera_rows_come_in_one_request_and_a_lock_freezes_grabbing() {
+    let rig = Rig::sim(Duration::from_millis(100)).await;
+    let c = rig.client("tracker", 128).await;
+    let size = c.camera_size("up").await.unwrap();
+    assert_eq!((size.width, size.height), (512, 482));
+    let full = c.camera_grab("up").await.unwrap();
+    assert_eq!(full.pixels.len(), 512 * 482);
+    let rows = c.camera_rows("up", &[120, 241, 360]).await.unwrap();
+    assert_eq!(rows.rows, [120, 241, 360]);
+    assert_eq!(rows.pixels.len(), 3 * 512);
+
+    let lock = c.camera_lock("up").await.unwrap();
+    let frozen = c.camera_rows("up", &[0]).await.unwrap().frame;
+    // Five grab periods pass; the frame must not change while locked.
+    let window = Instant::now();
+    while window.elapsed() < Duration::from_millis(500) {
+        assert_eq!(c.camera_rows("up", &[0]).await.unwrap().frame, frozen);
+    }
+    // Another client's grab waits for the lock.
+    let other = rig.client("other", 128).await;
+    let waiting = tokio::spawn(async move { other.camera_rows("up", &[0]).await });
+    lock.unlock().await.unwrap();
+    waiting.await.unwrap().unwrap();
+    eventually(Duration::from_secs(5), "grabbing resumes", || async {
+        c.camera_rows("up", &[0]).await.unwrap().frame > frozen
+    })
+    .await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 4)]
+async fn one_server_killed_leaves_the_others_serving() {
+    let mut rig = Rig::sim(Duration::from_millis(500)).await;
+    let c = rig.client("c", 128).await;
+    let side = rig.servers.pop().unwrap();
+    assert!(side.label().contains("side"));
+    side.abort();
+    let root = Root::default();
+    eventually(
+        Duration::from_secs(5),
+        "side camera gone from rome ls",
+        || async {
+            let alive =
+                rome_client::alive::list(&c_session(&rig).await, &root, Duration::from_millis(500))
+                    .await
+                    .unwrap();
+            let ids: Vec<String> = alive
+                .iter()
+                .map(|p| format!("{}/{}", p.role, p.id))
+                .collect();
+            !ids.contains(&"robot/r1/camera/side".to_string())
+                && ids.contains(&"robot/r1/camera/up".to_string())
+                && ids.contains(&"robot/r1/base".to_string())
+                && ids.contains(&"robot/r1/proximity".to_string())
+        },
+    )
+    .await;
+    assert!(matches!(
+        c.camera_size("side").await,
+        Err(ClientError::NoReply { .. })
+    ));
+    c.pose().await.unwrap();
+    c.sonar().await.unwrap();
+    c.camera_size("up").await.unwrap();
+}
+
+async fn c_session(rig: &Rig) -> Session {
+    NetOptions::loopback_client(rig.port).open().await.unwrap()
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 4)]
+async fn the_scan_stream_follows_the_sonar_period_and_timeouts_cap_ranges() {
+    let rig = Rig::sim(Duration::from_millis(500)).await;
+    let c = rig.client("c", 128).await;
+    let scans = c.scans().await.unwrap();
+    let first = scans.next().await.unwrap().unwrap();
+    let mut last = first.clone();
+    for _ in 0..10 {
+        last = scans.next().await.unwrap().unwrap();
+    }
+    assert_eq!(last.seq, first.seq + 10, "no scan lost");
+    // The simulated ring fires every 100 ms of world time.
+    assert_eq!(last.time_ms - first.time_ms, 1000);
+    c.set_timeout([1_000; 24]).await.unwrap();
+    eventually(Duration::from_secs(5), "ranges capped at 1000", || async {
+        c.sonar()
+            .await
+            .unwrap()
+            .sonar_mm
+            .iter()
+            .all(|r| *r <= 1_000)
+    })
+    .await;
+    let err = c.set_timeout([20_000; 24]).await.unwrap_err();
+    assert_eq!(err.code(), Some(ErrorCode::OutOfRange));
+}
