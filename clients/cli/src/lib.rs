@@ -5,7 +5,7 @@
 //!   every command (`--connect`, `--listen`, `--mode`, `--config`,
 //!   `--no-multicast`, `--root`), flattened into [`Cli`].
 //! - [`cmd`]: one module per command group (`data-server`, `data`, `sem`,
-//!   `ls`, `map`, `sim`, `robot`, `storage`, `demo`, `bench`), each with a `run` taking parsed arguments.
+//!   `ls`, `map`, `sim`, `pioneer`, `robot`, `storage`, `demo`, `bench`), each with a `run` taking parsed arguments.
 //! - [`exit`]: the exit codes, documented in `rome --help`.
 //!
 //! `main` only parses flags and calls [`main`]; everything else is here so
@@ -60,6 +60,8 @@ pub enum Command {
     Map(cmd::map::MapCmd),
     /// Run a simulated world and every robot's base, proximity and camera servers.
     Sim(cmd::sim::Args),
+    /// Run the base and proximity servers of a Pioneer robot on a serial line (P2OS).
+    Pioneer(cmd::pioneer::Args),
     /// Send commands to a robot's hardware servers (base, proximity, cameras).
     Robot(cmd::robot::Args),
     /// Keep the servers' lock state in memory (a Zenoh storage on <root>/store/**).
@@ -75,7 +77,7 @@ pub enum Command {
 pub fn main(cli: Cli) -> ExitCode {
     let server = matches!(
         cli.command,
-        Command::DataServer(_) | Command::Sim(_) | Command::Storage(_)
+        Command::DataServer(_) | Command::Sim(_) | Command::Storage(_) | Command::Pioneer(_)
     );
     cli.common.init_logging(server);
     let runtime = match tokio::runtime::Builder::new_multi_thread()
@@ -118,6 +120,7 @@ pub async fn run(cli: Cli) -> anyhow::Result<u8> {
         Command::Ls(args) => cmd::ls::run(&common, args).await,
         Command::Map(c) => cmd::map::run(c),
         Command::Sim(args) => cmd::sim::run(&common, args).await,
+        Command::Pioneer(args) => cmd::pioneer::run(&common, args).await,
         Command::Robot(args) => cmd::robot::run(&common, args).await,
         Command::Storage(args) => cmd::storage::run(&common, args).await,
         Command::Demo(args) => cmd::demo::run(&common, args).await,

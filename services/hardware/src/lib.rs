@@ -20,7 +20,7 @@ pub mod device;
 pub mod gate;
 pub mod proximity;
 pub mod robot;
-// pub mod serial;
+pub mod serial;
 pub mod server;
 pub mod sim;
 pub mod storage;

@@ -130,7 +130,11 @@ mod tests {
         let path: Vec<i64> = (0..200).map(|i| 30_000 + i * 500).collect();
         let (u, seen) = run(path.clone());
         assert_eq!(seen, path);
-        assert_eq!(u.wraps(), 2, "129.5 m is two wraps above the register's range");
+        assert_eq!(
+            u.wraps(),
+            2,
+            "129.5 m is two wraps above the register's range"
+        );
     }
 
     #[test]

@@ -7,6 +7,7 @@ pub mod data_server;
 pub mod demo;
 pub mod ls;
 pub mod map;
+pub mod pioneer;
 pub mod robot;
 pub mod sem;
 pub mod sim;
