@@ -71,3 +71,60 @@ async fn python_client_from_docs_alone() {
     assert!(!stdout.contains("FAIL"), "{stdout}");
     server.stop().await;
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn python_client_drives_a_robot_from_docs_alone() {
+    use rome_client::net::{free_loopback_port, NetOptions};
+    let python = tokio::task::spawn_blocking(python_with_zenoh)
+        .await
+        .unwrap();
+    let port = free_loopback_port().unwrap();
+    let session = NetOptions::loopback(Some(port), &[]).open().await.unwrap();
+    let map = rome_maps::load_named("fig5_3").unwrap();
+    let mut sim = rome_sim::Sim::new(&map, rome_sim::SimConfig::default());
+    let heading = sim.scene().world.position("301L").unwrap().wall_heading_deg;
+    sim.add_robot_at("r1", "301L", heading).unwrap();
+    let world = rome_hardware::sim::SimWorld::new(sim);
+    let _stepper = world.start(Some(1.0));
+    let servers = rome_hardware::robot::spawn_sim_robot(
+        &session,
+        &rome_schema::Root::default(),
+        &world,
+        "r1",
+        rome_hardware::robot::Rates::default(),
+    )
+    .unwrap();
+    // All four servers are up before the script asks anything.
+    let alive = session
+        .liveliness()
+        .declare_subscriber("rome/alive/server/robot/r1/**")
+        .history(true)
+        .await
+        .unwrap();
+    for _ in 0..4 {
+        tokio::time::timeout(std::time::Duration::from_secs(10), alive.recv_async())
+            .await
+            .unwrap()
+            .unwrap();
+    }
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("python/robot_check.py");
+    let out = tokio::task::spawn_blocking(move || {
+        Command::new(python)
+            .arg(script)
+            .arg(port.to_string())
+            .output()
+            .unwrap()
+    })
+    .await
+    .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(stdout.contains(" 0 failed"), "{stdout}");
+    for s in servers {
+        s.stop().await.unwrap();
+    }
+}
