@@ -423,3 +423,86 @@ fn bench_sim_reports_each_robot_count() {
     }
     assert!(String::from_utf8_lossy(&out.stderr).contains("3 robot(s), cameras off"));
 }
+
+#[test]
+fn bench_robot_reports_round_trips_and_the_scan_stream() {
+    let out = offline_ok(["bench", "robot", "--seconds", "0.2", "--json"]);
+    let f: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let ops: Vec<&str> = f["rows"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| r["op"].as_str().unwrap())
+        .collect();
+    assert_eq!(ops, ["zenoh-queryable", "pose", "sonar", "camera-3-rows"]);
+    for r in f["rows"].as_array().unwrap() {
+        let (p50, p99) = (r["p50_us"].as_u64().unwrap(), r["p99_us"].as_u64().unwrap());
+        assert!(p50 > 0 && p50 <= p99, "{r}");
+        assert!(r["samples"].as_u64().unwrap() > 0);
+    }
+    assert!(f["scans_per_s"].as_f64().unwrap() > 0.0);
+    assert_eq!(f["scans_lost"], 0);
+}
+
+#[test]
+fn robot_commands_from_the_shell_against_rome_sim() {
+    let port = rome_client::net::free_loopback_port().unwrap();
+    let listen = format!("tcp/127.0.0.1:{port}");
+    let connect = listen.clone();
+    let mut sim = rome_tests::ChildGuard(Some(
+        Command::new(ROME)
+            .args([
+                "sim",
+                "--map",
+                "fig5_3",
+                "--robots",
+                "2",
+                "--no-multicast",
+                "-l",
+                &listen,
+            ])
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap(),
+    ));
+    let robot = |args: &[&str]| {
+        Command::new(ROME)
+            .args(["-e", &connect, "--no-multicast", "robot"])
+            .args(args)
+            .output()
+            .unwrap()
+    };
+    // Up once r2's base answers.
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(20);
+    while !robot(&["r2", "mode"]).status.success() {
+        assert!(
+            std::time::Instant::now() < deadline,
+            "rome sim did not come up"
+        );
+    }
+    let out = robot(&["r1", "set-pose", "0", "0", "90"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let pose: serde_json::Value = serde_json::from_slice(&robot(&["r1", "pose"]).stdout).unwrap();
+    assert_eq!(
+        (pose["x_mm"].as_i64(), pose["heading_deg"].as_f64()),
+        (Some(0), Some(90.0))
+    );
+    let sonar: serde_json::Value = serde_json::from_slice(&robot(&["r2", "sonar"]).stdout).unwrap();
+    assert_eq!(sonar["sonar_mm"].as_array().unwrap().len(), 24);
+    let rows: serde_json::Value =
+        serde_json::from_slice(&robot(&["r1", "camera", "up", "rows", "1,2,3"]).stdout).unwrap();
+    assert_eq!(rows["rows"].as_array().unwrap().len(), 3);
+    let bad = robot(&["r1", "go", "9000"]);
+    assert_eq!(bad.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&bad.stderr);
+    assert!(
+        err.contains("out_of_range") && err.contains("robot 'r1'"),
+        "{err}"
+    );
+    sim.kill();
+}

@@ -1,4 +1,4 @@
-//! `rome bench data`: round trips and throughput of the data server,
+//! `rome bench data` (and the table every `rome bench` prints): round trips and throughput of the data server,
 //! beside a bare Zenoh queryable measured in the same run over the same
 //! loopback links, so the figures are a ratio, not a guess about the
 //! machine.
@@ -19,6 +19,8 @@ pub enum BenchCmd {
     Data(DataBench),
     /// Simulated seconds per wall-clock second for 1..1000 robots on a map.
     Sim(crate::cmd::bench_sim::SimBench),
+    /// Hardware-server round trips (pose, sonar, camera rows) and scan-stream rate.
+    Robot(crate::cmd::bench_robot::RobotBench),
 }
 
 /// Flags of `rome bench data`.
@@ -236,6 +238,18 @@ pub async fn run(_common: &CommonArgs, cmd: BenchCmd) -> anyhow::Result<u8> {
                 println!("{}", serde_json::to_string_pretty(&rows)?);
             } else {
                 print_table(&rows);
+            }
+        }
+        BenchCmd::Robot(args) => {
+            let figures = crate::cmd::bench_robot::figures(&args, !args.json).await?;
+            if args.json {
+                println!("{}", serde_json::to_string_pretty(&figures)?);
+            } else {
+                print_table(&figures.rows);
+                println!(
+                    "scan stream (world free-running): {:.0} scans/s, {} lost",
+                    figures.scans_per_s, figures.scans_lost
+                );
             }
         }
         BenchCmd::Sim(args) => {

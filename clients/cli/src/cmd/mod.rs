@@ -1,6 +1,7 @@
 //! One module per command group.
 
 pub mod bench;
+pub mod bench_robot;
 pub mod bench_sim;
 pub mod data;
 pub mod data_server;

@@ -1,0 +1,175 @@
+//! `rome bench robot`: round trips to the hardware servers of a simulated
+//! robot (pose, sonar, three camera rows in one request) beside a bare
+//! Zenoh queryable in the same run, and the sustained scan-stream rate.
+
+use crate::cmd::bench::Row;
+use rome_client::net::{free_loopback_port, NetOptions};
+use rome_client::{RobotClient, RobotOptions};
+use rome_hardware::robot::{spawn_sim_robot, Rates};
+use rome_hardware::sim::SimWorld;
+use rome_schema::Root;
+use rome_sim::{Sim, SimConfig};
+use serde::Serialize;
+use std::future::Future;
+use std::time::{Duration, Instant};
+use zenoh::Wait;
+
+/// Flags of `rome bench robot`.
+#[derive(Debug, clap::Args)]
+pub struct RobotBench {
+    /// Seconds to measure each operation.
+    #[arg(long, default_value_t = 2.0)]
+    pub seconds: f64,
+    /// Print JSON instead of a table.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// The benchmark's figures.
+#[derive(Debug, Clone, Serialize)]
+pub struct RobotFigures {
+    /// Round trips, one client, one request at a time.
+    pub rows: Vec<Row>,
+    /// Scans received per second with the world free-running.
+    pub scans_per_s: f64,
+    /// Scans missing from the sequence numbers while measuring.
+    pub scans_lost: u64,
+}
+
+const RAW_KEY: &str = "rome-bench/raw-robot";
+
+async fn latencies<F, Fut>(name: &'static str, span: Duration, mut f: F) -> anyhow::Result<Row>
+where
+    F: FnMut() -> Fut,
+    Fut: Future<Output = anyhow::Result<()>>,
+{
+    let warm = Instant::now();
+    while warm.elapsed() < span / 5 {
+        f().await?;
+    }
+    let mut lat = Vec::new();
+    let started = Instant::now();
+    while started.elapsed() < span {
+        let t = Instant::now();
+        f().await?;
+        lat.push(t.elapsed().as_micros() as u64);
+    }
+    lat.sort_unstable();
+    let pct = |p: f64| lat[((lat.len() as f64 * p) as usize).min(lat.len() - 1)];
+    Ok(Row {
+        op: name,
+        clients: 1,
+        ops_per_s: lat.len() as f64 / started.elapsed().as_secs_f64(),
+        p50_us: pct(0.50),
+        p99_us: pct(0.99),
+        samples: lat.len(),
+    })
+}
+
+/// Runs the benchmark.
+pub async fn figures(args: &RobotBench, progress: bool) -> anyhow::Result<RobotFigures> {
+    anyhow::ensure!(
+        args.seconds.is_finite() && args.seconds > 0.0,
+        "--seconds must be positive"
+    );
+    let span = Duration::from_secs_f64(args.seconds);
+    let port = free_loopback_port()?;
+    let server = NetOptions::loopback(Some(port), &[]).open().await?;
+    let _raw = server
+        .declare_queryable(RAW_KEY)
+        .callback(|q| {
+            let _ = q.reply(RAW_KEY, b"0".to_vec()).wait();
+        })
+        .await
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    let map = rome_maps::load_named("fig5_3")?;
+    let mut sim = Sim::new(&map, SimConfig::default());
+    let heading = sim
+        .scene()
+        .world
+        .position("301L")
+        .map_or(0.0, |p| p.wall_heading_deg);
+    sim.add_robot_at("r1", "301L", heading)?;
+    let world = SimWorld::new(sim);
+    let stepper = world.start(None);
+    let rates = Rates {
+        state: Some(Duration::from_millis(100)),
+        scan: Some(Duration::from_millis(1)),
+        camera: Duration::from_millis(500),
+    };
+    let servers = spawn_sim_robot(&server, &Root::default(), &world, "r1", rates)?;
+    let session = NetOptions::loopback_client(port).open().await?;
+    let r = RobotClient::connect(&session, "r1", RobotOptions::new("bench")).await?;
+    // The servers are up once a pose comes back.
+    let up = Instant::now();
+    while r.pose().await.is_err() {
+        anyhow::ensure!(
+            up.elapsed() < Duration::from_secs(10),
+            "servers did not start"
+        );
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+    let say = |what: &str| {
+        if progress {
+            eprintln!("  {what:16} {:.1} s …", args.seconds);
+        }
+    };
+    let mut rows = Vec::new();
+    say("zenoh-queryable");
+    rows.push(
+        latencies("zenoh-queryable", span, || async {
+            let replies = session
+                .get(RAW_KEY)
+                .await
+                .map_err(|e| anyhow::anyhow!("{e}"))?;
+            replies
+                .recv_async()
+                .await
+                .map_err(|e| anyhow::anyhow!("no raw reply: {e}"))?;
+            Ok(())
+        })
+        .await?,
+    );
+    say("pose");
+    rows.push(latencies("pose", span, || async { Ok(r.pose().await.map(|_| ())?) }).await?);
+    say("sonar");
+    rows.push(latencies("sonar", span, || async { Ok(r.sonar().await.map(|_| ())?) }).await?);
+    say("camera 3 rows");
+    rows.push(
+        latencies("camera-3-rows", span, || async {
+            Ok(r.camera_rows("up", &[120, 241, 360]).await.map(|_| ())?)
+        })
+        .await?,
+    );
+    say("scan stream");
+    let scans = r.scans().await?;
+    let first = scans
+        .next()
+        .await
+        .ok_or_else(|| anyhow::anyhow!("no scan"))??;
+    let started = Instant::now();
+    let mut last = first.seq;
+    let mut got = 0u64;
+    while started.elapsed() < span {
+        match tokio::time::timeout(span, scans.next()).await {
+            Ok(Some(Ok(s))) => {
+                got += 1;
+                last = s.seq;
+            }
+            _ => break,
+        }
+    }
+    let elapsed = started.elapsed().as_secs_f64();
+    let lost = (last - first.seq).saturating_sub(got);
+    for s in servers {
+        s.stop().await?;
+    }
+    drop(stepper);
+    let _ = session.close().await;
+    let _ = server.close().await;
+    Ok(RobotFigures {
+        rows,
+        scans_per_s: got as f64 / elapsed,
+        scans_lost: lost,
+    })
+}
