@@ -64,7 +64,7 @@ pub enum Command {
     Pioneer(cmd::pioneer::Args),
     /// Send commands to a robot's hardware servers (base, proximity, cameras).
     Robot(cmd::robot::Args),
-    /// Keep the servers' lock state in memory (a Zenoh storage on <root>/store/**).
+    /// Keep the servers' lock state in memory (a Zenoh storage on ROOT/store/**).
     Storage(cmd::storage::Args),
     /// Run everything in one process and show it working (no router, no configuration).
     Demo(cmd::demo::Args),

@@ -7,7 +7,7 @@ use crate::exit;
 /// Flags of `rome storage`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// The key expression to store [default: <root>/store/**].
+    /// The key expression to store [default: ROOT/store/**].
     #[arg(long, value_name = "KEYEXPR")]
     pub key: Option<String>,
 }

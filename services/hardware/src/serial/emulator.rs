@@ -132,7 +132,7 @@ impl Emulator {
         };
         if !b.open {
             // SYNC1 and OPEN share a number, as do SYNC2 and CLOSE: the
-            // phase of the handshake tells them apart [P2 6.5].
+            // phase of the handshake tells them apart \[P2 6.5\].
             return match (b.phase, cmd) {
                 (_, SYNC0) => {
                     b.phase = 1;

@@ -299,7 +299,7 @@ impl Link2 {
     }
 }
 
-/// Opens the port and runs the connection handshake [P2 6.5].
+/// Opens the port and runs the connection handshake \[P2 6.5\].
 async fn connect(config: &P2osConfig) -> Result<(Port, Deframer), String> {
     use proto::*;
     let mut port = tokio_serial::new(&config.path, config.baud)

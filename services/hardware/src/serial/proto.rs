@@ -3,29 +3,29 @@
 //! packet (SIP).
 //!
 //! Sources of each fact (public manuals of the protocol):
-//! - [P2] *Pioneer 2 / PeopleBot Operations Manual*, ActivMedia Robotics,
+//! - \[P2\] *Pioneer 2 / PeopleBot Operations Manual*, ActivMedia Robotics,
 //!   v9, 2001, ch. 6 "P2OS": packet protocol (6.2), checksum (6.2.3),
 //!   client commands (6.3, table 13), server information packets (6.4,
 //!   table 14), SYNC/OPEN/CLOSE connection (6.5).
-//! - [P3] *Pioneer 3 Operations Manual*, MobileRobots, v5, 2007, ch. 6
+//! - \[P3\] *Pioneer 3 Operations Manual*, MobileRobots, v5, 2007, ch. 6
 //!   "ARCOS": the same framing and commands, E_STOP (55) and BUMPSTALL (44),
 //!   conversion factors of 1.0 mm for Pioneer 3 distances and velocities.
 
-/// Packet header, two bytes [P2 6.2].
+/// Packet header, two bytes \[P2 6.2\].
 pub const HEADER: [u8; 2] = [0xFA, 0xFB];
 /// The byte count covers command/type byte, arguments and the two
-/// checksum bytes, at most 200 [P2 6.2.1].
+/// checksum bytes, at most 200 \[P2 6.2.1\].
 pub const MAX_COUNT: u8 = 200;
 
-/// Connection: synchronisation packets, echoed by the robot [P2 6.5].
+/// Connection: synchronisation packets, echoed by the robot \[P2 6.5\].
 pub const SYNC0: u8 = 0;
 /// Second sync packet.
 pub const SYNC1: u8 = 1;
 /// Third sync packet; the robot answers with its name, class and subclass.
 pub const SYNC2: u8 = 2;
-/// After connection, command 0 is the watchdog pulse [P2 table 13].
+/// After connection, command 0 is the watchdog pulse \[P2 table 13\].
 pub const PULSE: u8 = 0;
-/// Starts the servers: SIPs begin [P2 table 13].
+/// Starts the servers: SIPs begin \[P2 table 13\].
 pub const OPEN: u8 = 1;
 /// Closes the servers and the connection.
 pub const CLOSE: u8 = 2;
@@ -51,28 +51,28 @@ pub const RVEL: u8 = 21;
 pub const SETRA: u8 = 23;
 /// Stop without disabling the motors.
 pub const STOP: u8 = 29;
-/// Stall on bumper contact: 0 never, 1 front, 2 rear, 3 either [P3].
+/// Stall on bumper contact: 0 never, 1 front, 2 rear, 3 either \[P3\].
 pub const BUMPSTALL: u8 = 44;
-/// Emergency stop, overriding deceleration [P3].
+/// Emergency stop, overriding deceleration \[P3\].
 pub const E_STOP: u8 = 55;
 
-/// Argument type: positive (or zero) integer, two bytes low first [P2 6.3].
+/// Argument type: positive (or zero) integer, two bytes low first \[P2 6.3\].
 pub const ARG_INT: u8 = 0x3B;
 /// Argument type: negative integer, its magnitude two bytes low first.
 pub const ARG_NINT: u8 = 0x1B;
 /// Argument type: string, length-prefixed.
 pub const ARG_STR: u8 = 0x2B;
 
-/// SIP type: the robot stands [P2 table 14].
+/// SIP type: the robot stands \[P2 table 14\].
 pub const SIP_STOPPED: u8 = 0x32;
 /// SIP type: the robot moves.
 pub const SIP_MOVING: u8 = 0x33;
-/// Angle units of THPOS: 4096 per turn [P2 table 14, AngleConvFactor 0.001534 rad].
+/// Angle units of THPOS: 4096 per turn \[P2 table 14, AngleConvFactor 0.001534 rad\].
 pub const ANGLE_UNITS: f64 = 4096.0;
 
 /// The checksum of a packet's payload (command or type byte onwards):
 /// the sum of big-endian byte pairs in 16 bits, an odd last byte XORed in
-/// [P2 6.2.3]. Sent high byte first.
+/// \[P2 6.2.3\]. Sent high byte first.
 pub fn checksum(payload: &[u8]) -> u16 {
     let mut c: u16 = 0;
     let mut pairs = payload.chunks_exact(2);
@@ -172,7 +172,7 @@ impl Deframer {
     }
 }
 
-/// A standard server information packet [P2 table 14].
+/// A standard server information packet \[P2 table 14\].
 #[derive(Debug, Clone, PartialEq, Eq, Default)]
 pub struct Sip {
     /// Moving (0x33) or stopped (0x32).
