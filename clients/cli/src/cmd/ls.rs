@@ -41,9 +41,9 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
             root.as_str()
         );
     } else {
-        println!("{:6}  {:12}  ID", "CLASS", "ROLE");
+        println!("{:6}  {:16}  ID", "CLASS", "ROLE");
         for p in &people {
-            println!("{:6}  {:12}  {}", p.class, p.role, p.id);
+            println!("{:6}  {:16}  {}", p.class, p.role, p.id);
         }
     }
     Ok(exit::OK)
