@@ -48,16 +48,17 @@ fn python_with_zenoh() -> PathBuf {
     python
 }
 
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn python_client_from_docs_alone() {
-    let python = tokio::task::spawn_blocking(python_with_zenoh)
-        .await
-        .unwrap();
-    let server = TestServer::start().await;
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("python/keys_check.py");
-    let port = server.port.to_string();
+/// Runs `tests/python/<script> PORT`; it must pass every check.
+async fn run_script(python: PathBuf, script: &str, port: u16) {
+    let script = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("python")
+        .join(script);
     let out = tokio::task::spawn_blocking(move || {
-        Command::new(python).arg(script).arg(port).output().unwrap()
+        Command::new(python)
+            .arg(script)
+            .arg(port.to_string())
+            .output()
+            .unwrap()
     })
     .await
     .unwrap();
@@ -69,6 +70,15 @@ async fn python_client_from_docs_alone() {
     );
     assert!(stdout.contains(" 0 failed"), "{stdout}");
     assert!(!stdout.contains("FAIL"), "{stdout}");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn python_client_from_docs_alone() {
+    let python = tokio::task::spawn_blocking(python_with_zenoh)
+        .await
+        .unwrap();
+    let server = TestServer::start().await;
+    run_script(python, "keys_check.py", server.port).await;
     server.stop().await;
 }
 
@@ -107,23 +117,7 @@ async fn python_client_drives_a_robot_from_docs_alone() {
             .unwrap()
             .unwrap();
     }
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("python/robot_check.py");
-    let out = tokio::task::spawn_blocking(move || {
-        Command::new(python)
-            .arg(script)
-            .arg(port.to_string())
-            .output()
-            .unwrap()
-    })
-    .await
-    .unwrap();
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{stdout}\n{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    assert!(stdout.contains(" 0 failed"), "{stdout}");
+    run_script(python, "robot_check.py", port).await;
     for s in servers {
         s.stop().await.unwrap();
     }

@@ -5,7 +5,7 @@
 use crate::args::{CommonArgs, Side};
 use crate::exit;
 use anyhow::Context;
-use rome_client::robot::{Image, Lock};
+use rome_client::robot::{Image, Lock, Stream};
 use rome_client::{RobotClient, RobotOptions};
 use rome_schema::robot::SONARS;
 use serde::Serialize;
@@ -195,6 +195,22 @@ fn describe(img: &Image) -> serde_json::Value {
     })
 }
 
+/// Prints a stream's messages, `count` of them or until it ends.
+async fn follow<T: serde::de::DeserializeOwned + Serialize>(
+    stream: Stream<T>,
+    count: Option<u64>,
+) -> anyhow::Result<()> {
+    let mut seen = 0;
+    while count.is_none_or(|c| seen < c) {
+        match stream.next().await {
+            Some(m) => print(&m?)?,
+            None => break,
+        }
+        seen += 1;
+    }
+    Ok(())
+}
+
 async fn hold(lock: Lock, secs: Option<f64>) -> anyhow::Result<u8> {
     print(lock.grant())?;
     match secs {
@@ -274,17 +290,7 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
         RobotCmd::Lock { hold: secs } => {
             return hold(r.lock().await.with_context(what)?, secs).await
         }
-        RobotCmd::State { count } => {
-            let stream = r.state().await?;
-            let mut seen = 0;
-            while count.is_none_or(|c| seen < c) {
-                match stream.next().await {
-                    Some(m) => print(&m?)?,
-                    None => break,
-                }
-                seen += 1;
-            }
-        }
+        RobotCmd::State { count } => follow(r.state().await?, count).await?,
         RobotCmd::Sonar => print(&r.sonar().await.with_context(what)?)?,
         RobotCmd::Ir => print(&r.infrared().await.with_context(what)?)?,
         RobotCmd::Timeout { max_mm } => {
@@ -296,17 +302,7 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
             };
             print(&r.set_timeout(all).await.with_context(what)?)?
         }
-        RobotCmd::Scan { count } => {
-            let stream = r.scans().await?;
-            let mut seen = 0;
-            while count.is_none_or(|c| seen < c) {
-                match stream.next().await {
-                    Some(m) => print(&m?)?,
-                    None => break,
-                }
-                seen += 1;
-            }
-        }
+        RobotCmd::Scan { count } => follow(r.scans().await?, count).await?,
         RobotCmd::Camera { camera, command } => match command {
             CameraCmd::Size => print(&r.camera_size(&camera).await.with_context(what)?)?,
             CameraCmd::Grab { output } => {
