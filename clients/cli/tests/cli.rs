@@ -5,6 +5,7 @@
 
 use rome_client::net::free_loopback_port;
 use rome_tests::ChildGuard;
+use std::ffi::OsStr;
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
@@ -237,6 +238,18 @@ fn offline_ok<S: AsRef<std::ffi::OsStr>>(
     out
 }
 
+/// Runs `rome` without a server; it must fail with exit 1. Returns stderr.
+fn offline_err<S: AsRef<std::ffi::OsStr>>(args: impl IntoIterator<Item = S>) -> String {
+    let out = Command::new(ROME).args(args).output().unwrap();
+    assert_eq!(
+        out.status.code(),
+        Some(1),
+        "{}",
+        String::from_utf8_lossy(&out.stdout)
+    );
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
 fn map_file(name: &str) -> std::path::PathBuf {
     std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../../maps/data")
@@ -265,13 +278,7 @@ fn map_check_passes_good_maps_and_names_file_and_line_in_broken_ones() {
         .unwrap()
         .replace("node X2 270", "node X2 250");
     std::fs::write(&broken, text).unwrap();
-    let out = Command::new(ROME)
-        .args(["map", "check"])
-        .arg(&broken)
-        .output()
-        .unwrap();
-    assert_eq!(out.status.code(), Some(1));
-    let err = String::from_utf8_lossy(&out.stderr);
+    let err = offline_err([OsStr::new("map"), OsStr::new("check"), broken.as_os_str()]);
     assert!(
         err.contains(&format!("{}:", broken.display())) && err.contains("not ±360"),
         "{err}"
@@ -309,14 +316,15 @@ fn map_render_writes_png_and_svg() {
             );
         }
     }
-    let out = Command::new(ROME)
-        .args(["map", "render"])
-        .arg(map_file("fig5_3.stk"))
-        .args(["-o", "/tmp/x.gif"])
-        .output()
-        .unwrap();
-    assert_eq!(out.status.code(), Some(1));
-    assert!(String::from_utf8_lossy(&out.stderr).contains("name the output .png or .svg"));
+    let fig = map_file("fig5_3.stk");
+    let err = offline_err([
+        OsStr::new("map"),
+        OsStr::new("render"),
+        fig.as_os_str(),
+        OsStr::new("-o"),
+        OsStr::new("/tmp/x.gif"),
+    ]);
+    assert!(err.contains("name the output .png or .svg"), "{err}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
@@ -344,13 +352,7 @@ fn map_check_on_eb3_and_a_broken_copy_of_it() {
         .replace("link outer.NE A.NE", "link outer.NE A.NX");
     assert_ne!(text, good);
     std::fs::write(&broken, &text).unwrap();
-    let out = Command::new(ROME)
-        .args(["map", "check"])
-        .arg(&broken)
-        .output()
-        .unwrap();
-    assert_eq!(out.status.code(), Some(1));
-    let err = String::from_utf8_lossy(&out.stderr);
+    let err = offline_err([OsStr::new("map"), OsStr::new("check"), broken.as_os_str()]);
     let line_of = |needle: &str| text.lines().position(|l| l.starts_with(needle)).unwrap() + 1;
     assert!(
         err.contains(&format!("{}:{}:", broken.display(), line_of("ring outer")))
@@ -383,12 +385,7 @@ fn map_route_measures_table_6_1_routes_and_names_unknown_rooms() {
         "{text}"
     );
 
-    let out = Command::new(ROME)
-        .args(["map", "route", "eb3", "350X", "376L"])
-        .output()
-        .unwrap();
-    assert_eq!(out.status.code(), Some(1));
-    let err = String::from_utf8_lossy(&out.stderr);
+    let err = offline_err(["map", "route", "eb3", "350X", "376L"]);
     assert!(
         err.contains("no position '350X'") && err.contains("350L, 350R"),
         "{err}"
