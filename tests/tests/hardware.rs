@@ -631,6 +631,18 @@ async fn camera_rows_come_in_one_request_and_a_lock_freezes_grabbing() {
     let rows = c.camera_rows("up", &[120, 241, 360]).await.unwrap();
     assert_eq!(rows.rows, [120, 241, 360]);
     assert_eq!(rows.pixels.len(), 3 * 512);
+    // `format=png` answers a PNG of the same frame size.
+    let s = rig.peer_session().await;
+    let replies = s
+        .get("rome/robot/r1/camera/up/grab?format=png")
+        .await
+        .unwrap();
+    let png = replies.recv_async().await.unwrap().into_result().unwrap();
+    assert_eq!(png.encoding(), &zenoh::bytes::Encoding::IMAGE_PNG);
+    let bytes = png.payload().to_bytes();
+    assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n");
+    // IHDR: width and height, big-endian, at bytes 16..24.
+    assert_eq!(&bytes[16..24], [0, 0, 2, 0, 0, 0, 1, 226]);
 
     let lock = c.camera_lock("up").await.unwrap();
     let frozen = c.camera_rows("up", &[0]).await.unwrap().frame;

@@ -74,37 +74,44 @@ impl<D: CameraDevice> Camera<D> {
         Ok(())
     }
 
-    /// The last frame, grabbing one first if there is none yet.
-    async fn current(&mut self) -> Result<&Frame, ErrorReply> {
+    /// The last frame and its grab number, grabbing one first if there is
+    /// none yet.
+    async fn current(&mut self) -> Result<(&Frame, u64), ErrorReply> {
         if self.frame.is_none() {
             self.grab().await?;
         }
+        let frames = self.frames;
         self.frame
             .as_ref()
+            .map(|f| (f, frames))
             .ok_or_else(|| ErrorReply::new(ErrorCode::Device, "no frame grabbed"))
-    }
-
-    fn schema(&self, frame: &Frame, rows: Option<Vec<u32>>) -> Encoding {
-        let g = Gray8 {
-            width: frame.width,
-            height: frame.height,
-            frame: self.frames,
-            time_ms: frame.time_ms,
-            rows,
-        };
-        Encoding::APPLICATION_OCTET_STREAM.with_schema(g.schema())
     }
 }
 
+/// The encoding of a raw reply: gray8 and where it came from.
+fn encoding(frame: &Frame, frames: u64, rows: Option<Vec<u32>>) -> Encoding {
+    let g = Gray8 {
+        width: frame.width,
+        height: frame.height,
+        frame: frames,
+        time_ms: frame.time_ms,
+        rows,
+    };
+    Encoding::APPLICATION_OCTET_STREAM.with_schema(g.schema())
+}
+
 fn png(frame: &Frame) -> Result<Vec<u8>, ErrorReply> {
-    let img = image::GrayImage::from_raw(frame.width, frame.height, frame.pixels.clone())
-        .ok_or_else(|| {
-            ErrorReply::new(ErrorCode::Device, "frame size does not match its pixels")
-        })?;
-    let mut out = std::io::Cursor::new(Vec::new());
-    img.write_to(&mut out, image::ImageFormat::Png)
+    use image::ImageEncoder;
+    let mut out = Vec::new();
+    image::codecs::png::PngEncoder::new(&mut out)
+        .write_image(
+            &frame.pixels,
+            frame.width,
+            frame.height,
+            image::ExtendedColorType::L8,
+        )
         .map_err(|e| ErrorReply::new(ErrorCode::Device, format!("PNG encoding failed: {e}")))?;
-    Ok(out.into_inner())
+    Ok(out)
 }
 
 impl<D: CameraDevice> Service for Camera<D> {
@@ -182,24 +189,35 @@ impl<D: CameraDevice> Service for Camera<D> {
                 Ok(Body::json(&SizeReply { width, height }))
             }
             CameraCmd::Grab { png: as_png } => {
-                let frame = self.current().await?.clone();
+                let (frame, frames) = self.current().await?;
                 if as_png {
-                    Ok(Body::Binary(png(&frame)?, Encoding::IMAGE_PNG))
+                    Ok(Body::Binary(png(frame)?, Encoding::IMAGE_PNG))
                 } else {
-                    let encoding = self.schema(&frame, None);
-                    Ok(Body::Binary(frame.pixels, encoding))
+                    Ok(Body::Binary(
+                        frame.pixels.clone(),
+                        encoding(frame, frames, None),
+                    ))
                 }
             }
             CameraCmd::Rows(rows) => {
-                let frame = self.current().await?.clone();
+                let (frame, frames) = self.current().await?;
                 let w = frame.width as usize;
                 let mut out = Vec::with_capacity(w * rows.len());
                 for r in &rows {
                     let start = *r as usize * w;
-                    out.extend_from_slice(&frame.pixels[start..start + w]);
+                    // The device's frame may be smaller than the size it declared.
+                    let row = frame.pixels.get(start..start + w).ok_or_else(|| {
+                        ErrorReply::new(
+                            ErrorCode::Device,
+                            format!(
+                                "row {r} is not in the grabbed frame ({} × {})",
+                                frame.width, frame.height
+                            ),
+                        )
+                    })?;
+                    out.extend_from_slice(row);
                 }
-                let encoding = self.schema(&frame, Some(rows));
-                Ok(Body::Binary(out, encoding))
+                Ok(Body::Binary(out, encoding(frame, frames, Some(rows))))
             }
         }
     }
