@@ -153,16 +153,24 @@ impl Lock {
 
     /// Releases the lock (`RobotUnlock`, `CameraUnLock`).
     pub async fn unlock(mut self) -> Result<(), ClientError> {
+        self.release().await
+    }
+
+    /// Stops renewing, forgets the fence and returns the `unlock` request;
+    /// from then on this lock is released (dropping it does nothing more).
+    fn release(&mut self) -> impl std::future::Future<Output = Result<(), ClientError>> + 'static {
         self.released = true;
         self.renew.abort();
         let fence = self.grant.fence;
         self.client.forget(&self.device, fence);
-        let params = [(param::FENCE, fence.to_string())];
-        let _: Unlocked = self
-            .client
-            .json(&self.device, "unlock", &params, None::<&()>, false)
-            .await?;
-        Ok(())
+        let (client, device) = (self.client.clone(), self.device.clone());
+        async move {
+            let params = [(param::FENCE, fence.to_string())];
+            let _: Unlocked = client
+                .json(&device, "unlock", &params, None::<&()>, false)
+                .await?;
+            Ok(())
+        }
     }
 }
 
@@ -172,17 +180,9 @@ impl Drop for Lock {
         if self.released {
             return;
         }
-        let fence = self.grant.fence;
-        self.client.forget(&self.device, fence);
-        let client = self.client.clone();
-        let device = self.device.clone();
+        let unlock = self.release();
         if let Ok(rt) = tokio::runtime::Handle::try_current() {
-            rt.spawn(async move {
-                let params = [(param::FENCE, fence.to_string())];
-                let _: Result<Unlocked, _> = client
-                    .json(&device, "unlock", &params, None::<&()>, false)
-                    .await;
-            });
+            rt.spawn(unlock);
         }
     }
 }
