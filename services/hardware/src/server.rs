@@ -158,7 +158,7 @@ fn declare_err(what: &str, e: zenoh::Error) -> ServerError {
 
 enum Op<C> {
     Lock { owner: String, ttl: Duration },
-    Unlock,
+    Unlock { fence: u64 },
     Do(C),
 }
 
@@ -293,6 +293,7 @@ impl<S: Service> Server<S> {
         &self,
         command: &str,
         mut params: Params,
+        fence: Option<u64>,
         payload: Option<&[u8]>,
     ) -> Result<Op<S::Cmd>, ErrorReply> {
         let lockable = self.service.lockable();
@@ -312,8 +313,14 @@ impl<S: Service> Server<S> {
                 })
             }
             "unlock" if lockable => {
-                params.finish("unlock", &[])?;
-                Ok(Op::Unlock)
+                params.finish("unlock", &[param::FENCE])?;
+                let fence = fence.ok_or_else(|| {
+                    ErrorReply::new(
+                        ErrorCode::BadParameter,
+                        "'unlock' needs the grant's 'fence' parameter (the number 'lock' answered)",
+                    )
+                })?;
+                Ok(Op::Unlock { fence })
             }
             _ => {
                 let known = self.service.commands();
@@ -350,20 +357,13 @@ impl<S: Service> Server<S> {
         };
         let command = key.rsplit('/').next().unwrap_or_default().to_string();
         let payload = query.payload().map(|p| p.to_bytes().into_owned());
-        let op = match self.parse(&command, params, payload.as_deref()) {
+        let op = match self.parse(&command, params, meta.fence, payload.as_deref()) {
             Ok(op) => op,
             Err(e) => {
                 tracing::debug!(%key, error = %e, "request refused");
                 return reply_err(&query, &e).await;
             }
         };
-        if matches!(op, Op::Unlock) && meta.fence.is_none() {
-            let e = ErrorReply::new(
-                ErrorCode::BadParameter,
-                "'unlock' needs the grant's 'fence' parameter (the number 'lock' answered)",
-            );
-            return reply_err(&query, &e).await;
-        }
         let now = Instant::now();
         let pending = Pending {
             query,
@@ -423,20 +423,17 @@ impl<S: Service> Server<S> {
                     ttl_ms: holder.ttl.as_millis() as u64,
                 }))
             }
-            Op::Unlock => {
-                let fence = self.gate.holder().map_or(0, |h| h.fence);
-                match self.gate.release(fence) {
-                    Ok(h) => {
-                        tracing::info!(server = %self.config.label(), holder = %h.owner, fence = h.fence, "lock released");
-                        self.persist().await;
-                        Ok(Body::json(&Unlocked {
-                            released: true,
-                            fence: h.fence,
-                        }))
-                    }
-                    Err(_) => Err(ErrorReply::new(ErrorCode::Conflict, "the lock is not held")),
+            Op::Unlock { fence } => match self.gate.release(fence) {
+                Ok(h) => {
+                    tracing::info!(server = %self.config.label(), holder = %h.owner, fence = h.fence, "lock released");
+                    self.persist().await;
+                    Ok(Body::json(&Unlocked {
+                        released: true,
+                        fence: h.fence,
+                    }))
                 }
-            }
+                Err(_) => Err(ErrorReply::new(ErrorCode::Conflict, "the lock is not held")),
+            },
             Op::Do(cmd) => {
                 let lock = self.lock();
                 self.service.apply(cmd, lock).await
