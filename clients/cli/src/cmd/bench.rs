@@ -134,18 +134,30 @@ async fn measure(clients: &[Client], op: Op, span: Duration) -> anyhow::Result<R
         }
     };
     run(span / 5).await?; // warm-up
-    let (mut lat, elapsed) = run(span).await?;
-    anyhow::ensure!(!lat.is_empty(), "no {} completed", op.name());
-    lat.sort_unstable();
-    let pct = |p: f64| lat[((lat.len() as f64 * p) as usize).min(lat.len() - 1)];
-    Ok(Row {
-        op: op.name(),
-        clients: clients.len(),
-        ops_per_s: lat.len() as f64 / elapsed.as_secs_f64(),
-        p50_us: pct(0.50),
-        p99_us: pct(0.99),
-        samples: lat.len(),
-    })
+    let (lat, elapsed) = run(span).await?;
+    Row::from_latencies(op.name(), clients.len(), lat, elapsed)
+}
+
+impl Row {
+    /// A row from round trips (µs) completed in `elapsed`.
+    pub fn from_latencies(
+        op: &'static str,
+        clients: usize,
+        mut lat: Vec<u64>,
+        elapsed: Duration,
+    ) -> anyhow::Result<Row> {
+        anyhow::ensure!(!lat.is_empty(), "no {op} completed");
+        lat.sort_unstable();
+        let pct = |p: f64| lat[((lat.len() as f64 * p) as usize).min(lat.len() - 1)];
+        Ok(Row {
+            op,
+            clients,
+            ops_per_s: lat.len() as f64 / elapsed.as_secs_f64(),
+            p50_us: pct(0.50),
+            p99_us: pct(0.99),
+            samples: lat.len(),
+        })
+    }
 }
 
 /// Drives futures concurrently on this task (no extra dependency).

@@ -54,16 +54,7 @@ where
         f().await?;
         lat.push(t.elapsed().as_micros() as u64);
     }
-    lat.sort_unstable();
-    let pct = |p: f64| lat[((lat.len() as f64 * p) as usize).min(lat.len() - 1)];
-    Ok(Row {
-        op: name,
-        clients: 1,
-        ops_per_s: lat.len() as f64 / started.elapsed().as_secs_f64(),
-        p50_us: pct(0.50),
-        p99_us: pct(0.99),
-        samples: lat.len(),
-    })
+    Row::from_latencies(name, 1, lat, started.elapsed())
 }
 
 /// Runs the benchmark.
