@@ -207,18 +207,38 @@ impl Default for Meta {
     }
 }
 
-/// The Zenoh QoS priority band a RoME priority travels in (§4.3 on the
-/// wire): 224–255 interactive-high, 192–223 interactive-low, 160–191
-/// data-high, 96–159 data (the default 128), 64–95 data-low, 0–63
-/// background. Zenoh's `RealTime` band is left to Zenoh's own traffic.
-pub fn zenoh_band(priority: u8) -> &'static str {
-    match priority {
-        224..=255 => "interactive_high",
-        192..=223 => "interactive_low",
-        160..=191 => "data_high",
-        96..=159 => "data",
-        64..=95 => "data_low",
-        _ => "background",
+/// A Zenoh QoS priority band, lowest first (the schema names Zenoh's bands
+/// without depending on Zenoh).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Band {
+    /// Zenoh `Background`.
+    Background,
+    /// Zenoh `DataLow`.
+    DataLow,
+    /// Zenoh `Data`, its default.
+    Data,
+    /// Zenoh `DataHigh`.
+    DataHigh,
+    /// Zenoh `InteractiveLow`.
+    InteractiveLow,
+    /// Zenoh `InteractiveHigh`.
+    InteractiveHigh,
+}
+
+impl Band {
+    /// The band a RoME priority travels in (§4.3 on the wire): 224–255
+    /// interactive-high, 192–223 interactive-low, 160–191 data-high, 96–159
+    /// data (the default 128), 64–95 data-low, 0–63 background. Zenoh's
+    /// `RealTime` band is left to Zenoh's own traffic.
+    pub fn of(priority: u8) -> Band {
+        match priority {
+            224..=255 => Band::InteractiveHigh,
+            192..=223 => Band::InteractiveLow,
+            160..=191 => Band::DataHigh,
+            96..=159 => Band::Data,
+            64..=95 => Band::DataLow,
+            _ => Band::Background,
+        }
     }
 }
 
@@ -802,22 +822,14 @@ mod tests {
 
     #[test]
     fn bands_cover_every_priority_in_order() {
-        assert_eq!(zenoh_band(0), "background");
-        assert_eq!(zenoh_band(DEFAULT_PRIORITY), "data");
-        assert_eq!(zenoh_band(255), "interactive_high");
-        let order = [
-            "background",
-            "data_low",
-            "data",
-            "data_high",
-            "interactive_low",
-            "interactive_high",
-        ];
-        let mut last = 0;
-        for p in 0..=255u8 {
-            let i = order.iter().position(|b| *b == zenoh_band(p)).unwrap();
-            assert!(i >= last, "band order breaks at {p}");
-            last = i;
+        assert_eq!(Band::of(0), Band::Background);
+        assert_eq!(Band::of(DEFAULT_PRIORITY), Band::Data);
+        assert_eq!(Band::of(255), Band::InteractiveHigh);
+        for p in 0..255u8 {
+            assert!(Band::of(p) <= Band::of(p + 1), "band order breaks at {p}");
         }
+        let mut all: Vec<Band> = (0..=255u8).map(Band::of).collect();
+        all.dedup();
+        assert_eq!(all.len(), 6, "every band is used");
     }
 }

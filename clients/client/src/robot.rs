@@ -17,8 +17,8 @@
 use crate::data::{refusal, selector};
 use crate::ClientError;
 use rome_schema::robot::{
-    param, robot_name, AdjustPose, BaseState, BumperReply, Device, Done, Go, Gray8, IrReply, Jog,
-    LockGrant, MaxRange, ModeReply, Move, PoseReply, Scan, SetBumper, SetPose, SetTimeout,
+    param, robot_name, AdjustPose, Band, BaseState, BumperReply, Device, Done, Go, Gray8, IrReply,
+    Jog, LockGrant, MaxRange, ModeReply, Move, PoseReply, Scan, SetBumper, SetPose, SetTimeout,
     SizeReply, SonarReply, SpeedReply, Stop, TimeoutReply, Turn, Unlocked, WheelSpeedReply,
     DEFAULT_LOCK_TTL_MS, DEFAULT_PRIORITY, SONARS,
 };
@@ -39,16 +39,16 @@ use zenoh::Session;
 
 static NEXT_CLIENT: AtomicU64 = AtomicU64::new(1);
 
-/// The Zenoh QoS band a RoME priority (0 … 255) travels in; see
-/// [`rome_schema::robot::zenoh_band`].
+/// The Zenoh QoS priority a RoME priority (0 … 255) travels in; see
+/// [`Band::of`].
 pub fn zenoh_priority(priority: u8) -> Priority {
-    match rome_schema::robot::zenoh_band(priority) {
-        "interactive_high" => Priority::InteractiveHigh,
-        "interactive_low" => Priority::InteractiveLow,
-        "data_high" => Priority::DataHigh,
-        "data" => Priority::Data,
-        "data_low" => Priority::DataLow,
-        _ => Priority::Background,
+    match Band::of(priority) {
+        Band::InteractiveHigh => Priority::InteractiveHigh,
+        Band::InteractiveLow => Priority::InteractiveLow,
+        Band::DataHigh => Priority::DataHigh,
+        Band::Data => Priority::Data,
+        Band::DataLow => Priority::DataLow,
+        Band::Background => Priority::Background,
     }
 }
 
