@@ -1,0 +1,279 @@
+//! The blackboard of Table 5.4: every variable and semaphore the navigation
+//! clients share, and nothing else passes between them (§5.8).
+//!
+//! Each robot has its own copy under `nav/<robot>/`, so several robots share
+//! one data server without mixing their goals: the thesis' `GoalType` of
+//! robot `r1` is the variable `nav/r1/GoalType`, its `$GoalData` the
+//! semaphore `nav/r1/GoalData`.
+//!
+//! ```text
+//!                Planner  Navigator  CTracker  HIMM  PlFinder
+//! $StartMap         U                           D
+//! $LightDet                             U       D
+//! $GoalData         U        D
+//! $RobotStatus      D        U
+//! $TrackData        U                   D
+//! $EndLMode         D                   U
+//! GoalDirection     W        R                  R       R
+//! GoalDistance      W        R          R       R
+//! GoalType          W        R
+//! LightOffset       W                   R
+//! CeilingLight               R          W       R
+//! Overshoot         R                   W
+//! ```
+//!
+//! Beyond the table, the clients publish what a person watching wants to
+//! see: `Status` (the Navigator's mode and state), `Plate` (each door plate
+//! the PlFinder reports) and `HeadingFix` (each HIMM correction), and the
+//! ceiling-light children's `$LightToken` (§5.6).
+
+use rome_client::{ClientError, DataClient};
+use serde::{Deserialize, Serialize};
+
+/// The semaphores of Table 5.4 (and the trackers' token).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Sem {
+    /// Planner → HIMM: light tracking has begun.
+    StartMap,
+    /// CTracker → HIMM: a light was counted.
+    LightDet,
+    /// Planner → Navigator: a goal is ready.
+    GoalData,
+    /// Navigator → Planner: the goal is done.
+    RobotStatus,
+    /// Planner → CTracker: track the lights of a segment.
+    TrackData,
+    /// CTracker → Planner: the segment's last light is behind.
+    EndLMode,
+    /// Among the CTracker's children: who may count the light in view.
+    LightToken,
+}
+
+impl Sem {
+    /// The thesis' name, without the `$`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Sem::StartMap => "StartMap",
+            Sem::LightDet => "LightDet",
+            Sem::GoalData => "GoalData",
+            Sem::RobotStatus => "RobotStatus",
+            Sem::TrackData => "TrackData",
+            Sem::EndLMode => "EndLMode",
+            Sem::LightToken => "LightToken",
+        }
+    }
+
+    /// Its value when first created: the token is free, the rest empty.
+    fn initial(self) -> u64 {
+        u64::from(self == Sem::LightToken)
+    }
+
+    /// Every semaphore.
+    pub const ALL: [Sem; 7] = [
+        Sem::StartMap,
+        Sem::LightDet,
+        Sem::GoalData,
+        Sem::RobotStatus,
+        Sem::TrackData,
+        Sem::EndLMode,
+        Sem::LightToken,
+    ];
+}
+
+/// The variables of Table 5.4 and the ones a person watches.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Var {
+    /// Heading of the segment, degrees (North 0, West 90).
+    GoalDirection,
+    /// Lights to count (mode L) or millimetres to travel.
+    GoalDistance,
+    /// The segment's mode: L, D, E or C.
+    GoalType,
+    /// Distances between the lights of an L segment, mm: from the start to
+    /// the first light, then between neighbours.
+    LightOffset,
+    /// Lights counted so far in the current L segment.
+    CeilingLight,
+    /// How far past the last light the robot was when it was counted, mm.
+    Overshoot,
+    /// The Navigator's mode, state and pose, for people watching.
+    Status,
+    /// The last door plate found.
+    Plate,
+    /// The last heading correction.
+    HeadingFix,
+}
+
+impl Var {
+    /// The thesis' name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Var::GoalDirection => "GoalDirection",
+            Var::GoalDistance => "GoalDistance",
+            Var::GoalType => "GoalType",
+            Var::LightOffset => "LightOffset",
+            Var::CeilingLight => "CeilingLight",
+            Var::Overshoot => "Overshoot",
+            Var::Status => "Status",
+            Var::Plate => "Plate",
+            Var::HeadingFix => "HeadingFix",
+        }
+    }
+}
+
+/// A segment's mode (§5.3, Table 5.2).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum GoalType {
+    /// S^l: Center-Hallway + L-Goal, counting ceiling lights.
+    L,
+    /// S^d: Center-Hallway + D-Goal, dead reckoning to the goal.
+    D,
+    /// S^d ending in a turning space: Corner + E-Goal.
+    E,
+    /// S^c: leaving the corner, Corner + D-Goal.
+    C,
+}
+
+/// One goal as the Planner hands it to the Navigator.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Goal {
+    /// The segment's mode.
+    pub goal_type: GoalType,
+    /// Lights (L) or millimetres (D, E, C).
+    pub distance: i64,
+    /// Heading, degrees.
+    pub direction_deg: f64,
+}
+
+/// What the Navigator is doing, for `rome data get nav/r1/Status`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Status {
+    /// Goals taken so far.
+    pub goal: u32,
+    /// The goal being worked on.
+    pub goal_type: GoalType,
+    /// `center-hallway` or `corner`.
+    pub state: String,
+    /// Odometry x, mm.
+    pub x_mm: i64,
+    /// Odometry y, mm.
+    pub y_mm: i64,
+    /// Odometry heading, degrees.
+    pub heading_deg: f64,
+    /// The safe threshold in use, mm.
+    pub safe_mm: i64,
+}
+
+/// A door plate the PlFinder reports.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PlateReport {
+    /// Frame it was found in.
+    pub frame: u64,
+    /// Where the plate is (odometry frame), mm.
+    pub x_mm: i64,
+    /// Where the plate is (odometry frame), mm.
+    pub y_mm: i64,
+    /// Its bounding box in the image: left, top, right, bottom.
+    pub bbox: [u32; 4],
+    /// The map's plate nearest to it and how far that is, if within 1.5 m.
+    pub label: Option<String>,
+    /// Distance to that plate, mm.
+    pub error_mm: Option<i64>,
+}
+
+/// A heading correction from the local mapper.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct HeadingFix {
+    /// After which counted light.
+    pub light: i64,
+    /// The hallway's orientation the Hough transform found, degrees.
+    pub hallway_deg: f64,
+    /// The correction applied to the odometry heading, degrees.
+    pub correction_deg: f64,
+}
+
+/// One robot's blackboard on the data server.
+#[derive(Clone)]
+pub struct Board {
+    ds: DataClient,
+    scope: String,
+}
+
+impl Board {
+    /// Robot `robot`'s board, through a data-server client.
+    pub fn new(ds: DataClient, robot: &str) -> Board {
+        Board {
+            ds,
+            scope: format!("nav/{robot}"),
+        }
+    }
+
+    /// The data-server client underneath.
+    pub fn client(&self) -> &DataClient {
+        &self.ds
+    }
+
+    /// The full data-server name of a variable (`nav/r1/GoalType`).
+    pub fn var_name(&self, var: Var) -> String {
+        format!("{}/{}", self.scope, var.name())
+    }
+
+    /// The full data-server name of a semaphore (`$nav/r1/GoalData`).
+    pub fn sem_name(&self, sem: Sem) -> String {
+        format!("${}/{}", self.scope, sem.name())
+    }
+
+    /// Creates every semaphore that does not exist yet (each client does
+    /// this at start, so they may start in any order).
+    pub async fn declare(&self) -> Result<(), ClientError> {
+        for sem in Sem::ALL {
+            self.ds
+                .create_semaphore(&self.sem_name(sem), sem.initial())
+                .await?;
+        }
+        Ok(())
+    }
+
+    /// Writes a variable.
+    pub async fn set<T: Serialize + ?Sized>(&self, var: Var, value: &T) -> Result<(), ClientError> {
+        self.ds.set(&self.var_name(var), value).await.map(|_| ())
+    }
+
+    /// Reads a variable as `T`.
+    pub async fn get<T: serde::de::DeserializeOwned>(&self, var: Var) -> Result<T, ClientError> {
+        self.ds.get_as(&self.var_name(var)).await
+    }
+
+    /// up().
+    pub async fn up(&self, sem: Sem) -> Result<(), ClientError> {
+        self.ds.signal(&self.sem_name(sem)).await.map(|_| ())
+    }
+
+    /// down(), waiting as long as it takes.
+    pub async fn down(&self, sem: Sem) -> Result<(), ClientError> {
+        self.ds.wait(&self.sem_name(sem)).await
+    }
+
+    /// down() without waiting: whether a unit was taken.
+    pub async fn try_down(&self, sem: Sem) -> Result<bool, ClientError> {
+        self.ds.try_wait(&self.sem_name(sem)).await
+    }
+
+    /// Planner: writes a goal's three variables and does up($GoalData).
+    pub async fn give_goal(&self, goal: &Goal) -> Result<(), ClientError> {
+        self.set(Var::GoalType, &goal.goal_type).await?;
+        self.set(Var::GoalDistance, &goal.distance).await?;
+        self.set(Var::GoalDirection, &goal.direction_deg).await?;
+        self.up(Sem::GoalData).await
+    }
+
+    /// Navigator: down($GoalData) and reads the goal.
+    pub async fn take_goal(&self) -> Result<Goal, ClientError> {
+        self.down(Sem::GoalData).await?;
+        Ok(Goal {
+            goal_type: self.get(Var::GoalType).await?,
+            distance: self.get(Var::GoalDistance).await?,
+            direction_deg: self.get(Var::GoalDirection).await?,
+        })
+    }
+}

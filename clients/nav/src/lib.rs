@@ -1,0 +1,44 @@
+//! The navigation clients of Chapter 5, each a client of the data server
+//! and the hardware servers and of nothing else.
+//!
+//! How this crate is laid out:
+//! - [`board`]: the variables and semaphores of Table 5.4, the only way the
+//!   clients talk to each other.
+//! - [`plan`]: the Path Planner's route and its segments S^l, S^d, S^c
+//!   (§5.3); [`planner`] runs it against a Navigator.
+//! - [`navigator`]: the deterministic state machine of §5.4 (Center-Hallway,
+//!   Corner; L-, D-, E-Goal; Check-Bumper, Check-Goal).
+//! - [`ctracker`]: ceiling-light tracking from three scan lines (§5.6).
+//! - [`himm`]: the local mapper's histogram grid and Hough transform for
+//!   heading correction (§5.5).
+//! - [`plfinder`]: door-plate detection from the side camera (§5.7).
+//! - [`run`]: a whole run in one process: data server, simulated robot,
+//!   hardware servers and every client, and its Table 6.1 report.
+
+pub mod board;
+pub mod navigator;
+pub mod plan;
+
+use std::time::Duration;
+
+/// Why a navigation client stopped.
+#[derive(Debug, thiserror::Error)]
+pub enum NavError {
+    /// A server refused a request or could not be reached.
+    #[error(transparent)]
+    Client(#[from] rome_client::ClientError),
+    /// A server stopped sending what the client waits for.
+    #[error("the {what} has been silent for {waited:.1?}")]
+    Silent {
+        /// Which server, and what was awaited.
+        what: &'static str,
+        /// How long the client waited.
+        waited: Duration,
+    },
+    /// A server went away or misbehaved.
+    #[error("{0}")]
+    Gone(&'static str),
+    /// The Planner cannot plan the run.
+    #[error(transparent)]
+    Route(#[from] rome_maps::RouteError),
+}

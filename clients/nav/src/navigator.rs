@@ -1,0 +1,654 @@
+//! The Navigator (§5.4): a deterministic state machine run in one control
+//! loop (Fig. 5.8). Each pass takes the newest sonar and infrared scan and
+//! the odometry pose, asks the goal function whether the segment is done,
+//! and lets the current state steer.
+//!
+//! | mode (Table 5.2)        | state          | goal   |
+//! |-------------------------|----------------|--------|
+//! | ceiling-light tracking  | Center-Hallway | L-Goal |
+//! | dead reckoning          | Center-Hallway | D-Goal |
+//! | leave corner            | Corner         | D-Goal |
+//! | enter corner            | Corner         | E-Goal |
+//!
+//! Check-Bumper and Check-Goal run every few seconds of robot time beside
+//! the loop. Goals come from the Planner through `$GoalData`; the Navigator
+//! answers each with `$RobotStatus` (Table 5.4).
+
+use crate::board::{Board, Goal, GoalType, Sem, Status, Var};
+use crate::NavError;
+use rome_client::RobotClient;
+use rome_maps::geometry::normalize_deg;
+use rome_schema::robot::Scan;
+use std::time::Duration;
+
+/// Sonars in a ring (Fig. 5.9): 12 ahead, 18 left, 6 right, 15° apart.
+const SONARS: usize = 24;
+/// The forward sonar.
+const FORWARD: usize = 12;
+/// Degrees between sonars.
+const SPACING: f64 = 15.0;
+/// The jog rate of the superimposed turn, degrees per second (§5.4.1).
+pub const JOG_RATE_DEG_S: f64 = 4.0;
+/// The safe threshold at start, mm (§5.4.1).
+pub const SAFE_START_MM: f64 = 1_000.0;
+
+/// How the Navigator drives.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NavConfig {
+    /// Cruising speed, mm/s.
+    pub cruise_mm_s: f64,
+    /// Speed leaving a corner, mm/s.
+    pub corner_mm_s: f64,
+    /// Period of Check-Bumper and Check-Goal, ms of robot time (3–5 s).
+    pub check_period_ms: u64,
+    /// In-place turns within [`NavConfig::busy_window_ms`] that count as
+    /// "too many": the safe threshold is halved.
+    pub busy_turns: usize,
+    /// Window for counting turns, ms.
+    pub busy_window_ms: u64,
+    /// Calm time after which the threshold grows by 25 %, ms.
+    pub calm_ms: u64,
+    /// Smallest safe threshold, mm.
+    pub safe_min_mm: f64,
+    /// Deceleration the base uses to stop, mm/s² (to stop on the goal).
+    pub stop_accel_mm_s2: f64,
+    /// Longest wait for a scan before the proximity server counts as gone.
+    pub scan_timeout: Duration,
+}
+
+impl Default for NavConfig {
+    fn default() -> Self {
+        NavConfig {
+            cruise_mm_s: 400.0,
+            corner_mm_s: 250.0,
+            check_period_ms: 4_000,
+            busy_turns: 3,
+            busy_window_ms: 15_000,
+            calm_ms: 20_000,
+            safe_min_mm: 350.0,
+            stop_accel_mm_s2: 500.0,
+            scan_timeout: Duration::from_secs(10),
+        }
+    }
+}
+
+/// A motion command, sent only when it differs from the last one.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Drive {
+    /// Straight on, holding the heading, mm/s.
+    Go(f64),
+    /// Superimposed turn, degrees per second counter-clockwise (the base's
+    /// jog is clockwise-positive; the sign is flipped when sent).
+    Jog(f64),
+    /// Stop and turn in place by degrees counter-clockwise, then go on.
+    Turn(f64),
+    /// Stand still.
+    Halt,
+}
+
+/// The sonar index `k` steps from `i`, modulo 24.
+pub fn sonar_add(i: usize, k: i64) -> usize {
+    (i as i64 + k).rem_euclid(SONARS as i64) as usize
+}
+
+/// The bearing of sonar `i` from the heading, degrees counter-clockwise.
+pub fn bearing(i: usize) -> f64 {
+    normalize_deg((i as f64 - FORWARD as f64) * SPACING)
+}
+
+/// The sonar pointing closest to a bearing (degrees counter-clockwise from
+/// the heading): M of §5.4.1.
+pub fn sonar_towards(bearing_deg: f64) -> usize {
+    sonar_add(
+        FORWARD,
+        (normalize_deg(bearing_deg) / SPACING).round() as i64,
+    )
+}
+
+/// The open direction (§5.4.1): the largest reading among sonars
+/// M−2 … M+2 (modulo 24) around the hallway axis estimated from the heading
+/// and the goal direction; of equal readings the one nearest M. `half`
+/// narrows the window (the Corner state uses 1).
+pub fn open_sonar(sonar: &[u32], heading_deg: f64, axis_deg: f64, half: i64) -> usize {
+    let m = sonar_towards(axis_deg - heading_deg);
+    let mut best = m;
+    for k in (-half..=half).filter(|k| *k != 0) {
+        let i = sonar_add(m, k);
+        let better = f64::from(sonar[i]) > f64::from(sonar[best]) * 1.05;
+        let tie = !better && f64::from(sonar[i]) * 1.05 >= f64::from(sonar[best]);
+        let nearer = (k.abs() as usize) < circular(best, m);
+        if better || (tie && nearer && sonar[i] > sonar[best]) {
+            best = i;
+        }
+    }
+    best
+}
+
+fn circular(a: usize, b: usize) -> usize {
+    let d = a.abs_diff(b);
+    d.min(SONARS - d)
+}
+
+/// The Center-Hallway state's memory: its safe threshold and when it last
+/// turned (§5.4.1).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Hallway {
+    /// The safe threshold, mm.
+    pub safe_mm: f64,
+    turns: Vec<u64>,
+    calm_since: u64,
+    slow_until: u64,
+}
+
+impl Hallway {
+    /// A fresh state at time `now_ms`, threshold 1 m.
+    pub fn new(now_ms: u64) -> Hallway {
+        Hallway {
+            safe_mm: SAFE_START_MM,
+            turns: Vec::new(),
+            calm_since: now_ms,
+            slow_until: 0,
+        }
+    }
+
+    /// One pass of Center-Hallway: what to do given the sonar ranges, the
+    /// odometry heading and the goal direction.
+    pub fn step(
+        &mut self,
+        cfg: &NavConfig,
+        sonar: &[u32],
+        heading_deg: f64,
+        goal_deg: f64,
+        now_ms: u64,
+    ) -> Drive {
+        self.adapt(cfg, now_ms);
+        let speed = if now_ms < self.slow_until {
+            cfg.cruise_mm_s * 0.75
+        } else {
+            cfg.cruise_mm_s
+        };
+        // Safety: a reading below the threshold within 60° of ahead. The
+        // thesis excepts sonars 6 and 18; their neighbours 5, 7, 17 and 19
+        // see the same side walls at nearly the same range, so they are
+        // excepted too.
+        let (closest, min) = (8..=16)
+            .map(|i| (i, sonar[i]))
+            .min_by_key(|(_, r)| *r)
+            .unwrap_or((FORWARD, u32::MAX));
+        if f64::from(min) < self.safe_mm {
+            // Turn so the closed direction lies on sonar 6 or 18, whichever
+            // leaves the heading nearer the goal direction.
+            let closed = heading_deg + bearing(closest);
+            let left = normalize_deg(closed - 90.0 - heading_deg);
+            let right = normalize_deg(closed + 90.0 - heading_deg);
+            let err = |d: f64| normalize_deg(heading_deg + d - goal_deg).abs();
+            let turn = if err(left) <= err(right) { left } else { right };
+            let turn = turn.clamp(-30.0, 30.0);
+            if turn.abs() >= 5.0 {
+                self.turns.push(now_ms);
+                self.calm_since = now_ms;
+                self.slow_until = now_ms + cfg.calm_ms;
+                return Drive::Turn(turn);
+            }
+        }
+        // Safe: steer the open direction onto sonar 12, with the near
+        // sonars keeping the robot off-centre no more than they must.
+        let open = open_sonar(sonar, heading_deg, goal_deg, 2);
+        let mut delta = bearing(open);
+        if open == sonar_towards(goal_deg - heading_deg) {
+            // The open direction is the axis itself: steer on the axis.
+            delta = normalize_deg(goal_deg - heading_deg);
+        }
+        let (r18, r6) = (f64::from(sonar[18]), f64::from(sonar[6]));
+        if r18 < 3_000.0 && r6 < 3_000.0 && (r18 - r6).abs() < 2_000.0 {
+            delta += ((r18 - r6) / 2.0 / 100.0).clamp(-8.0, 8.0);
+        }
+        if delta.abs() < 1.5 {
+            Drive::Go(speed)
+        } else {
+            Drive::Jog(delta.signum() * JOG_RATE_DEG_S)
+        }
+    }
+
+    fn adapt(&mut self, cfg: &NavConfig, now_ms: u64) {
+        self.turns
+            .retain(|t| now_ms.saturating_sub(*t) <= cfg.busy_window_ms);
+        if self.turns.len() >= cfg.busy_turns {
+            self.safe_mm = (self.safe_mm * 0.5).max(cfg.safe_min_mm);
+            self.turns.clear();
+        } else if now_ms.saturating_sub(self.calm_since) >= cfg.calm_ms {
+            self.safe_mm = (self.safe_mm * 1.25).min(SAFE_START_MM);
+            self.calm_since = now_ms;
+        }
+    }
+}
+
+/// The Corner state (§5.4.2): a narrow window of sonars toward the goal
+/// direction, infrared stop-and-go.
+pub fn corner_step(cfg: &NavConfig, scan: &Scan, heading_deg: f64, goal_deg: f64) -> Drive {
+    let err = normalize_deg(goal_deg - heading_deg);
+    // Forward-looking infrared detectors are slots 0–3.
+    if scan.ir.iter().take(4).any(|b| *b != 0) {
+        return Drive::Jog(if err >= 0.0 { 8.0 } else { -8.0 });
+    }
+    let open = open_sonar(&scan.sonar_mm, heading_deg, goal_deg, 1);
+    let delta = if open == sonar_towards(err) {
+        err
+    } else {
+        bearing(open)
+    };
+    if delta.abs() < 1.5 {
+        Drive::Go(cfg.corner_mm_s)
+    } else {
+        Drive::Jog(delta.signum() * JOG_RATE_DEG_S)
+    }
+}
+
+/// A pose from the base, in the odometry frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Pose {
+    /// mm.
+    pub x: f64,
+    /// mm.
+    pub y: f64,
+    /// degrees.
+    pub heading: f64,
+}
+
+impl Pose {
+    fn dist(&self, o: &Pose) -> f64 {
+        (self.x - o.x).hypot(self.y - o.y)
+    }
+}
+
+/// What the Navigator did: goals carried out per mode, and each failure.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct NavLog {
+    /// Goals done: L, E, C, D.
+    pub done: [usize; 4],
+    /// In-place turns made by Center-Hallway.
+    pub turns: usize,
+    /// Bumper contacts handled.
+    pub bumps: usize,
+}
+
+fn slot(t: GoalType) -> usize {
+    match t {
+        GoalType::L => 0,
+        GoalType::E => 1,
+        GoalType::C => 2,
+        GoalType::D => 3,
+    }
+}
+
+/// The Navigator of one robot.
+pub struct Navigator {
+    robot: RobotClient,
+    board: Board,
+    cfg: NavConfig,
+    last: Option<Drive>,
+    hallway: Option<Hallway>,
+    /// Where the last straight segment ended, so the next one on the same
+    /// line measures from there rather than from where it was picked up.
+    carry: Option<Pose>,
+    goals: u32,
+    log: NavLog,
+}
+
+impl Navigator {
+    /// A Navigator for a robot, talking to the Planner through `board`.
+    pub fn new(robot: RobotClient, board: Board, cfg: NavConfig) -> Navigator {
+        Navigator {
+            robot,
+            board,
+            cfg,
+            last: None,
+            hallway: None,
+            carry: None,
+            goals: 0,
+            log: NavLog::default(),
+        }
+    }
+
+    /// What it has done so far.
+    pub fn log(&self) -> &NavLog {
+        &self.log
+    }
+
+    /// Takes goals from the Planner and carries them out, for ever (until
+    /// a client call fails or the future is dropped).
+    pub async fn run(&mut self) -> Result<(), NavError> {
+        self.board.declare().await?;
+        let scans = self.robot.scans().await?;
+        loop {
+            let goal = self.board.take_goal().await?;
+            self.goals += 1;
+            tracing::info!(?goal, n = self.goals, "navigator: goal");
+            self.carry_out(&goal, &scans).await?;
+            self.log.done[slot(goal.goal_type)] += 1;
+            self.board.up(Sem::RobotStatus).await?;
+        }
+    }
+
+    async fn pose(&self) -> Result<Pose, NavError> {
+        let p = self.robot.pose().await?;
+        Ok(Pose {
+            x: f64::from(p.x_mm),
+            y: f64::from(p.y_mm),
+            heading: p.heading_deg,
+        })
+    }
+
+    async fn send(&mut self, d: Drive) -> Result<(), NavError> {
+        if self.last == Some(d) && !matches!(d, Drive::Turn(_)) {
+            return Ok(());
+        }
+        match d {
+            Drive::Go(v) => self.robot.go(v).await?,
+            Drive::Jog(r) => self.robot.jog(-r).await?,
+            Drive::Turn(deg) => self.robot.turn(-deg, 45.0, -1.0).await?,
+            Drive::Halt => self.robot.stop(false).await?,
+        };
+        self.last = Some(d);
+        Ok(())
+    }
+
+    async fn next_scan(&self, scans: &rome_client::robot::Stream<Scan>) -> Result<Scan, NavError> {
+        match tokio::time::timeout(self.cfg.scan_timeout, scans.next()).await {
+            Ok(Some(scan)) => Ok(scan?),
+            Ok(None) => Err(NavError::Gone("the proximity server's scan stream closed")),
+            Err(_) => Err(NavError::Silent {
+                what: "proximity server (no scan)",
+                waited: self.cfg.scan_timeout,
+            }),
+        }
+    }
+
+    /// Waits until the base has finished an in-place turn or a stop.
+    async fn settle(&self, scans: &rome_client::robot::Stream<Scan>) -> Result<(), NavError> {
+        for _ in 0..600 {
+            let _ = self.next_scan(scans).await?;
+            let mode = self.robot.mode().await?;
+            let speed = self.robot.wheel_speed().await?;
+            if mode.mode != "point_turn" && mode.mode != "stopping" && speed.wheel_speed_mm_s < 5.0
+            {
+                return Ok(());
+            }
+            if mode.mode == "go" && speed.wheel_speed_mm_s > 5.0 {
+                return Ok(());
+            }
+        }
+        Err(NavError::Gone("the base never finished its turn"))
+    }
+
+    async fn carry_out(
+        &mut self,
+        goal: &Goal,
+        scans: &rome_client::robot::Stream<Scan>,
+    ) -> Result<(), NavError> {
+        let mut scan = self.next_scan(scans).await?;
+        let mut pose = self.pose().await?;
+        let start = match (goal.goal_type, self.carry) {
+            (GoalType::D | GoalType::E, Some(p)) => p,
+            _ => pose,
+        };
+        let corner = matches!(goal.goal_type, GoalType::C | GoalType::E);
+        if goal.goal_type == GoalType::C {
+            // Leave the corner: stop, face the outgoing corridor, go.
+            self.send(Drive::Halt).await?;
+            self.settle(scans).await?;
+            pose = self.pose().await?;
+            let turn = normalize_deg(goal.direction_deg - pose.heading);
+            if turn.abs() > 2.0 {
+                self.send(Drive::Turn(turn)).await?;
+                self.settle(scans).await?;
+            }
+            self.last = None;
+            self.send(Drive::Go(self.cfg.corner_mm_s)).await?;
+            scan = self.next_scan(scans).await?;
+            pose = self.pose().await?;
+        } else if self.hallway.is_none() || self.last.is_none() {
+            self.last = None;
+            self.send(Drive::Go(self.cfg.cruise_mm_s)).await?;
+        }
+        let hallway_start = scan.time_ms;
+        let mut next_check = scan.time_ms + self.cfg.check_period_ms;
+        let mut next_status = scan.time_ms;
+        let mut counted_low = false;
+        loop {
+            // The goal function.
+            let travelled = pose.dist(&start);
+            let speed = self.robot_speed();
+            let stopping = speed * speed / (2.0 * self.cfg.stop_accel_mm_s2);
+            let done = match goal.goal_type {
+                GoalType::L => {
+                    let n: i64 = self.board.get(Var::CeilingLight).await.unwrap_or(0);
+                    // Armed once the count of this segment has been seen
+                    // below the goal, so a count left from the segment
+                    // before cannot end this one.
+                    counted_low |= n < goal.distance;
+                    counted_low && n >= goal.distance
+                }
+                GoalType::D => travelled + stopping >= goal.distance as f64,
+                GoalType::C => travelled >= goal.distance as f64,
+                GoalType::E => {
+                    let ahead = scan.sonar_mm[sonar_towards(goal.direction_deg - pose.heading)];
+                    let remaining = goal.distance as f64 - travelled;
+                    travelled + stopping >= goal.distance as f64
+                        || (f64::from(ahead) < 1_800.0 && remaining < 1_200.0)
+                }
+            };
+            if done {
+                break;
+            }
+            // The state.
+            let drive = if corner {
+                corner_step(&self.cfg, &scan, pose.heading, goal.direction_deg)
+            } else {
+                let hallway = self
+                    .hallway
+                    .get_or_insert_with(|| Hallway::new(hallway_start));
+                hallway.step(
+                    &self.cfg,
+                    &scan.sonar_mm,
+                    pose.heading,
+                    goal.direction_deg,
+                    scan.time_ms,
+                )
+            };
+            if let Drive::Turn(_) = drive {
+                self.log.turns += 1;
+                self.send(drive).await?;
+                self.settle(scans).await?;
+                self.last = None;
+            } else {
+                self.send(drive).await?;
+            }
+            // The timers: Check-Bumper and Check-Goal.
+            if scan.time_ms >= next_check {
+                next_check = scan.time_ms + self.cfg.check_period_ms;
+                self.check_bumper().await?;
+                self.check_goal(&pose, goal, corner).await?;
+            }
+            if scan.time_ms >= next_status {
+                next_status = scan.time_ms + 1_000;
+                self.publish(goal, &pose, corner).await?;
+            }
+            scan = self.next_scan(scans).await?;
+            pose = self.pose().await?;
+        }
+        self.carry = None;
+        match goal.goal_type {
+            GoalType::L => self.carry = Some(pose),
+            GoalType::E | GoalType::D => {
+                self.send(Drive::Halt).await?;
+                self.settle(scans).await?;
+                self.hallway = None;
+            }
+            GoalType::C => {}
+        }
+        self.publish(goal, &pose, corner).await?;
+        Ok(())
+    }
+
+    fn robot_speed(&self) -> f64 {
+        match self.last {
+            Some(Drive::Go(v)) => v,
+            Some(Drive::Jog(_)) => self.cfg.cruise_mm_s,
+            _ => 0.0,
+        }
+    }
+
+    /// Check-Bumper: on contact, back off and go on.
+    async fn check_bumper(&mut self) -> Result<(), NavError> {
+        let b = self.robot.bumper().await?;
+        if b.front || b.rear {
+            self.log.bumps += 1;
+            tracing::warn!(front = b.front, rear = b.rear, "navigator: bumper contact");
+            let back = if b.front { -300.0 } else { 300.0 };
+            self.robot.move_by(back, 200.0, -1.0).await?;
+            self.last = None;
+        }
+        Ok(())
+    }
+
+    /// Check-Goal: a heading far off the goal direction is turned back.
+    async fn check_goal(&mut self, pose: &Pose, goal: &Goal, corner: bool) -> Result<(), NavError> {
+        let err = normalize_deg(goal.direction_deg - pose.heading);
+        if err.abs() > if corner { 10.0 } else { 20.0 } {
+            tracing::info!(
+                err,
+                "navigator: check-goal turns back to the goal direction"
+            );
+            self.send(Drive::Turn(err.clamp(-45.0, 45.0))).await?;
+            self.last = None;
+        }
+        Ok(())
+    }
+
+    async fn publish(&self, goal: &Goal, pose: &Pose, corner: bool) -> Result<(), NavError> {
+        let status = Status {
+            goal: self.goals,
+            goal_type: goal.goal_type,
+            state: if corner { "corner" } else { "center-hallway" }.into(),
+            x_mm: pose.x.round() as i64,
+            y_mm: pose.y.round() as i64,
+            heading_deg: (pose.heading * 10.0).round() / 10.0,
+            safe_mm: self
+                .hallway
+                .as_ref()
+                .map_or(0, |h| h.safe_mm.round() as i64),
+        };
+        self.board.set(Var::Status, &status).await?;
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn hallway_scan(left: u32, right: u32) -> Vec<u32> {
+        // A robot on a hallway's axis: side sonars see the walls, the
+        // rest look down the hallway.
+        let mut s = vec![10_000u32; 24];
+        for i in [5, 6, 7] {
+            s[i] = right;
+        }
+        for i in [17, 18, 19] {
+            s[i] = left;
+        }
+        s
+    }
+
+    #[test]
+    fn sonar_numbering_wraps_modulo_24() {
+        assert_eq!(sonar_add(23, 2), 1);
+        assert_eq!(sonar_add(1, -3), 22);
+        assert_eq!(sonar_towards(0.0), 12);
+        assert_eq!(sonar_towards(90.0), 18);
+        assert_eq!(sonar_towards(-90.0), 6);
+        assert_eq!(sonar_towards(180.0), 0);
+        assert_eq!(sonar_towards(-176.0), 0);
+        assert_eq!(sonar_towards(-172.0), 1);
+        assert_eq!(bearing(0), 180.0);
+    }
+
+    #[test]
+    fn the_open_direction_is_searched_in_m_minus_2_to_m_plus_2() {
+        let mut s = vec![1_000u32; 24];
+        s[14] = 9_000; // 30° left: inside the window around 12
+        s[20] = 10_000; // outside it
+        assert_eq!(open_sonar(&s, 0.0, 0.0, 2), 14);
+        // Heading 45° right of the axis: M is sonar 15; 14 is still inside.
+        assert_eq!(open_sonar(&s, -45.0, 0.0, 2), 14);
+        // The window wraps: the axis behind the robot.
+        let mut s = vec![1_000u32; 24];
+        s[23] = 9_000;
+        assert_eq!(open_sonar(&s, 180.0, 0.0, 2), 23);
+        // Corner state: a narrower window misses sonar 14.
+        let mut s = vec![1_000u32; 24];
+        s[14] = 9_000;
+        assert_eq!(open_sonar(&s, 0.0, 0.0, 1), 12);
+    }
+
+    #[test]
+    fn center_hallway_jogs_at_four_degrees_per_second_toward_the_open_direction() {
+        let cfg = NavConfig::default();
+        let mut h = Hallway::new(0);
+        // Centred, heading 10° right of the axis: jog left (CCW) at 4°/s.
+        let s = hallway_scan(1_400, 1_400);
+        assert_eq!(h.step(&cfg, &s, -10.0, 0.0, 100), Drive::Jog(4.0));
+        assert_eq!(h.step(&cfg, &s, 10.0, 0.0, 200), Drive::Jog(-4.0));
+        assert_eq!(h.step(&cfg, &s, 0.0, 0.0, 300), Drive::Go(cfg.cruise_mm_s));
+    }
+
+    #[test]
+    fn below_the_safe_threshold_it_turns_in_place_and_slows_by_a_quarter() {
+        let cfg = NavConfig::default();
+        let mut h = Hallway::new(0);
+        let mut s = hallway_scan(1_400, 1_400);
+        // A wall closing in at sonar 16 (60° left): turn right so the
+        // closed direction lies on sonar 18.
+        s[16] = 600;
+        match h.step(&cfg, &s, 0.0, 0.0, 1_000) {
+            Drive::Turn(d) => assert!((d + 30.0).abs() < 1e-9, "{d}"),
+            other => panic!("expected an in-place turn, got {other:?}"),
+        }
+        let s = hallway_scan(1_400, 1_400);
+        assert_eq!(
+            h.step(&cfg, &s, 0.0, 0.0, 2_000),
+            Drive::Go(cfg.cruise_mm_s * 0.75)
+        );
+    }
+
+    #[test]
+    fn the_safe_threshold_halves_after_many_turns_and_grows_when_calm() {
+        let cfg = NavConfig::default();
+        let mut h = Hallway::new(0);
+        let mut s = hallway_scan(1_400, 1_400);
+        s[16] = 900;
+        for t in 0..3 {
+            let _ = h.step(&cfg, &s, 0.0, 0.0, 1_000 * t);
+        }
+        let calm = hallway_scan(1_400, 1_400);
+        let _ = h.step(&cfg, &calm, 0.0, 0.0, 3_000);
+        assert_eq!(h.safe_mm, 500.0);
+        let _ = h.step(&cfg, &calm, 0.0, 0.0, 3_000 + cfg.calm_ms);
+        assert_eq!(h.safe_mm, 625.0);
+        // Never above the starting 1 m.
+        for k in 2..10 {
+            let _ = h.step(&cfg, &calm, 0.0, 0.0, 3_000 + k * cfg.calm_ms);
+        }
+        assert_eq!(h.safe_mm, SAFE_START_MM);
+    }
+
+    #[test]
+    fn off_centre_it_steers_back_toward_the_middle() {
+        let cfg = NavConfig::default();
+        let mut h = Hallway::new(0);
+        // Much nearer the right wall: steer left.
+        let s = hallway_scan(2_000, 900);
+        assert_eq!(h.step(&cfg, &s, 0.0, 0.0, 100), Drive::Jog(4.0));
+    }
+}

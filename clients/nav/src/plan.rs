@@ -1,0 +1,285 @@
+//! The Path Planner's global plan (§5.3): the shortest route, cut at its
+//! corners into straight subpaths S_1 … S_n, and each subpath into at most
+//! three segments S^l (count ceiling lights), S^d (dead reckoning to the
+//! turning space or the goal) and S^c (leave the corner).
+//!
+//! ```text
+//! A [S_1^l; S_1^d; S_1^c] U_1,  U_1 [S_2^l; S_2^d; S_2^c] U_2,  …  [S_n^l; S_n^d] B
+//!     L      E      C              L      E      C                  L      D
+//! ```
+//!
+//! A subpath that ends in a turning space ends in an Enter-Corner segment
+//! (goal type `E`), the last one in a Dead-Reckoning segment (`D`); Tables
+//! 6.1–6.2 count E and C together as the corner column.
+
+use crate::board::{Goal, GoalType};
+use rome_maps::geometry::{direction, distance, Point};
+use rome_maps::{Network, Route, RouteError, World};
+
+/// How far the Leave-Corner segment takes the robot from the middle of the
+/// turning space into the outgoing corridor, mm.
+pub const LEAVE_CORNER_MM: f64 = 1_800.0;
+/// Lights nearer than this to where a segment starts are already overhead
+/// or behind: not counted, mm.
+pub const LIGHT_START_MARGIN_MM: f64 = 700.0;
+/// Lights nearer than this to a turning space's middle are left to the
+/// Enter-Corner segment, mm.
+pub const LIGHT_END_MARGIN_MM: f64 = 600.0;
+/// A light belongs to a subpath if it is this close to its line, mm.
+pub const LIGHT_LATERAL_MM: f64 = 900.0;
+
+/// One step of the plan: a goal and where it lies in the world.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Step {
+    /// What the Navigator is told.
+    pub goal: Goal,
+    /// Subpath number, from 1.
+    pub subpath: usize,
+    /// For an L step: LightOffset, the distances from the segment's start
+    /// to the first light and then between lights, mm.
+    pub light_offsets_mm: Vec<f64>,
+    /// Where the segment starts and ends on the route, mm (world frame).
+    pub from: Point,
+    /// End of the segment.
+    pub to: Point,
+}
+
+/// The plan for one run.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Plan {
+    /// The route it follows.
+    pub route: Route,
+    /// Its steps, in order.
+    pub steps: Vec<Step>,
+    /// Heading at the start, degrees: the robot is put down facing it.
+    pub start_heading_deg: f64,
+}
+
+/// How often each mode occurs: the L / C / D columns of Tables 6.1–6.2.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct ModeCount {
+    /// Ceiling-light tracking segments.
+    pub l: usize,
+    /// Corners (an Enter-Corner followed by a Leave-Corner segment).
+    pub c: usize,
+    /// Dead-reckoning segments.
+    pub d: usize,
+}
+
+impl Plan {
+    /// Plans the route from `from` to `to` and segments it.
+    pub fn new(world: &World, network: &Network, from: &str, to: &str) -> Result<Plan, RouteError> {
+        let route = world.route(network, from, &[], to)?;
+        Ok(Plan::segment(world, route))
+    }
+
+    /// Segments a route.
+    pub fn segment(world: &World, route: Route) -> Plan {
+        let legs = route.legs();
+        let mut lights: Vec<Point> = Vec::new();
+        for l in &world.lights {
+            // A light in a turning space is projected onto two edges (Table
+            // 5.1's negative offsets): count it once.
+            if !lights.iter().any(|p| distance(*p, l.at) < 150.0) {
+                lights.push(l.at);
+            }
+        }
+        let mut steps = Vec::new();
+        let n = legs.len();
+        for (i, &(a, b, len, heading)) in legs.iter().enumerate() {
+            let subpath = i + 1;
+            let last = i + 1 == n;
+            let start_t = if i == 0 {
+                0.0
+            } else {
+                LEAVE_CORNER_MM.min(len)
+            };
+            let end_t = if last { len } else { len - LIGHT_END_MARGIN_MM };
+            let d = direction(heading);
+            let at = |t: f64| (a.0 + d.0 * t, a.1 + d.1 * t);
+            let mut ts: Vec<f64> = lights
+                .iter()
+                .filter_map(|p| {
+                    let (dx, dy) = (p.0 - a.0, p.1 - a.1);
+                    let t = dx * d.0 + dy * d.1;
+                    let lateral = (dx * d.1 - dy * d.0).abs();
+                    (lateral <= LIGHT_LATERAL_MM
+                        && t >= start_t + LIGHT_START_MARGIN_MM
+                        && t <= end_t)
+                        .then_some(t)
+                })
+                .collect();
+            ts.sort_by(f64::total_cmp);
+            let mut t = start_t;
+            if !ts.is_empty() {
+                let mut offsets = Vec::with_capacity(ts.len());
+                let mut prev = start_t;
+                for &lt in &ts {
+                    offsets.push(lt - prev);
+                    prev = lt;
+                }
+                steps.push(Step {
+                    goal: Goal {
+                        goal_type: GoalType::L,
+                        distance: ts.len() as i64,
+                        direction_deg: heading,
+                    },
+                    subpath,
+                    light_offsets_mm: offsets,
+                    from: at(t),
+                    to: at(prev),
+                });
+                t = prev;
+            }
+            steps.push(Step {
+                goal: Goal {
+                    goal_type: if last { GoalType::D } else { GoalType::E },
+                    distance: (len - t).max(0.0).round() as i64,
+                    direction_deg: heading,
+                },
+                subpath,
+                light_offsets_mm: Vec::new(),
+                from: at(t),
+                to: b,
+            });
+            if !last {
+                let (_, _, next_len, next_heading) = legs[i + 1];
+                let nd = direction(next_heading);
+                let leave = LEAVE_CORNER_MM.min(next_len);
+                steps.push(Step {
+                    goal: Goal {
+                        goal_type: GoalType::C,
+                        distance: leave.round() as i64,
+                        direction_deg: next_heading,
+                    },
+                    subpath,
+                    light_offsets_mm: Vec::new(),
+                    from: b,
+                    to: (b.0 + nd.0 * leave, b.1 + nd.1 * leave),
+                });
+            }
+        }
+        let start_heading_deg = legs.first().map_or(0.0, |l| l.3);
+        Plan {
+            route,
+            steps,
+            start_heading_deg,
+        }
+    }
+
+    /// The modes the plan needs, as Tables 6.1–6.2 count them.
+    pub fn modes(&self) -> ModeCount {
+        let mut m = ModeCount::default();
+        for s in &self.steps {
+            match s.goal.goal_type {
+                GoalType::L => m.l += 1,
+                GoalType::C => m.c += 1,
+                GoalType::D => m.d += 1,
+                GoalType::E => {}
+            }
+        }
+        m
+    }
+
+    /// The start (first route point) and goal (last route point).
+    pub fn ends(&self) -> (Point, Point) {
+        let p = &self.route.points;
+        (p[0], p[p.len() - 1])
+    }
+
+    /// The plan in the thesis' notation, one subpath per line.
+    pub fn describe(&self) -> Vec<String> {
+        self.steps
+            .iter()
+            .map(|s| {
+                let what = match s.goal.goal_type {
+                    GoalType::L => format!(
+                        "S{}^l  track {} light(s) at {} mm",
+                        s.subpath,
+                        s.goal.distance,
+                        s.light_offsets_mm
+                            .iter()
+                            .map(|d| format!("{d:.0}"))
+                            .collect::<Vec<_>>()
+                            .join("+")
+                    ),
+                    GoalType::D => format!(
+                        "S{}^d  dead-reckon {} mm to the goal",
+                        s.subpath, s.goal.distance
+                    ),
+                    GoalType::E => format!(
+                        "S{}^d  enter the corner: {} mm to the turning space",
+                        s.subpath, s.goal.distance
+                    ),
+                    GoalType::C => format!(
+                        "S{}^c  leave the corner: turn to {:.0}° and go {} mm",
+                        s.subpath, s.goal.direction_deg, s.goal.distance
+                    ),
+                };
+                format!("{what}  (heading {:.0}°)", s.goal.direction_deg)
+            })
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn eb3() -> (World, Network) {
+        let map = rome_maps::load_named("eb3").expect("eb3 loads");
+        let world = World::from_map(&map);
+        let net = Network::new(&map, &world);
+        (world, net)
+    }
+
+    #[test]
+    fn a_straight_route_is_lights_then_dead_reckoning() {
+        let (world, net) = eb3();
+        let plan = Plan::new(&world, &net, "350R", "376L").expect("plan");
+        let kinds: Vec<GoalType> = plan.steps.iter().map(|s| s.goal.goal_type).collect();
+        assert_eq!(kinds, vec![GoalType::L, GoalType::D]);
+        assert_eq!(plan.modes(), ModeCount { l: 1, c: 0, d: 1 });
+        let l = &plan.steps[0];
+        assert_eq!(l.goal.distance as usize, l.light_offsets_mm.len());
+        assert!(l.goal.distance >= 5, "78 m of corridor has many lights");
+        // Light offsets and the last leg add up to the route's length.
+        let total: f64 =
+            l.light_offsets_mm.iter().sum::<f64>() + plan.steps[1].goal.distance as f64;
+        assert!(
+            (total - plan.route.length_mm).abs() < 2.0,
+            "{total} vs {}",
+            plan.route.length_mm
+        );
+    }
+
+    #[test]
+    fn a_route_with_corners_has_enter_and_leave_corner_segments() {
+        let (world, net) = eb3();
+        let plan = Plan::new(&world, &net, "341L", "311R").expect("plan");
+        assert_eq!(plan.route.turns, 2);
+        let m = plan.modes();
+        assert_eq!((m.c, m.d), (2, 1), "{:?}", plan.describe());
+        assert!(m.l >= 2, "{:?}", plan.describe());
+        // Every E is followed by a C that turns onto the next leg's heading.
+        for w in plan.steps.windows(2) {
+            if w[0].goal.goal_type == GoalType::E {
+                assert_eq!(w[1].goal.goal_type, GoalType::C);
+                assert_ne!(w[0].goal.direction_deg, w[1].goal.direction_deg);
+            }
+        }
+        assert_eq!(
+            plan.steps.last().map(|s| s.goal.goal_type),
+            Some(GoalType::D)
+        );
+    }
+
+    #[test]
+    fn unknown_and_unreachable_rooms_are_named() {
+        let (world, net) = eb3();
+        let err = Plan::new(&world, &net, "350R", "999X").expect_err("unknown");
+        assert!(err.to_string().contains("999X"), "{err}");
+        let err = Plan::new(&world, &net, "35OR", "376L").expect_err("typo");
+        assert!(err.to_string().contains("did you mean"), "{err}");
+    }
+}
