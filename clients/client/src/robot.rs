@@ -17,10 +17,10 @@
 use crate::data::{refusal, selector};
 use crate::ClientError;
 use rome_schema::robot::{
-    param, robot_name, AdjustPose, Band, BaseState, BumperReply, Device, Done, Go, Gray8, IrReply,
-    Jog, LockGrant, MaxRange, ModeReply, Move, PoseReply, Scan, SetBumper, SetPose, SetTimeout,
-    SizeReply, SonarReply, SpeedReply, Stop, TimeoutReply, Turn, Unlocked, WheelSpeedReply,
-    DEFAULT_LOCK_TTL_MS, DEFAULT_PRIORITY, SONARS,
+    param, robot_name, AdjustPose, Band, BaseState, BumperReply, Device, Done, FrameInfo, Go,
+    Gray8, IrReply, Jog, LockGrant, MaxRange, ModeReply, Move, PoseReply, Scan, SetBumper, SetPose,
+    SetTimeout, SizeReply, SonarReply, SpeedReply, Stop, TimeoutReply, Turn, Unlocked,
+    WheelSpeedReply, DEFAULT_LOCK_TTL_MS, DEFAULT_PRIORITY, SONARS,
 };
 use rome_schema::{decode, encode, ErrorCode, Name, Root};
 use serde::de::DeserializeOwned;
@@ -495,6 +495,11 @@ impl RobotClient {
             .raw(&Self::camera(camera)?, "rows", &params, None, true)
             .await?;
         image(bytes, &encoding)
+    }
+
+    /// Subscribes to a camera's frame stream: one message after each grab.
+    pub async fn frames(&self, camera: &str) -> Result<Stream<FrameInfo>, ClientError> {
+        self.stream(&Self::camera(camera)?, "frame").await
     }
 
     /// `CameraLock`: freezes the camera's grabbing for this client.

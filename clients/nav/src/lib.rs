@@ -16,8 +16,13 @@
 //!   hardware servers and every client, and its Table 6.1 report.
 
 pub mod board;
+pub mod ctracker;
+pub mod himm;
 pub mod navigator;
 pub mod plan;
+pub mod planner;
+pub mod plfinder;
+pub mod run;
 
 use std::time::Duration;
 
@@ -38,6 +43,9 @@ pub enum NavError {
     /// A server went away or misbehaved.
     #[error("{0}")]
     Gone(&'static str),
+    /// A run cannot be set up as asked.
+    #[error("{0}")]
+    Config(String),
     /// The Planner cannot plan the run.
     #[error(transparent)]
     Route(#[from] rome_maps::RouteError),

@@ -318,6 +318,15 @@ impl Navigator {
     /// Takes goals from the Planner and carries them out, for ever (until
     /// a client call fails or the future is dropped).
     pub async fn run(&mut self) -> Result<(), NavError> {
+        let (tx, _rx) = tokio::sync::mpsc::unbounded_channel();
+        self.run_reporting(&tx).await
+    }
+
+    /// As [`Navigator::run`], sending the log after each goal.
+    pub async fn run_reporting(
+        &mut self,
+        log: &tokio::sync::mpsc::UnboundedSender<NavLog>,
+    ) -> Result<(), NavError> {
         self.board.declare().await?;
         let scans = self.robot.scans().await?;
         loop {
@@ -326,6 +335,7 @@ impl Navigator {
             tracing::info!(?goal, n = self.goals, "navigator: goal");
             self.carry_out(&goal, &scans).await?;
             self.log.done[slot(goal.goal_type)] += 1;
+            let _ = log.send(self.log.clone());
             self.board.up(Sem::RobotStatus).await?;
         }
     }

@@ -1,0 +1,376 @@
+//! The ceiling-light tracker, CTracker (§5.6).
+//!
+//! Child trackers, one per upward camera, read three scan lines of each
+//! grab (at ¼, ½ and ¾ of the image height) and look for strong edges: a
+//! light is in a line when some pixel's gradient exceeds a threshold. A
+//! child that sees a light appear takes the token `$LightToken` before it
+//! reports it, and gives the token back when the light has gone, so a light
+//! two children see is counted once.
+//!
+//! The parent checks each report against the map: the distance travelled
+//! since the last light must agree with the next entry of `LightOffset`.
+//! Only valid lights are counted in `CeilingLight`. After the segment's last
+//! light it writes `Overshoot` (how far past that light the robot is) and
+//! signals `$EndLMode`. A light not seen by the time the robot is well past
+//! where the map puts it is counted by distance and logged as missed, so a
+//! missed light costs accuracy, not the run.
+
+use crate::board::{Board, Sem, Var};
+use crate::navigator::Pose;
+use crate::NavError;
+use rome_client::RobotClient;
+use rome_maps::geometry::direction;
+use std::time::Duration;
+use tokio::sync::mpsc;
+
+/// Ceiling covered along the robot by the upward image, mm (§5.6: about
+/// 1.2 × 1.5 m).
+pub const VIEW_ALONG_MM: f64 = 1_200.0;
+
+/// How the tracker works.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TrackConfig {
+    /// The child trackers' cameras (the same camera twice runs two children
+    /// on one image stream, which the token keeps from double counting).
+    pub cameras: Vec<String>,
+    /// Gradient (grey levels over three pixels) that makes an edge.
+    pub edge: i16,
+    /// A light is valid if the distance travelled since the last one is
+    /// within this fraction of the map's distance …
+    pub tolerance: f64,
+    /// … or within this many mm, whichever is larger.
+    pub tolerance_mm: f64,
+    /// How often the parent checks whether a light was missed.
+    pub check_every: Duration,
+}
+
+impl Default for TrackConfig {
+    fn default() -> Self {
+        TrackConfig {
+            cameras: vec!["up".into()],
+            edge: 60,
+            tolerance: 0.25,
+            tolerance_mm: 1_200.0,
+            check_every: Duration::from_millis(100),
+        }
+    }
+}
+
+/// Whether a scan line crosses the edge of a light: some gradient over
+/// three pixels of at least `edge` grey levels.
+pub fn line_has_light(row: &[u8], edge: i16) -> bool {
+    row.windows(4)
+        .any(|w| (i16::from(w[3]) - i16::from(w[0])).abs() >= edge)
+}
+
+/// The three scan lines of an image `height` rows high.
+pub fn scan_lines(height: u32) -> [u32; 3] {
+    [height / 4, height / 2, height * 3 / 4]
+}
+
+/// Where the light's centre is along the robot, mm ahead of the camera,
+/// from which of the three lines (ahead, middle, behind) see it. A light is
+/// half the view long, so it spans two neighbouring lines at most.
+pub fn light_ahead_mm(lines: [bool; 3]) -> Option<f64> {
+    let q = VIEW_ALONG_MM / 4.0;
+    match lines {
+        [true, false, false] => Some(1.5 * q),
+        [true, true, false] => Some(0.5 * q),
+        [true, true, true] | [false, true, false] => Some(0.0),
+        [false, true, true] => Some(-0.5 * q),
+        [false, false, true] => Some(-1.5 * q),
+        _ => None,
+    }
+}
+
+/// A child's report: a light in view, where the robot was, and how far
+/// ahead of it the light's centre lay.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Sighting {
+    /// Which child.
+    pub child: usize,
+    /// The frame.
+    pub frame: u64,
+    /// The robot's odometry pose when the frame was read.
+    pub pose: Pose,
+    /// The light's centre, mm ahead of the camera.
+    pub ahead_mm: f64,
+}
+
+/// The parent's verdict on a sighting, given how far the robot has
+/// travelled since the last light and how far the map says it should.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Verdict {
+    /// Counted.
+    Valid,
+    /// Too early: a false light, or the last one seen again.
+    TooEarly,
+    /// Too late for the next light: the robot has gone past it unseen.
+    TooLate,
+}
+
+/// Judges a distance travelled against the map's.
+pub fn judge(cfg: &TrackConfig, travelled: f64, expected: f64) -> Verdict {
+    let tol = (expected * cfg.tolerance).max(cfg.tolerance_mm);
+    if travelled < expected - tol {
+        Verdict::TooEarly
+    } else if travelled > expected + tol {
+        Verdict::TooLate
+    } else {
+        Verdict::Valid
+    }
+}
+
+/// What the tracker did in one L segment.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct SegmentLog {
+    /// Lights counted from sightings.
+    pub seen: usize,
+    /// Lights counted by distance after being missed.
+    pub missed: usize,
+    /// Sightings refused by the parent.
+    pub refused: usize,
+    /// Overshoot reported, mm.
+    pub overshoot_mm: f64,
+}
+
+/// The tracker of one robot.
+pub struct CTracker {
+    robot: RobotClient,
+    board: Board,
+    cfg: TrackConfig,
+}
+
+impl CTracker {
+    /// A tracker.
+    pub fn new(robot: RobotClient, board: Board, cfg: TrackConfig) -> CTracker {
+        CTracker { robot, board, cfg }
+    }
+
+    /// Runs the children and the parent until a client call fails; each
+    /// finished segment is sent to `log` (if given).
+    pub async fn run(
+        &self,
+        log: Option<mpsc::UnboundedSender<SegmentLog>>,
+    ) -> Result<(), NavError> {
+        self.board.declare().await?;
+        let (tx, mut rx) = mpsc::channel::<Sighting>(64);
+        let mut children = tokio::task::JoinSet::new();
+        for (i, camera) in self.cfg.cameras.iter().enumerate() {
+            let child = Child {
+                id: i,
+                robot: self.robot.clone(),
+                board: self.board.clone(),
+                camera: camera.clone(),
+                edge: self.cfg.edge,
+            };
+            let tx = tx.clone();
+            children.spawn(async move { child.run(tx).await });
+        }
+        drop(tx);
+        loop {
+            tokio::select! {
+                Some(done) = children.join_next() => {
+                    return match done {
+                        Ok(Err(e)) => Err(e),
+                        _ => Err(NavError::Gone("a ceiling-light child tracker stopped")),
+                    };
+                }
+                seg = self.segment(&mut rx) => {
+                    let seg = seg?;
+                    tracing::info!(?seg, "ctracker: segment done");
+                    if let Some(log) = &log {
+                        let _ = log.send(seg);
+                    }
+                }
+            }
+        }
+    }
+
+    async fn pose(&self) -> Result<Pose, NavError> {
+        let p = self.robot.pose().await?;
+        Ok(Pose {
+            x: f64::from(p.x_mm),
+            y: f64::from(p.y_mm),
+            heading: p.heading_deg,
+        })
+    }
+
+    /// One L segment: down($TrackData) … up($EndLMode).
+    async fn segment(&self, rx: &mut mpsc::Receiver<Sighting>) -> Result<SegmentLog, NavError> {
+        self.board.down(Sem::TrackData).await?;
+        let goal: i64 = self.board.get(Var::GoalDistance).await?;
+        let offsets: Vec<f64> = self.board.get(Var::LightOffset).await?;
+        let heading: f64 = self.board.get(Var::GoalDirection).await?;
+        self.board.set(Var::CeilingLight, &0i64).await?;
+        // Sightings from before the segment are stale.
+        while rx.try_recv().is_ok() {}
+        let axis = direction(heading);
+        let along = |p: &Pose| p.x * axis.0 + p.y * axis.1;
+        let mut last = along(&self.pose().await?);
+        let mut log = SegmentLog::default();
+        let mut count = 0usize;
+        let total = usize::try_from(goal).unwrap_or(0).min(offsets.len());
+        let mut tick = tokio::time::interval(self.cfg.check_every);
+        while count < total {
+            let expected = offsets[count];
+            tokio::select! {
+                s = rx.recv() => {
+                    let Some(s) = s else {
+                        return Err(NavError::Gone("every ceiling-light child tracker stopped"));
+                    };
+                    let at = along(&s.pose) + s.ahead_mm;
+                    match judge(&self.cfg, at - last, expected) {
+                        Verdict::Valid => {
+                            count += 1;
+                            log.seen += 1;
+                            last = at;
+                            self.counted(count, total, last, &mut log, along).await?;
+                        }
+                        Verdict::TooEarly | Verdict::TooLate => {
+                            log.refused += 1;
+                            tracing::debug!(travelled = at - last, expected, "ctracker: sighting refused");
+                        }
+                    }
+                }
+                _ = tick.tick() => {
+                    let now = along(&self.pose().await?);
+                    if judge(&self.cfg, now - last, expected) == Verdict::TooLate {
+                        count += 1;
+                        log.missed += 1;
+                        last += expected;
+                        tracing::warn!(light = count, "ctracker: light missed; counted by distance");
+                        self.counted(count, total, last, &mut log, along).await?;
+                    }
+                }
+            }
+        }
+        if total == 0 {
+            self.board.set(Var::Overshoot, &0i64).await?;
+            self.board.up(Sem::EndLMode).await?;
+        }
+        Ok(log)
+    }
+
+    async fn counted(
+        &self,
+        count: usize,
+        total: usize,
+        light_at: f64,
+        log: &mut SegmentLog,
+        along: impl Fn(&Pose) -> f64,
+    ) -> Result<(), NavError> {
+        if count == total {
+            let overshoot = along(&self.pose().await?) - light_at;
+            log.overshoot_mm = overshoot;
+            self.board
+                .set(Var::Overshoot, &(overshoot.round() as i64))
+                .await?;
+        }
+        self.board.set(Var::CeilingLight, &(count as i64)).await?;
+        self.board.up(Sem::LightDet).await?;
+        if count == total {
+            self.board.up(Sem::EndLMode).await?;
+        }
+        Ok(())
+    }
+}
+
+/// A child tracker: one camera's frames, three scan lines each.
+struct Child {
+    id: usize,
+    robot: RobotClient,
+    board: Board,
+    camera: String,
+    edge: i16,
+}
+
+impl Child {
+    async fn run(self, tx: mpsc::Sender<Sighting>) -> Result<(), NavError> {
+        let frames = self.robot.frames(&self.camera).await?;
+        let size = self.robot.camera_size(&self.camera).await?;
+        let rows = scan_lines(size.height);
+        let (mut lit_before, mut holding, mut reported) = (false, false, false);
+        while let Some(frame) = frames.next().await {
+            let frame = frame?;
+            let img = self.robot.camera_rows(&self.camera, &rows).await?;
+            let p = self.robot.pose().await?;
+            let pose = Pose {
+                x: f64::from(p.x_mm),
+                y: f64::from(p.y_mm),
+                heading: p.heading_deg,
+            };
+            let lines = [0, 1, 2].map(|k| line_has_light(img.row(k), self.edge));
+            let lit = lines.iter().any(|l| *l);
+            if lit && !lit_before {
+                holding = self.board.try_down(Sem::LightToken).await?;
+                reported = false;
+            }
+            if lit && holding && !reported && (lines[1] || lines[2]) {
+                if let Some(ahead_mm) = light_ahead_mm(lines) {
+                    reported = true;
+                    let s = Sighting {
+                        child: self.id,
+                        frame: frame.frame,
+                        pose,
+                        ahead_mm,
+                    };
+                    if tx.send(s).await.is_err() {
+                        break;
+                    }
+                }
+            }
+            if !lit && lit_before && holding {
+                self.board.up(Sem::LightToken).await?;
+                holding = false;
+            }
+            lit_before = lit;
+        }
+        if holding {
+            self.board.up(Sem::LightToken).await?;
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_edge_is_a_strong_gradient() {
+        let mut row = vec![60u8; 100];
+        assert!(!line_has_light(&row, 60));
+        // Pixel noise is not an edge.
+        for (i, p) in row.iter_mut().enumerate() {
+            *p = 60 + (i % 7) as u8 * 3;
+        }
+        assert!(!line_has_light(&row, 60));
+        for p in &mut row[40..80] {
+            *p = 235;
+        }
+        assert!(line_has_light(&row, 60));
+    }
+
+    #[test]
+    fn the_three_lines_place_the_light_along_the_robot() {
+        assert_eq!(scan_lines(482), [120, 241, 361]);
+        assert_eq!(light_ahead_mm([true, false, false]), Some(450.0));
+        assert_eq!(light_ahead_mm([true, true, false]), Some(150.0));
+        assert_eq!(light_ahead_mm([false, true, true]), Some(-150.0));
+        assert_eq!(light_ahead_mm([false, false, true]), Some(-450.0));
+        assert_eq!(light_ahead_mm([true, false, true]), None);
+        assert_eq!(light_ahead_mm([false, false, false]), None);
+    }
+
+    #[test]
+    fn the_parent_accepts_lights_where_the_map_puts_them() {
+        let cfg = TrackConfig::default();
+        assert_eq!(judge(&cfg, 5_900.0, 6_000.0), Verdict::Valid);
+        assert_eq!(judge(&cfg, 7_400.0, 6_000.0), Verdict::Valid);
+        assert_eq!(judge(&cfg, 2_000.0, 6_000.0), Verdict::TooEarly);
+        assert_eq!(judge(&cfg, 7_600.0, 6_000.0), Verdict::TooLate);
+        // Short distances get the absolute tolerance.
+        assert_eq!(judge(&cfg, 2_100.0, 1_000.0), Verdict::Valid);
+    }
+}

@@ -1,0 +1,519 @@
+//! The door-plate finder, PlFinder (§5.7).
+//!
+//! For each grab of the sideways camera it takes the camera's lock (so the
+//! image cannot change half-way), reads a band of rows around the middle
+//! (the plates hang at the camera's height), and:
+//!
+//! 1. makes the negative and stretches the grey levels with
+//!    x' = (x/M)^e1·M below M and ((x−M)/(255−M))^e2·(255−M)+M above, with
+//!    M = 0.8·255, e1 = 5, e2 = 0.5: the black plates become bright, walls
+//!    and doors dark;
+//! 2. thresholds;
+//! 3. looks for a dark-to-bright transition along the middle row, then in
+//!    the rows above it, and traces that region's border, keeping its chain
+//!    code;
+//! 4. finds the corners where the chain code turns sharply (curvature from
+//!    the chain code over arms of k links), and takes their bounding box;
+//! 5. accepts the box if its size and shape fit a plate at the distance the
+//!    sideways sonar (18) measures.
+//!
+//! Two grabs overlap when the distance D between them is less than r1 + l2
+//! (Fig. 5.17–5.18); plates wholly inside the overlap were seen already and
+//! are skipped. When the heading deviates from the hallway by |β| ≥ 50° the
+//! geometry breaks down and the finder does nothing.
+
+use crate::board::{Board, PlateReport, Var};
+use crate::NavError;
+use rome_client::RobotClient;
+use rome_maps::geometry::{direction, distance, normalize_deg, Point};
+use rome_maps::World;
+
+/// M of the grey-level stretch.
+pub const STRETCH_M: f64 = 0.8 * 255.0;
+/// Exponent below M.
+pub const STRETCH_E1: f64 = 5.0;
+/// Exponent above M.
+pub const STRETCH_E2: f64 = 0.5;
+/// |β| from which the finder does nothing, degrees.
+pub const BETA_LIMIT_DEG: f64 = 50.0;
+
+/// How the finder works.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlConfig {
+    /// The sideways camera.
+    pub camera: String,
+    /// Half its horizontal field of view, degrees.
+    pub half_fov_deg: f64,
+    /// Rows read around the middle.
+    pub band_rows: u32,
+    /// Threshold after stretching.
+    pub threshold: u8,
+    /// A plate's width and height, mm.
+    pub plate_mm: (f64, f64),
+    /// Distance from the robot's centre to the camera and the sonar, mm.
+    pub ring_mm: f64,
+    /// The map's plates, to name what is found (label, where).
+    pub known: Vec<(String, Point)>,
+}
+
+impl PlConfig {
+    /// The defaults, naming plates from a map.
+    pub fn with_map(world: &World) -> PlConfig {
+        PlConfig {
+            known: world
+                .plates
+                .iter()
+                .map(|p| (p.label.clone(), p.at))
+                .collect(),
+            ..PlConfig::default()
+        }
+    }
+}
+
+impl Default for PlConfig {
+    fn default() -> Self {
+        PlConfig {
+            camera: "side".into(),
+            half_fov_deg: 25.0,
+            band_rows: 120,
+            threshold: 200,
+            plate_mm: (200.0, 150.0),
+            ring_mm: 380.0,
+            known: Vec::new(),
+        }
+    }
+}
+
+/// The non-linear grey-level stretch of §5.7, applied to a value.
+pub fn stretch(x: u8) -> u8 {
+    let x = f64::from(x);
+    let m = STRETCH_M;
+    let y = if x <= m {
+        (x / m).powf(STRETCH_E1) * m
+    } else {
+        ((x - m) / (255.0 - m)).powf(STRETCH_E2) * (255.0 - m) + m
+    };
+    y.round().clamp(0.0, 255.0) as u8
+}
+
+/// Negative, stretch and threshold: `true` where a plate may be.
+pub fn binarize(pixels: &[u8], threshold: u8) -> Vec<bool> {
+    let lut: Vec<bool> = (0..=255u8).map(|v| stretch(255 - v) >= threshold).collect();
+    pixels.iter().map(|p| lut[usize::from(*p)]).collect()
+}
+
+/// Chain-code directions, clockwise from West in image coordinates (y
+/// down): W, NW, N, NE, E, SE, S, SW.
+const DIRS: [(i64, i64); 8] = [
+    (-1, 0),
+    (-1, -1),
+    (0, -1),
+    (1, -1),
+    (1, 0),
+    (1, 1),
+    (0, 1),
+    (-1, 1),
+];
+
+/// A traced border: its pixels and the chain code between them.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Border {
+    /// Pixels, in order.
+    pub points: Vec<(i64, i64)>,
+    /// Chain code (index into the clockwise directions W, NW, N, …).
+    pub chain: Vec<u8>,
+    /// Whether the border came back to where it started.
+    pub closed: bool,
+}
+
+/// Traces the border of the bright region containing `start`, whose left
+/// neighbour is dark (Moore-neighbour tracing).
+pub fn trace(img: &[bool], w: usize, h: usize, start: (i64, i64)) -> Border {
+    let on = |p: (i64, i64)| {
+        p.0 >= 0
+            && p.1 >= 0
+            && (p.0 as usize) < w
+            && (p.1 as usize) < h
+            && img[p.1 as usize * w + p.0 as usize]
+    };
+    let mut points = vec![start];
+    let mut chain = Vec::new();
+    let mut c = start;
+    let mut back = 0usize; // the backtrack neighbour's direction from c: West
+    let limit = 4 * (w + h) * 4;
+    for _ in 0..limit {
+        let mut moved = false;
+        for j in 1..=8 {
+            let k = (back + j) % 8;
+            let n = (c.0 + DIRS[k].0, c.1 + DIRS[k].1);
+            if on(n) {
+                // The neighbour checked just before is background: it is
+                // the new backtrack, seen from n.
+                let prev = (back + j - 1) % 8;
+                let b = (c.0 + DIRS[prev].0, c.1 + DIRS[prev].1);
+                back = DIRS
+                    .iter()
+                    .position(|d| (n.0 + d.0, n.1 + d.1) == b)
+                    .unwrap_or(0);
+                chain.push(k as u8);
+                c = n;
+                moved = true;
+                break;
+            }
+        }
+        if !moved {
+            // A single pixel.
+            return Border {
+                points,
+                chain,
+                closed: true,
+            };
+        }
+        if c == start {
+            return Border {
+                points,
+                chain,
+                closed: true,
+            };
+        }
+        points.push(c);
+    }
+    Border {
+        points,
+        chain,
+        closed: false,
+    }
+}
+
+/// Corner points of a closed border: where the direction of the chain over
+/// `k` links ahead differs from the one over `k` links behind by more than
+/// `min_deg`, at local maxima of that difference (after Beus and Tiu's
+/// chain-code curvature).
+pub fn corners(border: &Border, k: usize, min_deg: f64) -> Vec<(i64, i64)> {
+    let n = border.chain.len();
+    if n < 4 * k || !border.closed {
+        return Vec::new();
+    }
+    let vec_of = |from: usize, len: usize| {
+        (0..len).fold((0i64, 0i64), |a, i| {
+            let d = DIRS[usize::from(border.chain[(from + i) % n])];
+            (a.0 + d.0, a.1 + d.1)
+        })
+    };
+    let curv: Vec<f64> = (0..n)
+        .map(|i| {
+            let ahead = vec_of(i, k);
+            let behind = vec_of((i + n - k) % n, k);
+            let a1 = (ahead.1 as f64).atan2(ahead.0 as f64);
+            let a0 = (behind.1 as f64).atan2(behind.0 as f64);
+            normalize_deg((a1 - a0).to_degrees()).abs()
+        })
+        .collect();
+    let mut out = Vec::new();
+    for i in 0..n {
+        if curv[i] < min_deg {
+            continue;
+        }
+        let peak = (1..=k).all(|j| curv[i] >= curv[(i + j) % n] && curv[i] > curv[(i + n - j) % n]);
+        if peak {
+            // chain[i] leaves points[i].
+            out.push(border.points[i % border.points.len()]);
+        }
+    }
+    out
+}
+
+/// A plate candidate in an image.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Candidate {
+    /// left, top, right, bottom (pixels).
+    pub bbox: [u32; 4],
+    /// Corners found.
+    pub corners: usize,
+}
+
+/// Finds plate-like regions in a binary band image: each accepted region's
+/// corner bounding box. `size_px` is the expected plate size in pixels.
+pub fn find_plates(img: &[bool], w: usize, h: usize, size_px: (f64, f64)) -> Vec<Candidate> {
+    let mut out: Vec<Candidate> = Vec::new();
+    let mut done = vec![false; w * h];
+    // The middle row first, then the rows above it.
+    let mid = h / 2;
+    let rows: Vec<usize> = std::iter::once(mid)
+        .chain((0..mid).rev().step_by(4))
+        .collect();
+    for y in rows {
+        let mut x = 1;
+        while x < w {
+            let i = y * w + x;
+            if img[i] && !img[i - 1] && !done[i] {
+                let b = trace(img, w, h, (x as i64, y as i64));
+                for p in &b.points {
+                    done[p.1 as usize * w + p.0 as usize] = true;
+                }
+                if b.closed && b.points.len() >= 12 {
+                    let k = (b.chain.len() / 24).clamp(2, 8);
+                    let cs = corners(&b, k, 40.0);
+                    if let Some(c) = accept(&cs, size_px) {
+                        if !out.iter().any(|o| overlaps(&o.bbox, &c.bbox)) {
+                            out.push(c);
+                        }
+                    }
+                }
+            }
+            x += 1;
+        }
+        if !out.is_empty() && y != mid {
+            break;
+        }
+    }
+    out
+}
+
+fn overlaps(a: &[u32; 4], b: &[u32; 4]) -> bool {
+    a[0] <= b[2] && b[0] <= a[2] && a[1] <= b[3] && b[1] <= a[3]
+}
+
+/// Bounding box of the corners, accepted if it is the size and shape of a
+/// plate.
+fn accept(corners: &[(i64, i64)], size_px: (f64, f64)) -> Option<Candidate> {
+    if !(4..=10).contains(&corners.len()) {
+        return None;
+    }
+    let l = corners.iter().map(|c| c.0).min()?;
+    let r = corners.iter().map(|c| c.0).max()?;
+    let t = corners.iter().map(|c| c.1).min()?;
+    let b = corners.iter().map(|c| c.1).max()?;
+    let (bw, bh) = ((r - l + 1) as f64, (b - t + 1) as f64);
+    let ok_w = (0.6 * size_px.0..=1.6 * size_px.0).contains(&bw);
+    let ok_h = (0.6 * size_px.1..=1.6 * size_px.1).contains(&bh);
+    let aspect = bw / bh;
+    let want = size_px.0 / size_px.1;
+    (ok_w && ok_h && (aspect - want).abs() <= 0.45 * want).then(|| Candidate {
+        bbox: [l as u32, t as u32, r as u32, b as u32],
+        corners: corners.len(),
+    })
+}
+
+/// The view of one grab on the wall (Fig. 5.17): how far behind (l) and
+/// ahead (r) of the camera's foot it reaches, mm, given β and the
+/// perpendicular distance d.
+pub fn view_on_wall(d: f64, beta_deg: f64, half_fov_deg: f64) -> (f64, f64) {
+    let l = d * (beta_deg + half_fov_deg).to_radians().tan();
+    let r = d * (half_fov_deg - beta_deg).to_radians().tan();
+    (l, r)
+}
+
+/// The first image column not seen in the grab before (Fig. 5.18): the
+/// frames overlap when D < r1 + l2.
+pub fn first_new_column(
+    r1: f64,
+    dist: f64,
+    d2: f64,
+    beta2_deg: f64,
+    half_fov_deg: f64,
+    width: u32,
+) -> u32 {
+    let s = r1 - dist;
+    let off = (s / d2).atan() + beta2_deg.to_radians();
+    let focal = f64::from(width) / 2.0 / half_fov_deg.to_radians().tan();
+    let col = f64::from(width) / 2.0 + focal * off.tan();
+    col.clamp(0.0, f64::from(width)) as u32
+}
+
+/// The finder of one robot.
+pub struct PlFinder {
+    robot: RobotClient,
+    board: Board,
+    cfg: PlConfig,
+}
+
+struct Last {
+    at: Point,
+    r: f64,
+}
+
+impl PlFinder {
+    /// A finder.
+    pub fn new(robot: RobotClient, board: Board, cfg: PlConfig) -> PlFinder {
+        PlFinder { robot, board, cfg }
+    }
+
+    /// Looks at every grab until a client call fails.
+    pub async fn run(&self) -> Result<(), NavError> {
+        self.board.declare().await?;
+        self.board
+            .client()
+            .set_history(&self.board.var_name(Var::Plate), 256)
+            .await?;
+        let frames = self.robot.frames(&self.cfg.camera).await?;
+        let size = self.robot.camera_size(&self.cfg.camera).await?;
+        let (w, h) = (size.width, size.height);
+        let band = self.cfg.band_rows.min(h);
+        let top = h / 2 - band / 2;
+        let rows: Vec<u32> = (top..top + band).collect();
+        let focal = f64::from(w) / 2.0 / self.cfg.half_fov_deg.to_radians().tan();
+        let mut last: Option<Last> = None;
+        let mut reported: Vec<Point> = Vec::new();
+        while let Some(frame) = frames.next().await {
+            let frame = frame?;
+            let Ok(goal) = self.board.get::<f64>(Var::GoalDirection).await else {
+                continue;
+            };
+            let lock = self.robot.camera_lock(&self.cfg.camera).await?;
+            let img = self.robot.camera_rows(&self.cfg.camera, &rows).await?;
+            let pose = self.robot.pose().await?;
+            let sonar = self.robot.sonar().await?;
+            lock.unlock().await?;
+            let beta = normalize_deg(pose.heading_deg - goal);
+            let reading = f64::from(sonar.sonar_mm.get(18).copied().unwrap_or(u32::MAX));
+            if beta.abs() >= BETA_LIMIT_DEG || reading >= 5_000.0 {
+                last = None;
+                continue;
+            }
+            let d = reading * beta.to_radians().cos();
+            let heading = pose.heading_deg;
+            let eye_dir = direction(heading + 90.0);
+            let centre = (f64::from(pose.x_mm), f64::from(pose.y_mm));
+            let eye = (
+                centre.0 + eye_dir.0 * self.cfg.ring_mm,
+                centre.1 + eye_dir.1 * self.cfg.ring_mm,
+            );
+            let (l, r) = view_on_wall(d, beta, self.cfg.half_fov_deg);
+            let start_col = match &last {
+                Some(prev) => {
+                    let dist = distance(prev.at, eye);
+                    if dist < prev.r + l {
+                        first_new_column(prev.r, dist, d, beta, self.cfg.half_fov_deg, w)
+                    } else {
+                        0
+                    }
+                }
+                None => 0,
+            };
+            last = Some(Last { at: eye, r });
+            let bin = binarize(&img.pixels, self.cfg.threshold);
+            let size_px = (
+                self.cfg.plate_mm.0 * focal / d,
+                self.cfg.plate_mm.1 * focal / d,
+            );
+            for c in find_plates(&bin, w as usize, band as usize, size_px) {
+                if c.bbox[2] < start_col {
+                    continue;
+                }
+                let col = f64::from(c.bbox[0] + c.bbox[2]) / 2.0 + 0.5 - f64::from(w) / 2.0;
+                let off = (col / focal).atan().to_degrees();
+                let s = d * (off - beta).to_radians().tan();
+                let normal = direction(goal + 90.0);
+                let along = direction(goal);
+                let at = (
+                    eye.0 + normal.0 * d + along.0 * s,
+                    eye.1 + normal.1 * d + along.1 * s,
+                );
+                if reported.iter().any(|p| distance(*p, at) < 500.0) {
+                    continue;
+                }
+                reported.push(at);
+                let near = self
+                    .cfg
+                    .known
+                    .iter()
+                    .map(|(label, p)| (label, distance(*p, at)))
+                    .min_by(|a, b| a.1.total_cmp(&b.1))
+                    .filter(|(_, e)| *e <= 1_500.0);
+                let report = PlateReport {
+                    frame: frame.frame,
+                    x_mm: at.0.round() as i64,
+                    y_mm: at.1.round() as i64,
+                    bbox: [c.bbox[0], c.bbox[1] + top, c.bbox[2], c.bbox[3] + top],
+                    label: near.map(|(l, _)| l.clone()),
+                    error_mm: near.map(|(_, e)| e.round() as i64),
+                };
+                tracing::info!(?report, "plfinder: door plate");
+                self.board.set(Var::Plate, &report).await?;
+            }
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_stretch_follows_the_formula() {
+        assert_eq!(stretch(0), 0);
+        assert_eq!(stretch(255), 255);
+        assert_eq!(stretch(204), 204);
+        // (102/204)^5 · 204 = 6.4
+        assert_eq!(stretch(102), 6);
+        // ((230 − 204)/51)^0.5 · 51 + 204 = 240.4
+        assert_eq!(stretch(230), 240);
+    }
+
+    fn plate_image(w: usize, h: usize, rect: (usize, usize, usize, usize)) -> Vec<bool> {
+        let mut img = vec![false; w * h];
+        for y in rect.1..rect.3 {
+            for x in rect.0..rect.2 {
+                img[y * w + x] = true;
+            }
+        }
+        // Dark digits inside do not matter to the outer border.
+        for y in rect.1 + 5..rect.3 - 5 {
+            img[y * w + rect.0 + 10] = false;
+        }
+        img
+    }
+
+    #[test]
+    fn a_rectangle_traces_closed_with_four_corners() {
+        let (w, h) = (200, 100);
+        let img = plate_image(w, h, (50, 30, 130, 90));
+        let b = trace(&img, w, h, (50, 50));
+        assert!(b.closed);
+        // The outer border of an 80 × 60 rectangle.
+        assert_eq!(b.points.len(), 2 * (80 + 60) - 4);
+        let cs = corners(&b, 4, 40.0);
+        assert_eq!(cs.len(), 4, "{cs:?}");
+        for c in [(50, 30), (129, 30), (129, 89), (50, 89)] {
+            assert!(
+                cs.iter()
+                    .any(|p| (p.0 - c.0).abs() <= 1 && (p.1 - c.1).abs() <= 1),
+                "{c:?} in {cs:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn plates_of_the_expected_size_are_accepted_and_others_not() {
+        let (w, h) = (200, 100);
+        let img = plate_image(w, h, (50, 30, 130, 90));
+        let found = find_plates(&img, w, h, (80.0, 60.0));
+        assert_eq!(found.len(), 1);
+        assert_eq!(found[0].bbox, [50, 30, 129, 89]);
+        // Expecting plates a third the size, the box is refused.
+        assert!(find_plates(&img, w, h, (27.0, 20.0)).is_empty());
+        // A tall narrow region (a poster's edge, a door frame) is refused.
+        let img = plate_image(w, h, (50, 5, 70, 95));
+        assert!(find_plates(&img, w, h, (80.0, 60.0)).is_empty());
+    }
+
+    #[test]
+    fn overlap_geometry_of_figures_5_17_and_5_18() {
+        // Facing the wall squarely: the view reaches d·tan(φ) each way.
+        let (l, r) = view_on_wall(1_000.0, 0.0, 30.0);
+        assert!((l - 577.35).abs() < 0.1 && (r - 577.35).abs() < 0.1);
+        // Turned by β = 40°: the view behind grows, ahead becomes negative
+        // (r < 0 when β > 30°).
+        let (l, r) = view_on_wall(1_000.0, 40.0, 30.0);
+        assert!(l > 2_700.0 && r < 0.0, "{l} {r}");
+        // Two grabs 400 mm apart overlap by r1 + l2 − D: 754.7 mm; the new
+        // part starts right of the middle column.
+        let col = first_new_column(577.35, 400.0, 1_000.0, 0.0, 30.0, 512);
+        assert!(col > 256 && col < 512, "{col}");
+        // Grabs far apart do not overlap: everything is new.
+        let col = first_new_column(577.35, 2_000.0, 1_000.0, 0.0, 30.0, 512);
+        assert_eq!(col, 0);
+    }
+}
