@@ -123,7 +123,7 @@ pub async fn run(cli: Cli) -> anyhow::Result<u8> {
         Command::Pioneer(args) => cmd::pioneer::run(&common, args).await,
         Command::Robot(args) => cmd::robot::run(&common, args).await,
         Command::Storage(args) => cmd::storage::run(&common, args).await,
-        Command::Demo(args) => cmd::demo::run(&common, args).await,
+        Command::Demo(args) => cmd::demo::run(args).await,
         Command::Bench(c) => cmd::bench::run(&common, c).await,
     }
 }

@@ -52,3 +52,31 @@ pub async fn list(
     out.dedup();
     Ok(out)
 }
+
+/// Waits until a server's liveliness token exists (`kind` `robot`, `id`
+/// `r1/base`, as the server declares it): for starting clients right
+/// after their servers without racing them.
+pub async fn await_server(
+    session: &Session,
+    root: &Root,
+    kind: &str,
+    id: &str,
+    timeout: Duration,
+) -> Result<(), ClientError> {
+    let key = root.alive_server(kind, id);
+    let sub = session
+        .liveliness()
+        .declare_subscriber(&key)
+        .history(true)
+        .await
+        .map_err(ClientError::zenoh)?;
+    match tokio::time::timeout(timeout, sub.recv_async()).await {
+        Ok(Ok(_)) => Ok(()),
+        Ok(Err(e)) => Err(ClientError::zenoh(e)),
+        Err(_) => Err(ClientError::NoReply {
+            what: "server",
+            key,
+            waited: timeout,
+        }),
+    }
+}

@@ -41,7 +41,7 @@ impl Default for HimmConfig {
     fn default() -> Self {
         HimmConfig {
             lights_per_map: 3,
-            half_side_mm: 12_000.0,
+            half_side_mm: 20_000.0,
             max_fix_deg: 15.0,
             min_fix_deg: 0.3,
         }

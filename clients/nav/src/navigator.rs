@@ -135,6 +135,7 @@ fn circular(a: usize, b: usize) -> usize {
 pub struct Hallway {
     /// The safe threshold, mm.
     pub safe_mm: f64,
+    walls: Walls,
     turns: Vec<u64>,
     calm_since: u64,
     slow_until: u64,
@@ -145,6 +146,7 @@ impl Hallway {
     pub fn new(now_ms: u64) -> Hallway {
         Hallway {
             safe_mm: SAFE_START_MM,
+            walls: Walls::default(),
             turns: Vec::new(),
             calm_since: now_ms,
             slow_until: 0,
@@ -152,13 +154,14 @@ impl Hallway {
     }
 
     /// One pass of Center-Hallway: what to do given the sonar ranges, the
-    /// odometry heading and the goal direction.
+    /// odometry heading, the goal direction and the distance driven so far.
     pub fn step(
         &mut self,
         cfg: &NavConfig,
         sonar: &[u32],
         heading_deg: f64,
         goal_deg: f64,
+        along_mm: f64,
         now_ms: u64,
     ) -> Drive {
         self.adapt(cfg, now_ms);
@@ -191,19 +194,19 @@ impl Hallway {
                 return Drive::Turn(turn);
             }
         }
-        // Safe: steer the open direction onto sonar 12, with the near
-        // sonars keeping the robot off-centre no more than they must.
+        // Safe: steer the open direction onto sonar 12.
         let open = open_sonar(sonar, heading_deg, goal_deg, 2);
-        let mut delta = bearing(open);
-        if open == sonar_towards(goal_deg - heading_deg) {
-            // The open direction is the axis itself: steer on the axis.
-            delta = normalize_deg(goal_deg - heading_deg);
-        }
-        let (r18, r6) = (f64::from(sonar[18]), f64::from(sonar[6]));
-        if r18 < 3_000.0 && r6 < 3_000.0 && (r18 - r6).abs() < 2_000.0 {
-            delta += ((r18 - r6) / 2.0 / 100.0).clamp(-8.0, 8.0);
-        }
-        if delta.abs() < 1.5 {
+        let delta = if open != sonar_towards(goal_deg - heading_deg) {
+            bearing(open)
+        } else if let Some(d) = self.walls.steer(sonar, along_mm) {
+            // The open direction is the axis itself, which odometry alone
+            // cannot hold to a degree: the side walls say how the robot
+            // moves relative to them and how far off the middle it is.
+            d
+        } else {
+            normalize_deg(goal_deg - heading_deg)
+        };
+        if delta.abs() < 1.0 {
             Drive::Go(speed)
         } else {
             Drive::Jog(delta.signum() * JOG_RATE_DEG_S)
@@ -220,6 +223,63 @@ impl Hallway {
             self.safe_mm = (self.safe_mm * 1.25).min(SAFE_START_MM);
             self.calm_since = now_ms;
         }
+    }
+}
+
+/// Where the robot is between two hallway walls, from the side sonars 6
+/// and 18: how far off the middle, and (over the last metre) at what angle
+/// it is moving relative to the walls.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Walls {
+    /// (distance driven, offset left of the middle, hallway width), mm.
+    samples: std::collections::VecDeque<(f64, f64, f64)>,
+}
+
+/// Driving this far is enough to tell the angle to the walls, mm.
+const WALL_WINDOW_MM: f64 = 1_000.0;
+
+impl Walls {
+    /// Adds a scan; returns the steering correction (degrees
+    /// counter-clockwise) that brings the robot back to the middle, when
+    /// both walls have been in view long enough to tell.
+    pub fn steer(&mut self, sonar: &[u32], along_mm: f64) -> Option<f64> {
+        let (left, right) = (f64::from(sonar[18]), f64::from(sonar[6]));
+        let width = left + right;
+        while self
+            .samples
+            .front()
+            .is_some_and(|s| along_mm - s.0 > WALL_WINDOW_MM || s.0 > along_mm)
+        {
+            self.samples.pop_front();
+        }
+        // A door recess or a side corridor changes the width: not a wall.
+        let steady =
+            self.samples.is_empty() || self.samples.iter().all(|s| (s.2 - width).abs() < 250.0);
+        if left < 3_500.0 && right < 3_500.0 && steady {
+            self.samples
+                .push_back((along_mm, (right - left) / 2.0, width));
+        }
+        self.fit()
+    }
+
+    fn fit(&self) -> Option<f64> {
+        let n = self.samples.len() as f64;
+        let (s0, s1) = (self.samples.front()?.0, self.samples.back()?.0);
+        if self.samples.len() < 4 || s1 - s0 < WALL_WINDOW_MM / 2.0 {
+            return None;
+        }
+        let ms = self.samples.iter().map(|s| s.0).sum::<f64>() / n;
+        let me = self.samples.iter().map(|s| s.1).sum::<f64>() / n;
+        let (mut sxy, mut sxx) = (0.0, 0.0);
+        for s in &self.samples {
+            sxy += (s.0 - ms) * (s.1 - me);
+            sxx += (s.0 - ms) * (s.0 - ms);
+        }
+        // Moving left (counter-clockwise of the walls) raises the offset.
+        let angle = (sxy / sxx).atan().to_degrees();
+        let offset = self.samples.back()?.1;
+        let wanted = (-offset / 1_000.0 * 10.0).clamp(-12.0, 12.0);
+        Some(wanted - angle)
     }
 }
 
@@ -293,6 +353,9 @@ pub struct Navigator {
     carry: Option<Pose>,
     goals: u32,
     log: NavLog,
+    /// Distance driven so far by odometry, mm.
+    odometer: f64,
+    odometer_at: Option<Pose>,
 }
 
 impl Navigator {
@@ -307,6 +370,8 @@ impl Navigator {
             carry: None,
             goals: 0,
             log: NavLog::default(),
+            odometer: 0.0,
+            odometer_at: None,
         }
     }
 
@@ -340,13 +405,18 @@ impl Navigator {
         }
     }
 
-    async fn pose(&self) -> Result<Pose, NavError> {
+    async fn pose(&mut self) -> Result<Pose, NavError> {
         let p = self.robot.pose().await?;
-        Ok(Pose {
+        let pose = Pose {
             x: f64::from(p.x_mm),
             y: f64::from(p.y_mm),
             heading: p.heading_deg,
-        })
+        };
+        if let Some(before) = self.odometer_at {
+            self.odometer += pose.dist(&before);
+        }
+        self.odometer_at = Some(pose);
+        Ok(pose)
     }
 
     async fn send(&mut self, d: Drive) -> Result<(), NavError> {
@@ -463,9 +533,20 @@ impl Navigator {
                     &scan.sonar_mm,
                     pose.heading,
                     goal.direction_deg,
+                    self.odometer,
                     scan.time_ms,
                 )
             };
+            tracing::debug!(
+                t = scan.time_ms,
+                x = pose.x,
+                y = pose.y,
+                heading = pose.heading,
+                left = scan.sonar_mm[18],
+                right = scan.sonar_mm[6],
+                ?drive,
+                "navigator: step"
+            );
             if let Drive::Turn(_) = drive {
                 self.log.turns += 1;
                 self.send(drive).await?;
@@ -608,9 +689,12 @@ mod tests {
         let mut h = Hallway::new(0);
         // Centred, heading 10° right of the axis: jog left (CCW) at 4°/s.
         let s = hallway_scan(1_400, 1_400);
-        assert_eq!(h.step(&cfg, &s, -10.0, 0.0, 100), Drive::Jog(4.0));
-        assert_eq!(h.step(&cfg, &s, 10.0, 0.0, 200), Drive::Jog(-4.0));
-        assert_eq!(h.step(&cfg, &s, 0.0, 0.0, 300), Drive::Go(cfg.cruise_mm_s));
+        assert_eq!(h.step(&cfg, &s, -10.0, 0.0, 0.0, 100), Drive::Jog(4.0));
+        assert_eq!(h.step(&cfg, &s, 10.0, 0.0, 0.0, 200), Drive::Jog(-4.0));
+        assert_eq!(
+            h.step(&cfg, &s, 0.0, 0.0, 0.0, 300),
+            Drive::Go(cfg.cruise_mm_s)
+        );
     }
 
     #[test]
@@ -621,13 +705,13 @@ mod tests {
         // A wall closing in at sonar 16 (60° left): turn right so the
         // closed direction lies on sonar 18.
         s[16] = 600;
-        match h.step(&cfg, &s, 0.0, 0.0, 1_000) {
+        match h.step(&cfg, &s, 0.0, 0.0, 0.0, 1_000) {
             Drive::Turn(d) => assert!((d + 30.0).abs() < 1e-9, "{d}"),
             other => panic!("expected an in-place turn, got {other:?}"),
         }
         let s = hallway_scan(1_400, 1_400);
         assert_eq!(
-            h.step(&cfg, &s, 0.0, 0.0, 2_000),
+            h.step(&cfg, &s, 0.0, 0.0, 0.0, 2_000),
             Drive::Go(cfg.cruise_mm_s * 0.75)
         );
     }
@@ -639,16 +723,16 @@ mod tests {
         let mut s = hallway_scan(1_400, 1_400);
         s[16] = 900;
         for t in 0..3 {
-            let _ = h.step(&cfg, &s, 0.0, 0.0, 1_000 * t);
+            let _ = h.step(&cfg, &s, 0.0, 0.0, 0.0, 1_000 * t);
         }
         let calm = hallway_scan(1_400, 1_400);
-        let _ = h.step(&cfg, &calm, 0.0, 0.0, 3_000);
+        let _ = h.step(&cfg, &calm, 0.0, 0.0, 0.0, 3_000);
         assert_eq!(h.safe_mm, 500.0);
-        let _ = h.step(&cfg, &calm, 0.0, 0.0, 3_000 + cfg.calm_ms);
+        let _ = h.step(&cfg, &calm, 0.0, 0.0, 0.0, 3_000 + cfg.calm_ms);
         assert_eq!(h.safe_mm, 625.0);
         // Never above the starting 1 m.
         for k in 2..10 {
-            let _ = h.step(&cfg, &calm, 0.0, 0.0, 3_000 + k * cfg.calm_ms);
+            let _ = h.step(&cfg, &calm, 0.0, 0.0, 0.0, 3_000 + k * cfg.calm_ms);
         }
         assert_eq!(h.safe_mm, SAFE_START_MM);
     }
@@ -656,9 +740,37 @@ mod tests {
     #[test]
     fn off_centre_it_steers_back_toward_the_middle() {
         let cfg = NavConfig::default();
+        // Driving parallel to the walls, 600 mm right of the middle: steer
+        // left (counter-clockwise).
         let mut h = Hallway::new(0);
-        // Much nearer the right wall: steer left.
-        let s = hallway_scan(2_000, 900);
-        assert_eq!(h.step(&cfg, &s, 0.0, 0.0, 100), Drive::Jog(4.0));
+        let s = hallway_scan(2_060, 860);
+        let mut last = Drive::Halt;
+        for k in 0..20 {
+            last = h.step(
+                &cfg,
+                &s,
+                0.0,
+                0.0,
+                100.0 * f64::from(k),
+                100 * u64::from(k as u32),
+            );
+        }
+        assert_eq!(last, Drive::Jog(4.0));
+        // In the middle but drifting left at 5°: steer right, whatever
+        // odometry says about the heading.
+        let mut h = Hallway::new(0);
+        for k in 0..20 {
+            let drift = 100.0 * f64::from(k) * 5f64.to_radians().tan();
+            let s = hallway_scan((1_460.0 - drift) as u32, (1_460.0 + drift) as u32);
+            last = h.step(
+                &cfg,
+                &s,
+                0.0,
+                0.0,
+                100.0 * f64::from(k),
+                100 * u64::from(k as u32),
+            );
+        }
+        assert_eq!(last, Drive::Jog(-4.0));
     }
 }

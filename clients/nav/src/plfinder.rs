@@ -361,7 +361,16 @@ impl PlFinder {
                 continue;
             };
             let lock = self.robot.camera_lock(&self.cfg.camera).await?;
-            let img = self.robot.camera_rows(&self.cfg.camera, &rows).await?;
+            // The server hands out at most 64 rows a request.
+            let mut pixels = Vec::with_capacity(rows.len() * w as usize);
+            for chunk in rows.chunks(64) {
+                pixels.extend(
+                    self.robot
+                        .camera_rows(&self.cfg.camera, chunk)
+                        .await?
+                        .pixels,
+                );
+            }
             let pose = self.robot.pose().await?;
             let sonar = self.robot.sonar().await?;
             lock.unlock().await?;
@@ -392,7 +401,7 @@ impl PlFinder {
                 None => 0,
             };
             last = Some(Last { at: eye, r });
-            let bin = binarize(&img.pixels, self.cfg.threshold);
+            let bin = binarize(&pixels, self.cfg.threshold);
             let size_px = (
                 self.cfg.plate_mm.0 * focal / d,
                 self.cfg.plate_mm.1 * focal / d,

@@ -243,6 +243,16 @@ pub async fn run(cfg: RunConfig, mut progress: impl FnMut(Event)) -> Result<Repo
     );
     let servers = spawn_sim_robot(&session, &root, &world, &cfg.robot, rates)
         .map_err(|e| NavError::Config(e.to_string()))?;
+    for device in ["base", "proximity", "camera/up", "camera/side"] {
+        rome_client::alive::await_server(
+            &session,
+            &root,
+            "robot",
+            &format!("{}/{device}", cfg.robot),
+            Duration::from_secs(10),
+        )
+        .await?;
+    }
     let connect = |role: &'static str| {
         let session = session.clone();
         let root = root.clone();

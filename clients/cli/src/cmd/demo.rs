@@ -1,122 +1,180 @@
-//! `rome demo`: everything in one process on one in-process Zenoh
-//! session, no router and no configuration.
+//! `rome demo`: a simulated robot driving from one room to another, with
+//! the data server, the hardware servers and every navigation client in
+//! one process on an in-process Zenoh session: no router, no configuration.
 //!
-//! Today it runs the data server with a Planner and a Navigator client
-//! handing goals over exactly as Table 5.4 prescribes, and shows a
-//! variable's history; the simulated robot joins it as the rest of the
-//! system lands.
+//! It shows the plan, then progress while the robot drives, then the run as
+//! a row of Table 6.1, and writes the trajectory on the map to a PNG.
 
-use crate::args::CommonArgs;
 use crate::exit;
-use rome_client::goals::{self, Goal, GoalType};
-use rome_client::net::NetOptions;
-use rome_client::{DataClient, DataOptions};
-use std::time::Instant;
+use anyhow::Context;
+use rome_nav::board::GoalType;
+use rome_nav::run::{self, Event, RunConfig};
+use rome_sim::Noise;
+use std::io::{IsTerminal, Write};
+use std::path::PathBuf;
+use std::time::Duration;
 
 /// Flags of `rome demo`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// How many goals the Planner hands to the Navigator.
-    #[arg(long, default_value_t = 6)]
-    pub goals: u32,
-}
-
-/// A made-up route from room 350 to room 376: light tracking, dead
-/// reckoning to a corner, leaving the corner, and so on.
-fn route(n: u32) -> Vec<Goal> {
-    let pattern = [
-        (GoalType::L, 4, 0),
-        (GoalType::D, 3200, 0),
-        (GoalType::C, 1800, 90),
-        (GoalType::L, 6, 90),
-        (GoalType::D, 2500, 90),
-        (GoalType::E, 900, 180),
-    ];
-    (0..n as usize)
-        .map(|i| {
-            let (goal_type, distance, direction_deg) = pattern[i % pattern.len()];
-            Goal {
-                goal_type,
-                distance,
-                direction_deg,
-            }
-        })
-        .collect()
+    /// Start: a door jamb like 350R, or RING.NODE.
+    #[arg(long, default_value = "350R")]
+    pub from: String,
+    /// Goal.
+    #[arg(long, default_value = "376L")]
+    pub to: String,
+    /// Map: a built-in name (eb3, fig5_3) or a .stk file.
+    #[arg(long, default_value = "eb3")]
+    pub map: String,
+    /// Seed of the simulated world (the same seed, the same sensor noise).
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Simulated time per real time.
+    #[arg(long, default_value_t = 4.0)]
+    pub speed: f64,
+    /// No sensor noise or wheel slip.
+    #[arg(long)]
+    pub no_noise: bool,
+    /// Where to write the trajectory picture.
+    #[arg(long, short = 'o', default_value = "rome-demo.png")]
+    pub output: PathBuf,
+    /// Give up after this many simulated minutes.
+    #[arg(long, default_value_t = 60.0)]
+    pub limit_min: f64,
+    /// Leave out the local mapper (no heading correction).
+    #[arg(long)]
+    pub no_himm: bool,
+    /// Leave out the door-plate finder.
+    #[arg(long)]
+    pub no_plfinder: bool,
 }
 
 /// Runs the demo.
-pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
-    let started = Instant::now();
-    let session = NetOptions::isolated().open().await?;
-    let root = common.root()?;
-    let server = rome_data::spawn(
-        session.clone(),
-        rome_data::ServerConfig {
-            root: root.clone(),
-            ..Default::default()
-        },
-    );
-    let options = |role: &str| DataOptions {
-        root: root.clone(),
-        ..DataOptions::new(role)
-    };
-    let planner = DataClient::connect(&session, options("planner")).await?;
-    let navigator = DataClient::connect(&session, options("navigator")).await?;
-    println!(
-        "data server up under '{}' ({:.0?})",
-        root.as_str(),
-        started.elapsed()
-    );
-
-    // The one set/get, and the history the thesis' DataGetValue(-N) reads.
-    planner.set_history("PosX", 4).await?;
-    for x in [1000, 1250, 1500] {
-        planner.set("PosX", &x).await?;
-    }
-    println!(
-        "PosX = {} (one write ago {}, two ago {})",
-        planner.get("PosX").await?,
-        planner.get_back("PosX", 1).await?,
-        planner.get_back("PosX", 2).await?
-    );
-
-    goals::declare(&planner).await?;
-    let plan = route(args.goals);
-    let total = plan.len();
-    let nav = tokio::spawn(async move {
-        let mut seen = Vec::new();
-        for _ in 0..total {
-            let goal = goals::take(&navigator).await?;
-            seen.push(goal);
-            goals::done(&navigator).await?;
-        }
-        Ok::<_, rome_client::ClientError>(seen)
-    });
-    for (i, goal) in plan.iter().enumerate() {
-        goals::hand_over(&planner, goal).await?;
-        let unit = if goal.goal_type == GoalType::L {
-            "lights"
-        } else {
-            "mm"
-        };
-        println!(
-            "[{}/{total}] planner -> navigator: GoalType {:?}, GoalDistance {} {unit}, GoalDirection {}°",
-            i + 1,
-            goal.goal_type,
-            goal.distance,
-            goal.direction_deg
-        );
-    }
-    let seen = nav.await??;
+pub async fn run(args: Args) -> anyhow::Result<u8> {
+    let map = rome_maps::load_named(&args.map)?;
     anyhow::ensure!(
-        seen == plan,
-        "the navigator received {seen:?}, expected {plan:?}"
+        args.limit_min.is_finite() && args.limit_min > 0.0,
+        "--limit-min must be a positive number of minutes, got {}",
+        args.limit_min
     );
+    let mut cfg = RunConfig::new(map.clone(), &args.from, &args.to);
+    cfg.seed = args.seed;
+    cfg.speed = args.speed;
+    cfg.himm = !args.no_himm;
+    cfg.plfinder = !args.no_plfinder;
+    cfg.limit = Duration::from_secs_f64(args.limit_min * 60.0);
+    if args.no_noise {
+        cfg.noise = Noise::none();
+    }
+    let mut total_m = 0.0;
+    let mut last_line = 0usize;
+    let tty = std::io::stdout().is_terminal();
+    let mut next_line_s = 0.0;
+    let report = run::run(cfg, |event| match event {
+        Event::Planned(plan) => {
+            total_m = plan.route.length_mm / 1_000.0;
+            println!(
+                "plan {} -> {} on '{}': {:.3} m, {} corner(s), {} goal(s)",
+                args.from,
+                args.to,
+                map.name,
+                total_m,
+                plan.route.turns,
+                plan.steps.len()
+            );
+            for line in plan.describe() {
+                println!("  {line}");
+            }
+        }
+        Event::Goal(h) => {
+            let g = &h.step.goal;
+            let unit = if g.goal_type == GoalType::L {
+                "light(s)"
+            } else {
+                "mm"
+            };
+            clear(&mut last_line);
+            println!(
+                "[goal {}] {:?} {} {unit} heading {:.0}°",
+                h.index + 1,
+                g.goal_type,
+                g.distance,
+                g.direction_deg
+            );
+        }
+        Event::Tick {
+            time_s,
+            pose,
+            travelled_mm,
+        } => {
+            let line = format!(
+                "  {:>3}:{:02}  driven {:>7.2} m of {:.1}  at ({:.1}, {:.1}) m heading {:.0}°",
+                (time_s as u64) / 60,
+                (time_s as u64) % 60,
+                travelled_mm / 1_000.0,
+                total_m,
+                pose.x / 1_000.0,
+                pose.y / 1_000.0,
+                pose.heading
+            );
+            if tty {
+                clear(&mut last_line);
+                print!("{line}");
+                last_line = line.len();
+                let _ = std::io::stdout().flush();
+            } else if time_s >= next_line_s {
+                // Into a file or a pipe: a line every ten simulated seconds.
+                println!("{line}");
+                next_line_s = time_s + 10.0;
+            }
+        }
+    })
+    .await
+    .context("the run failed")?;
+    clear(&mut last_line);
+    println!();
+    println!("{}", report.table());
+    println!();
     println!(
-        "navigator received all {total} goals in order via $GoalData/$RobotStatus ({:.0?} in all)",
-        started.elapsed()
+        "arrived {:.0} cm from the goal ({:+.0} cm along the corridor, {:.0} cm across); {} simulated in {:.1?}",
+        report.miss_cm,
+        report.to_goal_cm,
+        report.off_line_cm,
+        fmt_time(report.run_time),
+        report.wall_time
     );
-    server.stop().await?;
-    let _ = session.close().await;
+    let seen: usize = report.lights.iter().map(|s| s.seen).sum();
+    let missed: usize = report.lights.iter().map(|s| s.missed).sum();
+    println!(
+        "ceiling lights: {seen} seen, {missed} missed; heading corrections: {}; in-place turns: {}; door plates: {}",
+        report.fixes.len(),
+        report.nav.turns,
+        report.plates.len()
+    );
+    let named: Vec<String> = report
+        .plates
+        .iter()
+        .filter_map(|p| p.label.clone())
+        .collect();
+    if !named.is_empty() {
+        println!("  plates read as: {}", named.join(" "));
+    }
+    let world = rome_maps::World::from_map(&map);
+    let png = report.picture(&map, &world, 1600);
+    std::fs::write(&args.output, png)
+        .with_context(|| format!("cannot write {}", args.output.display()))?;
+    println!("trajectory: {}", args.output.display());
     Ok(exit::OK)
+}
+
+fn fmt_time(d: Duration) -> String {
+    format!("{}:{:02}", d.as_secs() / 60, d.as_secs() % 60)
+}
+
+/// Rubs out the progress line.
+fn clear(last: &mut usize) {
+    if *last > 0 {
+        print!("\r{:width$}\r", "", width = *last);
+        *last = 0;
+    }
 }
