@@ -30,7 +30,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 use zenoh::bytes::Encoding;
-use zenoh::handlers::FifoChannelHandler;
+use zenoh::handlers::{RingChannel, RingChannelHandler};
 use zenoh::liveliness::LivelinessToken;
 use zenoh::pubsub::Subscriber;
 use zenoh::qos::Priority;
@@ -539,10 +539,13 @@ impl RobotClient {
             .options
             .root
             .robot(&self.inner.robot, device, chunk);
+        // A ring: a reader that falls behind loses the oldest messages
+        // rather than holding up every other subscriber of the session.
         let subscriber = self
             .inner
             .session
             .declare_subscriber(&key)
+            .with(RingChannel::new(STREAM_BACKLOG))
             .await
             .map_err(ClientError::zenoh)?;
         Ok(Stream {
@@ -618,9 +621,15 @@ fn image(bytes: Vec<u8>, encoding: &Encoding) -> Result<Image, ClientError> {
     })
 }
 
-/// A subscription to a server's stream (`state`, `scan`).
+/// Messages a stream keeps for a reader that falls behind; older ones are
+/// dropped.
+pub const STREAM_BACKLOG: usize = 64;
+
+/// A subscription to a server's stream (`state`, `scan`, `frame`). A
+/// reader that falls more than [`STREAM_BACKLOG`] messages behind loses
+/// the oldest: sensor streams are about the newest reading.
 pub struct Stream<T> {
-    subscriber: Subscriber<FifoChannelHandler<Sample>>,
+    subscriber: Subscriber<RingChannelHandler<Sample>>,
     what: String,
     _t: std::marker::PhantomData<T>,
 }
