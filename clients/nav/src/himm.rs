@@ -9,7 +9,11 @@
 //! orientation α is "directionless": the hallway runs along α or α + 180°,
 //! whichever is nearer the goal direction Γ. The difference between that
 //! and Γ is the odometry's heading error, and the mapper takes it out with
-//! the base server's adjust-pose. Then it starts a new local map.
+//! the base server's adjust-pose. Then it starts a new local map. Beyond
+//! the thesis, it also corrects at a segment's last light when the map
+//! covers 8 m or more, and whenever a map reaches 19 m before its third
+//! light, so hallways with lights far apart or fewer than three lights are
+//! not left uncorrected (Chapter 6's trouble spots G, N and J).
 
 use crate::board::{Board, HeadingFix, Sem, Var};
 use crate::NavError;
@@ -35,15 +39,23 @@ pub struct HimmConfig {
     pub max_fix_deg: f64,
     /// Smallest correction worth sending, degrees.
     pub min_fix_deg: f64,
+    /// A local map this long is enough for a correction at a segment's
+    /// last light, mm.
+    pub min_map_mm: f64,
+    /// A local map this long is used for a correction even before its
+    /// third light, mm.
+    pub max_map_mm: f64,
 }
 
 impl Default for HimmConfig {
     fn default() -> Self {
         HimmConfig {
             lights_per_map: 3,
-            half_side_mm: 20_000.0,
+            half_side_mm: 22_000.0,
             max_fix_deg: 15.0,
             min_fix_deg: 0.3,
+            min_map_mm: 8_000.0,
+            max_map_mm: 19_000.0,
         }
     }
 }
@@ -230,7 +242,16 @@ impl Himm {
                         Some(()) = lights.recv() => {
                             seen += 1;
                             in_map += 1;
-                            if in_map >= self.cfg.lights_per_map {
+                            let p = self.robot.pose().await?;
+                            let mapped = (f64::from(p.x_mm) - grid.origin.0)
+                                .hypot(f64::from(p.y_mm) - grid.origin.1);
+                            // Every three lights as in the thesis, and also at
+                            // the segment's last light once the map is long
+                            // enough: a hallway with one or two lights (the
+                            // thesis' trouble spots G, N and J) still gets
+                            // its heading corrected.
+                            let last = seen >= total && mapped >= self.cfg.min_map_mm;
+                            if in_map >= self.cfg.lights_per_map || last {
                                 self.correct(&grid, goal, seen).await?;
                                 let p = self.robot.pose().await?;
                                 grid = Grid::new((f64::from(p.x_mm), f64::from(p.y_mm)), self.cfg.half_side_mm);
@@ -238,6 +259,16 @@ impl Himm {
                             }
                         }
                         scan = scans.next() => {
+                            // A map that has grown this long without three
+                            // lights (lights far apart) is used as it is.
+                            let p0 = self.robot.pose().await?;
+                            if (f64::from(p0.x_mm) - grid.origin.0).hypot(f64::from(p0.y_mm) - grid.origin.1)
+                                > self.cfg.max_map_mm
+                            {
+                                self.correct(&grid, goal, seen).await?;
+                                grid = Grid::new((f64::from(p0.x_mm), f64::from(p0.y_mm)), self.cfg.half_side_mm);
+                                in_map = 0;
+                            }
                             let Some(scan) = scan else {
                                 return Err(NavError::Gone("the proximity server's scan stream closed"));
                             };

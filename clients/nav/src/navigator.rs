@@ -29,6 +29,9 @@ const FORWARD: usize = 12;
 const SPACING: f64 = 15.0;
 /// The jog rate of the superimposed turn, degrees per second (§5.4.1).
 pub const JOG_RATE_DEG_S: f64 = 4.0;
+/// A reading along the hallway axis at least this long means the axis is
+/// open, mm.
+pub const OPEN_ENOUGH_MM: u32 = 3_000;
 /// The safe threshold at start, mm (§5.4.1).
 pub const SAFE_START_MM: f64 = 1_000.0;
 
@@ -82,6 +85,9 @@ pub enum Drive {
     Jog(f64),
     /// Stop and turn in place by degrees counter-clockwise, then go on.
     Turn(f64),
+    /// Stand and turn slowly, degrees per second counter-clockwise (the
+    /// Corner state's stop-and-go).
+    Spin(f64),
     /// Stand still.
     Halt,
 }
@@ -111,6 +117,11 @@ pub fn sonar_towards(bearing_deg: f64) -> usize {
 /// narrows the window (the Corner state uses 1).
 pub fn open_sonar(sonar: &[u32], heading_deg: f64, axis_deg: f64, half: i64) -> usize {
     let m = sonar_towards(axis_deg - heading_deg);
+    if sonar[m] >= OPEN_ENOUGH_MM {
+        // The axis itself is open: a longer reading beside it is a side
+        // corridor or a door ahead, not the way to go.
+        return m;
+    }
     let mut best = m;
     for k in (-half..=half).filter(|k| *k != 0) {
         let i = sonar_add(m, k);
@@ -233,6 +244,8 @@ impl Hallway {
 pub struct Walls {
     /// (distance driven, offset left of the middle, hallway width), mm.
     samples: std::collections::VecDeque<(f64, f64, f64)>,
+    /// The Corner state's stop-and-go turn in progress, degrees per second.
+    spin: Option<f64>,
 }
 
 /// Driving this far is enough to tell the angle to the walls, mm.
@@ -262,7 +275,16 @@ impl Walls {
         self.fit()
     }
 
-    fn fit(&self) -> Option<f64> {
+    /// The hallway's width between the side sonars (the robot's own width
+    /// left out), mm, if the walls are in view.
+    pub fn width(&self) -> Option<f64> {
+        let n = self.samples.len();
+        (n >= 4).then(|| self.samples.iter().map(|s| s.2).sum::<f64>() / n as f64)
+    }
+
+    /// The steering correction from the samples so far, if there are
+    /// enough.
+    pub fn fit(&self) -> Option<f64> {
         let n = self.samples.len() as f64;
         let (s0, s1) = (self.samples.front()?.0, self.samples.back()?.0);
         if self.samples.len() < 4 || s1 - s0 < WALL_WINDOW_MM / 2.0 {
@@ -284,20 +306,42 @@ impl Walls {
 }
 
 /// The Corner state (§5.4.2): a narrow window of sonars toward the goal
-/// direction, infrared stop-and-go.
-pub fn corner_step(cfg: &NavConfig, scan: &Scan, heading_deg: f64, goal_deg: f64) -> Drive {
+/// direction, infrared stop-and-go. Like Center-Hallway, when the window's
+/// open direction is the goal direction itself and both walls are in view,
+/// the walls steer (`walls`, fed with the distance driven `along_mm`).
+pub fn corner_step(
+    cfg: &NavConfig,
+    scan: &Scan,
+    heading_deg: f64,
+    goal_deg: f64,
+    walls: &mut Walls,
+    along_mm: f64,
+) -> Drive {
     let err = normalize_deg(goal_deg - heading_deg);
-    // Forward-looking infrared detectors are slots 0–3.
-    if scan.ir.iter().take(4).any(|b| *b != 0) {
-        return Drive::Jog(if err >= 0.0 { 8.0 } else { -8.0 });
+    let by_walls = walls.steer(&scan.sonar_mm, along_mm);
+    // Forward-looking infrared detectors are slots 0–3, looking 45° and 15°
+    // right, then 15° and 45° left. On a detection: stop, and turn slowly
+    // away from the side that sees something (toward the goal direction
+    // when both do), the same way until they are clear.
+    let ir = |i: usize| scan.ir.get(i).is_some_and(|b| *b != 0);
+    let (right, left) = (ir(0) || ir(1), ir(2) || ir(3));
+    if right || left {
+        let rate = *walls.spin.get_or_insert(match (right, left) {
+            (true, false) => 8.0,
+            (false, true) => -8.0,
+            _ if err >= 0.0 => 8.0,
+            _ => -8.0,
+        });
+        return Drive::Spin(rate);
     }
+    walls.spin = None;
     let open = open_sonar(&scan.sonar_mm, heading_deg, goal_deg, 1);
-    let delta = if open == sonar_towards(err) {
-        err
-    } else {
+    let delta = if open != sonar_towards(err) {
         bearing(open)
+    } else {
+        by_walls.unwrap_or(err)
     };
-    if delta.abs() < 1.5 {
+    if delta.abs() < 1.0 {
         Drive::Go(cfg.corner_mm_s)
     } else {
         Drive::Jog(delta.signum() * JOG_RATE_DEG_S)
@@ -355,12 +399,15 @@ pub struct Navigator {
     log: NavLog,
     /// Distance driven so far by odometry, mm.
     odometer: f64,
+    /// The last speed set with Go, mm/s.
+    speed: f64,
     odometer_at: Option<Pose>,
 }
 
 impl Navigator {
     /// A Navigator for a robot, talking to the Planner through `board`.
     pub fn new(robot: RobotClient, board: Board, cfg: NavConfig) -> Navigator {
+        let speed = cfg.cruise_mm_s;
         Navigator {
             robot,
             board,
@@ -372,6 +419,7 @@ impl Navigator {
             log: NavLog::default(),
             odometer: 0.0,
             odometer_at: None,
+            speed,
         }
     }
 
@@ -424,9 +472,23 @@ impl Navigator {
             return Ok(());
         }
         match d {
-            Drive::Go(v) => self.robot.go(v).await?,
-            Drive::Jog(r) => self.robot.jog(-r).await?,
+            Drive::Go(v) => {
+                self.speed = v;
+                self.robot.go(v).await?
+            }
+            Drive::Jog(r) => {
+                // A jog moves at the speed setting, which a spin or a halt
+                // left at zero.
+                if matches!(self.last, None | Some(Drive::Spin(_) | Drive::Halt)) {
+                    self.robot.go(self.speed).await?;
+                }
+                self.robot.jog(-r).await?
+            }
             Drive::Turn(deg) => self.robot.turn(-deg, 45.0, -1.0).await?,
+            Drive::Spin(r) => {
+                self.robot.go(0.0).await?;
+                self.robot.jog(-r).await?
+            }
             Drive::Halt => self.robot.stop(false).await?,
         };
         self.last = Some(d);
@@ -495,6 +557,7 @@ impl Navigator {
         let mut next_check = scan.time_ms + self.cfg.check_period_ms;
         let mut next_status = scan.time_ms;
         let mut counted_low = false;
+        let mut walls = Walls::default();
         loop {
             // The goal function.
             let travelled = pose.dist(&start);
@@ -512,10 +575,13 @@ impl Navigator {
                 GoalType::D => travelled + stopping >= goal.distance as f64,
                 GoalType::C => travelled >= goal.distance as f64,
                 GoalType::E => {
+                    // The end wall of the turning space stands about half a
+                    // hallway beyond its middle.
                     let ahead = scan.sonar_mm[sonar_towards(goal.direction_deg - pose.heading)];
+                    let near = walls.width().map_or(1_200.0, |w| w / 2.0 + 300.0);
                     let remaining = goal.distance as f64 - travelled;
                     travelled + stopping >= goal.distance as f64
-                        || (f64::from(ahead) < 1_800.0 && remaining < 1_200.0)
+                        || (f64::from(ahead) < near && remaining < 1_200.0)
                 }
             };
             if done {
@@ -523,7 +589,14 @@ impl Navigator {
             }
             // The state.
             let drive = if corner {
-                corner_step(&self.cfg, &scan, pose.heading, goal.direction_deg)
+                corner_step(
+                    &self.cfg,
+                    &scan,
+                    pose.heading,
+                    goal.direction_deg,
+                    &mut walls,
+                    self.odometer,
+                )
             } else {
                 let hallway = self
                     .hallway
@@ -558,8 +631,19 @@ impl Navigator {
             // The timers: Check-Bumper and Check-Goal.
             if scan.time_ms >= next_check {
                 next_check = scan.time_ms + self.cfg.check_period_ms;
-                self.check_bumper().await?;
-                self.check_goal(&pose, goal, corner).await?;
+                self.check_bumper(&pose, goal, &scan).await?;
+                // Between two walls the walls are the better compass:
+                // Check-Goal only steps in when they are out of sight.
+                let walls_seen = if corner {
+                    walls.fit().is_some()
+                } else {
+                    self.hallway
+                        .as_ref()
+                        .is_some_and(|h| h.walls.fit().is_some())
+                };
+                if !walls_seen {
+                    self.check_goal(&pose, goal, corner).await?;
+                }
             }
             if scan.time_ms >= next_status {
                 next_status = scan.time_ms + 1_000;
@@ -590,14 +674,29 @@ impl Navigator {
         }
     }
 
-    /// Check-Bumper: on contact, back off and go on.
-    async fn check_bumper(&mut self) -> Result<(), NavError> {
+    /// Check-Bumper: on contact, back off, turn away from the obstacle
+    /// (toward the goal direction, or the more open side) and go on.
+    async fn check_bumper(
+        &mut self,
+        pose: &Pose,
+        goal: &Goal,
+        scan: &Scan,
+    ) -> Result<(), NavError> {
         let b = self.robot.bumper().await?;
         if b.front || b.rear {
             self.log.bumps += 1;
             tracing::warn!(front = b.front, rear = b.rear, "navigator: bumper contact");
             let back = if b.front { -300.0 } else { 300.0 };
             self.robot.move_by(back, 200.0, -1.0).await?;
+            let err = normalize_deg(goal.direction_deg - pose.heading);
+            let turn = if err.abs() >= 5.0 {
+                err.clamp(-30.0, 30.0)
+            } else if scan.sonar_mm[18] > scan.sonar_mm[6] {
+                20.0
+            } else {
+                -20.0
+            };
+            self.robot.turn(-turn, 45.0, -1.0).await?;
             self.last = None;
         }
         Ok(())
