@@ -66,8 +66,18 @@ pub enum Command {
     Robot(cmd::robot::Args),
     /// Keep the servers' lock state in memory (a Zenoh storage on ROOT/store/**).
     Storage(cmd::storage::Args),
-    /// Run everything in one process and show it working (no router, no configuration).
+    /// Run everything in one process: a simulated robot drives from room to room (no router, no configuration).
     Demo(cmd::demo::Args),
+    /// Path Planner (§5.3): plan a route, register the robot at its start, hand goals to the Navigator.
+    Planner(cmd::nav::PlannerArgs),
+    /// Navigator (§5.4): carry out the Planner's goals with the Center-Hallway and Corner states.
+    Navigator(cmd::nav::NavigatorArgs),
+    /// Ceiling-light tracker, CTracker (§5.6): count the lights of each light-tracking segment.
+    Ctracker(cmd::nav::CTrackerArgs),
+    /// Local mapper, HIMM (§5.5): sonar map and Hough transform to correct the heading.
+    Mapper(cmd::nav::RobotArg),
+    /// Door-plate finder, PlFinder (§5.7): report the door plates the side camera sees.
+    Plfinder(cmd::nav::PlFinderArgs),
     /// Measure round trips and throughput.
     #[command(subcommand)]
     Bench(cmd::bench::BenchCmd),
@@ -124,6 +134,11 @@ pub async fn run(cli: Cli) -> anyhow::Result<u8> {
         Command::Robot(args) => cmd::robot::run(&common, args).await,
         Command::Storage(args) => cmd::storage::run(&common, args).await,
         Command::Demo(args) => cmd::demo::run(args).await,
+        Command::Planner(args) => cmd::nav::planner(&common, args).await,
+        Command::Navigator(args) => cmd::nav::navigator(&common, args).await,
+        Command::Ctracker(args) => cmd::nav::ctracker(&common, args).await,
+        Command::Mapper(args) => cmd::nav::mapper(&common, args).await,
+        Command::Plfinder(args) => cmd::nav::plfinder(&common, args).await,
         Command::Bench(c) => cmd::bench::run(&common, c).await,
     }
 }

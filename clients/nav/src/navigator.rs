@@ -127,7 +127,7 @@ pub fn open_sonar(sonar: &[u32], heading_deg: f64, axis_deg: f64, half: i64) -> 
         let i = sonar_add(m, k);
         let better = f64::from(sonar[i]) > f64::from(sonar[best]) * 1.05;
         let tie = !better && f64::from(sonar[i]) * 1.05 >= f64::from(sonar[best]);
-        let nearer = (k.abs() as usize) < circular(best, m);
+        let nearer = (k.unsigned_abs() as usize) < circular(best, m);
         if better || (tie && nearer && sonar[i] > sonar[best]) {
             best = i;
         }

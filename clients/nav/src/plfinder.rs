@@ -289,7 +289,7 @@ fn accept(corners: &[(i64, i64)], size_px: (f64, f64)) -> Option<Candidate> {
     let ok_h = (0.6 * size_px.1..=1.6 * size_px.1).contains(&bh);
     let aspect = bw / bh;
     let want = size_px.0 / size_px.1;
-    (ok_w && ok_h && (aspect - want).abs() <= 0.45 * want).then(|| Candidate {
+    (ok_w && ok_h && (aspect - want).abs() <= 0.45 * want).then_some(Candidate {
         bbox: [l as u32, t as u32, r as u32, b as u32],
         corners: corners.len(),
     })

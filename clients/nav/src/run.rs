@@ -188,6 +188,106 @@ impl Report {
     }
 }
 
+/// The world side of a run: a simulated robot put down at the plan's
+/// start, its hardware servers and a data server, on one Zenoh session.
+/// The world does not step until [`SimWorld::start`] is called on
+/// [`Rig::world`].
+pub struct Rig {
+    /// The session the servers use.
+    pub session: zenoh::Session,
+    /// The simulated world.
+    pub world: SimWorld,
+    /// The robot's index in it.
+    pub index: usize,
+    servers: Vec<rome_hardware::robot::Running>,
+    data: rome_data::Running,
+}
+
+impl Rig {
+    /// Builds the world for `plan` and starts the servers on a session
+    /// opened with `net`; returns once every server is alive.
+    pub async fn start(cfg: &RunConfig, plan: &Plan, net: NetOptions) -> Result<Rig, NavError> {
+        if !(cfg.speed.is_finite() && cfg.speed > 0.0) {
+            return Err(NavError::Config(format!(
+                "the simulation speed must be a positive number, got {}",
+                cfg.speed
+            )));
+        }
+        let (start, _) = plan.ends();
+        let mut sim = Sim::new(
+            &cfg.map,
+            SimConfig {
+                seed: cfg.seed,
+                noise: cfg.noise.clone(),
+                ..SimConfig::default()
+            },
+        );
+        let index = sim
+            .add_robot(
+                &cfg.robot,
+                Pose {
+                    x: start.0,
+                    y: start.1,
+                    heading: plan.start_heading_deg,
+                },
+            )
+            .map_err(|e| NavError::Config(e.to_string()))?;
+        let world = SimWorld::new(sim);
+        // The servers' clocks follow the simulated one.
+        let scale = |ms: f64| Duration::from_secs_f64((ms / 1_000.0 / cfg.speed).max(0.002));
+        let rates = Rates {
+            state: Some(scale(100.0)),
+            scan: Some(scale(25.0)),
+            camera: scale(500.0),
+        };
+        let session = net
+            .open()
+            .await
+            .map_err(|e| NavError::Config(e.to_string()))?;
+        let root = Root::default();
+        let data = rome_data::spawn(
+            session.clone(),
+            rome_data::ServerConfig {
+                root: root.clone(),
+                ..Default::default()
+            },
+        );
+        let servers = spawn_sim_robot(&session, &root, &world, &cfg.robot, rates)
+            .map_err(|e| NavError::Config(e.to_string()))?;
+        for device in ["base", "proximity", "camera/up", "camera/side"] {
+            rome_client::alive::await_server(
+                &session,
+                &root,
+                "robot",
+                &format!("{}/{device}", cfg.robot),
+                Duration::from_secs(10),
+            )
+            .await?;
+        }
+        Ok(Rig {
+            session,
+            world,
+            index,
+            servers,
+            data,
+        })
+    }
+
+    /// Where the robot truly is.
+    pub fn truth(&self) -> Pose {
+        self.world.lock().robot(self.index).pose
+    }
+
+    /// Stops the servers and closes the session.
+    pub async fn stop(self) {
+        for s in self.servers {
+            let _ = s.stop().await;
+        }
+        let _ = self.data.stop().await;
+        let _ = self.session.close().await;
+    }
+}
+
 /// Runs the robot from `from` to `to`; `progress` hears what happens.
 pub async fn run(cfg: RunConfig, mut progress: impl FnMut(Event)) -> Result<Report, NavError> {
     let wall = Instant::now();
@@ -195,64 +295,15 @@ pub async fn run(cfg: RunConfig, mut progress: impl FnMut(Event)) -> Result<Repo
     let network = Network::new(&cfg.map, &world_map);
     let plan = Plan::new(&world_map, &network, &cfg.from, &cfg.to)?;
     progress(Event::Planned(plan.clone()));
-    if !(cfg.speed.is_finite() && cfg.speed > 0.0) {
-        return Err(NavError::Config(format!(
-            "the simulation speed must be a positive number, got {}",
-            cfg.speed
-        )));
-    }
 
-    let (start, goal) = plan.ends();
-    let mut sim = Sim::new(
-        &cfg.map,
-        SimConfig {
-            seed: cfg.seed,
-            noise: cfg.noise.clone(),
-            ..SimConfig::default()
-        },
+    let (_, goal) = plan.ends();
+    let rig = Rig::start(&cfg, &plan, NetOptions::isolated()).await?;
+    let (session, root, world, index) = (
+        rig.session.clone(),
+        Root::default(),
+        rig.world.clone(),
+        rig.index,
     );
-    let index = sim
-        .add_robot(
-            &cfg.robot,
-            Pose {
-                x: start.0,
-                y: start.1,
-                heading: plan.start_heading_deg,
-            },
-        )
-        .map_err(|e| NavError::Config(e.to_string()))?;
-    let world = SimWorld::new(sim);
-    let scale = |ms: f64| Duration::from_secs_f64((ms / 1_000.0 / cfg.speed).max(0.002));
-    let rates = Rates {
-        state: Some(scale(100.0)),
-        scan: Some(scale(25.0)),
-        camera: scale(500.0),
-    };
-
-    let session = NetOptions::isolated()
-        .open()
-        .await
-        .map_err(|e| NavError::Config(e.to_string()))?;
-    let root = Root::default();
-    let data = rome_data::spawn(
-        session.clone(),
-        rome_data::ServerConfig {
-            root: root.clone(),
-            ..Default::default()
-        },
-    );
-    let servers = spawn_sim_robot(&session, &root, &world, &cfg.robot, rates)
-        .map_err(|e| NavError::Config(e.to_string()))?;
-    for device in ["base", "proximity", "camera/up", "camera/side"] {
-        rome_client::alive::await_server(
-            &session,
-            &root,
-            "robot",
-            &format!("{}/{device}", cfg.robot),
-            Duration::from_secs(10),
-        )
-        .await?;
-    }
     let connect = |role: &'static str| {
         let session = session.clone();
         let root = root.clone();
@@ -284,6 +335,7 @@ pub async fn run(cfg: RunConfig, mut progress: impl FnMut(Event)) -> Result<Repo
     // starts with the robot at the start.
     let stepper = world.start(Some(cfg.speed));
     planner::put_down(&probot, &plan).await?;
+    let scale = |ms: f64| Duration::from_secs_f64((ms / 1_000.0 / cfg.speed).max(0.002));
 
     let mut tasks = tokio::task::JoinSet::new();
     let (nav_tx, mut nav_rx) = mpsc::unbounded_channel::<NavLog>();
@@ -378,11 +430,7 @@ pub async fn run(cfg: RunConfig, mut progress: impl FnMut(Event)) -> Result<Repo
     let fixes = read_all(&pboard, crate::board::Var::HeadingFix).await;
     tasks.abort_all();
     while tasks.join_next().await.is_some() {}
-    for s in servers {
-        let _ = s.stop().await;
-    }
-    let _ = data.stop().await;
-    let _ = session.close().await;
+    rig.stop().await;
     let handed = outcome?;
 
     let mut nav = NavLog::default();

@@ -8,6 +8,7 @@ pub mod data_server;
 pub mod demo;
 pub mod ls;
 pub mod map;
+pub mod nav;
 pub mod pioneer;
 pub mod robot;
 pub mod sem;

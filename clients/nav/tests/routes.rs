@@ -1,0 +1,68 @@
+//! Whole runs on the EB3 map, everything in one process (as `rome demo`):
+//! fixed seeds, the default sensor noise and wheel slip. Each run must end
+//! within a metre of its goal, having carried out every mode its plan
+//! needs (the L / C / D columns of Tables 6.1–6.2).
+
+use rome_nav::run::{self, Report, RunConfig};
+use std::time::Duration;
+
+async fn drive(from: &str, to: &str, seed: u64) -> Report {
+    let map = rome_maps::load_named("eb3").expect("eb3 loads");
+    let mut cfg = RunConfig::new(map, from, to);
+    cfg.seed = seed;
+    cfg.limit = Duration::from_secs(15 * 60);
+    let report = run::run(cfg, |_| {}).await.expect("the run completes");
+    println!("{}\nmissed by {:.0} cm", report.table(), report.miss_cm);
+    report
+}
+
+fn assert_arrived(r: &Report) {
+    assert!(
+        r.miss_cm < 100.0,
+        "{} -> {} ended {:.0} cm from the goal\n{}",
+        r.from,
+        r.to,
+        r.miss_cm,
+        r.table()
+    );
+    assert_eq!(r.modes_done, r.modes_needed, "{}", r.table());
+    // The robot drove the route, not a shortcut or a detour.
+    let planned = r.plan.route.length_mm / 1_000.0;
+    assert!(
+        (r.driven_m - planned).abs() < 0.05 * planned + 1.0,
+        "drove {:.1} m of a {:.1} m route",
+        r.driven_m,
+        planned
+    );
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_straight_route_ends_within_a_metre_of_the_goal() {
+    // Table 6.1, run 25: 350R to 372L, 59.74 m, L 1/1, D 1/1.
+    let r = drive("350R", "372L", 1).await;
+    assert_eq!(r.plan.route.turns, 0);
+    assert_arrived(&r);
+    let seen: usize = r.lights.iter().map(|s| s.seen).sum();
+    assert!(
+        seen + 2 >= r.plan.steps[0].goal.distance as usize,
+        "lights seen: {seen}"
+    );
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_one_corner_route_ends_within_a_metre_of_the_goal() {
+    // Table 6.2, run 1: 302L to A340R, 35.585 m, L 1/1, C 1/1, D 1/1.
+    let r = drive("302L", "A340R", 2).await;
+    assert_eq!(r.plan.route.turns, 1);
+    assert_arrived(&r);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_multi_corner_route_ends_within_a_metre_of_the_goal() {
+    // Down the new wing's corridor B, whose two lights are 22 m apart (the
+    // kind of hallway Chapter 6 calls a trouble spot), and round two
+    // corners.
+    let r = drive("302L", "A351R", 3).await;
+    assert_eq!(r.plan.route.turns, 2);
+    assert_arrived(&r);
+}
