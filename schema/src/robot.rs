@@ -714,8 +714,7 @@ impl Gray8 {
             self.width, self.height, self.frame, self.time_ms
         );
         if let Some(rows) = &self.rows {
-            let list: Vec<String> = rows.iter().map(u32::to_string).collect();
-            s.push_str(&format!(" rows={}", list.join(",")));
+            s.push_str(&format!(" rows={}", format_rows(rows)));
         }
         s
     }
@@ -757,18 +756,56 @@ impl Gray8 {
     }
 }
 
-/// Parses a comma-separated row list (`120,241,360`).
+/// The longest schema Zenoh carries in an encoding, bytes.
+pub const MAX_SCHEMA_LEN: usize = 255;
+
+/// A row list as text, runs of consecutive rows as ranges
+/// (`120,200-263,360`), so the list fits in an encoding's schema.
+pub fn format_rows(rows: &[u32]) -> String {
+    let mut parts: Vec<String> = Vec::new();
+    let mut i = 0;
+    while i < rows.len() {
+        let mut j = i;
+        while j + 1 < rows.len() && rows[j + 1] == rows[j].wrapping_add(1) {
+            j += 1;
+        }
+        if j > i + 1 {
+            parts.push(format!("{}-{}", rows[i], rows[j]));
+        } else {
+            parts.extend(rows[i..=j].iter().map(u32::to_string));
+        }
+        i = j + 1;
+    }
+    parts.join(",")
+}
+
+/// Parses a row list: row numbers and ranges separated by ','
+/// (`120,241,360`, `200-263`).
 pub fn parse_rows(text: &str) -> Result<Vec<u32>, ErrorReply> {
-    text.split(',')
-        .map(|r| {
-            r.trim().parse::<u32>().map_err(|_| {
-                ErrorReply::new(
-                    ErrorCode::WrongType,
-                    format!("parameter 'rows' must be row numbers separated by ',', got '{text}'"),
-                )
-            })
-        })
-        .collect()
+    let bad = || {
+        ErrorReply::new(
+            ErrorCode::WrongType,
+            format!(
+                "parameter 'rows' must be row numbers or ranges (200-263) separated by ',', got '{text}'"
+            ),
+        )
+    };
+    let mut out = Vec::new();
+    for part in text.split(',') {
+        let part = part.trim();
+        match part.split_once('-') {
+            Some((a, b)) => {
+                let a: u32 = a.trim().parse().map_err(|_| bad())?;
+                let b: u32 = b.trim().parse().map_err(|_| bad())?;
+                if b < a || b - a >= 4_096 {
+                    return Err(bad());
+                }
+                out.extend(a..=b);
+            }
+            None => out.push(part.parse().map_err(|_| bad())?),
+        }
+    }
+    Ok(out)
 }
 
 #[cfg(test)]
@@ -831,5 +868,28 @@ mod tests {
         let mut all: Vec<Band> = (0..=255u8).map(Band::of).collect();
         all.dedup();
         assert_eq!(all.len(), 6, "every band is used");
+    }
+
+    #[test]
+    fn row_lists_use_ranges_and_fit_a_schema() {
+        let rows: Vec<u32> = (181..301).collect();
+        assert_eq!(format_rows(&rows), "181-300");
+        assert_eq!(parse_rows("181-300").unwrap(), rows);
+        assert_eq!(format_rows(&[120, 241, 242, 360]), "120,241,242,360");
+        assert_eq!(
+            parse_rows("120, 200-202,5").unwrap(),
+            vec![120, 200, 201, 202, 5]
+        );
+        assert!(parse_rows("9-3").is_err());
+        assert!(parse_rows("a-3").is_err());
+        let g = Gray8 {
+            width: 512,
+            height: 482,
+            frame: 123_456,
+            time_ms: 99_999_999,
+            rows: Some((200..264).collect()),
+        };
+        assert!(g.schema().len() <= MAX_SCHEMA_LEN);
+        assert_eq!(Gray8::parse(&g.schema()).unwrap(), g);
     }
 }

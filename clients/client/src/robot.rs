@@ -17,10 +17,10 @@
 use crate::data::{refusal, selector};
 use crate::ClientError;
 use rome_schema::robot::{
-    param, robot_name, AdjustPose, Band, BaseState, BumperReply, Device, Done, FrameInfo, Go,
-    Gray8, IrReply, Jog, LockGrant, MaxRange, ModeReply, Move, PoseReply, Scan, SetBumper, SetPose,
-    SetTimeout, SizeReply, SonarReply, SpeedReply, Stop, TimeoutReply, Turn, Unlocked,
-    WheelSpeedReply, DEFAULT_LOCK_TTL_MS, DEFAULT_PRIORITY, SONARS,
+    format_rows, param, robot_name, AdjustPose, Band, BaseState, BumperReply, Device, Done,
+    FrameInfo, Go, Gray8, IrReply, Jog, LockGrant, MaxRange, ModeReply, Move, PoseReply, Scan,
+    SetBumper, SetPose, SetTimeout, SizeReply, SonarReply, SpeedReply, Stop, TimeoutReply, Turn,
+    Unlocked, WheelSpeedReply, DEFAULT_LOCK_TTL_MS, DEFAULT_PRIORITY, SONARS,
 };
 use rome_schema::{decode, encode, ErrorCode, Name, Root};
 use serde::de::DeserializeOwned;
@@ -489,8 +489,7 @@ impl RobotClient {
 
     /// `CameraGrabRow`: some rows of the last image, in one round trip.
     pub async fn camera_rows(&self, camera: &str, rows: &[u32]) -> Result<Image, ClientError> {
-        let list: Vec<String> = rows.iter().map(u32::to_string).collect();
-        let params = [(param::ROWS, list.join(","))];
+        let params = [(param::ROWS, format_rows(rows))];
         let (bytes, encoding) = self
             .raw(&Self::camera(camera)?, "rows", &params, None, true)
             .await?;

@@ -14,7 +14,7 @@
 
 use crate::device::{CameraDevice, Frame};
 use crate::server::{Body, Service};
-use rome_schema::robot::{param, parse_rows, FrameInfo, Gray8, LockInfo, SizeReply};
+use rome_schema::robot::{format_rows, param, parse_rows, FrameInfo, Gray8, LockInfo, SizeReply};
 use rome_schema::{ErrorCode, ErrorReply, Params};
 use std::time::Duration;
 use zenoh::bytes::Encoding;
@@ -25,6 +25,9 @@ pub const COMMANDS: &[&str] = &["size", "grab", "rows"];
 pub const DEFAULT_PERIOD: Duration = Duration::from_millis(500);
 /// The most rows one `rows` request may ask for.
 pub const MAX_ROWS: usize = 64;
+/// Longest row list a reply can describe (as ranges), characters: the rest
+/// of the 255-byte schema holds the image's size, frame and time.
+pub const MAX_ROW_LIST_LEN: usize = 160;
 
 /// A parsed camera command.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -162,6 +165,17 @@ impl<D: CameraDevice> Service for Camera<D> {
                     return Err(ErrorReply::new(
                         ErrorCode::OutOfRange,
                         format!("'rows': ask for 1 … {MAX_ROWS} rows, got {}", rows.len()),
+                    ));
+                }
+                // The list travels back in the reply's encoding, which Zenoh
+                // limits to 255 bytes.
+                if format_rows(&rows).len() > MAX_ROW_LIST_LEN {
+                    return Err(ErrorReply::new(
+                        ErrorCode::OutOfRange,
+                        format!(
+                            "'rows': the list is too long to describe in a reply ({} characters as ranges, at most {MAX_ROW_LIST_LEN}); ask for runs of rows (200-263) or fewer rows",
+                            format_rows(&rows).len()
+                        ),
                     ));
                 }
                 if let Some(r) = rows.iter().find(|r| **r >= height) {
