@@ -25,17 +25,32 @@ pub struct Handed {
 }
 
 /// Registers the robot at the plan's start: odometry reads the map's
-/// coordinates and the start heading (the thesis gives the robot its true
-/// heading at the start, §5).
-pub async fn put_down(robot: &RobotClient, plan: &Plan) -> Result<(), NavError> {
+/// coordinates and the robot's true heading (the thesis gives the robot its
+/// true heading at the start, §5). `facing` is that heading when it is not
+/// already the route's: the robot is then turned onto the route in place.
+pub async fn put_down(
+    robot: &RobotClient,
+    plan: &Plan,
+    facing: Option<f64>,
+) -> Result<(), NavError> {
     let (start, _) = plan.ends();
+    let facing = facing.unwrap_or(plan.start_heading_deg);
+    if !facing.is_finite() {
+        return Err(NavError::Config(format!(
+            "the start heading must be a number of degrees, got {facing}"
+        )));
+    }
     robot
-        .set_pose(
-            start.0.round() as i64,
-            start.1.round() as i64,
-            plan.start_heading_deg,
-        )
+        .set_pose(start.0.round() as i64, start.1.round() as i64, facing)
         .await?;
+    let turn = rome_maps::geometry::normalize_deg(plan.start_heading_deg - facing);
+    if turn.abs() > 1.0 {
+        // Positive turns are clockwise on the base.
+        robot.turn(-turn, 45.0, -1.0).await?;
+        while robot.mode().await?.mode == "point_turn" {
+            tokio::time::sleep(std::time::Duration::from_millis(50)).await;
+        }
+    }
     Ok(())
 }
 

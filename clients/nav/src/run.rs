@@ -334,7 +334,7 @@ pub async fn run(cfg: RunConfig, mut progress: impl FnMut(Event)) -> Result<Repo
     // The world steps only once everything is up, so the run's clock
     // starts with the robot at the start.
     let stepper = world.start(Some(cfg.speed));
-    planner::put_down(&probot, &plan).await?;
+    planner::put_down(&probot, &plan, None).await?;
     let scale = |ms: f64| Duration::from_secs_f64((ms / 1_000.0 / cfg.speed).max(0.002));
 
     let mut tasks = tokio::task::JoinSet::new();

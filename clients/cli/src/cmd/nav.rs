@@ -44,6 +44,11 @@ pub struct PlannerArgs {
     /// Goal.
     #[arg(long)]
     to: String,
+    /// Which way the robot faces at the start, degrees (North 0, West 90),
+    /// if not already along the route: it is registered so and turned onto
+    /// the route before the first goal.
+    #[arg(long, allow_hyphen_values = true)]
+    heading: Option<f64>,
     /// Print the plan and exit without driving.
     #[arg(long)]
     dry_run: bool,
@@ -117,7 +122,7 @@ pub async fn planner(common: &CommonArgs, args: PlannerArgs) -> anyhow::Result<u
         return Ok(exit::OK);
     }
     let (board, robot) = connect(common, &args.robot.robot, "planner").await?;
-    planner::put_down(&robot, &plan)
+    planner::put_down(&robot, &plan, args.heading)
         .await
         .context("cannot register the robot at the start")?;
     let total = plan.steps.len();
