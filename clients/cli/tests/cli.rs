@@ -192,13 +192,43 @@ fn no_server_is_a_clear_error() {
 
 #[test]
 fn demo_runs_with_no_configuration() {
-    let out = offline_ok(["demo"]);
+    let dir = std::env::temp_dir().join(format!("rome-demo-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let png = dir.join("run.png");
+    let out = offline_ok([
+        "demo",
+        "--from",
+        "A392L",
+        "--to",
+        "A340R",
+        "-o",
+        png.to_str().unwrap(),
+    ]);
     let text = String::from_utf8_lossy(&out.stdout);
+    // The plan, then the run as a row of Table 6.1 with every mode done.
+    assert!(text.contains("plan A392L -> A340R"), "{text}");
     assert!(
-        text.contains("PosX = 1500 (one write ago 1250, two ago 1000)"),
+        text.contains("Actual (m)") && text.contains("Run time"),
         "{text}"
     );
-    assert!(text.contains("received all 6 goals in order"), "{text}");
+    let row = text
+        .lines()
+        .find(|l| l.contains("A392L to A340R"))
+        .unwrap_or_else(|| panic!("no Table 6.1 row in {text}"));
+    assert!(row.trim_end().ends_with("1/1    0/0    1/1"), "{row}");
+    // The trajectory picture is a PNG.
+    let bytes = std::fs::read(&png).unwrap();
+    assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn demo_names_a_room_it_does_not_know() {
+    let err = offline_err(["demo", "--from", "350R", "--to", "37GL"]);
+    assert!(err.contains("'37GL'"), "{err}");
+    assert!(err.contains("did you mean"), "{err}");
+    let err = offline_err(["planner", "--from", "999X", "--to", "376L", "--dry-run"]);
+    assert!(err.contains("no position '999X'"), "{err}");
 }
 
 #[test]
