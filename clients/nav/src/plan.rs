@@ -275,11 +275,34 @@ mod tests {
     }
 
     #[test]
-    fn unknown_and_unreachable_rooms_are_named() {
+    fn unknown_rooms_are_named_with_suggestions() {
         let (world, net) = eb3();
         let err = Plan::new(&world, &net, "350R", "999X").expect_err("unknown");
         assert!(err.to_string().contains("999X"), "{err}");
         let err = Plan::new(&world, &net, "35OR", "376L").expect_err("typo");
         assert!(err.to_string().contains("did you mean"), "{err}");
+    }
+
+    #[test]
+    fn rooms_with_no_corridor_between_them_are_unreachable() {
+        // Two separate square buildings, each a corridor ring, far apart.
+        let ring = |name: &str, x: i64| {
+            format!(
+                "ring {name} at {x} 0 heading -90\n  node A -270\n  wall 4000 plate {name}1 2000\n  node B -270\n  wall 4000\n  node C -270\n  wall 4000\n  node D -270\n  wall 4000\nend\n"
+            )
+        };
+        let text = format!(
+            "map two buildings\ntolerance 50\nlateral 1000\n\n{}\n{}",
+            ring("west", 0),
+            ring("east", 100_000)
+        );
+        let map = rome_maps::from_text("two.stk".into(), &text).expect("the map loads");
+        let world = World::from_map(&map);
+        let net = Network::new(&map, &world);
+        let err = Plan::new(&world, &net, "west.A", "east.A").expect_err("no corridor");
+        assert!(
+            err.to_string().contains("no way from 'west.A' to 'east.A'"),
+            "{err}"
+        );
     }
 }
