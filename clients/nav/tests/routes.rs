@@ -7,9 +7,14 @@ use rome_nav::run::{self, Report, RunConfig};
 use std::time::Duration;
 
 async fn drive(from: &str, to: &str, seed: u64) -> Report {
+    drive_with(from, to, seed, |_| {}).await
+}
+
+async fn drive_with(from: &str, to: &str, seed: u64, tweak: impl FnOnce(&mut RunConfig)) -> Report {
     let map = rome_maps::load_named("eb3").expect("eb3 loads");
     let mut cfg = RunConfig::new(map, from, to);
     cfg.seed = seed;
+    tweak(&mut cfg);
     cfg.limit = Duration::from_secs(15 * 60);
     let report = run::run(cfg, |_| {}).await.expect("the run completes");
     println!("{}\nmissed by {:.0} cm", report.table(), report.miss_cm);
@@ -38,15 +43,23 @@ fn assert_arrived(r: &Report) {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_straight_route_ends_within_a_metre_of_the_goal() {
-    // Table 6.1, run 25: 350R to 372L, 59.74 m, L 1/1, D 1/1.
-    let r = drive("350R", "372L", 1).await;
+    // Table 6.1, run 25: 350R to 372L, 59.74 m, L 1/1, D 1/1. Two child
+    // trackers watch the same camera: the token lets only one report each
+    // light, so the parent refuses nothing (a second report of a light
+    // would come far too early and be refused).
+    let r = drive_with("350R", "372L", 1, |cfg| {
+        cfg.track.cameras = vec!["up".into(), "up".into()];
+    })
+    .await;
     assert_eq!(r.plan.route.turns, 0);
     assert_arrived(&r);
     let seen: usize = r.lights.iter().map(|s| s.seen).sum();
+    let refused: usize = r.lights.iter().map(|s| s.refused).sum();
     assert!(
         seen + 2 >= r.plan.steps[0].goal.distance as usize,
         "lights seen: {seen}"
     );
+    assert_eq!(refused, 0, "{:?}", r.lights);
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
