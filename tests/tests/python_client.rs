@@ -9,11 +9,19 @@
 use rome_tests::TestServer;
 use std::path::{Path, PathBuf};
 use std::process::Command;
+use std::sync::OnceLock;
 
 /// The version matching the Zenoh crates (1.10).
 const PY_ZENOH: &str = "eclipse-zenoh==1.10.2";
 
+/// The interpreter with `eclipse-zenoh`, set up once per test binary: the
+/// tests run in parallel and two `python3 -m venv` on one directory collide.
 fn python_with_zenoh() -> PathBuf {
+    static PYTHON: OnceLock<PathBuf> = OnceLock::new();
+    PYTHON.get_or_init(install_python_zenoh).clone()
+}
+
+fn install_python_zenoh() -> PathBuf {
     let venv = Path::new(env!("CARGO_TARGET_TMPDIR")).join("py-zenoh");
     let python = venv.join("bin/python");
     let has_zenoh = |py: &Path| {
