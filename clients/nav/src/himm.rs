@@ -11,9 +11,14 @@
 //! and Γ is the odometry's heading error, and the mapper takes it out with
 //! the base server's adjust-pose. Then it starts a new local map. Beyond
 //! the thesis, it also corrects at a segment's last light when the map
-//! covers 8 m or more, and whenever a map reaches 19 m before its third
+//! covers 8 m or more, and whenever a map reaches 12 m before its third
 //! light, so hallways with lights far apart or fewer than three lights are
-//! not left uncorrected (Chapter 6's trouble spots G, N and J).
+//! not left uncorrected (Chapter 6's trouble spots G, N and J), and the
+//! heading error stays small between corrections. A wall pair is believed
+//! only when the robot's own track over the map runs along it (the
+//! Navigator keeps the robot parallel to the walls): a Hough line that
+//! disagrees with the track by more than a few degrees is a door recess or
+//! a side corridor, not the hallway.
 
 use crate::board::{Board, HeadingFix, Sem, Var};
 use crate::NavError;
@@ -25,6 +30,8 @@ use tokio::sync::mpsc;
 pub const CELL_MM: f64 = 100.0;
 /// Radius of the sonar ring: readings start at the robot's skin, mm.
 pub const SONAR_RING_MM: f64 = 380.0;
+/// A track this long is straight enough to check the walls against, mm.
+const MIN_TRACK_MM: f64 = 6_000.0;
 /// Readings beyond this are not mapped (glancing and missing echoes), mm.
 pub const MAX_RANGE_MM: u32 = 5_000;
 
@@ -37,6 +44,9 @@ pub struct HimmConfig {
     pub half_side_mm: f64,
     /// Largest correction believed, degrees.
     pub max_fix_deg: f64,
+    /// Largest angle between the walls found and the robot's track over
+    /// the map, degrees.
+    pub max_track_deg: f64,
     /// Smallest correction worth sending, degrees.
     pub min_fix_deg: f64,
     /// A local map this long is enough for a correction at a segment's
@@ -52,10 +62,11 @@ impl Default for HimmConfig {
         HimmConfig {
             lights_per_map: 3,
             half_side_mm: 22_000.0,
-            max_fix_deg: 15.0,
+            max_fix_deg: 45.0,
+            max_track_deg: 6.0,
             min_fix_deg: 0.3,
             min_map_mm: 8_000.0,
-            max_map_mm: 19_000.0,
+            max_map_mm: 12_000.0,
         }
     }
 }
@@ -183,6 +194,25 @@ pub fn hallway_orientation(points: &[((f64, f64), u8)], min_gap_mm: f64) -> Opti
     Some(heading.rem_euclid(180.0))
 }
 
+/// The angle between a directionless orientation `alpha_deg` and the
+/// straight track from `from` to `to` (both in the odometry frame),
+/// degrees in [0, 90]; `None` when the track is shorter than `min_mm`.
+pub fn track_disagreement(
+    alpha_deg: f64,
+    from: (f64, f64),
+    to: (f64, f64),
+    min_mm: f64,
+) -> Option<f64> {
+    let (dx, dy) = (to.0 - from.0, to.1 - from.1);
+    if dx.hypot(dy) < min_mm {
+        return None;
+    }
+    // direction(h) = (−sin h, cos h), so the track's heading is:
+    let track = (-dx).atan2(dy).to_degrees();
+    let d = (alpha_deg - track).rem_euclid(180.0);
+    Some(d.min(180.0 - d))
+}
+
 /// The directionless rule (§5.5): of α and α + 180°, the one nearer the
 /// goal direction Γ.
 pub fn orient(alpha_deg: f64, goal_deg: f64) -> f64 {
@@ -293,6 +323,19 @@ impl Himm {
             tracing::info!(light, "himm: no pair of walls in the local map");
             return Ok(());
         };
+        let p = self.robot.pose().await?;
+        let now = (f64::from(p.x_mm), f64::from(p.y_mm));
+        if let Some(off) = track_disagreement(alpha, grid.origin, now, MIN_TRACK_MM) {
+            if off > self.cfg.max_track_deg {
+                tracing::info!(
+                    light,
+                    alpha,
+                    off,
+                    "himm: walls found across the track; not a hallway"
+                );
+                return Ok(());
+            }
+        }
         let gamma = orient(alpha, goal);
         let fix = normalize_deg(goal - gamma);
         if fix.abs() > self.cfg.max_fix_deg || fix.abs() < self.cfg.min_fix_deg {
@@ -376,5 +419,23 @@ mod tests {
         assert_eq!(orient(3.0, 180.0), -177.0);
         assert_eq!(orient(178.0, 0.0), -2.0);
         assert_eq!(orient(92.0, -90.0), -88.0);
+    }
+
+    #[test]
+    fn walls_are_checked_against_the_robots_track() {
+        // 10 m due West (heading 90) with the walls found at 93°: 3° off.
+        let off = track_disagreement(93.0, (0.0, 0.0), (-10_000.0, 0.0), 6_000.0).unwrap();
+        assert!((off - 3.0).abs() < 1e-9, "{off}");
+        // Directionless: walls at -87° are the same line as 93°.
+        let off = track_disagreement(-87.0, (0.0, 0.0), (-10_000.0, 0.0), 6_000.0).unwrap();
+        assert!((off - 3.0).abs() < 1e-9, "{off}");
+        // Heading North while the walls run East-West: a side corridor.
+        let off = track_disagreement(90.0, (0.0, 0.0), (0.0, 8_000.0), 6_000.0).unwrap();
+        assert!((off - 90.0).abs() < 1e-9, "{off}");
+        // Too short a track to tell.
+        assert_eq!(
+            track_disagreement(0.0, (0.0, 0.0), (0.0, 2_000.0), 6_000.0),
+            None
+        );
     }
 }
