@@ -66,6 +66,8 @@ const LIGHT: Rgb = [235, 180, 0];
 pub const ROUTE: Rgb = [220, 30, 30];
 /// Colour of a driven trajectory.
 pub const TRACK: Rgb = [20, 90, 220];
+/// Colour of door plates a robot found, where its odometry put them.
+pub const FOUND: Rgb = [20, 160, 60];
 const PLATE: Rgb = [0, 0, 0];
 const LINK: Rgb = [40, 160, 60];
 const LABEL: Rgb = [120, 60, 0];
@@ -166,6 +168,12 @@ fn legend(map: &Map, overlay: &[Shape]) -> Vec<(Rgb, bool, &'static str)> {
     }
     if has(TRACK) {
         out.push((TRACK, false, "trajectory"));
+    }
+    if overlay
+        .iter()
+        .any(|s| matches!(s, Shape::Dot { color, .. } if *color == FOUND))
+    {
+        out.push((FOUND, false, "plate found (odom.)"));
     }
     out
 }

@@ -42,6 +42,9 @@ pub struct RunConfig {
     pub speed: f64,
     /// Give up after this much simulated time.
     pub limit: Duration,
+    /// Give up when the robot has not moved half a metre in this much
+    /// simulated time (pinned against a wall, say).
+    pub stuck: Duration,
     /// How the Navigator drives.
     pub nav: NavConfig,
     /// How the CTracker tracks.
@@ -64,6 +67,7 @@ impl RunConfig {
             noise: Noise::default(),
             speed: 4.0,
             limit: Duration::from_secs(3_600),
+            stuck: Duration::from_secs(180),
             nav: NavConfig::default(),
             track: TrackConfig::default(),
             himm: true,
@@ -126,6 +130,8 @@ pub struct Report {
     pub plates: Vec<crate::board::PlateReport>,
     /// Heading corrections made.
     pub fixes: Vec<crate::board::HeadingFix>,
+    /// Why the run was given up, when it was (the robot did not arrive).
+    pub failure: Option<String>,
 }
 
 impl Report {
@@ -177,7 +183,7 @@ impl Report {
             overlay.push(Shape::Dot {
                 at: (p.x_mm as f64, p.y_mm as f64),
                 radius: 3.0,
-                color: [20, 160, 60],
+                color: render::FOUND,
             });
         }
         let img = render::raster(map, world, width_px, &overlay);
@@ -385,6 +391,9 @@ pub async fn run(cfg: RunConfig, mut progress: impl FnMut(Event)) -> Result<Repo
         (sim.time_ms(), r.pose, r.travelled_mm)
     };
     let t0 = pose_of(&world).0;
+    // Goals handed so far: a run given up still shows the modes it got to.
+    let mut handed_so_far: Vec<Handed> = Vec::new();
+    let mut failure = None;
     let outcome = {
         let (htx, mut hrx) = mpsc::unbounded_channel::<Handed>();
         let plan_run = planner::run(&pboard, &plan, move |h| {
@@ -392,10 +401,14 @@ pub async fn run(cfg: RunConfig, mut progress: impl FnMut(Event)) -> Result<Repo
         });
         tokio::pin!(plan_run);
         let mut tick = tokio::time::interval(scale(1_000.0));
+        let mut moved = (t0, 0.0f64);
         loop {
             tokio::select! {
                 r = &mut plan_run => break r,
-                Some(h) = hrx.recv() => progress(Event::Goal(h)),
+                Some(h) = hrx.recv() => {
+                    handed_so_far.push(h.clone());
+                    progress(Event::Goal(h));
+                }
                 Some(done) = tasks.join_next() => {
                     let why = match done {
                         Ok(Ok(who)) => NavError::Config(format!("the {who} stopped before the run ended")),
@@ -407,10 +420,22 @@ pub async fn run(cfg: RunConfig, mut progress: impl FnMut(Event)) -> Result<Repo
                 _ = tick.tick() => {
                     let (now, pose, travelled_mm) = pose_of(&world);
                     if Duration::from_millis(now - t0) > cfg.limit {
-                        break Err(NavError::Config(format!(
-                            "the robot did not arrive within {:.0?} of simulated time",
-                            cfg.limit
-                        )));
+                        failure = Some(format!(
+                            "the robot did not arrive within {} of simulated time",
+                            minutes(cfg.limit)
+                        ));
+                        break Ok(Vec::new());
+                    }
+                    if travelled_mm - moved.1 >= 500.0 {
+                        moved = (now, travelled_mm);
+                    } else if Duration::from_millis(now - moved.0) > cfg.stuck {
+                        failure = Some(format!(
+                            "the robot is stuck at ({:.1}, {:.1}) m: it has moved less than half a metre in {} of simulated time",
+                            pose.x / 1_000.0,
+                            pose.y / 1_000.0,
+                            minutes(cfg.stuck)
+                        ));
+                        break Ok(Vec::new());
                     }
                     progress(Event::Tick { time_s: (now - t0) as f64 / 1_000.0, pose, travelled_mm });
                 }
@@ -431,7 +456,12 @@ pub async fn run(cfg: RunConfig, mut progress: impl FnMut(Event)) -> Result<Repo
     tasks.abort_all();
     while tasks.join_next().await.is_some() {}
     rig.stop().await;
-    let handed = outcome?;
+    let mut handed = outcome?;
+    if failure.is_some() {
+        // The goal in hand when the run was given up was not completed.
+        handed = handed_so_far;
+        handed.pop();
+    }
 
     let mut nav = NavLog::default();
     while let Ok(n) = nav_rx.try_recv() {
@@ -474,7 +504,18 @@ pub async fn run(cfg: RunConfig, mut progress: impl FnMut(Event)) -> Result<Repo
         lights,
         plates,
         fixes,
+        failure,
     })
+}
+
+/// `3 min` or `90 s`.
+fn minutes(d: Duration) -> String {
+    let s = d.as_secs();
+    if s.is_multiple_of(60) {
+        format!("{} min", s / 60)
+    } else {
+        format!("{s} s")
+    }
 }
 
 /// Every value a variable's history holds, oldest first.

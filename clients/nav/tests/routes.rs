@@ -22,6 +22,7 @@ async fn drive_with(from: &str, to: &str, seed: u64, tweak: impl FnOnce(&mut Run
 }
 
 fn assert_arrived(r: &Report) {
+    assert_eq!(r.failure, None, "{}", r.table());
     assert!(
         r.miss_cm < 100.0,
         "{} -> {} ended {:.0} cm from the goal\n{}",
@@ -78,4 +79,21 @@ async fn a_multi_corner_route_ends_within_a_metre_of_the_goal() {
     let r = drive("302L", "A351R", 3).await;
     assert_eq!(r.plan.route.turns, 2);
     assert_arrived(&r);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_robot_that_cannot_move_is_given_up_as_stuck_with_its_position() {
+    // The Navigator asks for no speed at all: the robot stays at the start
+    // and the run is given up after the stuck time, not after the hour.
+    let map = rome_maps::load_named("eb3").expect("eb3 loads");
+    let mut cfg = RunConfig::new(map, "350R", "372L");
+    cfg.nav.cruise_mm_s = 0.0;
+    cfg.stuck = Duration::from_secs(20);
+    let r = run::run(cfg, |_| {}).await.expect("the run completes");
+    let why = r.failure.as_deref().expect("the run is given up");
+    assert!(why.contains("stuck at (111.0, 104.0) m"), "{why}");
+    assert!(r.run_time < Duration::from_secs(60), "{:?}", r.run_time);
+    assert!(r.driven_m < 0.5, "{}", r.driven_m);
+    assert_eq!(r.modes_done.d, 0, "{}", r.table());
+    assert!(r.miss_cm > 5_000.0);
 }

@@ -135,8 +135,16 @@ pub async fn run(args: Args) -> anyhow::Result<u8> {
     println!();
     println!("{}", report.table());
     println!();
+    let verdict = match &report.failure {
+        None if report.miss_cm < 100.0 => "arrived",
+        None => "stopped, off the goal:",
+        Some(why) => {
+            eprintln!("error: the robot did not arrive: {why}");
+            "gave up"
+        }
+    };
     println!(
-        "arrived {:.0} cm from the goal ({:+.0} cm along the corridor, {:.0} cm across); {} simulated in {:.1?}",
+        "{verdict} {:.0} cm from the goal ({:+.0} cm along the corridor, {:.0} cm across); {} simulated in {:.1?}",
         report.miss_cm,
         report.to_goal_cm,
         report.off_line_cm,
@@ -164,6 +172,10 @@ pub async fn run(args: Args) -> anyhow::Result<u8> {
     std::fs::write(&args.output, png)
         .with_context(|| format!("cannot write {}", args.output.display()))?;
     println!("trajectory: {}", args.output.display());
+    // A run that did not reach the goal is a failed run, for scripts too.
+    if report.failure.is_some() || report.miss_cm >= 100.0 {
+        return Ok(exit::ERROR);
+    }
     Ok(exit::OK)
 }
 
