@@ -23,7 +23,7 @@
 use crate::board::{Board, HeadingFix, Sem, Var};
 use crate::NavError;
 use rome_client::RobotClient;
-use rome_maps::geometry::{direction, normalize_deg};
+use rome_maps::geometry::{direction, distance, heading_to, normalize_deg};
 use tokio::sync::mpsc;
 
 /// Cell size, mm.
@@ -203,13 +203,10 @@ pub fn track_disagreement(
     to: (f64, f64),
     min_mm: f64,
 ) -> Option<f64> {
-    let (dx, dy) = (to.0 - from.0, to.1 - from.1);
-    if dx.hypot(dy) < min_mm {
+    if distance(from, to) < min_mm {
         return None;
     }
-    // direction(h) = (−sin h, cos h), so the track's heading is:
-    let track = (-dx).atan2(dy).to_degrees();
-    let d = (alpha_deg - track).rem_euclid(180.0);
+    let d = (alpha_deg - heading_to(from, to)).rem_euclid(180.0);
     Some(d.min(180.0 - d))
 }
 
@@ -273,8 +270,8 @@ impl Himm {
                             seen += 1;
                             in_map += 1;
                             let p = self.robot.pose().await?;
-                            let mapped = (f64::from(p.x_mm) - grid.origin.0)
-                                .hypot(f64::from(p.y_mm) - grid.origin.1);
+                            let now = (f64::from(p.x_mm), f64::from(p.y_mm));
+                            let mapped = distance(grid.origin, now);
                             // Every three lights as in the thesis, and also at
                             // the segment's last light once the map is long
                             // enough: a hallway with one or two lights (the
@@ -282,7 +279,7 @@ impl Himm {
                             // its heading corrected.
                             let last = seen >= total && mapped >= self.cfg.min_map_mm;
                             if in_map >= self.cfg.lights_per_map || last {
-                                self.correct(&grid, goal, seen).await?;
+                                self.correct(&grid, now, goal, seen).await?;
                                 let p = self.robot.pose().await?;
                                 grid = Grid::new((f64::from(p.x_mm), f64::from(p.y_mm)), self.cfg.half_side_mm);
                                 in_map = 0;
@@ -292,11 +289,10 @@ impl Himm {
                             // A map that has grown this long without three
                             // lights (lights far apart) is used as it is.
                             let p0 = self.robot.pose().await?;
-                            if (f64::from(p0.x_mm) - grid.origin.0).hypot(f64::from(p0.y_mm) - grid.origin.1)
-                                > self.cfg.max_map_mm
-                            {
-                                self.correct(&grid, goal, seen).await?;
-                                grid = Grid::new((f64::from(p0.x_mm), f64::from(p0.y_mm)), self.cfg.half_side_mm);
+                            let now = (f64::from(p0.x_mm), f64::from(p0.y_mm));
+                            if distance(grid.origin, now) > self.cfg.max_map_mm {
+                                self.correct(&grid, now, goal, seen).await?;
+                                grid = Grid::new(now, self.cfg.half_side_mm);
                                 in_map = 0;
                             }
                             let Some(scan) = scan else {
@@ -318,13 +314,18 @@ impl Himm {
         result
     }
 
-    async fn correct(&self, grid: &Grid, goal: f64, light: i64) -> Result<(), NavError> {
+    /// Corrects the heading from `grid`, mapped from its origin to `now`.
+    async fn correct(
+        &self,
+        grid: &Grid,
+        now: (f64, f64),
+        goal: f64,
+        light: i64,
+    ) -> Result<(), NavError> {
         let Some(alpha) = hallway_orientation(&grid.occupied(6), 1_000.0) else {
             tracing::info!(light, "himm: no pair of walls in the local map");
             return Ok(());
         };
-        let p = self.robot.pose().await?;
-        let now = (f64::from(p.x_mm), f64::from(p.y_mm));
         if let Some(off) = track_disagreement(alpha, grid.origin, now, MIN_TRACK_MM) {
             if off > self.cfg.max_track_deg {
                 tracing::info!(

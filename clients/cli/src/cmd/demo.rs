@@ -136,7 +136,7 @@ pub async fn run(args: Args) -> anyhow::Result<u8> {
     println!("{}", report.table());
     println!();
     let verdict = match &report.failure {
-        None if report.miss_cm < 100.0 => "arrived",
+        None if report.arrived() => "arrived",
         None => "stopped, off the goal:",
         Some(why) => {
             eprintln!("error: the robot did not arrive: {why}");
@@ -173,7 +173,7 @@ pub async fn run(args: Args) -> anyhow::Result<u8> {
         .with_context(|| format!("cannot write {}", args.output.display()))?;
     println!("trajectory: {}", args.output.display());
     // A run that did not reach the goal is a failed run, for scripts too.
-    if report.failure.is_some() || report.miss_cm >= 100.0 {
+    if !report.arrived() {
         return Ok(exit::ERROR);
     }
     Ok(exit::OK)
