@@ -27,6 +27,10 @@ pub mod param {
     /// `hold_ms=N`: how long the server may hold a wait before answering
     /// `pending` (`wait`).
     pub const HOLD_MS: &str = "hold_ms";
+    /// `undo=true`: a `wait`'s unit stays on the owner's account and goes
+    /// back by itself if the owner dies; a `signal` with `undo` and `owner`
+    /// gives such a unit back.
+    pub const UNDO: &str = "undo";
 }
 
 /// The default history length of a new variable.
@@ -137,6 +141,10 @@ pub struct SemState {
     pub value: u64,
     /// How many waits are queued.
     pub waiters: u32,
+    /// Units taken with `undo` and not yet given back: they return by
+    /// themselves if their holder dies.
+    #[serde(default)]
+    pub held: u64,
 }
 
 /// Reply to `create/<name>?value=N`.

@@ -65,6 +65,18 @@ impl Params {
         Ok(Some(value))
     }
 
+    /// Takes a flag: `true` or `false` (absent is `false`).
+    pub fn take_bool(&mut self, name: &str) -> Result<bool, ErrorReply> {
+        match self.take(name).as_deref().map(str::trim) {
+            None | Some("false") => Ok(false),
+            Some("true") => Ok(true),
+            Some(other) => Err(ErrorReply::new(
+                ErrorCode::WrongType,
+                format!("parameter '{name}' must be true or false, got '{other}'"),
+            )),
+        }
+    }
+
     /// Takes an id (ticket, owner, op): a single key chunk of letters,
     /// digits, `_`, `-`, `.`.
     pub fn take_id(&mut self, name: &str) -> Result<Option<String>, ErrorReply> {

@@ -447,6 +447,23 @@ impl DataClient {
         .await
     }
 
+    /// Gives back a unit taken with [`DataClient::wait_undo`].
+    pub async fn give_back(&self, name: &str) -> Result<SignalReply, ClientError> {
+        let name = Name::semaphore(name)?;
+        let params = [
+            (param::OP, self.next_id()),
+            (param::OWNER, self.inner.owner.clone()),
+            (param::UNDO, "true".to_string()),
+        ];
+        self.call(
+            &self.key(DataOp::Signal, &name),
+            &params,
+            None,
+            "signal reply",
+        )
+        .await
+    }
+
     /// Non-blocking down(): whether a unit was taken.
     pub async fn try_wait(&self, name: &str) -> Result<bool, ClientError> {
         let name = Name::semaphore(name)?;
@@ -478,16 +495,30 @@ impl DataClient {
 
     /// Blocking down() (`DataWait(DS, "$XYZ")`), for as long as it takes.
     pub async fn wait(&self, name: &str) -> Result<(), ClientError> {
-        self.wait_until(name, None).await.map(|_| ())
+        self.wait_until(name, None, false).await.map(|_| ())
+    }
+
+    /// Blocking down() whose unit stays on this client's account: if the
+    /// client dies before [`DataClient::give_back`], the data server takes
+    /// the unit back by itself (System V's SEM_UNDO). For a resource held
+    /// for a while, such as a narrow passage.
+    pub async fn wait_undo(&self, name: &str) -> Result<(), ClientError> {
+        self.wait_until(name, None, true).await.map(|_| ())
     }
 
     /// Blocking down() for at most `timeout`: whether a unit was taken.
     /// On `false` nothing was taken and the place in the queue is given up.
     pub async fn wait_timeout(&self, name: &str, timeout: Duration) -> Result<bool, ClientError> {
-        self.wait_until(name, Some(Instant::now() + timeout)).await
+        self.wait_until(name, Some(Instant::now() + timeout), false)
+            .await
     }
 
-    async fn wait_until(&self, name: &str, deadline: Option<Instant>) -> Result<bool, ClientError> {
+    async fn wait_until(
+        &self,
+        name: &str,
+        deadline: Option<Instant>,
+        undo: bool,
+    ) -> Result<bool, ClientError> {
         let name = Name::semaphore(name)?;
         let ticket = self.next_id();
         let key = self.key(DataOp::Wait, &name);
@@ -502,11 +533,14 @@ impl DataClient {
                 .unwrap_or(o.hold)
                 .min(o.hold)
                 .min(Duration::from_millis(MAX_HOLD_MS));
-            let params = [
+            let mut params = vec![
                 (param::TICKET, ticket.clone()),
                 (param::OWNER, self.inner.owner.clone()),
                 (param::HOLD_MS, hold.as_millis().to_string()),
             ];
+            if undo {
+                params.push((param::UNDO, "true".to_string()));
+            }
             let tried = Instant::now();
             match self
                 .attempt(&key, &params, None, hold + o.max_attempt_timeout)

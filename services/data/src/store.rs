@@ -14,7 +14,12 @@
 //! - `cancel` after a grant answers `granted`, so a client that gives up
 //!   just as the unit arrives takes it rather than dropping it;
 //! - writes, signals and try-waits carry an `op` id: a retry whose first
-//!   reply was lost gets the first reply again, and is not done twice.
+//!   reply was lost gets the first reply again, and is not done twice;
+//! - a wait with `undo` keeps its confirmed unit on the owner's account
+//!   (as System V's SEM_UNDO does) until the owner gives it back with a
+//!   `signal` that says `undo`; if the owner dies first, the unit goes back
+//!   by itself. A robot's Planner holds a narrow passage this way, so a
+//!   robot whose clients die inside it does not close it for ever.
 
 use rome_schema::data::{
     Committed, CreateReply, HistoryInfo, SemState, SetReply, SignalReply, TryWaitReply, WaitReply,
@@ -64,6 +69,15 @@ struct Ticket {
     sem: Name,
     owner: Option<String>,
     state: TicketState,
+    /// The unit stays on the owner's account once confirmed.
+    undo: bool,
+}
+
+/// Units an owner holds on a semaphore with `undo`, and since when.
+#[derive(Debug, Clone, Copy)]
+struct Held {
+    units: u64,
+    since: Instant,
 }
 
 /// A reply kept for requests that may be retried.
@@ -115,6 +129,7 @@ pub struct Store {
     remembered: HashMap<String, Remembered>,
     remembered_order: VecDeque<(Instant, String)>,
     next_anonymous: u64,
+    held: BTreeMap<(Name, String), Held>,
 }
 
 fn err(code: ErrorCode, message: impl Into<String>) -> ErrorReply {
@@ -141,6 +156,7 @@ impl Store {
             remembered: HashMap::new(),
             remembered_order: VecDeque::new(),
             next_anonymous: 0,
+            held: BTreeMap::new(),
         }
     }
 
@@ -364,23 +380,29 @@ impl Store {
         })
     }
 
-    fn sem_state(name: &Name, sem: &Sem) -> SemState {
+    fn sem_state(&self, name: &Name, sem: &Sem) -> SemState {
         SemState {
             name: name.to_string(),
             value: sem.value,
             waiters: sem.queue.len() as u32,
+            held: self
+                .held
+                .range((name.clone(), String::new())..)
+                .take_while(|((n, _), _)| n == name)
+                .map(|(_, h)| h.units)
+                .sum(),
         }
     }
 
-    /// A semaphore's value and queue length.
+    /// A semaphore's value, queue length and units held with `undo`.
     pub fn semaphore(&self, name: &Name) -> Result<SemState, ErrorReply> {
         let sem = self.sems.get(name).ok_or_else(|| unknown_sem(name))?;
-        Ok(Self::sem_state(name, sem))
+        Ok(self.sem_state(name, sem))
     }
 
     /// Every semaphore's state.
     pub fn semaphores(&self) -> impl Iterator<Item = (&Name, SemState)> {
-        self.sems.iter().map(|(n, s)| (n, Self::sem_state(n, s)))
+        self.sems.iter().map(|(n, s)| (n, self.sem_state(n, s)))
     }
 
     /// Hands available units to queued tickets, first come first served.
@@ -417,6 +439,18 @@ impl Store {
         op: Option<&str>,
         now: Instant,
     ) -> Result<Signalled, ErrorReply> {
+        self.signal_as(name, op, None, now)
+    }
+
+    /// up() by `undo_owner`, when given: gives back a unit that owner holds
+    /// with `undo` (refused if it holds none).
+    pub fn signal_as(
+        &mut self,
+        name: &Name,
+        op: Option<&str>,
+        undo_owner: Option<&str>,
+        now: Instant,
+    ) -> Result<Signalled, ErrorReply> {
         match self.recall(op) {
             Some(Remembered::Signal(reply)) if reply.name == name.as_str() => {
                 return Ok(Signalled {
@@ -434,6 +468,24 @@ impl Store {
                 format!("semaphore '{name}' is at its maximum value {MAX_SEMAPHORE_VALUE}"),
             ));
         }
+        if let Some(owner) = undo_owner {
+            let key = (name.clone(), owner.to_string());
+            match self.held.get_mut(&key) {
+                Some(h) if h.units > 1 => h.units -= 1,
+                Some(_) => {
+                    self.held.remove(&key);
+                }
+                None => {
+                    return Err(err(
+                        ErrorCode::Conflict,
+                        format!("client '{owner}' holds no unit of semaphore '{name}' to give back (undo signals only return units taken by an undo wait)"),
+                    ))
+                }
+            }
+        }
+        let Some(sem) = self.sems.get_mut(name) else {
+            return Err(unknown_sem(name));
+        };
         sem.value += 1;
         let grants = self.dispatch(name, now);
         let value = self.sems.get(name).map_or(0, |s| s.value);
@@ -520,6 +572,26 @@ impl Store {
         owner: Option<&str>,
         now: Instant,
     ) -> Result<WaitReply, ErrorReply> {
+        self.wait_undo(name, ticket, owner, false, now)
+    }
+
+    /// down() whose unit, once confirmed, stays on the owner's account
+    /// (`undo`): it goes back by itself if the owner dies before giving
+    /// it back with an undo signal. An undo wait needs an owner.
+    pub fn wait_undo(
+        &mut self,
+        name: &Name,
+        ticket: Option<&str>,
+        owner: Option<&str>,
+        undo: bool,
+        now: Instant,
+    ) -> Result<WaitReply, ErrorReply> {
+        if undo && owner.is_none() {
+            return Err(err(
+                ErrorCode::BadParameter,
+                "an undo wait needs an owner (the client's liveliness id): the unit goes back when that client is gone",
+            ));
+        }
         if !self.sems.contains_key(name) {
             return Err(unknown_sem(name));
         }
@@ -550,6 +622,7 @@ impl Store {
                 sem: name.clone(),
                 owner: owner.map(str::to_string),
                 state: TicketState::Queued { lapse_at: None },
+                undo,
             },
         );
         if let Some(sem) = self.sems.get_mut(name) {
@@ -623,7 +696,19 @@ impl Store {
         self.check_ticket_sem(name, ticket)?;
         match self.tickets.get(ticket).map(|t| t.state) {
             Some(TicketState::Granted { .. }) => {
-                self.tickets.remove(ticket);
+                if let Some(Ticket {
+                    owner: Some(owner),
+                    undo: true,
+                    ..
+                }) = self.tickets.remove(ticket)
+                {
+                    let h = self.held.entry((name.clone(), owner)).or_insert(Held {
+                        units: 0,
+                        since: now,
+                    });
+                    h.units += 1;
+                    h.since = now;
+                }
                 let reply = self.wait_reply(name, ticket, WaitStatus::Confirmed);
                 self.remember(Some(ticket), now, Remembered::Confirmed(reply.clone()));
                 Ok(reply)
@@ -670,6 +755,29 @@ impl Store {
         for (id, _) in granted {
             grants.extend(self.give_back(&id, now));
         }
+        grants.extend(self.return_held(|o, _| o == owner, now));
+        grants
+    }
+
+    /// Gives back every unit held with `undo` by an owner `gone` says is
+    /// gone (given the owner and since when it holds).
+    fn return_held(&mut self, gone: impl Fn(&str, Instant) -> bool, now: Instant) -> Vec<Grant> {
+        let dead: Vec<(Name, String)> = self
+            .held
+            .iter()
+            .filter(|((_, owner), h)| gone(owner, h.since))
+            .map(|(k, _)| k.clone())
+            .collect();
+        let mut grants = Vec::new();
+        for key in dead {
+            let Some(h) = self.held.remove(&key) else {
+                continue;
+            };
+            if let Some(sem) = self.sems.get_mut(&key.0) {
+                sem.value = sem.value.saturating_add(h.units);
+                grants.extend(self.dispatch(&key.0, now));
+            }
+        }
         grants
     }
 
@@ -709,6 +817,9 @@ impl Store {
         for id in orphaned {
             grants.extend(self.give_back(&id, now));
         }
+        // Units held by an owner that has not been seen alive for the grace
+        // period go back, in case its departure was never heard.
+        grants.extend(self.return_held(|owner, since| !alive(owner) && since + grace <= now, now));
         while let Some((at, _)) = self.remembered_order.front() {
             if *at + self.retention > now {
                 break;
@@ -933,6 +1044,67 @@ mod tests {
         );
         let st = s.semaphore(&n("S")).unwrap();
         assert_eq!((st.value, st.waiters), (0, 0));
+    }
+
+    #[test]
+    fn an_undo_unit_goes_back_when_its_holder_dies_or_gives_it_back() {
+        let mut s = Store::new(4);
+        let t = Instant::now();
+        s.create(&n("P"), 1).unwrap();
+        let w = s
+            .wait_undo(&n("P"), Some("a-1"), Some("a"), true, t)
+            .unwrap();
+        assert_eq!(w.status, WaitStatus::Granted);
+        assert_eq!(
+            s.ack(&n("P"), "a-1", t).unwrap().status,
+            WaitStatus::Confirmed
+        );
+        let st = s.semaphore(&n("P")).unwrap();
+        assert_eq!((st.value, st.held), (0, 1));
+        // b queues behind a's unit; a dies holding it: b gets it.
+        s.wait_undo(&n("P"), Some("b-1"), Some("b"), true, t)
+            .unwrap();
+        let grants = s.owner_gone("a", t);
+        assert_eq!(grants.len(), 1);
+        assert_eq!(grants[0].ticket, "b-1");
+        s.ack(&n("P"), "b-1", t).unwrap();
+        // b gives it back itself; a second undo signal has nothing to return.
+        s.signal_as(&n("P"), None, Some("b"), t).unwrap();
+        let err = s.signal_as(&n("P"), None, Some("b"), t).unwrap_err();
+        assert_eq!(err.code, ErrorCode::Conflict);
+        assert!(err.message.contains("holds no unit"), "{}", err.message);
+        let st = s.semaphore(&n("P")).unwrap();
+        assert_eq!((st.value, st.waiters, st.held), (1, 0, 0));
+        // b's later death returns nothing more: no unit is made up.
+        assert!(s.owner_gone("b", t).is_empty());
+        assert_eq!(s.semaphore(&n("P")).unwrap().value, 1);
+        // A plain wait's unit is final, whoever dies.
+        s.wait(&n("P"), Some("c-1"), Some("c"), t).unwrap();
+        s.ack(&n("P"), "c-1", t).unwrap();
+        s.owner_gone("c", t);
+        assert_eq!(s.semaphore(&n("P")).unwrap().value, 0);
+        // An undo wait needs an owner to tie the unit to.
+        let err = s.wait_undo(&n("P"), None, None, true, t).unwrap_err();
+        assert_eq!(err.code, ErrorCode::BadParameter);
+    }
+
+    #[test]
+    fn a_holder_never_seen_alive_loses_its_undo_unit_after_the_grace() {
+        let mut s = Store::new(4);
+        let t = Instant::now();
+        let grace = Duration::from_secs(5);
+        s.create(&n("P"), 1).unwrap();
+        s.wait_undo(&n("P"), Some("a-1"), Some("a"), true, t)
+            .unwrap();
+        s.ack(&n("P"), "a-1", t).unwrap();
+        assert!(s.sweep(t + grace / 2, grace, |_| false).is_empty());
+        assert_eq!(s.semaphore(&n("P")).unwrap().held, 1);
+        // Alive: kept however long.
+        s.sweep(t + grace * 10, grace, |_| true);
+        assert_eq!(s.semaphore(&n("P")).unwrap().held, 1);
+        s.sweep(t + grace * 2, grace, |_| false);
+        let st = s.semaphore(&n("P")).unwrap();
+        assert_eq!((st.value, st.held), (1, 0));
     }
 
     #[test]

@@ -22,6 +22,14 @@ use std::time::{Duration, Instant};
 /// `ack`; if the owner disappears first, its place is dropped and the
 /// unit goes back. An anonymous wait's grant is final, and it leaves the
 /// queue when its hold runs out.
+///
+/// With `undo=true` (owner required) the confirmed unit stays on the
+/// owner's account: it comes back by itself when the owner is gone, unless
+/// the owner gave it back first with `signal?owner=…;undo=true`.
+///
+/// ```text
+/// get rome/data/wait/passage/J?ticket=c7-16;owner=c7;undo=true
+/// ```
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Wait {
     /// The semaphore.
@@ -32,6 +40,8 @@ pub struct Wait {
     pub owner: Option<String>,
     /// How long the server may hold the query.
     pub hold: Duration,
+    /// The unit stays on the owner's account until given back.
+    pub undo: bool,
 }
 
 impl Wait {
@@ -42,21 +52,27 @@ impl Wait {
         let hold_ms = params
             .take_int(param::HOLD_MS, 0, i128::from(MAX_HOLD_MS))?
             .map_or(DEFAULT_HOLD_MS, |v| v as u64);
-        params.finish("wait", &[param::TICKET, param::OWNER, param::HOLD_MS])?;
+        let undo = params.take_bool(param::UNDO)?;
+        params.finish(
+            "wait",
+            &[param::TICKET, param::OWNER, param::HOLD_MS, param::UNDO],
+        )?;
         Ok(Wait {
             name,
             ticket,
             owner,
             hold: Duration::from_millis(hold_ms),
+            undo,
         })
     }
 
     /// Takes a unit now, or asks the server to hold the query.
     pub fn apply(self, store: &mut Store, now: Instant) -> Result<Applied, ErrorReply> {
-        let reply = store.wait(
+        let reply = store.wait_undo(
             &self.name,
             self.ticket.as_deref(),
             self.owner.as_deref(),
+            self.undo,
             now,
         )?;
         if reply.status == WaitStatus::Pending {
