@@ -71,6 +71,35 @@ impl Bumpers {
     }
 }
 
+/// Contacts a robot has had: each time it came to touch a wall or another
+/// robot counts once, however long the touch lasts.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Contacts {
+    /// Touches of a wall, door or other solid part of the building.
+    pub wall: u32,
+    /// Touches of another robot.
+    pub robot: u32,
+    /// Times a bumper was pressed (by either).
+    pub bumper: u32,
+    touching_wall: bool,
+    touching_robot: bool,
+    pressed: bool,
+}
+
+impl Contacts {
+    /// All touches, walls and robots.
+    pub fn total(&self) -> u32 {
+        self.wall + self.robot
+    }
+
+    fn update(&mut self, wall: bool, robot: bool, pressed: bool) {
+        self.wall += u32::from(wall && !self.touching_wall);
+        self.robot += u32::from(robot && !self.touching_robot);
+        self.bumper += u32::from(pressed && !self.pressed);
+        (self.touching_wall, self.touching_robot, self.pressed) = (wall, robot, pressed);
+    }
+}
+
 /// One robot.
 #[derive(Debug, Clone)]
 pub struct Robot {
@@ -100,6 +129,11 @@ pub struct Robot {
     pub travelled_mm: f64,
     /// True poses every half second of simulated time.
     pub trail: Vec<Pose>,
+    /// Touches of walls and other robots so far.
+    pub contacts: Contacts,
+    /// Cameras with their lens covered (a fault to inject): bit 0 up,
+    /// bit 1 side.
+    covered: u8,
     /// The wheels' systematic difference (heading drift).
     wheel_bias: f64,
     rng: Rng,
@@ -289,6 +323,8 @@ impl Sim {
             side: None,
             travelled_mm: 0.0,
             trail: vec![pose],
+            contacts: Contacts::default(),
+            covered: 0,
             wheel_bias,
             rng,
         });
@@ -453,6 +489,19 @@ impl Sim {
         self.near = others;
     }
 
+    /// Covers one of robot `i`'s cameras: from now on it sees only black
+    /// (a fault to inject, to see a run fail the way a blind robot would).
+    pub fn cover_camera(&mut self, i: usize, which: Camera) {
+        self.robots[i].covered |= Self::camera_bit(which);
+    }
+
+    fn camera_bit(which: Camera) -> u8 {
+        match which {
+            Camera::Up => 1,
+            Camera::Side => 2,
+        }
+    }
+
     /// Grabs both of robot `i`'s cameras now.
     pub fn grab(&mut self, i: usize) {
         self.grab_camera(i, Camera::Up);
@@ -466,17 +515,23 @@ impl Sim {
         let at = (r.pose.x, r.pose.y);
         let size = self.config.image_size;
         let px = &self.pixel_noise;
-        let image = match which {
-            Camera::Up => camera::up_image(&self.scene, at, r.pose.heading, size, px, &mut r.rng),
-            Camera::Side => camera::side_image(
-                &self.scene,
-                &self.open,
-                at,
-                r.pose.heading,
-                size,
-                px,
-                &mut r.rng,
-            ),
+        let image = if r.covered & Self::camera_bit(which) != 0 {
+            GrayImage::new(size.0, size.1)
+        } else {
+            match which {
+                Camera::Up => {
+                    camera::up_image(&self.scene, at, r.pose.heading, size, px, &mut r.rng)
+                }
+                Camera::Side => camera::side_image(
+                    &self.scene,
+                    &self.open,
+                    at,
+                    r.pose.heading,
+                    size,
+                    px,
+                    &mut r.rng,
+                ),
+            }
         };
         match which {
             Camera::Up => r.up = Some(image.clone()),
@@ -585,7 +640,7 @@ impl Sim {
             }
         }
         let at = (r.pose.x, r.pose.y);
-        let contact = self
+        let wall = self
             .scene
             .nearest_solid(
                 at,
@@ -593,24 +648,24 @@ impl Sim {
                 &self.open,
                 &mut self.walls,
             )
-            .map(|(_, q)| q)
-            .or_else(|| {
-                others
-                    .iter()
-                    .find(|o| {
-                        (o.at.0 - at.0).powi(2) + (o.at.1 - at.1).powi(2)
-                            < (2.0 * ROBOT_RADIUS_MM + CONTACT_MM).powi(2)
-                    })
-                    .map(|o| ((o.at.0 + at.0) / 2.0, (o.at.1 + at.1) / 2.0))
-            });
+            .map(|(_, q)| q);
+        let robot = others
+            .iter()
+            .find(|o| {
+                (o.at.0 - at.0).powi(2) + (o.at.1 - at.1).powi(2)
+                    < (2.0 * ROBOT_RADIUS_MM + CONTACT_MM).powi(2)
+            })
+            .map(|o| ((o.at.0 + at.0) / 2.0, (o.at.1 + at.1) / 2.0));
         r.bumpers.front = false;
         r.bumpers.rear = false;
-        if let Some(c) = contact {
+        if let Some(c) = wall.or(robot) {
             let ahead = direction(r.pose.heading);
             let towards = (c.0 - at.0) * ahead.0 + (c.1 - at.1) * ahead.1;
             r.bumpers.front = towards >= 0.0;
             r.bumpers.rear = towards < 0.0;
         }
+        r.contacts
+            .update(wall.is_some(), robot.is_some(), r.bumpers.status() != 0);
         if blocked && r.bumpers.watch {
             r.drive.stop(true);
         }

@@ -217,6 +217,40 @@ fn an_ignored_bumper_lets_the_wheels_slip_against_the_wall() {
 }
 
 #[test]
+fn contacts_with_walls_and_robots_are_counted_once_per_touch() {
+    let mut sim = room(quiet());
+    let r = sim.add_robot("r", at(5_000.0, 4_500.0, 0.0)).unwrap();
+    // Pressed against the wall for seconds: one touch, one bumper press.
+    sim.robot_mut(r).drive.go(400.0).unwrap();
+    sim.run_for(8_000);
+    let c = sim.robot(r).contacts;
+    assert_eq!((c.wall, c.robot, c.bumper), (1, 0, 1), "{c:?}");
+    // Backing off and driving in again is a second touch.
+    sim.robot_mut(r).drive.go(-400.0).unwrap();
+    sim.run_for(2_000);
+    sim.robot_mut(r).drive.go(400.0).unwrap();
+    sim.run_for(4_000);
+    assert_eq!(sim.robot(r).contacts.wall, 2);
+    // Two robots driving into each other: one touch each, no wall.
+    let mut sim = room(quiet());
+    let a = sim.add_robot("a", at(3_000.0, 3_000.0, -90.0)).unwrap(); // East
+    let b = sim.add_robot("b", at(6_000.0, 3_000.0, 90.0)).unwrap(); // West
+    sim.robot_mut(a).drive.go(300.0).unwrap();
+    sim.robot_mut(b).drive.go(300.0).unwrap();
+    sim.run_for(10_000);
+    for i in [a, b] {
+        let c = sim.robot(i).contacts;
+        assert_eq!((c.wall, c.robot), (0, 1), "{c:?}");
+        assert!(sim.robot(i).bumpers.front);
+    }
+    // A robot standing in the open touches nothing.
+    let mut sim = room(quiet());
+    let r = sim.add_robot("r", at(5_000.0, 3_000.0, 0.0)).unwrap();
+    sim.run_for(2_000);
+    assert_eq!(sim.robot(r).contacts.total(), 0);
+}
+
+#[test]
 fn point_to_point_go_and_turn_reach_their_targets() {
     let mut sim = room(quiet());
     let r = sim.add_robot("r", at(2_000.0, 3_000.0, -90.0)).unwrap(); // East
