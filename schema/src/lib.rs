@@ -10,6 +10,7 @@
 //! - [`robot`]: the hardware servers' commands, replies and streams (base,
 //!   proximity, cameras; §4.6.2–4.6.4), with their priority and lock
 //!   parameters.
+//! - [`sim`]: the simulator's ground truth, which navigation never reads.
 //! - [`params`]: strict selector-parameter parsing shared by every server.
 //! - [`error`]: the error reply every server sends instead of a silent drop.
 //! - [`codec`]: the one encode and the one strict decode entry point.
@@ -23,6 +24,7 @@ pub mod error;
 pub mod keys;
 pub mod params;
 pub mod robot;
+pub mod sim;
 
 pub use codec::{decode, encode, DecodeError};
 pub use error::{ErrorCode, ErrorReply};

@@ -9,7 +9,8 @@
 //!   `DataSignal`, `DataWait` …) as typed async methods.
 //! - [`robot`]: [`RobotClient`], the hardware servers' libraries (base,
 //!   proximity, cameras: `RobotMove`, `ProxReadSonar`, `CameraGrabRow` …).
-//! - [`goals`]: the Planner → Navigator goal hand-over of Table 5.4.
+//! - [`sim`]: [`sim::TruthClient`], a simulated robot's ground truth (for
+//!   judging runs, never for navigation).
 //! - [`alive`]: who is alive (servers and clients), from liveliness tokens.
 //! - [`error`]: [`ClientError`], what every call can fail with.
 //!
@@ -29,9 +30,9 @@
 pub mod alive;
 pub mod data;
 pub mod error;
-pub mod goals;
 pub mod net;
 pub mod robot;
+pub mod sim;
 
 pub use data::{DataClient, DataOptions, Watch};
 pub use error::ClientError;

@@ -12,7 +12,10 @@
 //!   simulated world, [`serial`] for a Pioneer base over a serial line
 //!   (P2OS/ARCOS).
 //! - [`storage`]: a Zenoh storage in memory, for runs without a router.
-//! - [`robot`]: starts every server of a simulated robot as its own task.
+//! - [`truth`]: the simulator's ground truth (`<root>/sim/<robot>/truth`),
+//!   which navigation never reads.
+//! - [`robot`]: starts every server of a simulated robot, and the truth
+//!   server, each as its own task.
 
 pub mod base;
 pub mod camera;
@@ -24,6 +27,7 @@ pub mod serial;
 pub mod server;
 pub mod sim;
 pub mod storage;
+pub mod truth;
 pub mod vxy;
 
 pub use server::{Body, ServerConfig, ServerError, Service};

@@ -81,6 +81,31 @@ pub fn spawn<S: Service>(session: &Session, config: ServerConfig, service: S) ->
     }
 }
 
+/// Serves the ground truth of every robot in `world` on
+/// `<root>/sim/<robot>/truth`, published every `period` (see [`crate::truth`]).
+pub fn spawn_truth(
+    session: &Session,
+    root: &Root,
+    world: &SimWorld,
+    period: Option<Duration>,
+) -> Running {
+    let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
+    let task = tokio::spawn(crate::truth::run(
+        session.clone(),
+        root.clone(),
+        world.clone(),
+        period,
+        async move {
+            let _ = stopped.await;
+        },
+    ));
+    Running {
+        label: "sim truth".into(),
+        stop: Some(stop),
+        task,
+    }
+}
+
 /// Starts the base, proximity and both camera servers of simulated robot
 /// `robot`, each in its own task.
 pub fn spawn_sim_robot(

@@ -1,0 +1,109 @@
+//! The simulator's own keys: ground truth, which no real robot has.
+//!
+//! ```text
+//! rome/sim/<robot>/truth     where a robot truly is (query, and a stream)
+//! ```
+//!
+//! Like a simulator's ground-truth topic, it is for judging runs, tests and
+//! people watching, never for navigation: the navigation clients know only
+//! what the hardware servers tell them.
+
+use crate::keys::Name;
+use crate::Root;
+use serde::{Deserialize, Serialize};
+
+/// Simulator → anyone: a robot's true pose and what it has touched.
+///
+/// ```text
+/// rome/sim/r1/truth
+/// {"robot":"r1","time_ms":61500,"x_mm":-4210.5,"y_mm":10480.2,"heading_deg":90.4,
+///  "travelled_mm":30125.0,"contacts":{"wall":0,"robot":0,"bumper":0}}
+/// ```
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Truth {
+    /// The robot's name.
+    pub robot: String,
+    /// Simulated time, ms.
+    pub time_ms: u64,
+    /// True x (East), mm.
+    pub x_mm: f64,
+    /// True y (North), mm.
+    pub y_mm: f64,
+    /// True heading, degrees (North 0, West 90).
+    pub heading_deg: f64,
+    /// Distance truly driven since it was put in the world, mm.
+    pub travelled_mm: f64,
+    /// Touches so far.
+    pub contacts: ContactCount,
+}
+
+/// How often a robot has come to touch something (each touch counts once).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub struct ContactCount {
+    /// Walls, doors and other solid parts of the building.
+    pub wall: u32,
+    /// Other robots.
+    pub robot: u32,
+    /// Bumper presses.
+    pub bumper: u32,
+}
+
+impl ContactCount {
+    /// The touches between two counts (`later` − `self`).
+    pub fn since(&self, later: &ContactCount) -> ContactCount {
+        ContactCount {
+            wall: later.wall.saturating_sub(self.wall),
+            robot: later.robot.saturating_sub(self.robot),
+            bumper: later.bumper.saturating_sub(self.bumper),
+        }
+    }
+
+    /// Walls and robots together.
+    pub fn total(&self) -> u32 {
+        self.wall + self.robot
+    }
+}
+
+impl Root {
+    /// `<root>/sim/<robot>/truth`: a simulated robot's true pose.
+    pub fn sim_truth(&self, robot: &Name) -> String {
+        format!("{}/sim/{}/truth", self.as_str(), robot.as_str())
+    }
+
+    /// `<root>/sim/*/truth`: every simulated robot's true pose.
+    pub fn sim_truth_all(&self) -> String {
+        format!("{}/sim/*/truth", self.as_str())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn truth_keys_and_contact_differences() {
+        let root = Root::default();
+        let r1 = Name::new("r1").unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(root.sim_truth(&r1), "rome/sim/r1/truth");
+        assert_eq!(root.sim_truth_all(), "rome/sim/*/truth");
+        let a = ContactCount {
+            wall: 1,
+            robot: 0,
+            bumper: 1,
+        };
+        let b = ContactCount {
+            wall: 3,
+            robot: 1,
+            bumper: 2,
+        };
+        assert_eq!(
+            a.since(&b),
+            ContactCount {
+                wall: 2,
+                robot: 1,
+                bumper: 1
+            }
+        );
+        assert_eq!(a.since(&b).total(), 3);
+    }
+}

@@ -1,0 +1,118 @@
+//! The simulator's ground truth on Zenoh (`<root>/sim/<robot>/truth`):
+//! each robot's true pose and contacts, answered to queries (wildcards
+//! too: `rome/sim/*/truth` gets one reply per robot) and published as a
+//! stream. It belongs to the world, not to any robot's hardware servers,
+//! and navigation never reads it.
+
+use crate::server::ServerError;
+use crate::sim::SimWorld;
+use rome_schema::robot::robot_name;
+use rome_schema::sim::{ContactCount, Truth};
+use rome_schema::{encode, Root};
+use std::future::Future;
+use std::time::Duration;
+use zenoh::bytes::Encoding;
+use zenoh::key_expr::KeyExpr;
+use zenoh::qos::CongestionControl;
+use zenoh::query::Query;
+use zenoh::Session;
+
+/// How many queries may wait before new ones are dropped.
+const QUERY_QUEUE: usize = 1024;
+
+fn truth(r: &rome_sim::Robot, time_ms: u64) -> Truth {
+    let c = r.contacts;
+    Truth {
+        robot: r.name.clone(),
+        time_ms,
+        x_mm: r.pose.x,
+        y_mm: r.pose.y,
+        heading_deg: r.pose.heading,
+        travelled_mm: r.travelled_mm,
+        contacts: ContactCount {
+            wall: c.wall,
+            robot: c.robot,
+            bumper: c.bumper,
+        },
+    }
+}
+
+/// Robot `i`'s truth now.
+pub fn truth_of(world: &SimWorld, i: usize) -> Truth {
+    let sim = world.lock();
+    truth(sim.robot(i), sim.time_ms())
+}
+
+/// Every robot's truth now, with its key.
+pub fn snapshot(world: &SimWorld, root: &Root) -> Vec<(String, Truth)> {
+    let sim = world.lock();
+    let time_ms = sim.time_ms();
+    sim.robots()
+        .iter()
+        .filter_map(|r| {
+            // A robot whose name is no key chunk has no truth key.
+            let key = root.sim_truth(&robot_name(&r.name).ok()?);
+            Some((key, truth(r, time_ms)))
+        })
+        .collect()
+}
+
+/// Serves and publishes the truth of every robot in `world` until
+/// `shutdown` resolves; `period` is the stream's (`None`: queries only).
+pub async fn run(
+    session: Session,
+    root: Root,
+    world: SimWorld,
+    period: Option<Duration>,
+    shutdown: impl Future<Output = ()>,
+) -> Result<(), ServerError> {
+    let declare = |what: &str, e: zenoh::Error| ServerError::Declare {
+        what: what.into(),
+        detail: e.to_string(),
+    };
+    let (tx, rx) = flume::bounded::<Query>(QUERY_QUEUE);
+    let _queryable = session
+        .declare_queryable(root.sim_truth_all())
+        .callback(move |q| {
+            if tx.try_send(q).is_err() {
+                tracing::warn!("truth: too many queries waiting; one dropped");
+            }
+        })
+        .await
+        .map_err(|e| declare("the truth queryable", e))?;
+    let _token = session
+        .liveliness()
+        .declare_token(root.alive_server("sim", "truth"))
+        .await
+        .map_err(|e| declare("the liveliness token", e))?;
+    let mut tick = tokio::time::interval(period.unwrap_or(Duration::from_secs(3_600)));
+    tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+    tokio::pin!(shutdown);
+    loop {
+        tokio::select! {
+            biased;
+            _ = &mut shutdown => break,
+            Ok(query) = rx.recv_async() => {
+                for (key, truth) in snapshot(&world, &root) {
+                    let Ok(k) = KeyExpr::try_from(key.as_str()) else { continue };
+                    if query.key_expr().intersects(&k) {
+                        let _ = query
+                            .reply(k, encode(&truth))
+                            .encoding(Encoding::APPLICATION_JSON)
+                            .await;
+                    }
+                }
+            }
+            _ = tick.tick(), if period.is_some() => {
+                for (key, truth) in snapshot(&world, &root) {
+                    let _ = session
+                        .put(key, encode(&truth))
+                        .encoding(Encoding::APPLICATION_JSON)
+                        .congestion_control(CongestionControl::Drop)
+                        .await;
+                }
+            }
+        }
+    }
+    Ok(())
+}
