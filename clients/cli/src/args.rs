@@ -60,6 +60,14 @@ pub struct CommonArgs {
     pub verbose: u8,
 }
 
+/// Whether a TCP port on every interface is already in use.
+fn port_taken(port: u16) -> bool {
+    matches!(
+        std::net::TcpListener::bind(("0.0.0.0", port)),
+        Err(e) if e.kind() == std::io::ErrorKind::AddrInUse
+    )
+}
+
 /// Whether the program serves (listens by default) or is a client
 /// (connects by default).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -105,7 +113,38 @@ impl CommonArgs {
 
     /// Opens a session for this side.
     pub async fn open(&self, side: Side) -> anyhow::Result<zenoh::Session> {
-        Ok(self.net(side).open().await?)
+        match side {
+            Side::Server => Ok(self.open_server().await?.0),
+            Side::Client => Ok(self.net(side).open().await?),
+        }
+    }
+
+    /// Opens a server's session; returns it with the options it used.
+    ///
+    /// With no endpoint and no config given, the first server on a host
+    /// listens on port 7447 and is the meeting point: a later one finds
+    /// the port taken and joins it instead (connecting to 127.0.0.1:7447
+    /// and listening on a loopback port of its own for the other peers),
+    /// so `rome data-server`, `rome sim` and `rome storage` run side by
+    /// side with no flags, and clients reach them all through 7447.
+    pub async fn open_server(&self) -> anyhow::Result<(zenoh::Session, NetOptions)> {
+        let net = self.net(Side::Server);
+        let first = net.open().await;
+        let defaulted = self.config.is_none() && self.connect.is_empty() && self.listen.is_empty();
+        match first {
+            Ok(session) => Ok((session, net)),
+            Err(e) if defaulted && port_taken(DEFAULT_PORT) => {
+                let joined = NetOptions {
+                    connect: vec![format!("tcp/127.0.0.1:{DEFAULT_PORT}")],
+                    listen: vec!["tcp/127.0.0.1:0".into()],
+                    ..net
+                };
+                tracing::info!("port {DEFAULT_PORT} is taken ({e}); joining the server there");
+                let session = joined.open().await?;
+                Ok((session, joined))
+            }
+            Err(e) => Err(e.into()),
+        }
     }
 
     /// Installs the log subscriber: warnings by default, info for servers.

@@ -1,6 +1,6 @@
 //! `rome data-server`: runs the data server until Ctrl-C or SIGTERM.
 
-use crate::args::{CommonArgs, Side};
+use crate::args::CommonArgs;
 use crate::exit;
 use rome_data::ServerConfig;
 use std::time::Duration;
@@ -19,8 +19,7 @@ pub struct Args {
 
 /// Runs the server.
 pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
-    let net = common.net(Side::Server);
-    let session = net.open().await?;
+    let (session, net) = common.open_server().await?;
     let config = ServerConfig {
         root: common.root()?,
         default_history: args.history,

@@ -1,7 +1,7 @@
 //! `rome storage`: a Zenoh storage in memory for the servers' lock state,
 //! for deployments without a router's storage manager.
 
-use crate::args::{CommonArgs, Side};
+use crate::args::CommonArgs;
 use crate::exit;
 
 /// Flags of `rome storage`.
@@ -16,8 +16,7 @@ pub struct Args {
 pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
     let root = common.root()?;
     let key = args.key.unwrap_or_else(|| root.store_all());
-    let net = common.net(Side::Server);
-    let session = net.open().await?;
+    let (session, net) = common.open_server().await?;
     eprintln!(
         "rome storage: keeping '{key}' (listen {:?}, connect {:?}); Ctrl-C to stop",
         net.listen, net.connect
