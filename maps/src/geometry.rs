@@ -92,6 +92,9 @@ pub struct Segment {
     pub ring: usize,
     /// Index of its edge in the ring.
     pub edge: usize,
+    /// The narrow passage it bounds (the edge's `passage=NAME`), where
+    /// robots cannot pass each other and take turns.
+    pub passage: Option<String>,
 }
 
 /// A ceiling light.
@@ -207,6 +210,7 @@ impl World {
                     kind: edge.kind,
                     ring: ri,
                     edge: ei,
+                    passage: edge.tags.get("passage").cloned(),
                 });
                 for (li, &d) in edge.lights_mm.iter().enumerate() {
                     if used[ei][li] {

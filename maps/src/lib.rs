@@ -40,11 +40,22 @@ pub mod builtin {
     /// The Figure 5.3 building, `maps/data/fig5_3.stk`.
     pub const FIG5_3: &str = include_str!("../data/fig5_3.stk");
 
+    /// Routes for several robots at once on EB3, `maps/data/eb3.routes`.
+    pub const EB3_ROUTES: &str = include_str!("../data/eb3.routes");
+
     /// The text of a built-in map by name.
     pub fn text(name: &str) -> Option<&'static str> {
         match name {
             "eb3" => Some(EB3),
             "fig5_3" => Some(FIG5_3),
+            _ => None,
+        }
+    }
+
+    /// A built-in map's fleet routes (`FROM TO` a line), if it has some.
+    pub fn routes(name: &str) -> Option<&'static str> {
+        match name {
+            "eb3" => Some(EB3_ROUTES),
             _ => None,
         }
     }

@@ -266,6 +266,17 @@ fn edge(kind: EdgeKind, words: &[&str], line: usize) -> Result<Edge, String> {
             }
             tag if tag.contains('=') => {
                 let (k, v) = tag.split_once('=').unwrap_or((tag, ""));
+                // A passage's name becomes a semaphore's name: one key chunk.
+                if k == "passage"
+                    && (v.is_empty()
+                        || !v
+                            .chars()
+                            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-'))
+                {
+                    return Err(format!(
+                        "passage name '{v}' must be letters, digits, '_' or '-' (it names the passage's semaphore)"
+                    ));
+                }
                 edge.tags.insert(k.to_string(), v.to_string());
             }
             other => {

@@ -102,15 +102,33 @@ impl ChildGuard {
         }
     }
 
+    /// Waits for the child and returns its stdout, or, if it failed, its
+    /// status, stderr and stdout as the error.
+    pub fn try_output(&mut self) -> Result<String, String> {
+        let child = self.0.take().ok_or("child already taken")?;
+        let out = child.wait_with_output().map_err(|e| e.to_string())?;
+        let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+        if out.status.success() {
+            Ok(stdout)
+        } else {
+            Err(format!(
+                "child failed ({}): {}\n--- its output ---\n{stdout}",
+                out.status,
+                String::from_utf8_lossy(&out.stderr)
+            ))
+        }
+    }
+
     /// Waits for the child and returns its stdout; panics on failure.
     pub fn output(&mut self) -> String {
         let child = self.0.take().expect("child already taken");
         let out = child.wait_with_output().expect("child runs");
         assert!(
             out.status.success(),
-            "child failed ({}): {}",
+            "child failed ({}): {}\n--- its output ---\n{}",
             out.status,
-            String::from_utf8_lossy(&out.stderr)
+            String::from_utf8_lossy(&out.stderr),
+            String::from_utf8_lossy(&out.stdout)
         );
         String::from_utf8_lossy(&out.stdout).into_owned()
     }

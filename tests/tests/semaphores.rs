@@ -41,6 +41,47 @@ async fn a_waiter_killed_with_sigkill_loses_its_place_and_no_unit() {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_passage_held_by_a_client_killed_with_sigkill_opens_for_the_next() {
+    // $passage/N guards a corridor one robot wide: a Planner holds it with
+    // an undo wait. Killed inside, its unit must come back by itself.
+    let server = TestServer::start().await;
+    let ds = server.client("test").await;
+    ds.create_semaphore("$passage/N", 1).await.unwrap();
+    let mut holder = peer!(server.port, ["holder", "--sem", "$passage/N"]);
+    eventually(Duration::from_secs(15), "the holder holds it", || async {
+        let s = ds.semaphore("$passage/N").await.unwrap();
+        (s.value, s.held) == (0, 1)
+    })
+    .await;
+    // The next robot queues behind it.
+    let next = server.client("next").await;
+    let waiting = tokio::spawn(async move {
+        next.wait_undo("$passage/N").await.unwrap();
+        next
+    });
+    eventually(Duration::from_secs(15), "the next one waits", || async {
+        ds.semaphore("$passage/N").await.unwrap().waiters == 1
+    })
+    .await;
+    holder.kill(); // SIGKILL inside the passage.
+    let next = tokio::time::timeout(Duration::from_secs(30), waiting)
+        .await
+        .expect("the passage opened for the next one")
+        .unwrap();
+    let s = ds.semaphore("$passage/N").await.unwrap();
+    assert_eq!(
+        (s.value, s.waiters, s.held),
+        (0, 0, 1),
+        "exactly one holder"
+    );
+    // It leaves and gives the unit back: the passage is free, one unit.
+    next.give_back("$passage/N").await.unwrap();
+    let s = ds.semaphore("$passage/N").await.unwrap();
+    assert_eq!((s.value, s.held), (1, 0));
+    server.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn waiters_that_time_out_and_retry_lose_and_duplicate_nothing() {
     const UNITS: u64 = 150;
     let server = TestServer::start().await;

@@ -215,10 +215,34 @@ fn demo_runs_with_no_configuration() {
         .lines()
         .find(|l| l.contains("A392L to A340R"))
         .unwrap_or_else(|| panic!("no Table 6.1 row in {text}"));
-    assert!(row.trim_end().ends_with("1/1    0/0    1/1"), "{row}");
+    // L, C, D and contacts: every mode done, judged by ground truth, and
+    // nothing touched.
+    let cols: Vec<&str> = row.split_whitespace().collect();
+    assert_eq!(cols[cols.len() - 4..], ["1/1", "0/0", "1/1", "0"], "{row}");
+    assert!(text.contains("by ground truth"), "{text}");
     // The trajectory picture is a PNG.
     let bytes = std::fs::read(&png).unwrap();
     assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn demo_refuses_a_broken_routes_file_by_line() {
+    let dir = std::env::temp_dir().join(format!("rome-routes-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("bad.routes");
+    std::fs::write(&file, "# two robots\n350R 376L\n381L\n").unwrap();
+    let err = offline_err(["demo", "--routes", file.to_str().unwrap()]);
+    assert!(err.contains("bad.routes:3"), "{err}");
+    assert!(err.contains("expected 'FROM TO'"), "{err}");
+    std::fs::write(&file, "350R 376L fast\n").unwrap();
+    let err = offline_err(["demo", "--routes", file.to_str().unwrap()]);
+    assert!(err.contains("speed 'fast'"), "{err}");
+    std::fs::write(&file, "350R 376L\n381L 999Q\n").unwrap();
+    let err = offline_err(["demo", "--routes", file.to_str().unwrap()]);
+    assert!(err.contains("'999Q'"), "{err}");
+    let err = offline_err(["demo", "--cover-camera", "r7"]);
+    assert!(err.contains("--cover-camera r7"), "{err}");
     let _ = std::fs::remove_dir_all(&dir);
 }
 

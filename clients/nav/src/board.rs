@@ -25,7 +25,11 @@
 //! Beyond the table, the clients publish what a person watching wants to
 //! see: `Status` (the Navigator's mode and state), `Plate` (each door plate
 //! the PlFinder reports) and `HeadingFix` (each HIMM correction), and the
-//! ceiling-light children's `$LightToken` (§5.6).
+//! ceiling-light children's `$LightToken` (§5.6). The CTracker writes
+//! `TrackLog` (lights seen and missed in the segment) before up($EndLMode),
+//! so the Planner judges each L segment by what happened; the Planner
+//! writes `Corridor` (where the segment's line of lights lies in the map,
+//! and its walls) for the local mapper's sideways correction.
 
 use rome_client::{ClientError, DataClient};
 use serde::{Deserialize, Serialize};
@@ -102,6 +106,10 @@ pub enum Var {
     Plate,
     /// The last heading correction.
     HeadingFix,
+    /// What the CTracker saw in the last L segment.
+    TrackLog,
+    /// The L segment's corridor in the map: its line of lights and walls.
+    Corridor,
 }
 
 impl Var {
@@ -117,6 +125,8 @@ impl Var {
             Var::Status => "Status",
             Var::Plate => "Plate",
             Var::HeadingFix => "HeadingFix",
+            Var::TrackLog => "TrackLog",
+            Var::Corridor => "Corridor",
         }
     }
 }
@@ -181,7 +191,7 @@ pub struct PlateReport {
     pub error_mm: Option<i64>,
 }
 
-/// A heading correction from the local mapper.
+/// A heading (and sideways) correction from the local mapper.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct HeadingFix {
     /// After which counted light.
@@ -190,6 +200,42 @@ pub struct HeadingFix {
     pub hallway_deg: f64,
     /// The correction applied to the odometry heading, degrees.
     pub correction_deg: f64,
+    /// The correction applied across the corridor, mm (positive: to the
+    /// left of the goal direction); 0 when the walls did not match the map.
+    #[serde(default)]
+    pub shift_mm: f64,
+}
+
+/// Where an L segment's corridor lies in the map, written by the Planner
+/// for the local mapper: the line of lights (the route runs along it) and
+/// how far each wall is from it. The mapper compares the walls it finds
+/// with these to correct the odometry's sideways drift.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Corridor {
+    /// A point on the line of lights (the segment's start), mm.
+    pub x_mm: f64,
+    /// A point on the line of lights, mm.
+    pub y_mm: f64,
+    /// The line's heading, degrees (North 0, West 90).
+    pub heading_deg: f64,
+    /// Distance from the line to the wall on the left, mm, if the map has
+    /// one there.
+    pub left_mm: Option<f64>,
+    /// Distance from the line to the wall on the right, mm.
+    pub right_mm: Option<f64>,
+}
+
+impl Corridor {
+    /// The corridor of a plan step.
+    pub fn of(step: &crate::plan::Step) -> Corridor {
+        Corridor {
+            x_mm: step.from.0,
+            y_mm: step.from.1,
+            heading_deg: step.goal.direction_deg,
+            left_mm: step.walls_mm.map(|w| w.0),
+            right_mm: step.walls_mm.map(|w| w.1),
+        }
+    }
 }
 
 /// One robot's blackboard on the data server.

@@ -121,9 +121,12 @@ pub fn judge(cfg: &TrackConfig, travelled: f64, expected: f64) -> Verdict {
     }
 }
 
-/// What the tracker did in one L segment.
-#[derive(Debug, Clone, Default, PartialEq)]
+/// What the tracker did in one L segment; written to the board's
+/// `TrackLog` before up($EndLMode), so the Planner can judge the segment.
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct SegmentLog {
+    /// Lights the segment has.
+    pub lights: usize,
     /// Lights counted from sightings.
     pub seen: usize,
     /// Lights counted by distance after being missed.
@@ -132,6 +135,29 @@ pub struct SegmentLog {
     pub refused: usize,
     /// Overshoot reported, mm.
     pub overshoot_mm: f64,
+    /// Whether the last light was counted by distance: the segment ended
+    /// on odometry alone.
+    pub last_missed: bool,
+}
+
+impl SegmentLog {
+    /// Why the segment failed, if it did: the robot lost the lights (more
+    /// than a third missed) or the segment ended on distance alone.
+    pub fn failure(&self) -> Option<String> {
+        if self.lights == 0 {
+            return None;
+        }
+        if self.missed * 3 > self.lights {
+            Some(format!(
+                "lost the lights: {} of {} missed",
+                self.missed, self.lights
+            ))
+        } else if self.last_missed {
+            Some("ended on distance alone: the last light was not seen".into())
+        } else {
+            None
+        }
+    }
 }
 
 /// The tracker of one robot.
@@ -208,9 +234,12 @@ impl CTracker {
         let axis = direction(heading);
         let along = |p: &Pose| p.x * axis.0 + p.y * axis.1;
         let mut last = along(&self.pose().await?);
-        let mut log = SegmentLog::default();
         let mut count = 0usize;
         let total = usize::try_from(goal).unwrap_or(0).min(offsets.len());
+        let mut log = SegmentLog {
+            lights: total,
+            ..SegmentLog::default()
+        };
         let mut tick = tokio::time::interval(self.cfg.check_every);
         while count < total {
             let expected = offsets[count];
@@ -224,6 +253,7 @@ impl CTracker {
                         Verdict::Valid => {
                             count += 1;
                             log.seen += 1;
+                            log.last_missed = false;
                             last = at;
                             self.counted(count, total, last, &mut log, along).await?;
                         }
@@ -238,6 +268,7 @@ impl CTracker {
                     if judge(&self.cfg, now - last, expected) == Verdict::TooLate {
                         count += 1;
                         log.missed += 1;
+                        log.last_missed = true;
                         last += expected;
                         tracing::warn!(light = count, "ctracker: light missed; counted by distance");
                         self.counted(count, total, last, &mut log, along).await?;
@@ -247,6 +278,7 @@ impl CTracker {
         }
         if total == 0 {
             self.board.set(Var::Overshoot, &0i64).await?;
+            self.board.set(Var::TrackLog, &log).await?;
             self.board.up(Sem::EndLMode).await?;
         }
         Ok(log)
@@ -270,6 +302,7 @@ impl CTracker {
         self.board.set(Var::CeilingLight, &(count as i64)).await?;
         self.board.up(Sem::LightDet).await?;
         if count == total {
+            self.board.set(Var::TrackLog, &*log).await?;
             self.board.up(Sem::EndLMode).await?;
         }
         Ok(())

@@ -20,7 +20,7 @@
 //! disagrees with the track by more than a few degrees is a door recess or
 //! a side corridor, not the hallway.
 
-use crate::board::{Board, HeadingFix, Sem, Var};
+use crate::board::{Board, Corridor, HeadingFix, Sem, Var};
 use crate::NavError;
 use rome_client::RobotClient;
 use rome_maps::geometry::{direction, distance, heading_to, normalize_deg};
@@ -55,6 +55,31 @@ pub struct HimmConfig {
     /// A local map this long is used for a correction even before its
     /// third light, mm.
     pub max_map_mm: f64,
+    /// At any light, a local map at least this long is used for a
+    /// correction (0: only every `lights_per_map` lights, as the thesis),
+    /// mm.
+    pub light_map_mm: f64,
+    /// Whether the sideways offset is corrected too, from the walls'
+    /// distance to the line of lights that the map gives.
+    pub sideways: bool,
+    /// Largest sideways correction believed, mm.
+    pub max_shift_mm: f64,
+    /// Smallest sideways correction worth sending, mm.
+    pub min_shift_mm: f64,
+    /// How far the width between the walls found may differ from the
+    /// map's for them to be the corridor's walls, mm.
+    pub width_tolerance_mm: f64,
+    /// The walls are placed from the cells within this distance of the
+    /// robot, mm.
+    pub near_mm: f64,
+    /// Whether the mapper learns how fast the odometry's heading drifts
+    /// (a wheel a little larger than the other turns every straight run)
+    /// and takes the drift out as the robot goes, between corrections.
+    pub learn_drift: bool,
+    /// How much of each correction's drift rate is learnt (0–1).
+    pub drift_gain: f64,
+    /// Largest drift rate believed, degrees per metre.
+    pub max_drift_deg_m: f64,
 }
 
 impl Default for HimmConfig {
@@ -67,6 +92,15 @@ impl Default for HimmConfig {
             min_fix_deg: 0.3,
             min_map_mm: 8_000.0,
             max_map_mm: 12_000.0,
+            light_map_mm: 5_500.0,
+            sideways: true,
+            max_shift_mm: 1_500.0,
+            min_shift_mm: 20.0,
+            width_tolerance_mm: 400.0,
+            near_mm: 5_000.0,
+            learn_drift: true,
+            drift_gain: 0.8,
+            max_drift_deg_m: 2.0,
         }
     }
 }
@@ -137,11 +171,51 @@ impl Grid {
     }
 }
 
+/// The two walls of a hallway found in a local map, in the odometry frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HallwayWalls {
+    /// The walls' direction, degrees in [0, 180) (North 0, West 90):
+    /// directionless.
+    pub orientation_deg: f64,
+    /// The walls' common unit normal (x, y).
+    pub normal: (f64, f64),
+    /// Each wall's distance from the frame's origin along the normal, mm:
+    /// wall `i` is the set of points `p` with `p · normal = rho[i]`.
+    pub rho: [f64; 2],
+}
+
+impl HallwayWalls {
+    /// Signed distances of each wall from `p` along the normal turned to
+    /// point left of `heading_deg`, mm: the left wall's is positive.
+    pub fn beside(&self, p: (f64, f64), heading_deg: f64) -> [f64; 2] {
+        let left = direction(heading_deg + 90.0);
+        let sign = if left.0 * self.normal.0 + left.1 * self.normal.1 >= 0.0 {
+            1.0
+        } else {
+            -1.0
+        };
+        let at = p.0 * self.normal.0 + p.1 * self.normal.1;
+        self.rho.map(|r| sign * (r - at))
+    }
+}
+
 /// The hallway's orientation from the grid: the strongest Hough line and
 /// a parallel one at least `min_gap_mm` away. `None` when no such pair.
 /// The result is the lines' direction, degrees in [0, 180) (North 0, West
 /// 90): directionless.
 pub fn hallway_orientation(points: &[((f64, f64), u8)], min_gap_mm: f64) -> Option<f64> {
+    hallway_walls(points, min_gap_mm, None).map(|w| w.orientation_deg)
+}
+
+/// Both walls from the grid (see [`hallway_orientation`]). Each wall's
+/// position is refined from the cells near its Hough line: those within
+/// `near` = (point, mm) when there are enough of them there (the walls
+/// beside the robot now, not where odometry had drifted less), else all.
+pub fn hallway_walls(
+    points: &[((f64, f64), u8)],
+    min_gap_mm: f64,
+    near: Option<((f64, f64), f64)>,
+) -> Option<HallwayWalls> {
     if points.len() < 10 {
         return None;
     }
@@ -175,23 +249,144 @@ pub fn hallway_orientation(points: &[((f64, f64), u8)], min_gap_mm: f64) -> Opti
     let (k, r) = (best / nr, best % nr);
     // Guided search: the other wall shares the normal (±1°), a gap away.
     let gap = (min_gap_mm / rho_cell).ceil() as usize;
-    let mut second = 0u32;
+    let mut second = (0u32, r);
     for dk in -2i64..=2 {
         let kk = (k as i64 + dk).rem_euclid(STEPS as i64) as usize;
         for rr in 0..nr {
-            if rr.abs_diff(r) >= gap {
-                second = second.max(acc[kk * nr + rr]);
+            if rr.abs_diff(r) >= gap && acc[kk * nr + rr] > second.0 {
+                second = (acc[kk * nr + rr], rr);
             }
         }
     }
-    if second < acc[best] / 4 {
+    if second.0 < acc[best] / 4 {
         return None;
     }
     // Normal angle t from +x; the line runs at t + 90° from +x. A
     // direction at angle φ from +x has heading φ − 90° (North 0, West 90).
     let normal_from_x = k as f64 * 0.5;
-    let heading = normal_from_x; // (t + 90) − 90
-    Some(heading.rem_euclid(180.0))
+    let normal = trig[k];
+    let centre = cx * normal.0 + cy * normal.1;
+    let coarse = |rr: usize| centre + rr as f64 * rho_cell - rmax;
+    let refine = |guess: f64| {
+        let on_line = |p: &(f64, f64)| (p.0 * normal.0 + p.1 * normal.1 - guess).abs() < 250.0;
+        let mean = |pts: &mut dyn Iterator<Item = &((f64, f64), u8)>| {
+            let (mut sum, mut weight, mut n) = (0.0, 0.0, 0usize);
+            for (p, w) in pts {
+                sum += f64::from(*w) * (p.0 * normal.0 + p.1 * normal.1);
+                weight += f64::from(*w);
+                n += 1;
+            }
+            (n >= 8).then(|| sum / weight)
+        };
+        near.and_then(|(at, within)| {
+            mean(
+                &mut points
+                    .iter()
+                    .filter(|(p, _)| on_line(p) && distance(*p, at) <= within),
+            )
+        })
+        .or_else(|| mean(&mut points.iter().filter(|(p, _)| on_line(p))))
+        .unwrap_or(guess)
+    };
+    let rough = HallwayWalls {
+        orientation_deg: normal_from_x.rem_euclid(180.0),
+        normal,
+        rho: [refine(coarse(r)), refine(coarse(second.1))],
+    };
+    Some(
+        near.and_then(|(at, within)| local_fit(points, &rough, at, within))
+            .unwrap_or(rough),
+    )
+}
+
+/// Both walls fitted again from the cells within `within` of `at` only,
+/// with one common slope: where odometry has drifted, the walls bend in
+/// its frame, and the stretch beside the robot tells its heading error now
+/// rather than the average over the map. `None` when that stretch is too
+/// short or too sparse to tell.
+fn local_fit(
+    points: &[((f64, f64), u8)],
+    rough: &HallwayWalls,
+    at: (f64, f64),
+    within: f64,
+) -> Option<HallwayWalls> {
+    let n = rough.normal;
+    let u = (-n.1, n.0);
+    let mut lines: [Vec<(f64, f64, f64)>; 2] = [Vec::new(), Vec::new()];
+    for (p, w) in points {
+        if distance(*p, at) > within {
+            continue;
+        }
+        let t = p.0 * n.0 + p.1 * n.1;
+        for (i, rho) in rough.rho.iter().enumerate() {
+            if (t - rho).abs() < 400.0 {
+                lines[i].push((p.0 * u.0 + p.1 * u.1, t, f64::from(*w)));
+            }
+        }
+    }
+    let mut means = [(0.0, 0.0); 2];
+    let (mut sxy, mut sxx) = (0.0, 0.0);
+    for (i, line) in lines.iter().enumerate() {
+        let weight: f64 = line.iter().map(|l| l.2).sum();
+        let (lo, hi) = line.iter().fold((f64::MAX, f64::MIN), |(lo, hi), l| {
+            (lo.min(l.0), hi.max(l.0))
+        });
+        if line.len() < 8 || hi - lo < 2_000.0 || weight <= 0.0 {
+            return None;
+        }
+        let ms = line.iter().map(|l| l.0 * l.2).sum::<f64>() / weight;
+        let mt = line.iter().map(|l| l.1 * l.2).sum::<f64>() / weight;
+        for l in line {
+            sxy += l.2 * (l.0 - ms) * (l.1 - mt);
+            sxx += l.2 * (l.0 - ms) * (l.0 - ms);
+        }
+        means[i] = (ms, mt);
+    }
+    let b = sxy / sxx;
+    if !b.is_finite() || b.abs() > 0.2 {
+        return None;
+    }
+    let len = (1.0 + b * b).sqrt();
+    let normal = ((n.0 - b * u.0) / len, (n.1 - b * u.1) / len);
+    let s_at = at.0 * u.0 + at.1 * u.1;
+    let rho = means.map(|(ms, mt)| {
+        let t = mt + b * (s_at - ms);
+        let p = (s_at * u.0 + t * n.0, s_at * u.1 + t * n.1);
+        p.0 * normal.0 + p.1 * normal.1
+    });
+    Some(HallwayWalls {
+        orientation_deg: (rough.orientation_deg - b.atan().to_degrees()).rem_euclid(180.0),
+        normal,
+        rho,
+    })
+}
+
+/// The sideways correction of odometry position `p`, mm along the left of
+/// the corridor's heading: where the walls found say the robot is across
+/// the corridor, against where odometry and the map put it. `None` when
+/// the walls found are not the corridor's (one on each side, as far apart
+/// as the map's, within `tolerance_mm`).
+pub fn sideways_fix(
+    walls: &HallwayWalls,
+    p: (f64, f64),
+    corridor: &crate::board::Corridor,
+    tolerance_mm: f64,
+) -> Option<f64> {
+    let (left, right) = (corridor.left_mm?, corridor.right_mm?);
+    let [a, b] = walls.beside(p, corridor.heading_deg);
+    let (seen_left, seen_right) = if a > b { (a, -b) } else { (b, -a) };
+    if seen_left <= 0.0 || seen_right <= 0.0 {
+        return None;
+    }
+    if (seen_left + seen_right - (left + right)).abs() > tolerance_mm {
+        return None;
+    }
+    // Offsets left of the line of lights: as the walls say, and as
+    // odometry says.
+    let seen = ((left - seen_left) + (seen_right - right)) / 2.0;
+    let n = direction(corridor.heading_deg + 90.0);
+    let odometry = (p.0 - corridor.x_mm) * n.0 + (p.1 - corridor.y_mm) * n.1;
+    Some(seen - odometry)
 }
 
 /// The angle between a directionless orientation `alpha_deg` and the
@@ -222,17 +417,79 @@ pub fn orient(alpha_deg: f64, goal_deg: f64) -> f64 {
     }
 }
 
+/// The odometry's heading drift as learnt from the corrections, degrees
+/// per millimetre driven (positive: the odometry heading must grow).
+#[derive(Debug, Clone, Default)]
+struct Drift(std::sync::Arc<std::sync::Mutex<f64>>);
+
+impl Drift {
+    fn get(&self) -> f64 {
+        *self.0.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    /// Learns from a correction of `fix_deg` after `driven_mm`.
+    fn learn(&self, fix_deg: f64, driven_mm: f64, cfg: &HimmConfig) {
+        if driven_mm < 3_000.0 {
+            return;
+        }
+        let mut rate = self.0.lock().unwrap_or_else(|p| p.into_inner());
+        let max = cfg.max_drift_deg_m / 1_000.0;
+        *rate = (*rate + cfg.drift_gain * fix_deg / driven_mm).clamp(-max, max);
+    }
+}
+
 /// The local mapper of one robot.
 pub struct Himm {
     robot: RobotClient,
     board: Board,
     cfg: HimmConfig,
+    drift: Drift,
 }
 
 impl Himm {
     /// A mapper.
     pub fn new(robot: RobotClient, board: Board, cfg: HimmConfig) -> Himm {
-        Himm { robot, board, cfg }
+        Himm {
+            robot,
+            board,
+            cfg,
+            drift: Drift::default(),
+        }
+    }
+
+    /// Takes the learnt drift out of the odometry heading as the robot
+    /// drives, every half metre or so, for as long as scans come.
+    async fn compensate(&self) -> Result<(), NavError> {
+        let scans = self.robot.scans().await?;
+        let mut last: Option<(f64, f64)> = None;
+        let mut driven = 0.0;
+        let mut n = 0u32;
+        while let Some(scan) = scans.next().await {
+            scan?;
+            n += 1;
+            // The pose every few scans is plenty at walking speed.
+            if !n.is_multiple_of(4) {
+                continue;
+            }
+            let p = self.robot.pose().await?;
+            let at = (f64::from(p.x_mm), f64::from(p.y_mm));
+            if let Some(before) = last {
+                let step = distance(before, at);
+                // A jump is a correction or a set-pose, not driving.
+                if step < 500.0 {
+                    driven += step;
+                }
+            }
+            last = Some(at);
+            let rate = self.drift.get();
+            if driven >= 500.0 {
+                if rate != 0.0 {
+                    self.robot.adjust_pose(0, 0, rate * driven).await?;
+                }
+                driven = 0.0;
+            }
+        }
+        Err(NavError::Gone("the proximity server's scan stream closed"))
     }
 
     /// Maps every L segment, correcting the heading every three lights,
@@ -255,13 +512,20 @@ impl Himm {
             }
         });
         let scans = self.robot.scans().await?;
-        let result = async {
+        let mapping = async {
             loop {
                 self.board.down(Sem::StartMap).await?;
                 let goal: f64 = self.board.get(Var::GoalDirection).await?;
                 let total: i64 = self.board.get(Var::GoalDistance).await?;
+                // A Planner that writes no corridor leaves the sideways
+                // offset alone.
+                let corridor: Option<Corridor> = self.board.get(Var::Corridor).await.ok();
+                let corridor = corridor.as_ref();
                 let p = self.robot.pose().await?;
-                let mut grid = Grid::new((f64::from(p.x_mm), f64::from(p.y_mm)), self.cfg.half_side_mm);
+                let mut grid = Grid::new(
+                    (f64::from(p.x_mm), f64::from(p.y_mm)),
+                    self.cfg.half_side_mm,
+                );
                 let mut seen = 0i64;
                 let mut in_map = 0i64;
                 while seen < total {
@@ -278,8 +542,9 @@ impl Himm {
                             // thesis' trouble spots G, N and J) still gets
                             // its heading corrected.
                             let last = seen >= total && mapped >= self.cfg.min_map_mm;
-                            if in_map >= self.cfg.lights_per_map || last {
-                                self.correct(&grid, now, goal, seen).await?;
+                            let long = self.cfg.light_map_mm > 0.0 && mapped >= self.cfg.light_map_mm;
+                            if in_map >= self.cfg.lights_per_map || last || long {
+                                self.correct(&grid, now, goal, corridor, seen).await?;
                                 let p = self.robot.pose().await?;
                                 grid = Grid::new((f64::from(p.x_mm), f64::from(p.y_mm)), self.cfg.half_side_mm);
                                 in_map = 0;
@@ -291,7 +556,7 @@ impl Himm {
                             let p0 = self.robot.pose().await?;
                             let now = (f64::from(p0.x_mm), f64::from(p0.y_mm));
                             if distance(grid.origin, now) > self.cfg.max_map_mm {
-                                self.correct(&grid, now, goal, seen).await?;
+                                self.correct(&grid, now, goal, corridor, seen).await?;
                                 grid = Grid::new(now, self.cfg.half_side_mm);
                                 in_map = 0;
                             }
@@ -308,24 +573,35 @@ impl Himm {
                     }
                 }
             }
-        }
-        .await;
+        };
+        let result = if self.cfg.learn_drift {
+            tokio::select! {
+                r = mapping => r,
+                r = self.compensate() => r,
+            }
+        } else {
+            mapping.await
+        };
         counter.abort();
         result
     }
 
-    /// Corrects the heading from `grid`, mapped from its origin to `now`.
+    /// Corrects the heading, and the sideways offset when the corridor is
+    /// known, from `grid`, mapped from its origin to `now`.
     async fn correct(
         &self,
         grid: &Grid,
         now: (f64, f64),
         goal: f64,
+        corridor: Option<&Corridor>,
         light: i64,
     ) -> Result<(), NavError> {
-        let Some(alpha) = hallway_orientation(&grid.occupied(6), 1_000.0) else {
+        let Some(walls) = hallway_walls(&grid.occupied(6), 1_000.0, Some((now, self.cfg.near_mm)))
+        else {
             tracing::info!(light, "himm: no pair of walls in the local map");
             return Ok(());
         };
+        let alpha = walls.orientation_deg;
         if let Some(off) = track_disagreement(alpha, grid.origin, now, MIN_TRACK_MM) {
             if off > self.cfg.max_track_deg {
                 tracing::info!(
@@ -338,13 +614,31 @@ impl Himm {
             }
         }
         let gamma = orient(alpha, goal);
-        let fix = normalize_deg(goal - gamma);
+        let mut fix = normalize_deg(goal - gamma);
         if fix.abs() > self.cfg.max_fix_deg || fix.abs() < self.cfg.min_fix_deg {
-            tracing::info!(light, fix, "himm: correction not applied");
+            tracing::info!(light, fix, "himm: heading correction not applied");
+            fix = 0.0;
+        }
+        if self.cfg.learn_drift && fix != 0.0 {
+            self.drift.learn(fix, distance(grid.origin, now), &self.cfg);
+        }
+        let shift = corridor
+            .filter(|_| self.cfg.sideways)
+            .and_then(|c| sideways_fix(&walls, now, c, self.cfg.width_tolerance_mm))
+            .filter(|s| s.abs() <= self.cfg.max_shift_mm && s.abs() >= self.cfg.min_shift_mm)
+            .unwrap_or(0.0);
+        if fix == 0.0 && shift == 0.0 {
             return Ok(());
         }
-        self.robot.adjust_pose(0, 0, fix).await?;
-        tracing::info!(light, alpha, fix, "himm: heading corrected");
+        let left = direction(goal + 90.0);
+        self.robot
+            .adjust_pose(
+                (left.0 * shift).round() as i64,
+                (left.1 * shift).round() as i64,
+                fix,
+            )
+            .await?;
+        tracing::info!(light, alpha, fix, shift, "himm: odometry corrected");
         self.board
             .set(
                 Var::HeadingFix,
@@ -352,6 +646,7 @@ impl Himm {
                     light,
                     hallway_deg: (gamma * 100.0).round() / 100.0,
                     correction_deg: (fix * 100.0).round() / 100.0,
+                    shift_mm: shift.round(),
                 },
             )
             .await?;
@@ -403,6 +698,59 @@ mod tests {
             let err = normalize_deg(2.0 * (a - heading)) / 2.0;
             assert!(err.abs() <= 1.0, "heading {heading}: found {a}");
         }
+    }
+
+    #[test]
+    fn both_walls_are_placed_within_a_few_centimetres() {
+        for heading in [0.0, 90.0, -33.0] {
+            let g = corridor(heading, 3_660.0);
+            let w = hallway_walls(&g.occupied(6), 1_000.0, Some(((0.0, 0.0), 5_000.0)))
+                .expect("two walls");
+            let mut d = w.beside((0.0, 0.0), heading);
+            d.sort_by(f64::total_cmp);
+            assert!((d[0] + 1_830.0).abs() < 80.0, "heading {heading}: {d:?}");
+            assert!((d[1] - 1_830.0).abs() < 80.0, "heading {heading}: {d:?}");
+        }
+    }
+
+    #[test]
+    fn the_sideways_error_is_where_the_walls_put_the_robot_against_odometry() {
+        // Heading North along x = 0 in a 3.66 m corridor. The robot is truly
+        // 300 mm right (East) of the middle; odometry says 200 mm left.
+        let corridor = Corridor {
+            x_mm: 0.0,
+            y_mm: 0.0,
+            heading_deg: 0.0,
+            left_mm: Some(1_830.0),
+            right_mm: Some(1_830.0),
+        };
+        // In the odometry frame the walls stand 2130 mm left and 1530 mm
+        // right of where odometry puts the robot.
+        let walls = HallwayWalls {
+            orientation_deg: 0.0,
+            normal: (1.0, 0.0),
+            rho: [-2_330.0, 1_330.0],
+        };
+        let shift = sideways_fix(&walls, (-200.0, 5_000.0), &corridor, 400.0).expect("a fix");
+        assert!((shift + 500.0).abs() < 1e-6, "{shift}");
+        // Walls much wider apart than the map's are not this corridor's.
+        let wide = HallwayWalls {
+            rho: [-3_330.0, 1_330.0],
+            ..walls
+        };
+        assert_eq!(
+            sideways_fix(&wide, (-200.0, 5_000.0), &corridor, 400.0),
+            None
+        );
+        // Without the map's walls there is nothing to compare with.
+        let unknown = Corridor {
+            left_mm: None,
+            ..corridor
+        };
+        assert_eq!(
+            sideways_fix(&walls, (-200.0, 5_000.0), &unknown, 400.0),
+            None
+        );
     }
 
     #[test]

@@ -12,8 +12,10 @@
 //! - [`himm`]: the local mapper's histogram grid and Hough transform for
 //!   heading correction (§5.5).
 //! - [`plfinder`]: door-plate detection from the side camera (§5.7).
-//! - [`run`]: a whole run in one process: data server, simulated robot,
-//!   hardware servers and every client, and its Table 6.1 report.
+//! - [`report`]: how a run is judged by what happened (lights seen, ground
+//!   truth, contacts) and reported as rows of Tables 6.1–6.2 and a picture.
+//! - [`run`]: whole runs in one process: data server, simulated robots,
+//!   hardware servers and every robot's clients, driving at once.
 
 pub mod board;
 pub mod ctracker;
@@ -22,6 +24,7 @@ pub mod navigator;
 pub mod plan;
 pub mod planner;
 pub mod plfinder;
+pub mod report;
 pub mod run;
 
 use std::time::Duration;

@@ -57,6 +57,9 @@ pub struct NavConfig {
     pub stop_accel_mm_s2: f64,
     /// Longest wait for a scan before the proximity server counts as gone.
     pub scan_timeout: Duration,
+    /// Scans without a new goal after which a moving robot is stopped
+    /// (2 s of robot time at the sonar ring's 10 scans a second).
+    pub idle_scans: usize,
 }
 
 impl Default for NavConfig {
@@ -71,6 +74,7 @@ impl Default for NavConfig {
             safe_min_mm: 350.0,
             stop_accel_mm_s2: 500.0,
             scan_timeout: Duration::from_secs(10),
+            idle_scans: 20,
         }
     }
 }
@@ -443,7 +447,7 @@ impl Navigator {
         self.board.declare().await?;
         let scans = self.robot.scans().await?;
         loop {
-            let goal = self.board.take_goal().await?;
+            let goal = self.next_goal(&scans).await?;
             self.goals += 1;
             tracing::info!(?goal, n = self.goals, "navigator: goal");
             self.carry_out(&goal, &scans).await?;
@@ -451,6 +455,38 @@ impl Navigator {
             let _ = log.send(self.log.clone());
             self.board.up(Sem::RobotStatus).await?;
         }
+    }
+
+    /// Waits for the Planner's next goal. A robot left moving (after an L
+    /// or C goal) that gets none within [`NavConfig::idle_scans`] scans is
+    /// stopped where it is: a Planner that died or waits for a passage
+    /// must not leave it driving on.
+    async fn next_goal(
+        &mut self,
+        scans: &rome_client::robot::Stream<Scan>,
+    ) -> Result<Goal, NavError> {
+        let board = self.board.clone();
+        let take = board.take_goal();
+        tokio::pin!(take);
+        let mut idle = 0usize;
+        loop {
+            tokio::select! {
+                goal = &mut take => return Ok(goal?),
+                _ = self.next_scan(scans), if self.is_moving() => {
+                    idle += 1;
+                    if idle >= self.cfg.idle_scans {
+                        tracing::info!("navigator: no goal; stopping the robot while it waits");
+                        self.send(Drive::Halt).await?;
+                        self.hallway = None;
+                        self.carry = None;
+                    }
+                }
+            }
+        }
+    }
+
+    fn is_moving(&self) -> bool {
+        !matches!(self.last, None | Some(Drive::Halt))
     }
 
     async fn pose(&mut self) -> Result<Pose, NavError> {
@@ -559,8 +595,10 @@ impl Navigator {
         let mut counted_low = false;
         let mut walls = Walls::default();
         loop {
-            // The goal function.
-            let travelled = pose.dist(&start);
+            // The goal function: progress along the goal direction, so a
+            // robot that swerves round another does not count the swerve.
+            let axis = rome_maps::geometry::direction(goal.direction_deg);
+            let travelled = (pose.x - start.x) * axis.0 + (pose.y - start.y) * axis.1;
             let speed = self.robot_speed();
             let stopping = speed * speed / (2.0 * self.cfg.stop_accel_mm_s2);
             let done = match goal.goal_type {

@@ -42,6 +42,32 @@ pub struct Step {
     pub from: Point,
     /// End of the segment.
     pub to: Point,
+    /// For an L step: how far the corridor's left and right walls are from
+    /// the route, mm, as the map has them (the median over the segment,
+    /// so doors and side corridors do not count), if both are there.
+    pub walls_mm: Option<(f64, f64)>,
+}
+
+/// A narrow passage on the route (edges tagged `passage=NAME`): the
+/// Planner holds its semaphore from before step `first` until step `last`
+/// is done, so robots take turns through it.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct PassageUse {
+    /// The passage's name.
+    pub name: String,
+    /// The step before which the robot must hold the passage: the one that
+    /// takes it into the turning space before it (or the first step).
+    pub first: usize,
+    /// The step after which the robot has left it: the one that takes it
+    /// out of the turning space after it (or the last step).
+    pub last: usize,
+}
+
+impl PassageUse {
+    /// The passage's semaphore on the data server (`$passage/NAME`).
+    pub fn semaphore(&self) -> String {
+        format!("$passage/{}", self.name)
+    }
 }
 
 /// The plan for one run.
@@ -53,6 +79,8 @@ pub struct Plan {
     pub steps: Vec<Step>,
     /// Heading at the start, degrees: the robot is put down facing it.
     pub start_heading_deg: f64,
+    /// The narrow passages it goes through.
+    pub passages: Vec<PassageUse>,
 }
 
 /// How often each mode occurs: the L / C / D columns of Tables 6.1–6.2.
@@ -128,6 +156,7 @@ impl Plan {
                     light_offsets_mm: offsets,
                     from: at(t),
                     to: at(prev),
+                    walls_mm: walls_beside(world, at(t), at(prev), heading),
                 });
                 t = prev;
             }
@@ -141,6 +170,7 @@ impl Plan {
                 light_offsets_mm: Vec::new(),
                 from: at(t),
                 to: b,
+                walls_mm: None,
             });
             if !last {
                 let (_, _, next_len, next_heading) = legs[i + 1];
@@ -156,14 +186,17 @@ impl Plan {
                     light_offsets_mm: Vec::new(),
                     from: b,
                     to: (b.0 + nd.0 * leave, b.1 + nd.1 * leave),
+                    walls_mm: None,
                 });
             }
         }
         let start_heading_deg = legs.first().map_or(0.0, |l| l.3);
+        let passages = passages_on(world, &legs, &steps);
         Plan {
             route,
             steps,
             start_heading_deg,
+            passages,
         }
     }
 
@@ -222,6 +255,102 @@ impl Plan {
     }
 }
 
+/// The passages along each leg, and the steps that hold them.
+fn passages_on(
+    world: &World,
+    legs: &[(Point, Point, f64, f64)],
+    steps: &[Step],
+) -> Vec<PassageUse> {
+    let mut out: Vec<PassageUse> = Vec::new();
+    for (i, &(a, _, len, heading)) in legs.iter().enumerate() {
+        let d = direction(heading);
+        let project = |p: Point| {
+            let (dx, dy) = (p.0 - a.0, p.1 - a.1);
+            (dx * d.0 + dy * d.1, (dx * d.1 - dy * d.0).abs())
+        };
+        let subpath = i + 1;
+        for seg in &world.segments {
+            let Some(name) = &seg.passage else { continue };
+            let ((ta, la), (tb, lb)) = (project(seg.a), project(seg.b));
+            // A wall of this leg's corridor: beside the route, along it.
+            let beside = la.max(lb) <= 3_000.0 && (la - lb).abs() < 300.0;
+            let overlap = ta.max(tb).min(len) - ta.min(tb).max(0.0);
+            if !beside || overlap < 500.0 {
+                continue;
+            }
+            let first = if subpath == 1 {
+                0
+            } else {
+                steps
+                    .iter()
+                    .position(|s| s.subpath == subpath - 1 && s.goal.goal_type == GoalType::E)
+                    .unwrap_or(0)
+            };
+            let last = steps
+                .iter()
+                .position(|s| s.subpath == subpath && s.goal.goal_type == GoalType::C)
+                .unwrap_or(steps.len().saturating_sub(1));
+            match out.iter_mut().find(|p| &p.name == name) {
+                Some(p) => {
+                    p.first = p.first.min(first);
+                    p.last = p.last.max(last);
+                }
+                None => out.push(PassageUse {
+                    name: name.clone(),
+                    first,
+                    last,
+                }),
+            }
+        }
+    }
+    out
+}
+
+/// How far a ray from `at` along `heading_deg` goes before it meets a
+/// solid edge (not an opening), mm; `None` beyond `max_mm`.
+fn ray(world: &World, at: Point, heading_deg: f64, max_mm: f64) -> Option<f64> {
+    let d = direction(heading_deg);
+    world
+        .segments
+        .iter()
+        .filter(|s| s.kind != rome_maps::model::EdgeKind::Opening)
+        .filter_map(|s| {
+            let e = (s.b.0 - s.a.0, s.b.1 - s.a.1);
+            let det = d.0 * e.1 - d.1 * e.0;
+            if det.abs() < 1e-9 {
+                return None;
+            }
+            let w = (s.a.0 - at.0, s.a.1 - at.1);
+            let t = (w.0 * e.1 - w.1 * e.0) / det;
+            let u = (w.0 * d.1 - w.1 * d.0) / det;
+            (t > 0.0 && (0.0..=1.0).contains(&u)).then_some(t)
+        })
+        .fold(None, |best: Option<f64>, t| {
+            Some(best.map_or(t, |b| b.min(t)))
+        })
+        .filter(|t| *t <= max_mm)
+}
+
+/// The walls left and right of the route between `from` and `to`: the
+/// median distance over eleven points along it.
+fn walls_beside(world: &World, from: Point, to: Point, heading_deg: f64) -> Option<(f64, f64)> {
+    let median = |mut v: Vec<f64>| {
+        if v.len() < 6 {
+            return None;
+        }
+        v.sort_by(f64::total_cmp);
+        Some(v[v.len() / 2])
+    };
+    let (mut left, mut right) = (Vec::new(), Vec::new());
+    for k in 0..=10 {
+        let f = f64::from(k) / 10.0;
+        let p = (from.0 + (to.0 - from.0) * f, from.1 + (to.1 - from.1) * f);
+        left.extend(ray(world, p, heading_deg + 90.0, 5_000.0));
+        right.extend(ray(world, p, heading_deg - 90.0, 5_000.0));
+    }
+    Some((median(left)?, median(right)?))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -243,6 +372,10 @@ mod tests {
         let l = &plan.steps[0];
         assert_eq!(l.goal.distance as usize, l.light_offsets_mm.len());
         assert!(l.goal.distance >= 5, "78 m of corridor has many lights");
+        // Corridor A is 3.66 m wide with its lights down the middle.
+        let (left, right) = l.walls_mm.expect("both walls of corridor A");
+        assert!((left - 1_830.0).abs() < 30.0, "{left}");
+        assert!((right - 1_830.0).abs() < 30.0, "{right}");
         // Light offsets and the last leg add up to the route's length.
         let total: f64 =
             l.light_offsets_mm.iter().sum::<f64>() + plan.steps[1].goal.distance as f64;

@@ -7,11 +7,27 @@
 //! `$StartMap` (for the local mapper); after it the Planner waits on
 //! `$EndLMode` and takes the CTracker's `Overshoot` off the dead-reckoning
 //! distance that follows: the overshoot compensation of Chapter 6.
+//!
+//! Before a narrow passage (edges tagged `passage=NAME`) the Planner takes
+//! the passage's semaphore `$passage/NAME` (value 1) with an undo wait, and
+//! gives it back once the robot has left: robots take turns, and a robot
+//! whose Planner dies inside the passage does not close it, because the
+//! data server takes the unit back when the Planner's liveliness goes. If
+//! the passage is busy, the robot is first stopped where it is (a D goal of
+//! no distance), so it does not drive on while it waits.
+//!
+//! Each goal done is judged by what happened ([`crate::report::judge_step`]):
+//! the CTracker's `TrackLog` for an L segment, and, where a simulator
+//! answers, the robot's ground truth for C and D segments.
 
-use crate::board::{Board, GoalType, Sem, Var};
-use crate::plan::{Plan, Step};
+use crate::board::{Board, Corridor, Goal, GoalType, Sem, Var};
+use crate::ctracker::SegmentLog;
+use crate::plan::{PassageUse, Plan, Step};
+use crate::report::judge_step;
 use crate::NavError;
+use rome_client::sim::TruthClient;
 use rome_client::RobotClient;
+use rome_schema::sim::Truth;
 
 /// One goal as handed over, with what it turned into.
 #[derive(Debug, Clone, PartialEq)]
@@ -22,19 +38,43 @@ pub struct Handed {
     pub step: Step,
     /// The Overshoot read after an L segment, mm.
     pub overshoot_mm: Option<i64>,
+    /// What the CTracker saw, for an L segment.
+    pub track: Option<SegmentLog>,
+    /// Where the robot truly was when the goal was done, if a simulator
+    /// says.
+    pub truth: Option<Truth>,
+    /// Why the goal failed, judged from what happened.
+    pub failure: Option<String>,
+}
+
+/// What the Planner tells whoever watches.
+#[derive(Debug, Clone, Copy)]
+pub enum Progress<'a> {
+    /// A goal was handed to the Navigator.
+    Handed(&'a Handed),
+    /// The Navigator reported it done, and it was judged.
+    Done(&'a Handed),
+    /// The robot waits for a narrow passage to be free.
+    Waiting(&'a str),
+    /// The robot holds a narrow passage (`true`) or has left it.
+    Passage(&'a str, bool),
 }
 
 /// Registers the robot at the plan's start: odometry reads the map's
-/// coordinates and the robot's true heading (the thesis gives the robot its
-/// true heading at the start, §5). `facing` is that heading when it is not
-/// already the route's: the robot is then turned onto the route in place.
+/// coordinates and the robot's heading, and the robot is turned onto the
+/// route in place if it faces elsewhere. `facing` is that heading if known
+/// (the thesis gives the robot its true heading at the start, §5); without
+/// it the base's own odometry heading is taken as the way the robot faces.
 pub async fn put_down(
     robot: &RobotClient,
     plan: &Plan,
     facing: Option<f64>,
 ) -> Result<(), NavError> {
     let (start, _) = plan.ends();
-    let facing = facing.unwrap_or(plan.start_heading_deg);
+    let facing = match facing {
+        Some(f) => f,
+        None => robot.pose().await?.heading_deg,
+    };
     if !facing.is_finite() {
         return Err(NavError::Config(format!(
             "the start heading must be a number of degrees, got {facing}"
@@ -54,22 +94,28 @@ pub async fn put_down(
     Ok(())
 }
 
-/// Hands every goal of the plan to the Navigator; `progress` hears of each
-/// goal as it is handed over.
+/// Hands every goal of the plan to the Navigator and judges each when it is
+/// done (with ground truth from `truth`, if given); `progress` hears of
+/// each goal as it is handed over and as it is done.
 pub async fn run(
     board: &Board,
     plan: &Plan,
-    mut progress: impl FnMut(&Handed),
+    truth: Option<&TruthClient>,
+    mut progress: impl FnMut(Progress<'_>),
 ) -> Result<Vec<Handed>, NavError> {
     board.declare().await?;
     let mut out = Vec::with_capacity(plan.steps.len());
     let mut overshoot = 0i64;
     for (index, step) in plan.steps.iter().enumerate() {
+        for p in plan.passages.iter().filter(|p| p.first == index) {
+            enter(board, p, step, index > 0, &mut progress).await?;
+        }
         let mut step = step.clone();
         let mut handed_overshoot = None;
         match step.goal.goal_type {
             GoalType::L => {
                 board.set(Var::LightOffset, &step.light_offsets_mm).await?;
+                board.set(Var::Corridor, &Corridor::of(&step)).await?;
                 board.set(Var::GoalDistance, &step.goal.distance).await?;
                 board
                     .set(Var::GoalDirection, &step.goal.direction_deg)
@@ -90,16 +136,62 @@ pub async fn run(
             index,
             step: step.clone(),
             overshoot_mm: None,
+            track: None,
+            truth: None,
+            failure: None,
         };
-        progress(&handed);
+        progress(Progress::Handed(&handed));
         board.down(Sem::RobotStatus).await?;
         if step.goal.goal_type == GoalType::L {
             board.down(Sem::EndLMode).await?;
             overshoot = board.get(Var::Overshoot).await?;
             handed_overshoot = Some(overshoot);
+            handed.track = board.get(Var::TrackLog).await.ok();
         }
         handed.overshoot_mm = handed_overshoot;
+        if let Some(t) = truth {
+            // Ground truth judges the goal; a simulator that does not
+            // answer leaves C and D unjudged rather than failing the run.
+            handed.truth = t.get().await.ok();
+        }
+        handed.failure = judge_step(&step, handed.truth.as_ref(), handed.track.as_ref());
+        progress(Progress::Done(&handed));
         out.push(handed);
+        for p in plan.passages.iter().filter(|p| p.last == index) {
+            board.client().give_back(&p.semaphore()).await?;
+            progress(Progress::Passage(&p.name, false));
+        }
     }
     Ok(out)
+}
+
+/// Takes a narrow passage before `step`; a robot that may be moving
+/// (`moving`) is stopped first if it has to wait.
+async fn enter(
+    board: &Board,
+    passage: &PassageUse,
+    step: &Step,
+    moving: bool,
+    progress: &mut impl FnMut(Progress<'_>),
+) -> Result<(), NavError> {
+    let ds = board.client();
+    let sem = passage.semaphore();
+    ds.create_semaphore(&sem, 1).await?;
+    let state = ds.semaphore(&sem).await?;
+    if state.value == 0 || state.waiters > 0 {
+        progress(Progress::Waiting(&passage.name));
+        if moving {
+            board
+                .give_goal(&Goal {
+                    goal_type: GoalType::D,
+                    distance: 0,
+                    direction_deg: step.goal.direction_deg,
+                })
+                .await?;
+            board.down(Sem::RobotStatus).await?;
+        }
+    }
+    ds.wait_undo(&sem).await?;
+    progress(Progress::Passage(&passage.name, true));
+    Ok(())
 }

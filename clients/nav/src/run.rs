@@ -1,39 +1,169 @@
-//! A whole run in one process (`rome demo`): the data server, a simulated
-//! robot with its hardware servers, and every navigation client on one
-//! in-process Zenoh session, driving from one room to another. The result
-//! is a row of Table 6.1 and the trajectory drawn on the map.
+//! Whole runs in one process (`rome demo`): one data server, one simulated
+//! world with any number of robots, each robot's hardware servers and its
+//! five navigation clients, all on one in-process Zenoh session. Every
+//! robot has its own blackboard (`nav/<robot>/…`) on the one data server,
+//! and they drive at the same time. The result is a row of Table 6.1 per
+//! robot, judged by ground truth, and one picture of every trajectory.
 
-use crate::board::Board;
-use crate::ctracker::{CTracker, SegmentLog, TrackConfig};
+use crate::board::{Board, Var};
+use crate::ctracker::{CTracker, TrackConfig};
 use crate::himm::{Himm, HimmConfig};
 use crate::navigator::{NavConfig, NavLog, Navigator};
-use crate::plan::{ModeCount, Plan};
-use crate::planner::{self, Handed};
+use crate::plan::Plan;
+use crate::planner::{self, Handed, Progress};
 use crate::plfinder::{PlConfig, PlFinder};
+use crate::report::{Ended, Report};
 use crate::NavError;
 use rome_client::net::NetOptions;
+use rome_client::sim::TruthClient;
 use rome_client::{DataClient, DataOptions, RobotClient, RobotOptions};
-use rome_hardware::robot::{spawn_sim_robot, Rates};
+use rome_hardware::robot::{spawn_sim_robot, spawn_truth, Rates};
 use rome_hardware::sim::SimWorld;
-use rome_maps::geometry::{direction, distance, Point};
-use rome_maps::render::{self, Shape};
+use rome_maps::geometry::Point;
 use rome_maps::{Map, Network, World};
 use rome_schema::Root;
 use rome_sim::{Noise, Pose, Sim, SimConfig};
 use std::time::{Duration, Instant};
 use tokio::sync::mpsc;
 
+pub use crate::report::ARRIVED_CM;
+
+/// One robot's route.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RouteSpec {
+    /// The robot's name (`r1`).
+    pub robot: String,
+    /// Start position (`350R`).
+    pub from: String,
+    /// Goal position (`376L`).
+    pub to: String,
+    /// The robot's cruising speed, mm/s, if not the Navigator's default.
+    pub cruise_mm_s: Option<f64>,
+}
+
+impl RouteSpec {
+    /// Robot `robot` from `from` to `to` at the default speed.
+    pub fn new(robot: &str, from: &str, to: &str) -> RouteSpec {
+        RouteSpec {
+            robot: robot.into(),
+            from: from.into(),
+            to: to.into(),
+            cruise_mm_s: None,
+        }
+    }
+}
+
+/// Reads a routes file: one `FROM TO [SPEED]` a line (SPEED the cruising
+/// speed in mm/s; blank lines and `#` comments skipped); robot k is named
+/// `rk`.
+pub fn parse_routes(file: &str, text: &str) -> Result<Vec<RouteSpec>, NavError> {
+    let mut out = Vec::new();
+    for (i, line) in text.lines().enumerate() {
+        let line = line.split('#').next().unwrap_or("").trim();
+        if line.is_empty() {
+            continue;
+        }
+        let words: Vec<&str> = line.split_whitespace().collect();
+        let (from, to, speed) = match words[..] {
+            [from, to] => (from, to, None),
+            [from, to, speed] => (from, to, Some(speed)),
+            _ => {
+                return Err(NavError::Config(format!(
+                    "{file}:{}: expected 'FROM TO' or 'FROM TO SPEED' (like '350R 376L 300'), got '{line}'",
+                    i + 1
+                )))
+            }
+        };
+        let cruise_mm_s = match speed {
+            None => None,
+            Some(w) => match w.parse::<f64>() {
+                Ok(v) if v > 0.0 && v <= 1_000.0 => Some(v),
+                _ => {
+                    return Err(NavError::Config(format!(
+                        "{file}:{}: speed '{w}' must be a number of mm/s in 0..=1000",
+                        i + 1
+                    )))
+                }
+            },
+        };
+        out.push(RouteSpec {
+            robot: format!("r{}", out.len() + 1),
+            from: from.into(),
+            to: to.into(),
+            cruise_mm_s,
+        });
+    }
+    if out.is_empty() {
+        return Err(NavError::Config(format!(
+            "{file}: no routes (one 'FROM TO' a line)"
+        )));
+    }
+    Ok(out)
+}
+
+/// Adds routes picked with `seed` to `routes` until there are `n`: door
+/// jambs at least 20 m apart with a plan between them, each robot starting
+/// at least 2 m from every other.
+pub fn pick_routes(
+    map: &Map,
+    mut routes: Vec<RouteSpec>,
+    n: usize,
+    seed: u64,
+) -> Result<Vec<RouteSpec>, NavError> {
+    let world = World::from_map(map);
+    let network = Network::new(map, &world);
+    // Door jambs only (`350R`), not ring nodes (`outer.NW`).
+    let doors: Vec<(&String, Point)> = world
+        .positions
+        .iter()
+        .filter(|(name, _)| !name.contains('.'))
+        .map(|(name, p)| (name, p.in_corridor()))
+        .collect();
+    let start_of = |name: &str| {
+        world
+            .position(name)
+            .map(|p| p.in_corridor())
+            .unwrap_or((f64::NAN, f64::NAN))
+    };
+    let mut state = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+    let mut next = |m: usize| {
+        state = state
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        ((state >> 33) % m.max(1) as u64) as usize
+    };
+    let mut tries = 0;
+    while routes.len() < n && tries < 200 * n && doors.len() >= 2 {
+        tries += 1;
+        let (from, a) = doors[next(doors.len())];
+        let (to, b) = doors[next(doors.len())];
+        let clear = routes
+            .iter()
+            .all(|r| rome_maps::geometry::distance(start_of(&r.from), a) >= 2_000.0);
+        if !clear || rome_maps::geometry::distance(a, b) < 20_000.0 {
+            continue;
+        }
+        if Plan::new(&world, &network, from, to).is_ok() {
+            routes.push(RouteSpec::new(&format!("r{}", routes.len() + 1), from, to));
+        }
+    }
+    if routes.len() < n {
+        return Err(NavError::Config(format!(
+            "the map '{}' has routes for only {} robot(s) starting apart; give --routes",
+            map.name,
+            routes.len()
+        )));
+    }
+    Ok(routes)
+}
+
 /// What to run.
 #[derive(Debug, Clone)]
 pub struct RunConfig {
     /// The map.
     pub map: Map,
-    /// Start position (`350R`).
-    pub from: String,
-    /// Goal position (`376L`).
-    pub to: String,
-    /// The robot's name.
-    pub robot: String,
+    /// Each robot's route, in order (robot k's colour and row).
+    pub routes: Vec<RouteSpec>,
     /// Seed of the simulated world.
     pub seed: u64,
     /// Sensor noise and wheel slip.
@@ -42,27 +172,34 @@ pub struct RunConfig {
     pub speed: f64,
     /// Give up after this much simulated time.
     pub limit: Duration,
-    /// Give up when the robot has not moved half a metre in this much
+    /// Give up on a robot that has not moved half a metre in this much
     /// simulated time (pinned against a wall, say).
     pub stuck: Duration,
     /// How the Navigator drives.
     pub nav: NavConfig,
     /// How the CTracker tracks.
     pub track: TrackConfig,
-    /// Whether the local mapper corrects the heading.
+    /// Whether the local mapper corrects the odometry.
     pub himm: bool,
+    /// How the local mapper corrects.
+    pub himm_cfg: HimmConfig,
     /// Whether the plate finder looks for door plates.
     pub plfinder: bool,
+    /// Robots whose upward camera is covered: they see no light.
+    pub covered: Vec<String>,
 }
 
 impl RunConfig {
-    /// A run on `map` with the defaults: noise on, 4 × real time.
+    /// One robot, `r1`, on `map` with the defaults: noise on, 4 × real time.
     pub fn new(map: Map, from: &str, to: &str) -> RunConfig {
+        RunConfig::fleet(map, vec![RouteSpec::new("r1", from, to)])
+    }
+
+    /// Several robots, one route each.
+    pub fn fleet(map: Map, routes: Vec<RouteSpec>) -> RunConfig {
         RunConfig {
             map,
-            from: from.into(),
-            to: to.into(),
-            robot: "r1".into(),
+            routes,
             seed: 1,
             noise: Noise::default(),
             speed: 4.0,
@@ -71,160 +208,148 @@ impl RunConfig {
             nav: NavConfig::default(),
             track: TrackConfig::default(),
             himm: true,
+            himm_cfg: HimmConfig::default(),
             plfinder: true,
+            covered: Vec::new(),
         }
     }
 }
 
-/// Something to show while the robot drives.
+/// Something to show while the robots drive; `robot` is the index in the
+/// configuration's routes.
 #[derive(Debug, Clone)]
 pub enum Event {
-    /// The plan, before the robot moves.
-    Planned(Plan),
-    /// A goal handed to the Navigator.
-    Goal(Handed),
-    /// Once a simulated second or so: where the robot truly is.
+    /// A robot's plan, before anything moves.
+    Planned {
+        /// Which robot.
+        robot: usize,
+        /// Its plan.
+        plan: Plan,
+    },
+    /// A goal handed to a Navigator.
+    Goal {
+        /// Which robot.
+        robot: usize,
+        /// The goal.
+        handed: Handed,
+    },
+    /// A goal done and judged.
+    Judged {
+        /// Which robot.
+        robot: usize,
+        /// The goal, with its verdict.
+        handed: Handed,
+    },
+    /// A robot waits for, holds or has left a narrow passage.
+    Passage {
+        /// Which robot.
+        robot: usize,
+        /// The passage.
+        passage: String,
+        /// What it is doing there.
+        state: PassageState,
+    },
+    /// A robot's run ended (arrived, failed or given up).
+    Finished {
+        /// Which robot.
+        robot: usize,
+        /// Its report.
+        report: Box<Report>,
+    },
+    /// Once a simulated second or so: where every robot truly is.
     Tick {
-        /// Simulated time, s.
+        /// Simulated time since the start, s.
         time_s: f64,
-        /// True pose.
-        pose: Pose,
-        /// Distance driven, mm.
-        travelled_mm: f64,
+        /// Each robot, in order.
+        robots: Vec<RobotTick>,
     },
 }
 
-/// The outcome of a run: a row of Table 6.1 and more.
+/// Where a robot is with a narrow passage.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PassageState {
+    /// Stopped, waiting for it to be free.
+    Waiting,
+    /// Holding it (going through).
+    Holding,
+    /// Gave it back.
+    Left,
+}
+
+/// One robot's state in a [`Event::Tick`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RobotTick {
+    /// True pose.
+    pub pose: Pose,
+    /// Distance truly driven, mm.
+    pub travelled_mm: f64,
+    /// How far odometry is from the truth, mm.
+    pub odometry_error_mm: f64,
+    /// Whether its run has ended.
+    pub finished: bool,
+}
+
+/// The outcome of a whole run: one report per robot, in order.
 #[derive(Debug, Clone)]
-pub struct Report {
-    /// Start and goal.
-    pub from: String,
-    /// Goal.
-    pub to: String,
-    /// The plan.
-    pub plan: Plan,
-    /// Distance driven, m (the thesis' "Actual Dist.").
-    pub driven_m: f64,
-    /// Signed distance to the goal along the last leg, cm: positive past
-    /// it, negative short of it.
-    pub to_goal_cm: f64,
-    /// Distance from the goal across the last leg, cm.
-    pub off_line_cm: f64,
-    /// Straight-line distance from the goal, cm.
-    pub miss_cm: f64,
-    /// Simulated run time.
-    pub run_time: Duration,
-    /// Wall-clock time it took.
+pub struct FleetReport {
+    /// Each robot's run.
+    pub robots: Vec<Report>,
+    /// Wall-clock time of the whole run.
     pub wall_time: Duration,
-    /// Modes the plan needs.
-    pub modes_needed: ModeCount,
-    /// Modes completed.
-    pub modes_done: ModeCount,
-    /// The true trajectory.
-    pub trail: Vec<Point>,
-    /// What the Navigator did.
-    pub nav: NavLog,
-    /// What the CTracker did, per L segment.
-    pub lights: Vec<SegmentLog>,
-    /// Door plates reported.
-    pub plates: Vec<crate::board::PlateReport>,
-    /// Heading corrections made.
-    pub fixes: Vec<crate::board::HeadingFix>,
-    /// Why the run was given up, when it was (the robot did not arrive).
-    pub failure: Option<String>,
 }
 
-impl Report {
-    /// Whether the run reached the goal: not given up, and within a metre.
-    pub fn arrived(&self) -> bool {
-        self.failure.is_none() && self.miss_cm < ARRIVED_CM
-    }
-
-    /// The row in the layout of Table 6.1.
+impl FleetReport {
+    /// The table: a header and one row per robot.
     pub fn table(&self) -> String {
-        let secs = self.run_time.as_secs();
-        let frac = |done: usize, need: usize| format!("{done}/{need}");
-        format!(
-            "{:<4}{:<22}{:>12}{:>16}{:>11}{:>7}{:>7}{:>7}\n{:<4}{:<22}{:>12.3}{:>+16.0}{:>11}{:>7}{:>7}{:>7}",
-            "No.",
-            "Path",
-            "Actual (m)",
-            "To goal (cm)",
-            "Run time",
-            "L",
-            "C",
-            "D",
-            "1",
-            format!("{} to {}", self.from, self.to),
-            self.driven_m,
-            self.to_goal_cm,
-            format!("{}:{:02}", secs / 60, secs % 60),
-            frac(self.modes_done.l, self.modes_needed.l),
-            frac(self.modes_done.c, self.modes_needed.c),
-            frac(self.modes_done.d, self.modes_needed.d),
-        )
+        let mut out = Report::header();
+        for (i, r) in self.robots.iter().enumerate() {
+            out.push('\n');
+            out.push_str(&r.row(i + 1));
+        }
+        out
     }
 
-    /// The trajectory on the map, as PNG bytes.
+    /// Every starred entry's reason.
+    pub fn reasons(&self) -> Vec<String> {
+        self.robots.iter().flat_map(Report::reasons).collect()
+    }
+
+    /// Every trajectory on the map, as PNG bytes.
     pub fn picture(&self, map: &Map, world: &World, width_px: u32) -> Vec<u8> {
-        let mut overlay = render::route_shapes(&self.plan.route);
-        for w in self.trail.windows(2) {
-            overlay.push(Shape::Line {
-                a: w[0],
-                b: w[1],
-                color: render::TRACK,
-                width: 2.0,
-                dashed: false,
-            });
-        }
-        if let Some(end) = self.trail.last() {
-            overlay.push(Shape::Dot {
-                at: *end,
-                radius: 4.0,
-                color: render::TRACK,
-            });
-        }
-        for p in &self.plates {
-            overlay.push(Shape::Dot {
-                at: (p.x_mm as f64, p.y_mm as f64),
-                radius: 3.0,
-                color: render::FOUND,
-            });
-        }
-        let img = render::raster(map, world, width_px, &overlay);
-        let mut out = std::io::Cursor::new(Vec::new());
-        // Encoding an in-memory RGB image cannot fail.
-        let _ = img.write_to(&mut out, image::ImageFormat::Png);
-        out.into_inner()
+        crate::report::fleet_picture(&self.robots, map, world, width_px)
     }
 }
 
-/// The world side of a run: a simulated robot put down at the plan's
-/// start, its hardware servers and a data server, on one Zenoh session.
-/// The world does not step until [`SimWorld::start`] is called on
-/// [`Rig::world`].
+/// The world side of a run: the simulated robots put down at their plans'
+/// starts facing their routes, their hardware servers, the ground-truth
+/// server and a data server, on one Zenoh session. The world does not step
+/// until [`SimWorld::start`] is called on [`Rig::world`].
 pub struct Rig {
     /// The session the servers use.
     pub session: zenoh::Session,
     /// The simulated world.
     pub world: SimWorld,
-    /// The robot's index in it.
-    pub index: usize,
+    /// Each robot's index in it, in the order of the plans.
+    pub index: Vec<usize>,
     servers: Vec<rome_hardware::robot::Running>,
     data: rome_data::Running,
 }
 
 impl Rig {
-    /// Builds the world for `plan` and starts the servers on a session
-    /// opened with `net`; returns once every server is alive.
-    pub async fn start(cfg: &RunConfig, plan: &Plan, net: NetOptions) -> Result<Rig, NavError> {
+    /// Builds the world for `plans` (robot name, plan) and starts the
+    /// servers on a session opened with `net`; returns once every server
+    /// is alive.
+    pub async fn start(
+        cfg: &RunConfig,
+        plans: &[(String, Plan)],
+        net: NetOptions,
+    ) -> Result<Rig, NavError> {
         if !(cfg.speed.is_finite() && cfg.speed > 0.0) {
             return Err(NavError::Config(format!(
                 "the simulation speed must be a positive number, got {}",
                 cfg.speed
             )));
         }
-        let (start, _) = plan.ends();
         let mut sim = Sim::new(
             &cfg.map,
             SimConfig {
@@ -233,16 +358,27 @@ impl Rig {
                 ..SimConfig::default()
             },
         );
-        let index = sim
-            .add_robot(
-                &cfg.robot,
-                Pose {
-                    x: start.0,
-                    y: start.1,
-                    heading: plan.start_heading_deg,
-                },
-            )
-            .map_err(|e| NavError::Config(e.to_string()))?;
+        let mut index = Vec::new();
+        for (robot, plan) in plans {
+            let (start, _) = plan.ends();
+            let i = sim
+                .add_robot(
+                    robot,
+                    Pose {
+                        x: start.0,
+                        y: start.1,
+                        heading: plan.start_heading_deg,
+                    },
+                )
+                .map_err(|e| NavError::Config(e.to_string()))?;
+            index.push(i);
+        }
+        for name in &cfg.covered {
+            let i = sim
+                .index(name)
+                .map_err(|e| NavError::Config(e.to_string()))?;
+            sim.cover_camera(i, rome_sim::Camera::Up);
+        }
         let world = SimWorld::new(sim);
         // The servers' clocks follow the simulated one.
         let scale = |ms: f64| Duration::from_secs_f64((ms / 1_000.0 / cfg.speed).max(0.002));
@@ -263,18 +399,27 @@ impl Rig {
                 ..Default::default()
             },
         );
-        let servers = spawn_sim_robot(&session, &root, &world, &cfg.robot, rates)
-            .map_err(|e| NavError::Config(e.to_string()))?;
-        for device in ["base", "proximity", "camera/up", "camera/side"] {
-            rome_client::alive::await_server(
-                &session,
-                &root,
-                "robot",
-                &format!("{}/{device}", cfg.robot),
-                Duration::from_secs(10),
-            )
-            .await?;
+        let mut servers = vec![spawn_truth(&session, &root, &world, Some(scale(500.0)))];
+        for (robot, _) in plans {
+            servers.extend(
+                spawn_sim_robot(&session, &root, &world, robot, rates)
+                    .map_err(|e| NavError::Config(e.to_string()))?,
+            );
         }
+        for (robot, _) in plans {
+            for device in ["base", "proximity", "camera/up", "camera/side"] {
+                rome_client::alive::await_server(
+                    &session,
+                    &root,
+                    "robot",
+                    &format!("{robot}/{device}"),
+                    Duration::from_secs(10),
+                )
+                .await?;
+            }
+        }
+        rome_client::alive::await_server(&session, &root, "sim", "truth", Duration::from_secs(10))
+            .await?;
         Ok(Rig {
             session,
             world,
@@ -284,9 +429,9 @@ impl Rig {
         })
     }
 
-    /// Where the robot truly is.
-    pub fn truth(&self) -> Pose {
-        self.world.lock().robot(self.index).pose
+    /// Where robot `k` (in the order of the plans) truly is.
+    pub fn truth(&self, k: usize) -> Pose {
+        self.world.lock().robot(self.index[k]).pose
     }
 
     /// Stops the servers and closes the session.
@@ -299,224 +444,366 @@ impl Rig {
     }
 }
 
-/// Runs the robot from `from` to `to`; `progress` hears what happens.
+/// Runs one robot from its start to its goal; `progress` hears what
+/// happens.
 pub async fn run(cfg: RunConfig, mut progress: impl FnMut(Event)) -> Result<Report, NavError> {
+    if cfg.routes.len() != 1 {
+        return Err(NavError::Config(format!(
+            "run() drives one robot; {} routes given (use run_fleet)",
+            cfg.routes.len()
+        )));
+    }
+    let mut fleet = run_fleet(cfg, &mut progress).await?;
+    fleet
+        .robots
+        .pop()
+        .ok_or(NavError::Gone("the run ended without a report"))
+}
+
+/// One robot's clients, connected and ready.
+struct Crew {
+    k: usize,
+    name: String,
+    from: String,
+    to: String,
+    plan: Plan,
+    board: Board,
+    robot: RobotClient,
+    truth: TruthClient,
+    world_index: usize,
+}
+
+/// Opens the clients of one role for robot `robot`.
+async fn connect(
+    session: &zenoh::Session,
+    robot: &str,
+    role: &'static str,
+) -> Result<(Board, RobotClient), NavError> {
+    let ds = DataClient::connect(session, DataOptions::new(role)).await?;
+    let rc = RobotClient::connect(session, robot, RobotOptions::new(role)).await?;
+    Ok((Board::new(ds, robot), rc))
+}
+
+/// Runs every robot of `cfg` at once; `progress` hears what happens.
+pub async fn run_fleet(
+    cfg: RunConfig,
+    progress: &mut impl FnMut(Event),
+) -> Result<FleetReport, NavError> {
     let wall = Instant::now();
+    if cfg.routes.is_empty() {
+        return Err(NavError::Config("no robots to run".into()));
+    }
     let world_map = World::from_map(&cfg.map);
     let network = Network::new(&cfg.map, &world_map);
-    let plan = Plan::new(&world_map, &network, &cfg.from, &cfg.to)?;
-    progress(Event::Planned(plan.clone()));
-
-    let (_, goal) = plan.ends();
-    let rig = Rig::start(&cfg, &plan, NetOptions::isolated()).await?;
-    let (session, root, world, index) = (
-        rig.session.clone(),
-        Root::default(),
-        rig.world.clone(),
-        rig.index,
-    );
-    let connect = |role: &'static str| {
-        let session = session.clone();
-        let root = root.clone();
-        let robot = cfg.robot.clone();
-        async move {
-            let ds = DataClient::connect(
-                &session,
-                DataOptions {
-                    root: root.clone(),
-                    ..DataOptions::new(role)
-                },
-            )
-            .await?;
-            let rc = RobotClient::connect(
-                &session,
-                &robot,
-                RobotOptions {
-                    root,
-                    ..RobotOptions::new(role)
-                },
-            )
-            .await?;
-            Ok::<_, NavError>((Board::new(ds, &robot), rc))
+    let mut plans = Vec::new();
+    for (k, r) in cfg.routes.iter().enumerate() {
+        if cfg.routes[..k].iter().any(|o| o.robot == r.robot) {
+            return Err(NavError::Config(format!(
+                "two routes for robot '{}'",
+                r.robot
+            )));
         }
-    };
+        let plan = Plan::new(&world_map, &network, &r.from, &r.to)?;
+        progress(Event::Planned {
+            robot: k,
+            plan: plan.clone(),
+        });
+        plans.push((r.robot.clone(), plan));
+    }
+    let rig = Rig::start(&cfg, &plans, NetOptions::isolated()).await?;
+    let session = rig.session.clone();
+    let root = Root::default();
 
-    let (pboard, probot) = connect("planner").await?;
-    // The world steps only once everything is up, so the run's clock
-    // starts with the robot at the start.
-    let stepper = world.start(Some(cfg.speed));
-    planner::put_down(&probot, &plan, None).await?;
+    // Everyone's clients are up before the world steps, so each run's
+    // clock starts with its robot at its start.
+    let mut crews = Vec::new();
+    let mut tasks = tokio::task::JoinSet::new();
+    let (nav_tx, mut nav_rx) = mpsc::unbounded_channel::<(usize, NavLog)>();
+    for (k, (name, plan)) in plans.iter().enumerate() {
+        let (board, robot) = connect(&session, name, "planner").await?;
+        let truth = TruthClient::new(&session, &root, name)?;
+        {
+            let (board, robot) = connect(&session, name, "navigator").await?;
+            let mut nav_cfg = cfg.nav.clone();
+            if let Some(v) = cfg.routes[k].cruise_mm_s {
+                nav_cfg.cruise_mm_s = v;
+            }
+            let (ntx, mut nrx) = mpsc::unbounded_channel::<NavLog>();
+            let fwd = nav_tx.clone();
+            tokio::spawn(async move {
+                while let Some(log) = nrx.recv().await {
+                    let _ = fwd.send((k, log));
+                }
+            });
+            tasks.spawn(async move {
+                let r = Navigator::new(robot, board, nav_cfg)
+                    .run_reporting(&ntx)
+                    .await;
+                (k, r.map(|_| "navigator"))
+            });
+        }
+        {
+            let (board, robot) = connect(&session, name, "ctracker").await?;
+            let track = cfg.track.clone();
+            tasks.spawn(async move {
+                let r = CTracker::new(robot, board, track).run(None).await;
+                (k, r.map(|_| "ctracker"))
+            });
+        }
+        if cfg.himm {
+            let (board, robot) = connect(&session, name, "himm").await?;
+            let himm = cfg.himm_cfg.clone();
+            tasks.spawn(async move {
+                let r = Himm::new(robot, board, himm).run().await;
+                (k, r.map(|_| "himm"))
+            });
+        }
+        if cfg.plfinder {
+            let (board, robot) = connect(&session, name, "plfinder").await?;
+            let pl = PlConfig::with_map(&world_map);
+            tasks.spawn(async move {
+                let r = PlFinder::new(robot, board, pl).run().await;
+                (k, r.map(|_| "plfinder"))
+            });
+        }
+        crews.push(Crew {
+            k,
+            name: name.clone(),
+            from: cfg.routes[k].from.clone(),
+            to: cfg.routes[k].to.clone(),
+            plan: plan.clone(),
+            board,
+            robot,
+            truth,
+            world_index: rig.index[k],
+        });
+    }
+    drop(nav_tx);
+    let stepper = rig.world.start(Some(cfg.speed));
     let scale = |ms: f64| Duration::from_secs_f64((ms / 1_000.0 / cfg.speed).max(0.002));
 
-    let mut tasks = tokio::task::JoinSet::new();
-    let (nav_tx, mut nav_rx) = mpsc::unbounded_channel::<NavLog>();
-    {
-        let (board, robot) = connect("navigator").await?;
-        let nav_cfg = cfg.nav.clone();
-        tasks.spawn(async move {
-            let mut nav = Navigator::new(robot, board, nav_cfg);
-            let r = nav.run_reporting(&nav_tx).await;
-            r.map(|_| "navigator")
-        });
+    // Each robot's Planner runs in a task of its own; a robot whose client
+    // fails, or that is stuck or late, ends alone and the others go on.
+    let (etx, mut erx) = mpsc::unbounded_channel::<Event>();
+    let mut drivers = tokio::task::JoinSet::new();
+    let mut cancels = Vec::new();
+    for crew in crews {
+        let (cancel, cancelled) = tokio::sync::oneshot::channel::<String>();
+        cancels.push(Some(cancel));
+        let etx = etx.clone();
+        drivers.spawn(drive(crew, rig.world.clone(), wall, etx, cancelled));
     }
-    let (seg_tx, mut seg_rx) = mpsc::unbounded_channel::<SegmentLog>();
-    {
-        let (board, robot) = connect("ctracker").await?;
-        let track = cfg.track.clone();
-        tasks.spawn(async move {
-            CTracker::new(robot, board, track)
-                .run(Some(seg_tx))
-                .await
-                .map(|_| "ctracker")
-        });
-    }
-    if cfg.himm {
-        let (board, robot) = connect("himm").await?;
-        tasks.spawn(async move {
-            Himm::new(robot, board, HimmConfig::default())
-                .run()
-                .await
-                .map(|_| "himm")
-        });
-    }
-    if cfg.plfinder {
-        let (board, robot) = connect("plfinder").await?;
-        let pl = PlConfig::with_map(&world_map);
-        tasks.spawn(async move {
-            PlFinder::new(robot, board, pl)
-                .run()
-                .await
-                .map(|_| "plfinder")
-        });
-    }
+    drop(etx);
 
-    let pose_of = |w: &SimWorld| {
-        let sim = w.lock();
-        let r = sim.robot(index);
-        (sim.time_ms(), r.pose, r.travelled_mm)
+    let n = cfg.routes.len();
+    let mut reports: Vec<Option<Report>> = vec![None; n];
+    let mut navs = vec![NavLog::default(); n];
+    let mut max_err = vec![0.0f64; n];
+    // Odometry means something only once the Planner has registered the
+    // robot at its start, just before handing over the first goal.
+    let mut registered = vec![false; n];
+    let mut moved: Vec<(u64, f64)> = vec![(0, 0.0); n];
+    let t0 = rig.world.lock().time_ms();
+    let monitors: Vec<RobotClient> = {
+        let mut m = Vec::new();
+        for (name, _) in &plans {
+            m.push(RobotClient::connect(&session, name, RobotOptions::new("monitor")).await?);
+        }
+        m
     };
-    let t0 = pose_of(&world).0;
-    // Goals handed so far: a run given up still shows the modes it got to.
-    let mut handed_so_far: Vec<Handed> = Vec::new();
-    let mut failure = None;
-    let outcome = {
-        let (htx, mut hrx) = mpsc::unbounded_channel::<Handed>();
-        let plan_run = planner::run(&pboard, &plan, move |h| {
-            let _ = htx.send(h.clone());
-        });
-        tokio::pin!(plan_run);
-        let mut tick = tokio::time::interval(scale(1_000.0));
-        let mut moved = (t0, 0.0f64);
-        loop {
-            tokio::select! {
-                r = &mut plan_run => break r,
-                Some(h) = hrx.recv() => {
-                    handed_so_far.push(h.clone());
-                    progress(Event::Goal(h));
+    for m in moved.iter_mut() {
+        m.0 = t0;
+    }
+    let mut tick = tokio::time::interval(scale(1_000.0));
+    while reports.iter().any(Option::is_none) {
+        tokio::select! {
+            Some(event) = erx.recv() => {
+                match &event {
+                    Event::Finished { robot, report } => reports[*robot] = Some((**report).clone()),
+                    Event::Goal { robot, .. } => registered[*robot] = true,
+                    _ => {}
                 }
-                Some(done) = tasks.join_next() => {
-                    let why = match done {
-                        Ok(Ok(who)) => NavError::Config(format!("the {who} stopped before the run ended")),
-                        Ok(Err(e)) => e,
-                        Err(e) => NavError::Config(format!("a client task failed: {e}")),
-                    };
-                    break Err(why);
-                }
-                _ = tick.tick() => {
-                    let (now, pose, travelled_mm) = pose_of(&world);
-                    if travelled_mm - moved.1 >= 500.0 {
-                        moved = (now, travelled_mm);
+                progress(event);
+            }
+            Some(done) = tasks.join_next() => {
+                let (k, why) = match done {
+                    Ok((k, Ok(who))) => (k, format!("the {who} stopped before the run ended")),
+                    Ok((k, Err(e))) => (k, format!("a navigation client failed: {e}")),
+                    Err(e) => {
+                        // A panicked client task: its robot is unknown, so
+                        // every robot still running is given up.
+                        let why = format!("a client task failed: {e}");
+                        for c in cancels.iter_mut() {
+                            if let Some(c) = c.take() {
+                                let _ = c.send(why.clone());
+                            }
+                        }
+                        continue;
                     }
-                    failure = if Duration::from_millis(now - t0) > cfg.limit {
-                        Some(format!(
-                            "the robot did not arrive within {} of simulated time",
-                            minutes(cfg.limit)
-                        ))
-                    } else if Duration::from_millis(now - moved.0) > cfg.stuck {
-                        Some(format!(
-                            "the robot is stuck at ({:.1}, {:.1}) m: it has moved less than half a metre in {} of simulated time",
-                            pose.x / 1_000.0,
-                            pose.y / 1_000.0,
-                            minutes(cfg.stuck)
-                        ))
-                    } else {
-                        None
-                    };
-                    if failure.is_some() {
-                        // The goal in hand when the run was given up was
-                        // not completed.
-                        handed_so_far.pop();
-                        break Ok(std::mem::take(&mut handed_so_far));
-                    }
-                    progress(Event::Tick { time_s: (now - t0) as f64 / 1_000.0, pose, travelled_mm });
+                };
+                if let Some(c) = cancels[k].take() {
+                    let _ = c.send(why);
                 }
             }
+            Some(_) = drivers.join_next() => {}
+            Some((k, log)) = nav_rx.recv() => navs[k] = log,
+            _ = tick.tick() => {
+                let mut robots = Vec::with_capacity(n);
+                let now = rig.world.lock().time_ms();
+                for k in 0..n {
+                    let (pose, travelled_mm) = {
+                        let sim = rig.world.lock();
+                        let r = sim.robot(rig.index[k]);
+                        (r.pose, r.travelled_mm)
+                    };
+                    let finished = reports[k].is_some();
+                    let mut odometry_error_mm = 0.0;
+                    if !finished {
+                        if let (true, Ok(p)) = (registered[k], monitors[k].pose().await) {
+                            odometry_error_mm = (f64::from(p.x_mm) - pose.x).hypot(f64::from(p.y_mm) - pose.y);
+                            max_err[k] = max_err[k].max(odometry_error_mm);
+                        }
+                        if travelled_mm - moved[k].1 >= 500.0 {
+                            moved[k] = (now, travelled_mm);
+                        }
+                        let why = if Duration::from_millis(now - t0) > cfg.limit {
+                            Some(format!(
+                                "the robot did not arrive within {} of simulated time",
+                                minutes(cfg.limit)
+                            ))
+                        } else if Duration::from_millis(now - moved[k].0) > cfg.stuck {
+                            Some(format!(
+                                "the robot is stuck at ({:.1}, {:.1}) m: it has moved less than half a metre in {} of simulated time",
+                                pose.x / 1_000.0,
+                                pose.y / 1_000.0,
+                                minutes(cfg.stuck)
+                            ))
+                        } else {
+                            None
+                        };
+                        if let Some(why) = why {
+                            if let Some(c) = cancels[k].take() {
+                                let _ = c.send(why);
+                            }
+                        }
+                    }
+                    robots.push(RobotTick { pose, travelled_mm, odometry_error_mm, finished });
+                }
+                progress(Event::Tick { time_s: (now - t0) as f64 / 1_000.0, robots });
+            }
         }
-    };
-    let (end_ms, end, travelled) = pose_of(&world);
+    }
     drop(stepper);
-    let trail: Vec<Point> = world
-        .lock()
-        .robot(index)
-        .trail
-        .iter()
-        .map(|p| (p.x, p.y))
-        .collect();
-    let plates = read_all(&pboard, crate::board::Var::Plate).await;
-    let fixes = read_all(&pboard, crate::board::Var::HeadingFix).await;
     tasks.abort_all();
     while tasks.join_next().await.is_some() {}
+    drivers.abort_all();
+    while drivers.join_next().await.is_some() {}
+    let mut robots = Vec::with_capacity(n);
+    for (k, r) in reports.into_iter().enumerate() {
+        let Some(mut r) = r else { continue };
+        r.nav = navs[k].clone();
+        r.odometry_max_error_cm =
+            Some(max_err[k].max(r.odometry_error_cm.unwrap_or(0.0) * 10.0) / 10.0);
+        r.trail = rig
+            .world
+            .lock()
+            .robot(rig.index[k])
+            .trail
+            .iter()
+            .map(|p| (p.x, p.y))
+            .collect::<Vec<Point>>();
+        robots.push(r);
+    }
     rig.stop().await;
-    let handed = outcome?;
-
-    let mut nav = NavLog::default();
-    while let Ok(n) = nav_rx.try_recv() {
-        nav = n;
-    }
-    let mut lights = Vec::new();
-    while let Ok(s) = seg_rx.try_recv() {
-        lights.push(s);
-    }
-    let last_heading = plan
-        .route
-        .legs()
-        .last()
-        .map_or(plan.start_heading_deg, |l| l.3);
-    let d = direction(last_heading);
-    let (dx, dy) = (end.x - goal.0, end.y - goal.1);
-    let mut done = ModeCount::default();
-    for h in &handed {
-        match h.step.goal.goal_type {
-            crate::board::GoalType::L => done.l += 1,
-            crate::board::GoalType::C => done.c += 1,
-            crate::board::GoalType::D => done.d += 1,
-            crate::board::GoalType::E => {}
-        }
-    }
-    Ok(Report {
-        from: cfg.from.clone(),
-        to: cfg.to.clone(),
-        modes_needed: plan.modes(),
-        modes_done: done,
-        plan,
-        driven_m: travelled / 1_000.0,
-        to_goal_cm: (dx * d.0 + dy * d.1) / 10.0,
-        off_line_cm: (dx * d.1 - dy * d.0).abs() / 10.0,
-        miss_cm: distance((end.x, end.y), goal) / 10.0,
-        run_time: Duration::from_millis(end_ms - t0),
+    Ok(FleetReport {
+        robots,
         wall_time: wall.elapsed(),
-        trail,
-        nav,
-        lights,
-        plates,
-        fixes,
-        failure,
     })
 }
 
-/// How near the goal a run must end to have arrived, cm (the end-to-end
-/// tests' bound).
-pub const ARRIVED_CM: f64 = 100.0;
+/// One robot's run: puts it down, hands its goals over and judges them,
+/// until it is done, fails, or is cancelled with a reason. Sends
+/// [`Event::Finished`] with its report in every case.
+async fn drive(
+    crew: Crew,
+    world: SimWorld,
+    wall: Instant,
+    events: mpsc::UnboundedSender<Event>,
+    cancelled: tokio::sync::oneshot::Receiver<String>,
+) {
+    let k = crew.k;
+    let start = rome_hardware::truth::truth_of(&world, crew.world_index);
+    // Goals judged so far: a run given up still shows the modes it got to.
+    let mut judged: Vec<Handed> = Vec::new();
+    let failure = {
+        let run = async {
+            planner::put_down(&crew.robot, &crew.plan, None).await?;
+            planner::run(&crew.board, &crew.plan, Some(&crew.truth), |p| {
+                let event = match p {
+                    Progress::Handed(h) => Event::Goal {
+                        robot: k,
+                        handed: h.clone(),
+                    },
+                    Progress::Done(h) => {
+                        judged.push(h.clone());
+                        Event::Judged {
+                            robot: k,
+                            handed: h.clone(),
+                        }
+                    }
+                    Progress::Waiting(name) => Event::Passage {
+                        robot: k,
+                        passage: name.to_string(),
+                        state: PassageState::Waiting,
+                    },
+                    Progress::Passage(name, inside) => Event::Passage {
+                        robot: k,
+                        passage: name.to_string(),
+                        state: if inside {
+                            PassageState::Holding
+                        } else {
+                            PassageState::Left
+                        },
+                    },
+                };
+                let _ = events.send(event);
+            })
+            .await
+        };
+        tokio::select! {
+            r = run => r.err().map(|e| format!("the Planner stopped: {e}")),
+            why = cancelled => Some(why.unwrap_or_else(|_| "the run was stopped".into())),
+        }
+    };
+    // A robot whose run ended stands still, so it does not drive on into
+    // the others.
+    let _ = crew.robot.stop(false).await;
+    let end = rome_hardware::truth::truth_of(&world, crew.world_index);
+    let odometry = crew
+        .robot
+        .pose()
+        .await
+        .ok()
+        .map(|p| (f64::from(p.x_mm), f64::from(p.y_mm)));
+    let mut report = Report::new(Ended {
+        robot: crew.name.clone(),
+        from: crew.from.clone(),
+        to: crew.to.clone(),
+        plan: crew.plan.clone(),
+        steps: judged,
+        truth: (start, end),
+        odometry,
+        odometry_max_error_mm: None,
+        wall_time: wall.elapsed(),
+        failure,
+    });
+    report.plates = read_all(&crew.board, Var::Plate).await;
+    report.fixes = read_all(&crew.board, Var::HeadingFix).await;
+    let _ = events.send(Event::Finished {
+        robot: k,
+        report: Box::new(report),
+    });
+}
 
 /// `3 min` or `90 s`.
 fn minutes(d: Duration) -> String {
@@ -529,7 +816,7 @@ fn minutes(d: Duration) -> String {
 }
 
 /// Every value a variable's history holds, oldest first.
-async fn read_all<T: serde::de::DeserializeOwned>(board: &Board, var: crate::board::Var) -> Vec<T> {
+async fn read_all<T: serde::de::DeserializeOwned>(board: &Board, var: Var) -> Vec<T> {
     let name = board.var_name(var);
     let ds = board.client();
     let Ok(info) = ds.history(&name).await else {

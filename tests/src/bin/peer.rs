@@ -2,9 +2,9 @@
 //! need real separate processes (and a process to SIGKILL).
 
 use clap::{Parser, Subcommand};
-use rome_client::goals::{self, Goal, GoalType};
 use rome_client::net::NetOptions;
 use rome_client::{DataClient, DataOptions, RobotClient, RobotOptions};
+use rome_nav::board::{Board, Goal, GoalType, Sem};
 
 #[derive(Parser)]
 struct Args {
@@ -17,18 +17,30 @@ struct Args {
 
 #[derive(Subcommand)]
 enum Role {
-    /// Hand N goals over (Table 5.4), goal i having GoalDistance i.
+    /// Hand N goals over to one robot's Navigator through its blackboard
+    /// (Table 5.4), goal i having GoalDistance i.
     Planner {
         #[arg(long)]
         goals: u32,
+        #[arg(long, default_value = "r1")]
+        robot: String,
     },
-    /// Take N goals, printing each as a JSON line.
+    /// Take N goals from one robot's blackboard, printing each as a JSON
+    /// line.
     Navigator {
         #[arg(long)]
         goals: u32,
+        #[arg(long, default_value = "r1")]
+        robot: String,
     },
     /// Block on a semaphore; prints "acquired" if it ever gets a unit.
     Waiter {
+        #[arg(long)]
+        sem: String,
+    },
+    /// Take a unit with an undo wait, print "held" and keep it until killed
+    /// (a robot's Planner inside a narrow passage).
+    Holder {
         #[arg(long)]
         sem: String,
     },
@@ -45,7 +57,7 @@ fn goal(i: u32) -> Goal {
     Goal {
         goal_type: kinds[i as usize % kinds.len()],
         distance: i64::from(i),
-        direction_deg: i64::from(i % 360),
+        direction_deg: f64::from(i % 360),
     }
 }
 
@@ -57,6 +69,7 @@ async fn main() -> anyhow::Result<()> {
         Role::Planner { .. } => "planner",
         Role::Navigator { .. } => "navigator",
         Role::Waiter { .. } => "waiter",
+        Role::Holder { .. } => "holder",
         Role::Locker { robot } => {
             let r = RobotClient::connect(&session, robot, RobotOptions::new("locker")).await?;
             let lock = r.lock().await?;
@@ -67,23 +80,31 @@ async fn main() -> anyhow::Result<()> {
     };
     let ds = DataClient::connect(&session, DataOptions::new(role)).await?;
     match args.role {
-        Role::Planner { goals: n } => {
-            goals::declare(&ds).await?;
+        Role::Planner { goals: n, robot } => {
+            let board = Board::new(ds, &robot);
+            board.declare().await?;
             for i in 0..n {
-                goals::hand_over(&ds, &goal(i)).await?;
+                board.give_goal(&goal(i)).await?;
+                board.down(Sem::RobotStatus).await?;
             }
         }
-        Role::Navigator { goals: n } => {
-            goals::declare(&ds).await?;
+        Role::Navigator { goals: n, robot } => {
+            let board = Board::new(ds, &robot);
+            board.declare().await?;
             for _ in 0..n {
-                let g = goals::take(&ds).await?;
+                let g = board.take_goal().await?;
                 println!("{}", serde_json::to_string(&g)?);
-                goals::done(&ds).await?;
+                board.up(Sem::RobotStatus).await?;
             }
         }
         Role::Waiter { sem } => {
             ds.wait(&sem).await?;
             println!("acquired");
+        }
+        Role::Holder { sem } => {
+            ds.wait_undo(&sem).await?;
+            println!("held");
+            std::future::pending::<()>().await;
         }
         Role::Locker { .. } => {}
     }

@@ -1,14 +1,23 @@
-//! `rome demo`: a simulated robot driving from one room to another, with
-//! the data server, the hardware servers and every navigation client in
-//! one process on an in-process Zenoh session: no router, no configuration.
+//! `rome demo`: simulated robots driving from room to room, with the data
+//! server, each robot's hardware servers and its navigation clients in one
+//! process on an in-process Zenoh session: no router, no configuration.
 //!
-//! It shows the plan, then progress while the robot drives, then the run as
-//! a row of Table 6.1, and writes the trajectory on the map to a PNG.
+//! It shows each robot's plan, then live progress while they drive, then
+//! one row of Table 6.1 per robot (judged by ground truth, failures starred
+//! with their reasons), and writes every trajectory on the map to a PNG.
+//!
+//! ```text
+//! rome demo                               # r1: 350R to 376L
+//! rome demo --robots 3                    # the map's first three fleet routes
+//! rome demo --routes routes.txt           # one FROM TO a line, robot k on line k
+//! rome demo --cover-camera r1             # r1 sees no light: its L segment fails
+//! ```
 
 use crate::exit;
 use anyhow::Context;
 use rome_nav::board::GoalType;
-use rome_nav::run::{self, Event, RunConfig};
+use rome_nav::report::Report;
+use rome_nav::run::{self, Event, PassageState, RobotTick, RouteSpec, RunConfig};
 use rome_sim::Noise;
 use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
@@ -17,12 +26,20 @@ use std::time::Duration;
 /// Flags of `rome demo`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Start: a door jamb like 350R, or RING.NODE.
+    /// Start of robot r1: a door jamb like 350R, or RING.NODE.
     #[arg(long, default_value = "350R")]
     pub from: String,
-    /// Goal.
+    /// Goal of robot r1.
     #[arg(long, default_value = "376L")]
     pub to: String,
+    /// How many robots drive at once: r1 takes --from/--to, the others the
+    /// map's fleet routes (EB3 has ten), or routes picked with the seed.
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=100))]
+    pub robots: u32,
+    /// A routes file, one `FROM TO` a line: robot k drives line k
+    /// (overrides --from, --to and --robots).
+    #[arg(long, value_name = "FILE")]
+    pub routes: Option<PathBuf>,
     /// Map: a built-in name (eb3, fig5_3) or a .stk file.
     #[arg(long, default_value = "eb3")]
     pub map: String,
@@ -41,12 +58,52 @@ pub struct Args {
     /// Give up after this many simulated minutes.
     #[arg(long, default_value_t = 60.0)]
     pub limit_min: f64,
-    /// Leave out the local mapper (no heading correction).
+    /// Leave out the local mapper (no heading or sideways correction).
     #[arg(long)]
     pub no_himm: bool,
     /// Leave out the door-plate finder.
     #[arg(long)]
     pub no_plfinder: bool,
+    /// Cover this robot's upward camera (a fault to inject: it sees no
+    /// ceiling light, and its L segments are reported failed). Repeatable.
+    #[arg(long, value_name = "ROBOT")]
+    pub cover_camera: Vec<String>,
+}
+
+/// The routes the flags ask for.
+fn routes(args: &Args, map: &rome_maps::Map) -> anyhow::Result<Vec<RouteSpec>> {
+    if let Some(path) = &args.routes {
+        let text = std::fs::read_to_string(path)
+            .with_context(|| format!("cannot read the routes file {}", path.display()))?;
+        return Ok(run::parse_routes(&path.display().to_string(), &text)?);
+    }
+    let first = RouteSpec::new("r1", &args.from, &args.to);
+    let n = args.robots as usize;
+    if n == 1 {
+        return Ok(vec![first]);
+    }
+    let mut out = vec![first];
+    let extra = match rome_maps::builtin::routes(&args.map) {
+        Some(text) => run::parse_routes(&format!("{} routes (built in)", args.map), text)?,
+        None => Vec::new(),
+    };
+    for r in extra {
+        if out.len() == n {
+            break;
+        }
+        // r1's own start is taken: skip a built-in route that starts there.
+        if out.iter().any(|o| o.from == r.from) {
+            continue;
+        }
+        out.push(RouteSpec {
+            robot: format!("r{}", out.len() + 1),
+            ..r
+        });
+    }
+    if out.len() < n {
+        out = run::pick_routes(map, out, n, args.seed)?;
+    }
+    Ok(out)
 }
 
 /// Runs the demo.
@@ -57,136 +114,248 @@ pub async fn run(args: Args) -> anyhow::Result<u8> {
         "--limit-min must be a positive number of minutes, got {}",
         args.limit_min
     );
-    let mut cfg = RunConfig::new(map.clone(), &args.from, &args.to);
+    let routes = routes(&args, &map)?;
+    for name in &args.cover_camera {
+        anyhow::ensure!(
+            routes.iter().any(|r| &r.robot == name),
+            "--cover-camera {name}: no such robot in this run (robots are r1 … r{})",
+            routes.len()
+        );
+    }
+    let n = routes.len();
+    let mut cfg = RunConfig::fleet(map.clone(), routes.clone());
     cfg.seed = args.seed;
     cfg.speed = args.speed;
     cfg.himm = !args.no_himm;
     cfg.plfinder = !args.no_plfinder;
+    cfg.covered = args.cover_camera.clone();
     cfg.limit = Duration::from_secs_f64(args.limit_min * 60.0);
     if args.no_noise {
         cfg.noise = Noise::none();
     }
-    let mut total_m = 0.0;
-    let mut last_line = 0usize;
-    let tty = std::io::stdout().is_terminal();
+    let mut lengths = vec![0.0; n];
+    let mut screen = Live::new(std::io::stdout().is_terminal());
     let mut next_line_s = 0.0;
-    let report = run::run(cfg, |event| match event {
-        Event::Planned(plan) => {
-            total_m = plan.route.length_mm / 1_000.0;
+    let mut modes: Vec<String> = vec!["-".into(); n];
+    let fleet = run::run_fleet(cfg, &mut |event| match event {
+        Event::Planned { robot, plan } => {
+            lengths[robot] = plan.route.length_mm / 1_000.0;
+            let r = &routes[robot];
             println!(
-                "plan {} -> {} on '{}': {:.3} m, {} corner(s), {} goal(s)",
-                args.from,
-                args.to,
+                "{} plan {} -> {} on '{}': {:.3} m, {} corner(s), {} goal(s){}",
+                r.robot,
+                r.from,
+                r.to,
                 map.name,
-                total_m,
+                lengths[robot],
                 plan.route.turns,
-                plan.steps.len()
+                plan.steps.len(),
+                if plan.passages.is_empty() {
+                    String::new()
+                } else {
+                    format!(
+                        "; narrow passage(s) {}",
+                        plan.passages
+                            .iter()
+                            .map(|p| p.name.as_str())
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    )
+                }
             );
             for line in plan.describe() {
                 println!("  {line}");
             }
         }
-        Event::Goal(h) => {
-            let g = &h.step.goal;
+        Event::Goal { robot, handed } => {
+            let g = &handed.step.goal;
             let unit = if g.goal_type == GoalType::L {
                 "light(s)"
             } else {
                 "mm"
             };
-            clear(&mut last_line);
-            println!(
-                "[goal {}] {:?} {} {unit} heading {:.0}°",
-                h.index + 1,
+            modes[robot] = format!("{:?} {}", g.goal_type, handed.index + 1);
+            screen.line(&format!(
+                "[{} goal {}] {:?} {} {unit} heading {:.0}°",
+                routes[robot].robot,
+                handed.index + 1,
                 g.goal_type,
                 g.distance,
                 g.direction_deg
-            );
+            ));
         }
-        Event::Tick {
-            time_s,
-            pose,
-            travelled_mm,
+        Event::Judged { robot, handed } => {
+            if let Some(why) = &handed.failure {
+                screen.line(&format!(
+                    "[{} goal {}] failed: {why}",
+                    routes[robot].robot,
+                    handed.index + 1
+                ));
+            }
+        }
+        Event::Passage {
+            robot,
+            passage,
+            state,
         } => {
-            let line = format!(
-                "  {:>3}:{:02}  driven {:>7.2} m of {:.1}  at ({:.1}, {:.1}) m heading {:.0}°",
-                (time_s as u64) / 60,
-                (time_s as u64) % 60,
-                travelled_mm / 1_000.0,
-                total_m,
-                pose.x / 1_000.0,
-                pose.y / 1_000.0,
-                pose.heading
-            );
-            if tty {
-                clear(&mut last_line);
-                print!("{line}");
-                last_line = line.len();
-                let _ = std::io::stdout().flush();
+            let what = match state {
+                PassageState::Waiting => "waits for",
+                PassageState::Holding => "enters",
+                PassageState::Left => "has left",
+            };
+            screen.line(&format!(
+                "[{}] {what} the narrow passage {passage}",
+                routes[robot].robot
+            ));
+        }
+        Event::Finished { robot, report } => {
+            modes[robot] = if report.arrived() {
+                "arrived".into()
+            } else {
+                "stopped".into()
+            };
+            screen.line(&format!(
+                "[{}] {} {:.0} cm from {}",
+                routes[robot].robot, modes[robot], report.miss_cm, report.to
+            ));
+        }
+        Event::Tick { time_s, robots } => {
+            let lines: Vec<String> = robots
+                .iter()
+                .enumerate()
+                .map(|(k, t)| status(&routes[k].robot, time_s, t, lengths[k], &modes[k]))
+                .collect();
+            if screen.tty {
+                screen.draw(&lines);
             } else if time_s >= next_line_s {
-                // Into a file or a pipe: a line every ten simulated seconds.
-                println!("{line}");
+                // Into a file or a pipe: lines every ten simulated seconds.
+                for l in &lines {
+                    println!("{l}");
+                }
                 next_line_s = time_s + 10.0;
             }
         }
     })
     .await
     .context("the run failed")?;
-    clear(&mut last_line);
+    screen.clear();
     println!();
-    println!("{}", report.table());
+    println!("{}", fleet.table());
+    for why in fleet.reasons() {
+        println!("{why}");
+    }
     println!();
-    let verdict = match &report.failure {
-        None if report.arrived() => "arrived",
+    for r in &fleet.robots {
+        summary(r);
+    }
+    let world = rome_maps::World::from_map(&map);
+    let png = fleet.picture(&map, &world, 1600);
+    std::fs::write(&args.output, png)
+        .with_context(|| format!("cannot write {}", args.output.display()))?;
+    println!(
+        "trajectories: {} ({} robot(s), {:.1?} of wall time)",
+        args.output.display(),
+        fleet.robots.len(),
+        fleet.wall_time
+    );
+    // A run in which a robot did not reach its goal is a failed run, for
+    // scripts too.
+    if fleet.robots.len() < n || fleet.robots.iter().any(|r| !r.arrived()) {
+        return Ok(exit::ERROR);
+    }
+    Ok(exit::OK)
+}
+
+/// One robot's progress line.
+fn status(robot: &str, time_s: f64, t: &RobotTick, total_m: f64, mode: &str) -> String {
+    format!(
+        "  {robot:<4}{:>3}:{:02}  {:<8} driven {:>7.2} m of {:.1}  at ({:.1}, {:.1}) m heading {:>4.0}°  odometry off {:>4.2} m",
+        (time_s as u64) / 60,
+        (time_s as u64) % 60,
+        mode,
+        t.travelled_mm / 1_000.0,
+        total_m,
+        t.pose.x / 1_000.0,
+        t.pose.y / 1_000.0,
+        t.pose.heading,
+        t.odometry_error_mm / 1_000.0
+    )
+}
+
+/// What one robot's run came to, in words.
+fn summary(r: &Report) {
+    let verdict = match &r.failure {
+        None if r.arrived() => "arrived",
         None => "stopped, off the goal:",
         Some(why) => {
-            eprintln!("error: the robot did not arrive: {why}");
+            eprintln!("error: {} did not arrive: {why}", r.robot);
             "gave up"
         }
     };
     println!(
-        "{verdict} {:.0} cm from the goal ({:+.0} cm along the corridor, {:.0} cm across); {} simulated in {:.1?}",
-        report.miss_cm,
-        report.to_goal_cm,
-        report.off_line_cm,
-        fmt_time(report.run_time),
-        report.wall_time
+        "{}: {verdict} {:.0} cm from {} ({:+.0} cm along the corridor, {:.0} cm across) by ground truth; {} simulated",
+        r.robot,
+        r.miss_cm,
+        r.to,
+        r.to_goal_cm,
+        r.off_line_cm,
+        fmt_time(r.run_time),
     );
-    let seen: usize = report.lights.iter().map(|s| s.seen).sum();
-    let missed: usize = report.lights.iter().map(|s| s.missed).sum();
+    let seen: usize = r.lights().map(|s| s.seen).sum();
+    let missed: usize = r.lights().map(|s| s.missed).sum();
     println!(
-        "ceiling lights: {seen} seen, {missed} missed; heading corrections: {}; in-place turns: {}; door plates: {}",
-        report.fixes.len(),
-        report.nav.turns,
-        report.plates.len()
+        "    ceiling lights: {seen} seen, {missed} missed; corrections: {} (sideways {} of them); in-place turns: {}; door plates: {}; odometry off by {:.2} m at the end, {:.2} m at most",
+        r.fixes.len(),
+        r.fixes.iter().filter(|f| f.shift_mm != 0.0).count(),
+        r.nav.turns,
+        r.plates.len(),
+        r.odometry_error_cm.unwrap_or(0.0) / 100.0,
+        r.odometry_max_error_cm.unwrap_or(0.0) / 100.0,
     );
-    let named: Vec<String> = report
-        .plates
-        .iter()
-        .filter_map(|p| p.label.clone())
-        .collect();
+    let named: Vec<String> = r.plates.iter().filter_map(|p| p.label.clone()).collect();
     if !named.is_empty() {
-        println!("  plates read as: {}", named.join(" "));
+        println!("    plates read as: {}", named.join(" "));
     }
-    let world = rome_maps::World::from_map(&map);
-    let png = report.picture(&map, &world, 1600);
-    std::fs::write(&args.output, png)
-        .with_context(|| format!("cannot write {}", args.output.display()))?;
-    println!("trajectory: {}", args.output.display());
-    // A run that did not reach the goal is a failed run, for scripts too.
-    if !report.arrived() {
-        return Ok(exit::ERROR);
-    }
-    Ok(exit::OK)
 }
 
 fn fmt_time(d: Duration) -> String {
     format!("{}:{:02}", d.as_secs() / 60, d.as_secs() % 60)
 }
 
-/// Rubs out the progress line.
-fn clear(last: &mut usize) {
-    if *last > 0 {
-        print!("\r{:width$}\r", "", width = *last);
-        *last = 0;
+/// Progress on a terminal: a block of status lines redrawn in place, with
+/// event lines scrolling above it.
+struct Live {
+    tty: bool,
+    block: usize,
+}
+
+impl Live {
+    fn new(tty: bool) -> Live {
+        Live { tty, block: 0 }
+    }
+
+    /// Rubs out the status block.
+    fn clear(&mut self) {
+        if self.tty && self.block > 0 {
+            print!("\x1b[{}A\x1b[J", self.block);
+            self.block = 0;
+            let _ = std::io::stdout().flush();
+        }
+    }
+
+    /// An event line, above the status block.
+    fn line(&mut self, text: &str) {
+        self.clear();
+        println!("{text}");
+    }
+
+    /// Redraws the status block.
+    fn draw(&mut self, lines: &[String]) {
+        self.clear();
+        for l in lines {
+            println!("{l}");
+        }
+        self.block = lines.len();
+        let _ = std::io::stdout().flush();
     }
 }

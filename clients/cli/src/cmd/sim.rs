@@ -1,7 +1,7 @@
 //! `rome sim`: one simulated world and the base, proximity and camera
 //! servers of every robot in it, until Ctrl-C or SIGTERM.
 
-use crate::args::{CommonArgs, Side};
+use crate::args::CommonArgs;
 use crate::exit;
 use anyhow::Context;
 use rome_hardware::robot::{spawn_sim_robot, Rates};
@@ -34,13 +34,18 @@ pub struct Args {
     /// No sensor noise, slip or drift.
     #[arg(long)]
     pub no_noise: bool,
-    /// Base state stream rate, Hz (0: off).
+    /// Base state stream rate, Hz of simulated time (0: off).
     #[arg(long, default_value_t = 10.0, value_name = "HZ")]
     pub state_hz: f64,
-    /// How often the proximity server looks for a new scan, Hz (0: off).
-    #[arg(long, default_value_t = 20.0, value_name = "HZ")]
+    /// How often the proximity server looks for a new scan, Hz of
+    /// simulated time (0: off).
+    #[arg(long, default_value_t = 40.0, value_name = "HZ")]
     pub scan_hz: f64,
-    /// Camera grab period, ms (the thesis: 500).
+    /// Ground-truth stream rate (`<root>/sim/<robot>/truth`), Hz of
+    /// simulated time (0: answer queries only).
+    #[arg(long, default_value_t = 2.0, value_name = "HZ")]
+    pub truth_hz: f64,
+    /// Camera grab period, ms of simulated time (the thesis: 500).
     #[arg(long, default_value_t = 500, value_name = "MS", value_parser = clap::value_parser!(u64).range(10..=60_000))]
     pub camera_period_ms: u64,
     /// Do not run a storage for lock state (use a router's storage instead).
@@ -125,20 +130,24 @@ pub fn world(args: &Args) -> anyhow::Result<(Sim, Vec<String>)> {
 
 /// Runs the world and its servers.
 pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
-    let rates = Rates {
-        state: period(args.state_hz, "--state-hz")?,
-        scan: period(args.scan_hz, "--scan-hz")?,
-        camera: Duration::from_millis(args.camera_period_ms),
-    };
     anyhow::ensure!(
-        args.free || (args.speed.is_finite() && args.speed > 0.0),
-        "--speed must be a positive number, got {}",
+        args.free || (args.speed.is_finite() && args.speed > 0.0 && args.speed <= 1_000.0),
+        "--speed must be a positive number up to 1000, got {}",
         args.speed
     );
+    // Rates are in simulated time: at 4 × real time the servers run four
+    // times as often (free-running: as given, in real time).
+    let pace = if args.free { 1.0 } else { args.speed };
+    let sim_time = |d: Duration| Duration::from_secs_f64((d.as_secs_f64() / pace).max(0.001));
+    let rates = Rates {
+        state: period(args.state_hz, "--state-hz")?.map(sim_time),
+        scan: period(args.scan_hz, "--scan-hz")?.map(sim_time),
+        camera: sim_time(Duration::from_millis(args.camera_period_ms)),
+    };
+    let truth_every = period(args.truth_hz, "--truth-hz")?.map(sim_time);
     let (sim, names) = world(&args)?;
     let root = common.root()?;
-    let net = common.net(Side::Server);
-    let session = net.open().await?;
+    let (session, net) = common.open_server().await?;
     let world = SimWorld::new(sim);
     let _stepper = world.start((!args.free).then_some(args.speed));
     let (storage_stop, storage_stopped) = tokio::sync::oneshot::channel::<()>();
@@ -151,7 +160,12 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
             },
         ))
     });
-    let mut servers = Vec::new();
+    let mut servers = vec![rome_hardware::robot::spawn_truth(
+        &session,
+        &root,
+        &world,
+        truth_every,
+    )];
     for name in &names {
         servers.extend(spawn_sim_robot(&session, &root, &world, name, rates)?);
     }
@@ -165,13 +179,14 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
         }
     }
     eprintln!(
-        "rome sim: map '{}', {} robot(s), {} (listen {:?}, connect {:?}); serving '{}/robot/<robot>/{{base,proximity,camera/up,camera/side}}/*'; Ctrl-C to stop",
+        "rome sim: map '{}', {} robot(s), {} (listen {:?}, connect {:?}); serving '{}/robot/<robot>/{{base,proximity,camera/up,camera/side}}/*' and ground truth on '{}'; Ctrl-C to stop",
         args.map,
         names.len(),
         if args.free { "free-running".to_string() } else { format!("{}× real time", args.speed) },
         net.listen,
         net.connect,
-        root.as_str()
+        root.as_str(),
+        root.sim_truth_all()
     );
     let mut watch = tokio::time::interval(Duration::from_millis(500));
     let interrupted = exit::interrupted();

@@ -1,0 +1,175 @@
+//! Several robots at once through one data server, in one process, judged
+//! by ground truth: robots that meet head-on or catch up with each other,
+//! robots taking turns through a narrow passage, and a run whose mode is
+//! made to fail and is reported failed.
+
+use rome_nav::report::Report;
+use rome_nav::run::{self, Event, FleetReport, PassageState, RouteSpec, RunConfig};
+use std::time::Duration;
+
+fn eb3() -> rome_maps::Map {
+    rome_maps::load_named("eb3").expect("eb3 loads")
+}
+
+async fn fleet(cfg: RunConfig, mut on: impl FnMut(&Event)) -> FleetReport {
+    let mut cfg = cfg;
+    cfg.limit = Duration::from_secs(20 * 60);
+    let report = run::run_fleet(cfg, &mut |e| on(&e))
+        .await
+        .expect("the run completes");
+    println!("{}", report.table());
+    for why in report.reasons() {
+        println!("{why}");
+    }
+    report
+}
+
+fn assert_clean(r: &Report) {
+    assert!(
+        r.arrived(),
+        "{} ended {:.0} cm from {}: {:?}\n{}",
+        r.robot,
+        r.miss_cm,
+        r.to,
+        r.failure,
+        r.table()
+    );
+    assert_eq!(r.modes_done, r.modes_needed, "{}", r.table());
+    assert_eq!(r.contacts.total(), 0, "{}: {:?}", r.robot, r.contacts);
+    assert!(
+        r.odometry_max_error_cm.unwrap_or(f64::MAX) < 50.0,
+        "{}: odometry strayed {:?} cm from the truth",
+        r.robot,
+        r.odometry_max_error_cm
+    );
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn two_robots_meeting_head_on_in_one_corridor_both_arrive() {
+    // Both in corridor A, r1 westwards and r2 eastwards: they pass each
+    // other half-way, each seeing the other on sonar.
+    let cfg = RunConfig::fleet(
+        eb3(),
+        vec![
+            RouteSpec::new("r1", "356R", "372L"),
+            RouteSpec::new("r2", "371R", "353L"),
+        ],
+    );
+    let mut closest = f64::MAX;
+    let r = fleet(cfg, |e| {
+        if let Event::Tick { robots, .. } = e {
+            let (a, b) = (robots[0].pose, robots[1].pose);
+            closest = closest.min((a.x - b.x).hypot(a.y - b.y));
+        }
+    })
+    .await;
+    for robot in &r.robots {
+        assert_clean(robot);
+    }
+    // They really met: closer than two robot lengths at some moment.
+    assert!(closest < 2_000.0, "closest approach {closest:.0} mm");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_robot_catching_up_with_a_slower_one_arrives_and_so_does_the_slow_one() {
+    // r2 starts 16.5 m ahead of r1 in corridor A and drives at half r1's
+    // speed: r1 catches up with it a third of the way along and must get
+    // past to reach its goal beyond r2's.
+    let mut slow = RouteSpec::new("r2", "356R", "372L");
+    slow.cruise_mm_s = Some(200.0);
+    let cfg = RunConfig::fleet(eb3(), vec![RouteSpec::new("r1", "350R", "376L"), slow]);
+    let mut behind_then_level = (false, false);
+    let r = fleet(cfg, |e| {
+        if let Event::Tick { robots, .. } = e {
+            // Westwards: r1 behind r2 means a larger x.
+            let gap = robots[0].pose.x - robots[1].pose.x;
+            behind_then_level.0 |= gap > 5_000.0;
+            behind_then_level.1 |= behind_then_level.0 && gap < 1_500.0;
+        }
+    })
+    .await;
+    for robot in &r.robots {
+        assert_clean(robot);
+    }
+    assert!(
+        behind_then_level.0 && behind_then_level.1,
+        "r1 never caught up with r2"
+    );
+}
+
+/// EB3 with corridor N (the new wing's middle corridor, x = 60 m between
+/// rings B and C) marked as a narrow passage.
+fn eb3_with_passage() -> rome_maps::Map {
+    let mut map = eb3();
+    let world = rome_maps::World::from_map(&map);
+    let mut tagged = 0;
+    for s in &world.segments {
+        let along_n = (s.a.0 - 60_000.0).abs() < 1_500.0
+            && (s.b.0 - 60_000.0).abs() < 1_500.0
+            && s.a.1.min(s.b.1) > 8_000.0
+            && s.a.1.max(s.b.1) < 54_000.0;
+        if along_n {
+            map.rings[s.ring].edges[s.edge]
+                .tags
+                .insert("passage".into(), "N".into());
+            tagged += 1;
+        }
+    }
+    assert!(tagged >= 4, "corridor N's walls: {tagged} edges");
+    map
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn robots_take_turns_through_a_narrow_passage() {
+    // r1 goes south through corridor N and r2 north: head-on in a corridor
+    // too narrow to pass. One waits outside while the other goes through.
+    let cfg = RunConfig::fleet(
+        eb3_with_passage(),
+        vec![
+            RouteSpec::new("r1", "303R", "A352L"),
+            RouteSpec::new("r2", "A353R", "301L"),
+        ],
+    );
+    let in_n =
+        |p: &rome_sim::Pose| (p.x - 60_000.0).abs() < 1_300.0 && p.y > 9_000.0 && p.y < 53_000.0;
+    let (mut both_inside, mut waited) = (0, Vec::new());
+    let r = fleet(cfg, |e| match e {
+        Event::Tick { robots, .. } if in_n(&robots[0].pose) && in_n(&robots[1].pose) => {
+            both_inside += 1;
+        }
+        Event::Passage {
+            robot,
+            state: PassageState::Waiting,
+            ..
+        } => waited.push(*robot),
+        _ => {}
+    })
+    .await;
+    for robot in &r.robots {
+        assert_eq!(robot.plan.passages.len(), 1, "{}", robot.robot);
+        assert_clean(robot);
+    }
+    assert_eq!(both_inside, 0, "both robots were in corridor N at once");
+    assert_eq!(waited.len(), 1, "exactly one robot waited: {waited:?}");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_robot_whose_camera_is_covered_has_its_light_segment_failed_with_the_reason() {
+    let mut cfg = RunConfig::fleet(eb3(), vec![RouteSpec::new("r1", "350R", "372L")]);
+    cfg.covered = vec!["r1".into()];
+    let r = fleet(cfg, |_| {}).await;
+    let r = &r.robots[0];
+    assert_eq!(r.modes_needed.l, 1);
+    assert_eq!(r.modes_done.l, 0, "{}", r.table());
+    assert!(r.row(1).contains("0/1*"), "{}", r.row(1));
+    let reasons = r.reasons().join("\n");
+    assert!(
+        reasons.contains("L (goal 1") && reasons.contains("missed"),
+        "{reasons}"
+    );
+    // The same route with the camera uncovered is not starred.
+    let cfg = RunConfig::fleet(eb3(), vec![RouteSpec::new("r1", "350R", "372L")]);
+    let ok = fleet(cfg, |_| {}).await;
+    assert_eq!(ok.robots[0].modes_done.l, 1, "{}", ok.table());
+    assert!(!ok.robots[0].row(1).contains('*'), "{}", ok.table());
+}
