@@ -412,7 +412,7 @@ impl<S: Service> Server<S> {
                     Some(h) => h.clone(),
                     None => {
                         let h = self.gate.grant(&owner, ttl, now);
-                        tracing::info!(server = %self.config.label(), holder = %h.owner, fence = h.fence, "lock granted");
+                        tracing::debug!(server = %self.config.label(), holder = %h.owner, fence = h.fence, "lock granted");
                         self.persist().await;
                         h
                     }
@@ -425,7 +425,7 @@ impl<S: Service> Server<S> {
             }
             Op::Unlock { fence } => match self.gate.release(fence) {
                 Ok(h) => {
-                    tracing::info!(server = %self.config.label(), holder = %h.owner, fence = h.fence, "lock released");
+                    tracing::debug!(server = %self.config.label(), holder = %h.owner, fence = h.fence, "lock released");
                     self.persist().await;
                     Ok(Body::json(&Unlocked {
                         released: true,
