@@ -129,19 +129,26 @@ impl CommonArgs {
     /// side with no flags, and clients reach them all through 7447.
     pub async fn open_server(&self) -> anyhow::Result<(zenoh::Session, NetOptions)> {
         let net = self.net(Side::Server);
-        let first = net.open().await;
         let defaulted = self.config.is_none() && self.connect.is_empty() && self.listen.is_empty();
-        match first {
+        let join = || NetOptions {
+            connect: vec![format!("tcp/127.0.0.1:{DEFAULT_PORT}")],
+            listen: vec!["tcp/127.0.0.1:0".into()],
+            ..net.clone()
+        };
+        // Looked at first, so the usual case needs no failed listen (and
+        // no warning from Zenoh); a server that takes the port between the
+        // look and the listen is caught by the second try.
+        if defaulted && port_taken(DEFAULT_PORT) {
+            tracing::info!("port {DEFAULT_PORT} is taken; joining the server there");
+            let joined = join();
+            return Ok((joined.open().await?, joined));
+        }
+        match net.open().await {
             Ok(session) => Ok((session, net)),
             Err(e) if defaulted && port_taken(DEFAULT_PORT) => {
-                let joined = NetOptions {
-                    connect: vec![format!("tcp/127.0.0.1:{DEFAULT_PORT}")],
-                    listen: vec!["tcp/127.0.0.1:0".into()],
-                    ..net
-                };
                 tracing::info!("port {DEFAULT_PORT} is taken ({e}); joining the server there");
-                let session = joined.open().await?;
-                Ok((session, joined))
+                let joined = join();
+                Ok((joined.open().await?, joined))
             }
             Err(e) => Err(e.into()),
         }

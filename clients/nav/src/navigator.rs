@@ -34,6 +34,18 @@ pub const JOG_RATE_DEG_S: f64 = 4.0;
 pub const OPEN_ENOUGH_MM: u32 = 3_000;
 /// The safe threshold at start, mm (§5.4.1).
 pub const SAFE_START_MM: f64 = 1_000.0;
+/// Something on the axis nearer than this makes the robot keep right, mm.
+pub const KEEP_RIGHT_AHEAD_MM: f64 = 4_500.0;
+/// The range ahead shrinking this much faster than the robot drives means
+/// it comes towards the robot (1: it stands still).
+pub const ONCOMING_CLOSING: f64 = 1.4;
+/// For how far after the last sighting the robot keeps right, mm.
+pub const KEEP_RIGHT_FOR_MM: f64 = 3_000.0;
+/// How far right of the axis a robot bears with no walls to steer by, degrees.
+pub const KEEP_RIGHT_BEAR_DEG: f64 = 8.0;
+/// A robot's radius, mm (a Pioneer-sized disc), with room to spare when
+/// keeping right.
+const ROBOT_CLEARANCE_MM: f64 = 380.0 + 300.0;
 
 /// How the Navigator drives.
 #[derive(Debug, Clone, PartialEq)]
@@ -150,10 +162,19 @@ fn circular(a: usize, b: usize) -> usize {
 pub struct Hallway {
     /// The safe threshold, mm.
     pub safe_mm: f64,
+    /// How far the goal still is along the hallway, mm (infinite when the
+    /// goal is a count of lights): something ahead nearer than that is in
+    /// the way, not the hallway's end.
+    pub room_mm: f64,
     walls: Walls,
     turns: Vec<u64>,
     calm_since: u64,
     slow_until: u64,
+    /// Keep to the right until the robot has driven this far, mm.
+    keep_right_until: f64,
+    /// (distance driven, range on the axis ahead) over the last metre and
+    /// a half, while something is there, mm.
+    ahead: std::collections::VecDeque<(f64, f64)>,
 }
 
 impl Hallway {
@@ -161,10 +182,13 @@ impl Hallway {
     pub fn new(now_ms: u64) -> Hallway {
         Hallway {
             safe_mm: SAFE_START_MM,
+            room_mm: f64::INFINITY,
             walls: Walls::default(),
             turns: Vec::new(),
             calm_since: now_ms,
             slow_until: 0,
+            keep_right_until: f64::NEG_INFINITY,
+            ahead: std::collections::VecDeque::new(),
         }
     }
 
@@ -185,11 +209,36 @@ impl Hallway {
         } else {
             cfg.cruise_mm_s
         };
+        // Beyond the thesis: something on the axis ahead that comes towards
+        // the robot (the range shrinks faster than the robot drives: another
+        // robot, met head-on) makes it keep to the right for the next few
+        // metres, so the two pass each other as people do in a hallway.
+        // Something still or going the same way is left to the open
+        // direction, as any obstacle.
+        let ahead = (11..=13)
+            .map(|i| f64::from(sonar[i]))
+            .fold(f64::MAX, f64::min);
+        if ahead > 600.0 && ahead < KEEP_RIGHT_AHEAD_MM && ahead + 500.0 < self.room_mm {
+            self.ahead
+                .retain(|(a, _)| along_mm - a <= 1_500.0 && *a <= along_mm);
+            self.ahead.push_back((along_mm, ahead));
+            if let (Some(first), Some(last)) = (self.ahead.front(), self.ahead.back()) {
+                let driven = last.0 - first.0;
+                if driven >= 300.0 && (first.1 - last.1) / driven > ONCOMING_CLOSING {
+                    self.keep_right_until = along_mm + KEEP_RIGHT_FOR_MM;
+                }
+            }
+        } else {
+            self.ahead.clear();
+        }
+        let keep_right = along_mm < self.keep_right_until;
         // Safety: a reading below the threshold within 60° of ahead. The
         // thesis excepts sonars 6 and 18; their neighbours 5, 7, 17 and 19
         // see the same side walls at nearly the same range, so they are
-        // excepted too.
-        let (closest, min) = (8..=16)
+        // excepted too. Keeping right to pass, a robot passing abeam is
+        // expected: then only 15° either side of ahead counts.
+        let cone = if keep_right { 11..=13 } else { 8..=16 };
+        let (closest, min) = cone
             .map(|i| (i, sonar[i]))
             .min_by_key(|(_, r)| *r)
             .unwrap_or((FORWARD, u32::MAX));
@@ -209,15 +258,23 @@ impl Hallway {
                 return Drive::Turn(turn);
             }
         }
+        self.walls.lane_mm = if keep_right {
+            -self.walls.keep_right_mm()
+        } else {
+            0.0
+        };
         // Safe: steer the open direction onto sonar 12.
         let open = open_sonar(sonar, heading_deg, goal_deg, 2);
-        let delta = if open != sonar_towards(goal_deg - heading_deg) {
+        let delta = if open != sonar_towards(goal_deg - heading_deg) && !keep_right {
             bearing(open)
         } else if let Some(d) = self.walls.steer(sonar, along_mm) {
             // The open direction is the axis itself, which odometry alone
             // cannot hold to a degree: the side walls say how the robot
             // moves relative to them and how far off the middle it is.
             d
+        } else if keep_right {
+            // No walls to steer by: bear a little right of the axis.
+            normalize_deg(goal_deg - KEEP_RIGHT_BEAR_DEG - heading_deg)
         } else {
             normalize_deg(goal_deg - heading_deg)
         };
@@ -248,6 +305,9 @@ impl Hallway {
 pub struct Walls {
     /// (distance driven, offset left of the middle, hallway width), mm.
     samples: std::collections::VecDeque<(f64, f64, f64)>,
+    /// Where to keep across the hallway: offset left of the middle, mm
+    /// (negative: right of it).
+    lane_mm: f64,
     /// The Corner state's stop-and-go turn in progress, degrees per second.
     spin: Option<f64>,
 }
@@ -279,6 +339,15 @@ impl Walls {
         self.fit()
     }
 
+    /// How far right of the middle a robot keeps to let another pass: up
+    /// to 0.6 m, leaving at least 0.3 m between its side and the wall.
+    pub fn keep_right_mm(&self) -> f64 {
+        // Side sonars read from the robot's skin: the half-width from the
+        // middle is half their sum plus the radius.
+        let half = self.width().map_or(1_500.0, |w| w / 2.0 + 380.0);
+        (half - ROBOT_CLEARANCE_MM).clamp(0.0, 600.0)
+    }
+
     /// The hallway's width between the side sonars (the robot's own width
     /// left out), mm, if the walls are in view.
     pub fn width(&self) -> Option<f64> {
@@ -303,7 +372,7 @@ impl Walls {
         }
         // Moving left (counter-clockwise of the walls) raises the offset.
         let angle = (sxy / sxx).atan().to_degrees();
-        let offset = self.samples.back()?.1;
+        let offset = self.samples.back()?.1 - self.lane_mm;
         let wanted = (-offset / 1_000.0 * 10.0).clamp(-12.0, 12.0);
         Some(wanted - angle)
     }
@@ -639,6 +708,10 @@ impl Navigator {
                 let hallway = self
                     .hallway
                     .get_or_insert_with(|| Hallway::new(hallway_start));
+                hallway.room_mm = match goal.goal_type {
+                    GoalType::L => f64::INFINITY,
+                    _ => goal.distance as f64 - travelled,
+                };
                 hallway.step(
                     &self.cfg,
                     &scan.sonar_mm,

@@ -36,8 +36,11 @@ fn assert_clean(r: &Report) {
     );
     assert_eq!(r.modes_done, r.modes_needed, "{}", r.table());
     assert_eq!(r.contacts.total(), 0, "{}: {:?}", r.robot, r.contacts);
+    // Corners are driven on odometry alone until the next corridor's walls
+    // correct it: a metre is the sanity bound here; the straight run's
+    // 0.3 m is checked in routes.rs.
     assert!(
-        r.odometry_max_error_cm.unwrap_or(f64::MAX) < 50.0,
+        r.odometry_max_error_cm.unwrap_or(f64::MAX) < 100.0,
         "{}: odometry strayed {:?} cm from the truth",
         r.robot,
         r.odometry_max_error_cm

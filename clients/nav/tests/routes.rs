@@ -65,6 +65,25 @@ async fn a_straight_route_ends_within_a_metre_of_the_goal() {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn along_350r_to_376l_odometry_stays_within_30_cm_of_the_truth() {
+    // The local mapper corrects the sideways offset as well as the heading,
+    // and learns the drift; the monitor compares odometry with ground truth
+    // every simulated second.
+    let r = drive("350R", "376L", 1).await;
+    assert_arrived(&r);
+    let worst = r.odometry_max_error_cm.expect("odometry was watched");
+    assert!(
+        worst < 30.0,
+        "odometry strayed {worst:.0} cm from the truth"
+    );
+    assert!(
+        r.fixes.iter().any(|f| f.shift_mm != 0.0),
+        "no sideways correction was made: {:?}",
+        r.fixes
+    );
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_one_corner_route_ends_within_a_metre_of_the_goal() {
     // Table 6.2, run 1: 302L to A340R, 35.585 m, L 1/1, C 1/1, D 1/1.
     let r = drive("302L", "A340R", 2).await;

@@ -195,15 +195,18 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
         tokio::select! {
             _ = &mut interrupted => break,
             _ = watch.tick() => {
-                // A server that ended is reported once; the others go on.
-                servers.retain(|s| {
-                    if s.is_finished() {
-                        eprintln!("rome sim: the server of {} has stopped; the others go on", s.label());
-                        false
-                    } else {
-                        true
+                // A server that ended is reported once, with why; the
+                // others go on.
+                let (ended, running): (Vec<_>, Vec<_>) =
+                    servers.into_iter().partition(|s| s.is_finished());
+                servers = running;
+                for s in ended {
+                    let label = s.label().to_string();
+                    match s.stop().await {
+                        Ok(()) => eprintln!("rome sim: the server of {label} has stopped; the others go on"),
+                        Err(e) => eprintln!("rome sim: the server of {label} has stopped: {e}; the others go on"),
                     }
-                });
+                }
             }
         }
     }
