@@ -67,7 +67,10 @@ for p in "${pids[@]}"; do
 done
 cleanup
 trap - EXIT
-cpu=$(times | tail -n 1 | awk '{ split($1, u, "m"); split($2, s, "m"); sub("s", "", u[2]); sub("s", "", s[2]); print u[1] * 60 + u[2] + s[1] * 60 + s[2] }')
+# `times` in the script's own shell (a pipe would run it in a subshell,
+# which has no children).
+times >"$logs/times"
+cpu=$(tail -n 1 "$logs/times" | awk '{ split($1, u, "m"); split($2, s, "m"); sub("s", "", u[2]); sub("s", "", s[2]); print u[1] * 60 + u[2] + s[1] * 60 + s[2] }')
 for k in $(seq 1 "$n"); do
     grep -h -E '^[0-9]+ +r[0-9]+ ' "$logs/planner-r$k.log" || true
 done

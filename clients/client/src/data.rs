@@ -436,25 +436,22 @@ impl DataClient {
 
     /// up() (`DataSignal(DS, "$XYZ")`).
     pub async fn signal(&self, name: &str) -> Result<SignalReply, ClientError> {
-        let name = Name::semaphore(name)?;
-        let params = [(param::OP, self.next_id())];
-        self.call(
-            &self.key(DataOp::Signal, &name),
-            &params,
-            None,
-            "signal reply",
-        )
-        .await
+        self.up(name, false).await
     }
 
     /// Gives back a unit taken with [`DataClient::wait_undo`].
     pub async fn give_back(&self, name: &str) -> Result<SignalReply, ClientError> {
+        self.up(name, true).await
+    }
+
+    /// up(), giving back this client's undo unit when `undo`.
+    async fn up(&self, name: &str, undo: bool) -> Result<SignalReply, ClientError> {
         let name = Name::semaphore(name)?;
-        let params = [
-            (param::OP, self.next_id()),
-            (param::OWNER, self.inner.owner.clone()),
-            (param::UNDO, "true".to_string()),
-        ];
+        let mut params = vec![(param::OP, self.next_id())];
+        if undo {
+            params.push((param::OWNER, self.inner.owner.clone()));
+            params.push((param::UNDO, "true".to_string()));
+        }
         self.call(
             &self.key(DataOp::Signal, &name),
             &params,
