@@ -81,7 +81,7 @@ status, reply = ask("rome/data/wait/GoalData?hold_ms=2000")
 check("wait granted", reply["status"] == "granted", reply)
 z.put("rome/data/signal/GoalData", "")
 status, reply = ask("rome/data/sem/GoalData")
-check("put-signal then read", reply == {"name": "GoalData", "value": 1, "waiters": 0}, reply)
+check("put-signal then read", reply == {"name": "GoalData", "value": 1, "waiters": 0, "held": 0}, reply)
 status, reply = ask("rome/data/signal/Nope")
 check("unknown semaphore is refused", status == "err" and reply["code"] == "unknown_semaphore", reply)
 
