@@ -659,7 +659,8 @@ pub async fn run_fleet(
                     let finished = reports[k].is_some();
                     let mut odometry_error_mm = 0.0;
                     if !finished {
-                        if let (true, Ok(p)) = (registered[k], monitors[k].pose().await) {
+                        let pose_now = if registered[k] { monitors[k].pose().await.ok() } else { None };
+                        if let Some(p) = pose_now {
                             odometry_error_mm = (f64::from(p.x_mm) - pose.x).hypot(f64::from(p.y_mm) - pose.y);
                             max_err[k] = max_err[k].max(odometry_error_mm);
                         }
