@@ -149,7 +149,7 @@ pub enum ServerError {
     Config(String),
 }
 
-fn declare_err(what: &str, e: zenoh::Error) -> ServerError {
+pub(crate) fn declare_err(what: &str, e: zenoh::Error) -> ServerError {
     ServerError::Declare {
         what: what.to_string(),
         detail: e.to_string(),

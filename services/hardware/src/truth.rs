@@ -4,7 +4,7 @@
 //! stream. It belongs to the world, not to any robot's hardware servers,
 //! and navigation never reads it.
 
-use crate::server::ServerError;
+use crate::server::{declare_err, ServerError};
 use crate::sim::SimWorld;
 use rome_schema::robot::robot_name;
 use rome_schema::sim::{ContactCount, Truth};
@@ -66,10 +66,6 @@ pub async fn run(
     period: Option<Duration>,
     shutdown: impl Future<Output = ()>,
 ) -> Result<(), ServerError> {
-    let declare = |what: &str, e: zenoh::Error| ServerError::Declare {
-        what: what.into(),
-        detail: e.to_string(),
-    };
     let (tx, rx) = flume::bounded::<Query>(QUERY_QUEUE);
     let _queryable = session
         .declare_queryable(root.sim_truth_all())
@@ -79,12 +75,12 @@ pub async fn run(
             }
         })
         .await
-        .map_err(|e| declare("the truth queryable", e))?;
+        .map_err(|e| declare_err("the truth queryable", e))?;
     let _token = session
         .liveliness()
         .declare_token(root.alive_server("sim", "truth"))
         .await
-        .map_err(|e| declare("the liveliness token", e))?;
+        .map_err(|e| declare_err("the liveliness token", e))?;
     let mut tick = tokio::time::interval(period.unwrap_or(Duration::from_secs(3_600)));
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
     tokio::pin!(shutdown);
