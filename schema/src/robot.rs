@@ -34,6 +34,9 @@ pub mod param {
     pub const OWNER: &str = "owner";
     /// `lock`: how long the grant lasts without a renewal, ms.
     pub const TTL_MS: &str = "ttl_ms";
+    /// Any command: the sender's id (last chunk of its liveliness token).
+    /// A base set moving by a client that then goes away is stopped.
+    pub const CLIENT: &str = "client";
     /// `rows`: the rows to read, comma-separated (`rows=120,241,360`).
     pub const ROWS: &str = "rows";
     /// `grab`: `raw` (default) or `png`.
@@ -167,7 +170,7 @@ pub fn robot_name(name: &str) -> Result<Name, KeyError> {
 }
 
 /// The parameters every hardware-server request may carry.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Meta {
     /// 0 … 255, higher first.
     pub priority: u8,
@@ -175,10 +178,12 @@ pub struct Meta {
     pub fence: Option<u64>,
     /// How long the request may wait in the queue, ms.
     pub wait_ms: u64,
+    /// The sender's id, if it gave one (`client`).
+    pub client: Option<String>,
 }
 
 impl Meta {
-    /// Takes `priority`, `fence` and `wait_ms` from the parameters.
+    /// Takes `priority`, `fence`, `wait_ms` and `client` from the parameters.
     pub fn take(params: &mut Params) -> Result<Meta, ErrorReply> {
         let priority = params
             .take_int(param::PRIORITY, 0, 255)?
@@ -189,10 +194,12 @@ impl Meta {
         let wait_ms = params
             .take_int(param::WAIT_MS, 0, i128::from(MAX_WAIT_MS))?
             .map_or(DEFAULT_WAIT_MS, |w| w as u64);
+        let client = params.take_id(param::CLIENT)?;
         Ok(Meta {
             priority,
             fence,
             wait_ms,
+            client,
         })
     }
 }
@@ -203,6 +210,7 @@ impl Default for Meta {
             priority: DEFAULT_PRIORITY,
             fence: None,
             wait_ms: DEFAULT_WAIT_MS,
+            client: None,
         }
     }
 }

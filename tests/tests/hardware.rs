@@ -285,6 +285,55 @@ async fn a_killed_holder_loses_the_lock_within_three_seconds() {
     assert_eq!(err["code"], "stale_fence");
 }
 
+#[tokio::test(flavor = "multi_thread", worker_threads = 4)]
+async fn a_base_set_moving_by_a_client_that_goes_away_is_stopped() {
+    let rec = Recorder::default();
+    let rig = Rig::recorder(&rec, false).await;
+    let moves = |rec: &Recorder| -> Vec<BaseOp> { rec.ops.lock().unwrap().clone() };
+    let stops = |rec: &Recorder| {
+        moves(rec)
+            .iter()
+            .filter(|op| matches!(op, BaseOp::Stop(_)))
+            .count()
+    };
+
+    // A controller sets the base going and dies: the base stops.
+    let driver = rig.client("driver", 128).await;
+    driver.go(300.0).await.unwrap();
+    drop(driver);
+    eventually(Duration::from_secs(10), "the base stopped", || async {
+        stops(&rec) == 1
+    })
+    .await;
+
+    // A one-shot tool (no deadman) leaves the base going when it exits;
+    // a later controller that dies stops it, and only that one.
+    let session = NetOptions::loopback_client(rig.port).open().await.unwrap();
+    let mut o = RobotOptions::new("cli");
+    o.deadman = false;
+    let tool = RobotClient::connect(&session, "r1", o).await.unwrap();
+    tool.go(200.0).await.unwrap();
+    drop(tool);
+    session.close().await.unwrap();
+    let driver = rig.client("driver", 128).await;
+    driver.go(100.0).await.unwrap();
+    drop(driver);
+    eventually(Duration::from_secs(10), "the base stopped again", || async {
+        stops(&rec) == 2
+    })
+    .await;
+    assert_eq!(
+        moves(&rec),
+        [
+            BaseOp::Go(300.0),
+            BaseOp::Stop(false),
+            BaseOp::Go(200.0),
+            BaseOp::Go(100.0),
+            BaseOp::Stop(false)
+        ]
+    );
+}
+
 /// A TCP relay that can be cut: bytes stop flowing, sockets stay open (a
 /// radio link gone quiet, not a closed connection).
 async fn relay(upstream: u16, cut: Arc<std::sync::atomic::AtomicBool>) -> u16 {

@@ -67,6 +67,11 @@ pub struct RobotOptions {
     pub reply_timeout: Duration,
     /// A lock grant's life between renewals.
     pub lock_ttl: Duration,
+    /// Whether the base stops when this client goes away after setting it
+    /// moving (each command names its sender, `client=ID`). On by
+    /// default; a one-shot command line tool turns it off so the robot
+    /// goes on after the tool exits.
+    pub deadman: bool,
 }
 
 impl RobotOptions {
@@ -79,6 +84,7 @@ impl RobotOptions {
             queue_wait: Duration::from_secs(10),
             reply_timeout: Duration::from_secs(5),
             lock_ttl: Duration::from_millis(DEFAULT_LOCK_TTL_MS),
+            deadman: true,
         }
     }
 }
@@ -259,6 +265,9 @@ impl RobotClient {
         let mut params: Vec<(&str, String)> = extra.to_vec();
         if o.priority != DEFAULT_PRIORITY {
             params.push((param::PRIORITY, o.priority.to_string()));
+        }
+        if o.deadman {
+            params.push((param::CLIENT, self.inner.owner.clone()));
         }
         let holds = self.fence(device);
         if let (Some(f), false) = (holds, extra.iter().any(|(k, _)| *k == param::FENCE)) {

@@ -18,6 +18,11 @@
 //! rome/robot/<robot>/base/unlock        ?fence=N
 //! rome/robot/<robot>/base/state         published at --state-hz
 //! ```
+//!
+//! A motion command (move, turn, go, jog) that names its sender
+//! (`?client=ID`, the last chunk of the sender's liveliness token) makes
+//! the server watch that client: when its token goes, the base is stopped,
+//! so a robot does not drive on after its controller died.
 
 use crate::device::{BaseDevice, BaseOp, BaseStatus, DeviceError};
 use crate::server::{Body, Service};
@@ -169,7 +174,7 @@ impl<D: BaseDevice> Service for Base<D> {
         params: Params,
         body: Option<&[u8]>,
     ) -> Result<BaseCmd, ErrorReply> {
-        params.finish(command, &["priority", "fence", "wait_ms"])?;
+        params.finish(command, &["priority", "fence", "wait_ms", "client"])?;
         let no_payload = |cmd: BaseCmd| -> Result<BaseCmd, ErrorReply> {
             match body {
                 Some(b) if !b.is_empty() && b.iter().any(|c| !c.is_ascii_whitespace()) => Err(
@@ -251,6 +256,17 @@ impl<D: BaseDevice> Service for Base<D> {
                 ))
             }
         })
+    }
+
+    fn sets_moving(&self, cmd: &BaseCmd) -> bool {
+        matches!(
+            cmd,
+            BaseCmd::Op(BaseOp::Move(_) | BaseOp::Turn(_) | BaseOp::Go(_) | BaseOp::Jog(_))
+        )
+    }
+
+    async fn halt(&mut self) -> Result<(), ErrorReply> {
+        self.status(BaseOp::Stop(false)).await.map(|_| ())
     }
 
     async fn apply(&mut self, cmd: BaseCmd, _lock: Option<LockInfo>) -> Result<Body, ErrorReply> {

@@ -136,12 +136,12 @@ impl<D: CameraDevice> Service for Camera<D> {
     ) -> Result<CameraCmd, ErrorReply> {
         match command {
             "size" => {
-                params.finish(command, &["priority", "fence", "wait_ms"])?;
+                params.finish(command, &["priority", "fence", "wait_ms", "client"])?;
                 Ok(CameraCmd::Size)
             }
             "grab" => {
                 let format = params.take_id(param::FORMAT)?;
-                params.finish(command, &["format", "priority", "fence", "wait_ms"])?;
+                params.finish(command, &["format", "priority", "fence", "wait_ms", "client"])?;
                 match format.as_deref() {
                     None | Some("raw") => Ok(CameraCmd::Grab { png: false }),
                     Some("png") => Ok(CameraCmd::Grab { png: true }),
@@ -158,7 +158,7 @@ impl<D: CameraDevice> Service for Camera<D> {
                         "'rows' needs the parameter 'rows' (e.g. rows=120,241,360)",
                     )
                 })?;
-                params.finish(command, &["rows", "priority", "fence", "wait_ms"])?;
+                params.finish(command, &["rows", "priority", "fence", "wait_ms", "client"])?;
                 let rows = parse_rows(&list)?;
                 let (_, height) = self.device.size();
                 if rows.is_empty() || rows.len() > MAX_ROWS {

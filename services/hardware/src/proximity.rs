@@ -111,7 +111,7 @@ impl<D: ProximityDevice> Service for Proximity<D> {
         params: Params,
         body: Option<&[u8]>,
     ) -> Result<ProxCmd, ErrorReply> {
-        params.finish(command, &["priority", "wait_ms"])?;
+        params.finish(command, &["priority", "wait_ms", "client"])?;
         match command {
             "sonar" => Ok(ProxCmd::Sonar),
             "ir" => Ok(ProxCmd::Ir),

@@ -71,6 +71,18 @@ pub trait Service: Send + Sync + 'static {
         lock: Option<LockInfo>,
     ) -> impl Future<Output = Result<Body, ErrorReply>> + Send;
 
+    /// Whether `cmd` leaves the device moving on its own (a base's move,
+    /// turn, go or jog): the server then remembers who sent it, and stops
+    /// the device with [`Service::halt`] if that client goes away.
+    fn sets_moving(&self, _cmd: &Self::Cmd) -> bool {
+        false
+    }
+
+    /// Stops the device because the client that set it moving is gone.
+    fn halt(&mut self) -> impl Future<Output = Result<(), ErrorReply>> + Send {
+        async { Ok(()) }
+    }
+
     /// How often [`Service::tick`] runs; `None` for never.
     fn period(&self) -> Option<Duration>;
 
@@ -165,6 +177,7 @@ enum Op<C> {
 struct Pending<C> {
     query: Query,
     command: String,
+    client: Option<String>,
     arrived: Instant,
     op: Op<C>,
 }
@@ -179,6 +192,8 @@ struct Server<S: Service> {
     config: ServerConfig,
     service: S,
     gate: Gate<Pending<S::Cmd>>,
+    /// The client whose command left the device moving, if it named itself.
+    mover: Option<String>,
 }
 
 /// Runs a hardware server for `service` until `shutdown` completes.
@@ -229,6 +244,7 @@ pub async fn run<S: Service>(
 
     let mut server = Server {
         gate: Gate::new(0),
+        mover: None,
         session,
         config,
         service,
@@ -368,6 +384,7 @@ impl<S: Service> Server<S> {
         let pending = Pending {
             query,
             command,
+            client: meta.client,
             arrived: now,
             op,
         };
@@ -436,7 +453,14 @@ impl<S: Service> Server<S> {
             },
             Op::Do(cmd) => {
                 let lock = self.lock();
-                self.service.apply(cmd, lock).await
+                let moving = self.service.sets_moving(&cmd);
+                let result = self.service.apply(cmd, lock).await;
+                if result.is_ok() && (moving || p.command == "stop") {
+                    // A command without a client id leaves nobody to watch:
+                    // the device is no longer tied to the last one's life.
+                    self.mover = if moving { p.client.clone() } else { None };
+                }
+                result
             }
         };
         let key = p.query.key_expr().as_str().to_string();
@@ -456,6 +480,15 @@ impl<S: Service> Server<S> {
         let Some(alive) = self.config.root.parse_alive(sample.key_expr().as_str()) else {
             return;
         };
+        if self.mover.as_deref() == Some(alive.id) {
+            // A deadman: nobody is left to stop what that client started
+            // (its process died, or its host dropped off the network).
+            self.mover = None;
+            match self.service.halt().await {
+                Ok(()) => tracing::warn!(server = %self.config.label(), client = %alive.id, "the client that set the device moving is gone; stopped it"),
+                Err(e) => tracing::error!(server = %self.config.label(), client = %alive.id, error = %e, "the client that set the device moving is gone and stopping it failed"),
+            }
+        }
         if let Some(h) = self.gate.owner_gone(alive.id) {
             tracing::warn!(server = %self.config.label(), holder = %h.owner, fence = h.fence, "lock holder gone; lock released");
             self.persist().await;

@@ -241,6 +241,9 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
     options.root = common.root()?;
     options.priority = args.priority;
     options.queue_wait = Duration::from_secs_f64(args.wait);
+    // `rome robot r1 go 300` starts the robot and exits: the base must not
+    // take the exit for a dead controller.
+    options.deadman = false;
     let r = RobotClient::connect(&session, &args.robot, options).await?;
     let what = || format!("robot '{}'", args.robot);
     match args.command {
