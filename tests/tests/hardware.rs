@@ -318,9 +318,11 @@ async fn a_base_set_moving_by_a_client_that_goes_away_is_stopped() {
     let driver = rig.client("driver", 128).await;
     driver.go(100.0).await.unwrap();
     drop(driver);
-    eventually(Duration::from_secs(10), "the base stopped again", || async {
-        stops(&rec) == 2
-    })
+    eventually(
+        Duration::from_secs(10),
+        "the base stopped again",
+        || async { stops(&rec) == 2 },
+    )
     .await;
     assert_eq!(
         moves(&rec),

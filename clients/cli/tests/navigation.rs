@@ -4,7 +4,8 @@
 //! `rome planner --robot rK`, every one a process of its own, meeting only
 //! through Zenoh on loopback. Both robots drive at once and must end within
 //! a metre of their goals by ground truth, as the same run does in one
-//! process.
+//! process; and a robot whose clients are all killed inside a narrow
+//! passage stops there and does not close the passage for the other.
 
 #![allow(clippy::unwrap_used)]
 
@@ -70,19 +71,23 @@ fn metres_from_goal(out: &str) -> f64 {
         .unwrap_or_else(|| panic!("no distance in the planner's last line:\n{out}"))
 }
 
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn two_robots_with_every_client_in_its_own_process_both_arrive() {
-    let routes = [("r1", "302L", "A340R"), ("r2", "A302R", "A357L")];
-    let port = free_loopback_port().unwrap();
+/// `rome data-server` listening on `port`.
+fn data_server(port: u16) -> ChildGuard {
     let endpoint = format!("tcp/127.0.0.1:{port}");
-    let _data = rome(
+    rome(
         port,
         "data-server",
         &["--no-multicast", "--listen", &endpoint, "data-server"],
         Stdio::null(),
-    );
-    let at = format!("{},{}", routes[0].1, routes[1].1);
-    let _sim = rome(
+    )
+}
+
+/// `rome sim` with a robot at each of `at`, joined to the data server.
+fn sim(port: u16, map: &str, at: &[&str]) -> ChildGuard {
+    let endpoint = format!("tcp/127.0.0.1:{port}");
+    let robots = at.len().to_string();
+    let at = at.join(",");
+    rome(
         port,
         "sim",
         &[
@@ -92,8 +97,10 @@ async fn two_robots_with_every_client_in_its_own_process_both_arrive() {
             "--connect",
             &endpoint,
             "sim",
+            "--map",
+            map,
             "--robots",
-            "2",
+            &robots,
             "--at",
             &at,
             "--seed",
@@ -102,26 +109,32 @@ async fn two_robots_with_every_client_in_its_own_process_both_arrive() {
             "4",
         ],
         Stdio::null(),
-    );
-    let mut helpers = Vec::new();
-    for (robot, _, _) in routes {
-        for role in ["navigator", "ctracker", "mapper", "plfinder"] {
-            let name = format!("{role}-{robot}");
-            helpers.push(client(
-                port,
-                &name,
-                &[role, "--robot", robot],
-                Stdio::null(),
-            ));
+    )
+}
+
+/// A robot's four helper clients, each a process: navigator, ctracker,
+/// mapper and plfinder.
+fn helpers(port: u16, robot: &str, map: &str) -> Vec<ChildGuard> {
+    let mut out = Vec::new();
+    for role in ["navigator", "ctracker", "mapper", "plfinder"] {
+        let name = format!("{role}-{robot}");
+        let mut args = vec![role, "--robot", robot];
+        if role == "plfinder" {
+            args.extend(["--map", map]);
         }
+        out.push(client(port, &name, &args, Stdio::null()));
     }
-    // Every client is up (its liveliness token is there), and both robots'
-    // servers, before the Planners hand out their first goals.
-    let session = NetOptions::loopback_client(port).open().await.unwrap();
+    out
+}
+
+/// Waits until every client is up (its liveliness token is there), and
+/// every robot's servers, so the Planners hand out their first goals to
+/// clients that hear them.
+async fn await_up(session: &zenoh::Session, port: u16, robots: usize) {
     let root = rome_schema::Root::default();
     let deadline = Instant::now() + Duration::from_secs(90);
     loop {
-        let alive = rome_client::alive::list(&session, &root, Duration::from_secs(2))
+        let alive = rome_client::alive::list(session, &root, Duration::from_secs(2))
             .await
             .unwrap();
         let count = |class: &str, role: &str| {
@@ -131,14 +144,14 @@ async fn two_robots_with_every_client_in_its_own_process_both_arrive() {
                 .count()
         };
         // Each client process holds two tokens (its data-server and its
-        // robot client): two robots, four tokens a role.
+        // robot client).
         let up = ["navigator", "ctracker", "himm", "plfinder"]
             .iter()
-            .all(|role| count("client", role) == 4)
-            && count("server", "robot") == 8
+            .all(|role| count("client", role) == 2 * robots)
+            && count("server", "robot") == 4 * robots
             && count("server", "sim") == 1;
         if up {
-            break;
+            return;
         }
         assert!(
             Instant::now() < deadline,
@@ -146,46 +159,67 @@ async fn two_robots_with_every_client_in_its_own_process_both_arrive() {
             logs(port)
         );
     }
-    let mut planners = Vec::new();
-    for (robot, from, to) in routes {
-        let p = client(
-            port,
-            &format!("planner-{robot}"),
-            &[
-                "planner",
-                "--robot",
-                robot,
-                "--from",
-                from,
-                "--to",
-                to,
-                "--timeout",
-                "400",
-            ],
-            Stdio::piped(),
-        );
-        planners.push((robot, to, p));
+}
+
+/// `rome planner --robot ROBOT --from FROM --to TO` on `map`.
+fn planner(port: u16, map: &str, (robot, from, to): (&str, &str, &str)) -> ChildGuard {
+    client(
+        port,
+        &format!("planner-{robot}"),
+        &[
+            "planner",
+            "--robot",
+            robot,
+            "--map",
+            map,
+            "--from",
+            from,
+            "--to",
+            to,
+            "--timeout",
+            "400",
+        ],
+        Stdio::piped(),
+    )
+}
+
+/// Waits for a planner and checks its last line: within a metre of the
+/// goal by ground truth, every goal done.
+async fn arrived(port: u16, robot: &str, to: &str, mut p: ChildGuard) -> String {
+    let out = tokio::task::spawn_blocking(move || p.try_output())
+        .await
+        .unwrap();
+    let out = match out {
+        Ok(out) => out,
+        Err(e) => panic!("{robot}'s planner failed: {e}\n{}", logs(port)),
+    };
+    // Exit status 0 (checked by try_output()) means within a metre by
+    // ground truth; the figure is read back as well.
+    let miss = metres_from_goal(&out);
+    assert!(miss < 1.0, "{robot} ended {miss} m from {to}\n{out}");
+    assert!(out.contains("Run time"), "no Table 6.1 row:\n{out}");
+    assert!(
+        !out.contains("given up"),
+        "{robot}'s run was given up:\n{out}"
+    );
+    out
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn two_robots_with_every_client_in_its_own_process_both_arrive() {
+    let routes = [("r1", "302L", "A340R"), ("r2", "A302R", "A357L")];
+    let port = free_loopback_port().unwrap();
+    let _data = data_server(port);
+    let _sim = sim(port, "eb3", &[routes[0].1, routes[1].1]);
+    let mut crew = Vec::new();
+    for (robot, _, _) in routes {
+        crew.extend(helpers(port, robot, "eb3"));
     }
-    let mut outs = Vec::new();
-    for (robot, to, mut p) in planners {
-        let out = tokio::task::spawn_blocking(move || p.try_output())
-            .await
-            .unwrap();
-        match out {
-            Ok(out) => outs.push((robot, to, out)),
-            Err(e) => panic!("{robot}'s planner failed: {e}\n{}", logs(port)),
-        }
-    }
-    for (robot, to, out) in &outs {
-        // Exit status 0 (checked by output()) means within a metre by
-        // ground truth; the figure is read back as well.
-        let miss = metres_from_goal(out);
-        assert!(miss < 1.0, "{robot} ended {miss} m from {to}\n{out}");
-        assert!(out.contains("Run time"), "no Table 6.1 row:\n{out}");
-        assert!(
-            !out.contains("given up"),
-            "{robot}'s run was given up:\n{out}"
-        );
+    let session = NetOptions::loopback_client(port).open().await.unwrap();
+    await_up(&session, port, 2).await;
+    let planners: Vec<_> = routes.iter().map(|r| planner(port, "eb3", *r)).collect();
+    for ((robot, _, to), p) in routes.into_iter().zip(planners) {
+        arrived(port, robot, to, p).await;
     }
     // Each robot used its own blackboard: the goals of one never reached
     // the other (each Navigator took exactly its own plan's goals).
@@ -196,8 +230,165 @@ async fn two_robots_with_every_client_in_its_own_process_both_arrive() {
         let status: serde_json::Value = ds.get(&format!("nav/{robot}/Status")).await.unwrap();
         assert_eq!(status["goal_type"], "D", "{robot}: {status}");
     }
-    for mut h in helpers {
+    for mut h in crew {
         h.kill();
+    }
+    let _ = session.close().await;
+}
+
+/// EB3 with corridor N (x = 60 m, between rings B and C) tagged as the
+/// narrow passage `N`, written to a file as a user would.
+fn eb3_with_passage(port: u16) -> String {
+    let map = rome_maps::load_named("eb3").unwrap();
+    let world = rome_maps::World::from_map(&map);
+    let mut lines: Vec<String> = rome_maps::builtin::EB3.lines().map(String::from).collect();
+    let mut tagged = 0;
+    for s in &world.segments {
+        let along_n = (s.a.0 - 60_000.0).abs() < 1_500.0
+            && (s.b.0 - 60_000.0).abs() < 1_500.0
+            && s.a.1.min(s.b.1) > 8_000.0
+            && s.a.1.max(s.b.1) < 54_000.0;
+        if along_n {
+            let line = map.rings[s.ring].edges[s.edge].line;
+            if !lines[line - 1].contains("passage=") {
+                lines[line - 1].push_str(" passage=N");
+                tagged += 1;
+            }
+        }
+    }
+    assert!(tagged >= 2, "corridor N's walls: {tagged} edges");
+    let path = log_dir(port).join("eb3-passage.stk");
+    std::fs::write(&path, lines.join("\n") + "\n").unwrap();
+    path.display().to_string()
+}
+
+/// Inside corridor N, at least 4 m from either end.
+fn deep_in_n(t: &rome_schema::sim::Truth) -> bool {
+    (t.x_mm - 60_000.0).abs() < 1_300.0 && t.y_mm > 13_000.0 && t.y_mm < 49_000.0
+}
+
+/// Each line a planner prints, as it prints it, tagged with its index.
+fn follow(k: usize, p: &mut ChildGuard, to: std::sync::mpsc::Sender<(usize, String)>) {
+    use std::io::BufRead;
+    let stdout = p.0.as_mut().unwrap().stdout.take().unwrap();
+    std::thread::spawn(move || {
+        for line in std::io::BufReader::new(stdout).lines() {
+            let Ok(line) = line else { break };
+            if to.send((k, line)).is_err() {
+                break;
+            }
+        }
+    });
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_robot_whose_clients_are_killed_inside_a_narrow_passage_stops_and_frees_it() {
+    // r1 southwards through corridor N, r2 northwards: N is too narrow to
+    // pass, so they take turns. Whoever is deep inside N first has every
+    // one of its client processes killed with SIGKILL there. The other must
+    // then be let in: the data server gives the dead Planner's unit back.
+    // (It then finds the dead robot in its way: a passage too narrow to
+    // pass is blocked for real, which is for a person to clear.)
+    let routes = [("r1", "303R", "A352L"), ("r2", "A353R", "301L")];
+    let port = free_loopback_port().unwrap();
+    let map = eb3_with_passage(port);
+    let _data = data_server(port);
+    let _sim = sim(port, &map, &[routes[0].1, routes[1].1]);
+    let mut crews: Vec<Vec<ChildGuard>> = routes
+        .iter()
+        .map(|(r, _, _)| helpers(port, r, &map))
+        .collect();
+    let session = NetOptions::loopback_client(port).open().await.unwrap();
+    await_up(&session, port, 2).await;
+    let root = rome_schema::Root::default();
+    let truth: Vec<_> = routes
+        .iter()
+        .map(|(r, _, _)| rome_client::sim::TruthClient::new(&session, &root, r).unwrap())
+        .collect();
+    let ds = rome_client::DataClient::connect(&session, rome_client::DataOptions::new("check"))
+        .await
+        .unwrap();
+    let (tx, lines) = std::sync::mpsc::channel();
+    let mut planners: Vec<ChildGuard> = Vec::new();
+    for (k, r) in routes.iter().enumerate() {
+        let mut p = planner(port, &map, *r);
+        follow(k, &mut p, tx.clone());
+        planners.push(p);
+    }
+    let mut printed: Vec<Vec<String>> = vec![Vec::new(); routes.len()];
+    let take_lines = |printed: &mut Vec<Vec<String>>| {
+        while let Ok((k, line)) = lines.try_recv() {
+            printed[k].push(line);
+        }
+    };
+
+    let deadline = Instant::now() + Duration::from_secs(300);
+    let (victim, at_kill) = loop {
+        assert!(
+            Instant::now() < deadline,
+            "no robot got deep into corridor N: {printed:?}\n{}",
+            logs(port)
+        );
+        let mut found = None;
+        for (k, t) in truth.iter().enumerate() {
+            if let Ok(t) = t.get().await {
+                if deep_in_n(&t) {
+                    found = Some((k, t));
+                }
+            }
+        }
+        if let Some(found) = found {
+            break found;
+        }
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    };
+    let held = ds.semaphore("$passage/N").await.unwrap();
+    assert_eq!(
+        (held.value, held.held),
+        (0, 1),
+        "{} is in N holding the passage",
+        routes[victim].0
+    );
+    take_lines(&mut printed);
+    let survivor = 1 - victim;
+    let inside = |lines: &[String]| lines.iter().any(|l| l == "in the narrow passage N");
+    assert!(
+        inside(&printed[victim]) && !inside(&printed[survivor]),
+        "{} should hold N alone: {printed:?}",
+        routes[victim].0
+    );
+    // The whole crew at once, as a host losing power would.
+    planners[victim].kill();
+    for mut c in crews[victim].drain(..) {
+        c.kill();
+    }
+
+    // The survivor is let in, and the dead robot stays where it died (the
+    // base's deadman stopped it).
+    let deadline = Instant::now() + Duration::from_secs(120);
+    while !inside(&printed[survivor]) {
+        assert!(
+            Instant::now() < deadline,
+            "{} was never let into N after {} died there: {:?}\n{}",
+            routes[survivor].0,
+            routes[victim].0,
+            printed[survivor],
+            logs(port)
+        );
+        tokio::time::sleep(Duration::from_millis(100)).await;
+        take_lines(&mut printed);
+    }
+    let after = truth[victim].get().await.unwrap();
+    let drifted = after.travelled_mm - at_kill.travelled_mm;
+    assert!(
+        drifted < 1_000.0,
+        "{} drove on {drifted:.0} mm after its clients died",
+        routes[victim].0
+    );
+    assert!(deep_in_n(&after), "{after:?}");
+    planners[survivor].kill();
+    for mut c in crews[survivor].drain(..) {
+        c.kill();
     }
     let _ = session.close().await;
 }

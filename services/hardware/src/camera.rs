@@ -141,7 +141,10 @@ impl<D: CameraDevice> Service for Camera<D> {
             }
             "grab" => {
                 let format = params.take_id(param::FORMAT)?;
-                params.finish(command, &["format", "priority", "fence", "wait_ms", "client"])?;
+                params.finish(
+                    command,
+                    &["format", "priority", "fence", "wait_ms", "client"],
+                )?;
                 match format.as_deref() {
                     None | Some("raw") => Ok(CameraCmd::Grab { png: false }),
                     Some("png") => Ok(CameraCmd::Grab { png: true }),

@@ -485,8 +485,12 @@ impl<S: Service> Server<S> {
             // (its process died, or its host dropped off the network).
             self.mover = None;
             match self.service.halt().await {
-                Ok(()) => tracing::warn!(server = %self.config.label(), client = %alive.id, "the client that set the device moving is gone; stopped it"),
-                Err(e) => tracing::error!(server = %self.config.label(), client = %alive.id, error = %e, "the client that set the device moving is gone and stopping it failed"),
+                Ok(()) => {
+                    tracing::warn!(server = %self.config.label(), client = %alive.id, "the client that set the device moving is gone; stopped it")
+                }
+                Err(e) => {
+                    tracing::error!(server = %self.config.label(), client = %alive.id, error = %e, "the client that set the device moving is gone and stopping it failed")
+                }
             }
         }
         if let Some(h) = self.gate.owner_gone(alive.id) {
