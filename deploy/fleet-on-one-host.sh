@@ -17,6 +17,7 @@ here=$(cd "$(dirname "$0")/.." && pwd)
 rome=${ROME:-rome}
 port=${PORT:-7447}
 logs=${LOGS:-$(mktemp -d -t rome-fleet-XXXXXX)}
+mkdir -p "$logs"
 routes=${1:-}
 shift || true
 [ "${1:-}" = "--" ] && shift

@@ -36,6 +36,9 @@ pub enum ErrorCode {
     TimedOut,
     /// The device did not answer or refused the command.
     Device,
+    /// The server has too many requests waiting and did not take this one
+    /// in: nothing was done, so it is safe to send again after a pause.
+    Busy,
 }
 
 impl ErrorCode {
@@ -55,6 +58,7 @@ impl ErrorCode {
             ErrorCode::StaleFence => "stale_fence",
             ErrorCode::TimedOut => "timed_out",
             ErrorCode::Device => "device",
+            ErrorCode::Busy => "busy",
         }
     }
 }

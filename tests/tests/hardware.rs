@@ -286,6 +286,42 @@ async fn a_killed_holder_loses_the_lock_within_three_seconds() {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 4)]
+async fn a_full_queue_behind_a_lock_answers_busy_and_serves_the_rest_afterwards() {
+    let rec = Recorder::default();
+    let rig = Rig::recorder(&rec, false).await;
+    let holder = rig.client("holder", 128).await;
+    let lock = holder.lock().await.unwrap();
+    let cap = rome_hardware::server::EVENT_QUEUE;
+    let c = rig.client("flood", 128).await;
+    let waiting: Vec<_> = (0..cap + 20)
+        .map(|_| {
+            let c = c.clone();
+            tokio::spawn(async move { c.go(1.0).await })
+        })
+        .collect();
+    // Those that found the queue full are answered at once; the rest wait.
+    eventually(Duration::from_secs(30), "20 answered busy", || async {
+        waiting.iter().filter(|w| w.is_finished()).count() == 20
+    })
+    .await;
+    assert!(velocities(&rec).is_empty());
+    lock.unlock().await.unwrap();
+    let (mut ok, mut busy) = (0, 0);
+    for w in waiting {
+        match w.await.unwrap() {
+            Ok(_) => ok += 1,
+            Err(ClientError::Server(e)) if e.code == ErrorCode::Busy => {
+                assert!(e.message.contains("requests queued"), "{e}");
+                busy += 1;
+            }
+            Err(e) => panic!("neither done nor busy: {e}"),
+        }
+    }
+    assert_eq!((ok, busy), (cap, 20));
+    assert_eq!(velocities(&rec).len(), cap);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 4)]
 async fn a_base_set_moving_by_a_client_that_goes_away_is_stopped() {
     let rec = Recorder::default();
     let rig = Rig::recorder(&rec, false).await;

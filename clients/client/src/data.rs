@@ -13,7 +13,7 @@ use rome_schema::data::{
     WaitReply, WaitStatus, MAX_HOLD_MS,
 };
 use rome_schema::keys::DataOp;
-use rome_schema::{decode, encode, ErrorReply, Name, Root};
+use rome_schema::{decode, encode, ErrorCode, ErrorReply, Name, Root};
 use serde::de::DeserializeOwned;
 use serde::Serialize;
 use serde_json::Value;
@@ -235,6 +235,13 @@ impl DataClient {
                 (attempt_timeout * 2).min(o.max_attempt_timeout.max(o.attempt_timeout));
             match self.attempt(key, params, payload, this_attempt).await? {
                 Some(Answer::Reply((_, body))) => return Ok(decode(&body, what)?),
+                // Busy: the server took nothing in, so sending again is
+                // safe whatever the call; pause as for silence.
+                Some(Answer::Refused(e)) if e.code == ErrorCode::Busy => {
+                    self.inner.retries.fetch_add(1, Ordering::Relaxed);
+                    tokio::time::sleep(backoff.min(left)).await;
+                    backoff = (backoff * 2).min(MAX_BACKOFF);
+                }
                 Some(Answer::Refused(e)) => return Err(ClientError::Server(e)),
                 None => self.silence(&mut backoff, tried, left).await,
             }
@@ -543,6 +550,11 @@ impl DataClient {
                 .attempt(&key, &params, None, hold + o.max_attempt_timeout)
                 .await?
             {
+                Some(Answer::Refused(e)) if e.code == ErrorCode::Busy => {
+                    self.inner.retries.fetch_add(1, Ordering::Relaxed);
+                    tokio::time::sleep(backoff).await;
+                    backoff = (backoff * 2).min(MAX_BACKOFF);
+                }
                 Some(Answer::Refused(e)) => return Err(ClientError::Server(e)),
                 Some(Answer::Reply((_, body))) => {
                     let reply: WaitReply = decode(&body, "wait reply")?;

@@ -7,10 +7,16 @@
 //! is seen in that order, commits are published in commit order, and no
 //! lock is needed.
 //!
-//! The channel is bounded ([`EVENT_QUEUE`]) and Zenoh's callbacks block
-//! when it is full, as Zenoh's own FIFO handlers do: a client that floods
-//! the server is slowed down on its own link instead of growing the
-//! server's memory without limit.
+//! The channel is bounded ([`EVENT_QUEUE`]) and a Zenoh callback never
+//! waits on it: a callback runs on the link's receive path (or, for a
+//! client in the same session, on the client's own task), so blocking there
+//! would stall every other peer on the link, or deadlock a process whose
+//! clients and server share one session. When the queue is full a query is
+//! answered `busy` at once (nothing was done; the client library tries
+//! again after a pause) and a plain put is dropped and counted, as Zenoh
+//! drops puts on a congested link. Liveliness changes go on a channel of
+//! their own that never drops: a waiter's cleanup and an undo depend on
+//! them, and they come no faster than peers can come and go.
 
 use crate::cmd::{Params, Request};
 use crate::store::{Grant, Store};
@@ -29,7 +35,8 @@ use zenoh::query::Query;
 use zenoh::sample::{Sample, SampleKind};
 use zenoh::Session;
 
-/// How many events may wait for the server before Zenoh is pushed back.
+/// How many events may wait for the server before queries are answered
+/// `busy` and plain puts dropped.
 pub const EVENT_QUEUE: usize = 256;
 
 /// How the data server runs.
@@ -146,35 +153,52 @@ pub async fn run(
 ) -> Result<(), ServerError> {
     let root = config.root.clone();
     let (tx, rx) = flume::bounded(EVENT_QUEUE);
+    let (alive_tx, alive_rx) = flume::unbounded();
+    let runtime = tokio::runtime::Handle::current();
 
     let sender = tx.clone();
     let _queryable = session
         .declare_queryable(root.data_all())
         .callback(move |q| {
-            let _ = sender.send(Event::Query(q));
+            if let Err(flume::TrySendError::Full(Event::Query(q))) =
+                sender.try_send(Event::Query(q))
+            {
+                runtime.spawn(async move { reply_err(&q, &busy()).await });
+            }
         })
         .await
         .map_err(|e| declare_err("the data queryable", e))?;
     let mut subscribers = Vec::new();
+    let dropped = std::sync::Arc::new(std::sync::atomic::AtomicU64::new(0));
     for op in [DataOp::Var, DataOp::Signal] {
         let sender = tx.clone();
+        let dropped = dropped.clone();
         subscribers.push(
             session
                 .declare_subscriber(root.data_all_of(op))
                 .callback(move |s| {
-                    let _ = sender.send(Event::Put(s));
+                    if let Err(flume::TrySendError::Full(_)) = sender.try_send(Event::Put(s)) {
+                        let n = dropped.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+                        // 1, 2, 4, 8 …: a flood is reported, not echoed.
+                        if n.is_power_of_two() {
+                            tracing::warn!(
+                                dropped = n,
+                                queue = EVENT_QUEUE,
+                                "data server too busy: plain puts dropped"
+                            );
+                        }
+                    }
                 })
                 .await
                 .map_err(|e| declare_err("the put subscriber", e))?,
         );
     }
-    let sender = tx.clone();
     let _alive = session
         .liveliness()
         .declare_subscriber(root.alive_clients())
         .history(true)
         .callback(move |s| {
-            let _ = sender.send(Event::Alive(s));
+            let _ = alive_tx.send(Event::Alive(s));
         })
         .await
         .map_err(|e| declare_err("the liveliness subscriber", e))?;
@@ -201,6 +225,7 @@ pub async fn run(
         tokio::select! {
             biased;
             _ = &mut shutdown => break,
+            Ok(event) = alive_rx.recv_async() => server.handle(event).await,
             Ok(event) = rx.recv_async() => server.handle(event).await,
             _ = tick.tick() => server.sweep().await,
         }
@@ -439,6 +464,14 @@ async fn reply_json(query: &Query, key: &str, payload: Vec<u8>) {
     {
         tracing::warn!(%key, error = %e, "reply failed");
     }
+}
+
+/// The answer to a query that found the event queue full.
+fn busy() -> ErrorReply {
+    ErrorReply::new(
+        ErrorCode::Busy,
+        format!("the data server has {EVENT_QUEUE} requests waiting and did not take this one; nothing was done, send it again after a pause"),
+    )
 }
 
 async fn reply_err(query: &Query, e: &ErrorReply) {

@@ -23,7 +23,8 @@ use zenoh::query::{ConsolidationMode, Query};
 use zenoh::sample::{Sample, SampleKind};
 use zenoh::Session;
 
-/// How many events may wait for a server before Zenoh is pushed back.
+/// How many requests may wait for a server (in its channel, and again in
+/// its priority queue) before it answers `busy`.
 pub const EVENT_QUEUE: usize = 1024;
 /// How often lapsed grants and overdue requests are swept.
 pub const SWEEP: Duration = Duration::from_millis(100);
@@ -223,21 +224,34 @@ pub async fn run<S: Service>(
         }
     }
 
+    // A callback never waits on the queue (it runs on the link's receive
+    // path, or on the task of a client in the same session): a full queue
+    // answers `busy` at once. Liveliness changes have a channel of their
+    // own that never drops: lock releases and the deadman depend on them.
     let (tx, rx) = flume::bounded(EVENT_QUEUE);
-    let sender = tx.clone();
+    let (alive_tx, alive_rx) = flume::unbounded();
+    let runtime = tokio::runtime::Handle::current();
+    let label = config.label();
     let _queryable = session
         .declare_queryable(config.root.robot_device_all(&config.robot, &config.device))
         .callback(move |q| {
-            let _ = sender.send(Event::Query(q));
+            if let Err(flume::TrySendError::Full(Event::Query(q))) =
+                tx.try_send(Event::Query(q))
+            {
+                let e = ErrorReply::new(
+                    ErrorCode::Busy,
+                    format!("{label} has {EVENT_QUEUE} requests waiting and did not take this one; nothing was done, send it again after a pause"),
+                );
+                runtime.spawn(async move { reply_err(&q, &e).await });
+            }
         })
         .await
         .map_err(|e| declare_err("the device queryable", e))?;
-    let sender = tx;
     let _alive = session
         .liveliness()
         .declare_subscriber(config.root.alive_clients())
         .callback(move |s| {
-            let _ = sender.send(Event::Alive(s));
+            let _ = alive_tx.send(Event::Alive(s));
         })
         .await
         .map_err(|e| declare_err("the liveliness subscriber", e))?;
@@ -269,6 +283,7 @@ pub async fn run<S: Service>(
         tokio::select! {
             biased;
             _ = &mut shutdown => break,
+            Ok(event) = alive_rx.recv_async() => server.take(event).await,
             Ok(event) = rx.recv_async() => {
                 server.take(event).await;
                 // Everything that arrived meanwhile joins the queue before
@@ -389,6 +404,19 @@ impl<S: Service> Server<S> {
             op,
         };
         let wait = Duration::from_millis(meta.wait_ms);
+        let holds = meta.fence.is_some() && meta.fence == self.gate.holder().map(|h| h.fence);
+        if self.gate.queued() >= EVENT_QUEUE && !holds {
+            // Requests wait up to MAX_WAIT_MS behind a lock: without a cap a
+            // flood would hold memory for that long.
+            let e = ErrorReply::new(
+                ErrorCode::Busy,
+                format!(
+                    "{} has {EVENT_QUEUE} requests queued and did not take this one; nothing was done, send it again after a pause",
+                    self.config.label()
+                ),
+            );
+            return reply_err(&pending.query, &e).await;
+        }
         match self
             .gate
             .admit(meta.priority, meta.fence, wait, pending, now)
