@@ -66,6 +66,8 @@ pub enum Command {
     Robot(cmd::robot::Args),
     /// Keep the servers' lock state in memory (a Zenoh storage on ROOT/store/**).
     Storage(cmd::storage::Args),
+    /// Run a Zenoh router with the storage manager and REST plugins built in.
+    Router(cmd::router::Args),
     /// Run everything in one process: a simulated robot drives from room to room (no router, no configuration).
     Demo(cmd::demo::Args),
     /// Path Planner (§5.3): plan a route, register the robot at its start, hand goals to the Navigator.
@@ -87,7 +89,11 @@ pub enum Command {
 pub fn main(cli: Cli) -> ExitCode {
     let server = matches!(
         cli.command,
-        Command::DataServer(_) | Command::Sim(_) | Command::Storage(_) | Command::Pioneer(_)
+        Command::DataServer(_)
+            | Command::Sim(_)
+            | Command::Storage(_)
+            | Command::Pioneer(_)
+            | Command::Router(_)
     );
     cli.common.init_logging(server);
     let runtime = match tokio::runtime::Builder::new_multi_thread()
@@ -133,6 +139,7 @@ pub async fn run(cli: Cli) -> anyhow::Result<u8> {
         Command::Pioneer(args) => cmd::pioneer::run(&common, args).await,
         Command::Robot(args) => cmd::robot::run(&common, args).await,
         Command::Storage(args) => cmd::storage::run(&common, args).await,
+        Command::Router(args) => cmd::router::run(&common, args).await,
         Command::Demo(args) => cmd::demo::run(args).await,
         Command::Planner(args) => cmd::nav::planner(&common, args).await,
         Command::Navigator(args) => cmd::nav::navigator(&common, args).await,

@@ -11,6 +11,7 @@ pub mod map;
 pub mod nav;
 pub mod pioneer;
 pub mod robot;
+pub mod router;
 pub mod sem;
 pub mod sim;
 pub mod storage;
