@@ -90,6 +90,19 @@ where
     }
 }
 
+/// Waits until something listens on loopback `port` (a server process
+/// just started); panics after `within`.
+pub fn await_port(port: u16, within: Duration) {
+    let deadline = Instant::now() + within;
+    while std::net::TcpStream::connect(("127.0.0.1", port)).is_err() {
+        assert!(
+            Instant::now() < deadline,
+            "nothing listened on 127.0.0.1:{port} within {within:?}"
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
 /// A child process killed (SIGKILL) when dropped.
 pub struct ChildGuard(pub Option<Child>);
 

@@ -71,15 +71,17 @@ fn metres_from_goal(out: &str) -> f64 {
         .unwrap_or_else(|| panic!("no distance in the planner's last line:\n{out}"))
 }
 
-/// `rome data-server` listening on `port`.
+/// `rome data-server` listening on `port`, once it listens.
 fn data_server(port: u16) -> ChildGuard {
     let endpoint = format!("tcp/127.0.0.1:{port}");
-    rome(
+    let child = rome(
         port,
         "data-server",
         &["--no-multicast", "--listen", &endpoint, "data-server"],
         Stdio::null(),
-    )
+    );
+    rome_tests::await_port(port, Duration::from_secs(60));
+    child
 }
 
 /// `rome sim` with a robot at each of `at`, joined to the data server.

@@ -73,11 +73,7 @@ async fn servers_and_clients_meet_through_the_router_and_rest_answers() {
         &rest_s,
     ]);
     // The router is up once its port takes connections.
-    let deadline = Instant::now() + Duration::from_secs(30);
-    while std::net::TcpStream::connect(("127.0.0.1", port)).is_err() {
-        assert!(Instant::now() < deadline, "the router never listened");
-        std::thread::sleep(Duration::from_millis(50));
-    }
+    rome_tests::await_port(port, Duration::from_secs(60));
     // Each names only the router, as on other hosts.
     let via = ["--no-multicast", "-m", "client", "-e", router_ep.as_str()];
     let _data = rome(&[&via[..], &["data-server"]].concat());

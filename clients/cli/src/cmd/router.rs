@@ -27,9 +27,10 @@ use zenoh::internal::runtime::RuntimeBuilder;
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// The REST plugin's HTTP port (`curl http://HOST:PORT/rome/**`);
-    /// `none` turns the REST plugin off.
-    #[arg(long, default_value = "8000", value_name = "PORT|none")]
-    pub rest_port: String,
+    /// `none` turns the REST plugin off [default: 8000, or what the
+    /// `--config` file says].
+    #[arg(long, value_name = "PORT|none")]
+    pub rest_port: Option<String>,
     /// Do not keep the lock records (`<root>/store/**`) in a memory storage.
     #[arg(long)]
     pub no_storage: bool,
@@ -51,11 +52,26 @@ pub fn config(common: &CommonArgs, args: &Args) -> anyhow::Result<zenoh::Config>
             .insert_json5(key, &json)
             .map_err(|e| anyhow::anyhow!("cannot set '{key}' to {json}: {e}"))
     };
-    match args.rest_port.as_str() {
-        "none" => {}
-        port => {
+    let rest = match (&args.rest_port, &common.config) {
+        (Some(p), _) => Some(p.as_str()),
+        (None, Some(_)) => None,
+        (None, None) => Some("8000"),
+    };
+    match rest {
+        None => {}
+        Some("none") => {
+            config
+                .remove("plugins/rest")
+                .map_err(|e| anyhow::anyhow!("cannot turn REST off: {e}"))?;
+        }
+        Some(port) => {
             let port: u16 = port.parse().with_context(|| {
                 format!("--rest-port must be a port number or 'none', got '{port}'")
+            })?;
+            // Zenoh's loader panics on a plugin that fails to start: say
+            // why first.
+            std::net::TcpListener::bind(("0.0.0.0", port)).with_context(|| {
+                format!("the REST port {port} is not free (--rest-port another, or none)")
             })?;
             set(&mut config, "plugins/rest/http_port", format!("\"{port}\""))?;
             set(&mut config, "plugins/rest/__required__", "true".into())?;
@@ -83,12 +99,23 @@ pub fn config(common: &CommonArgs, args: &Args) -> anyhow::Result<zenoh::Config>
 /// Runs the router until Ctrl-C or SIGTERM.
 pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
     let config = config(common, &args)?;
+    let rest = match config.get_json("plugins/rest/http_port") {
+        Ok(p) => format!("on port {}", p.trim_matches('"')),
+        Err(_) => "off".to_string(),
+    };
+    // A plugin declared without configuration fails to start: declare only
+    // those the configuration has.
     let mut plugins = PluginsManager::static_plugins_only();
-    plugins.declare_static_plugin::<zenoh_plugin_rest::RestPlugin, &str>("rest", true);
-    plugins.declare_static_plugin::<zenoh_plugin_storage_manager::StoragesPlugin, &str>(
-        "storage_manager",
-        true,
-    );
+    if config.get_json("plugins/rest").is_ok() {
+        plugins.declare_static_plugin::<zenoh_plugin_rest::RestPlugin, &str>("rest", true);
+    }
+    let storage = config.get_json("plugins/storage_manager").is_ok();
+    if storage {
+        plugins.declare_static_plugin::<zenoh_plugin_storage_manager::StoragesPlugin, &str>(
+            "storage_manager",
+            true,
+        );
+    }
     let mut runtime = RuntimeBuilder::new(config)
         .plugins_manager(plugins)
         .build()
@@ -109,18 +136,11 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
         .map(|l| l.to_string())
         .collect();
     eprintln!(
-        "rome router: zid {}, listening on {}; REST {}; storage {}; Ctrl-C to stop",
+        "rome router: zid {}, listening on {}; REST {}; storage manager {}; Ctrl-C to stop",
         session.zid(),
         listen.join(", "),
-        match args.rest_port.as_str() {
-            "none" => "off".to_string(),
-            p => format!("on http://0.0.0.0:{p}"),
-        },
-        if args.no_storage {
-            "off".to_string()
-        } else {
-            format!("of '{}' in memory", common.root()?.store_all())
-        },
+        rest,
+        if storage { "on" } else { "off" },
     );
     crate::exit::interrupted().await;
     let _ = session.close().await;
