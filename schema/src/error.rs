@@ -36,6 +36,9 @@ pub enum ErrorCode {
     TimedOut,
     /// The device did not answer or refused the command.
     Device,
+    /// A configured limit of the server (variables, semaphores, bytes)
+    /// would be passed; the message names the limit and its value.
+    Quota,
     /// The server has too many requests waiting and did not take this one
     /// in: nothing was done, so it is safe to send again after a pause.
     Busy,
@@ -59,6 +62,7 @@ impl ErrorCode {
             ErrorCode::TimedOut => "timed_out",
             ErrorCode::Device => "device",
             ErrorCode::Busy => "busy",
+            ErrorCode::Quota => "quota",
         }
     }
 }

@@ -15,4 +15,4 @@ pub mod server;
 pub mod store;
 
 pub use server::{run, spawn, Running, ServerConfig, ServerError};
-pub use store::Store;
+pub use store::{Limits, Store};

@@ -52,6 +52,8 @@ pub struct ServerConfig {
     pub grace: Duration,
     /// How often lapsed places and orphaned grants are swept.
     pub sweep_every: Duration,
+    /// What the server may hold at most.
+    pub limits: crate::store::Limits,
 }
 
 impl Default for ServerConfig {
@@ -61,6 +63,7 @@ impl Default for ServerConfig {
             default_history: DEFAULT_HISTORY,
             grace: Duration::from_secs(5),
             sweep_every: Duration::from_millis(500),
+            limits: crate::store::Limits::default(),
         }
     }
 }
@@ -211,7 +214,7 @@ pub async fn run(
     tracing::info!(root = root.as_str(), zid = %session.zid(), "data server ready");
 
     let mut server = Server {
-        store: Store::new(config.default_history),
+        store: Store::new(config.default_history).with_limits(config.limits),
         session,
         held: HashMap::new(),
         generation: 0,
@@ -325,7 +328,7 @@ impl Server {
             (DataOp::Var, SampleKind::Put) => {
                 let bytes = sample.payload().to_bytes();
                 crate::cmd::set_value_from_payload(&data_key.name, Some(&bytes))
-                    .map(|value| Some(self.store.put(&data_key.name, value)))
+                    .and_then(|value| self.store.put(&data_key.name, value).map(Some))
             }
             (DataOp::Var, SampleKind::Delete) => Ok(self.store.delete(&data_key.name)),
             (DataOp::Signal, SampleKind::Put) => match self.store.signal(&data_key.name, None, now)

@@ -40,12 +40,58 @@ pub const DEFAULT_CONFIRM_WITHIN: Duration = Duration::from_secs(60);
 /// How many finished requests are remembered at most.
 pub const MAX_REMEMBERED: usize = 200_000;
 
-/// One variable: the last `len` values, newest at the back.
+/// What one data server may hold at most; past a limit a write or a
+/// create is refused with `quota`, naming the limit.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Limits {
+    /// Variables (written or with a history length set).
+    pub max_variables: usize,
+    /// Semaphores.
+    pub max_semaphores: usize,
+    /// Bytes of stored values, every history counted (JSON text).
+    pub max_bytes: u64,
+}
+
+impl Default for Limits {
+    /// 100 000 variables, 100 000 semaphores, 1 GiB of values.
+    fn default() -> Self {
+        Limits {
+            max_variables: 100_000,
+            max_semaphores: 100_000,
+            max_bytes: 1 << 30,
+        }
+    }
+}
+
+/// One variable: the last `len` values, newest at the back, each with its
+/// size in bytes.
 #[derive(Debug)]
 struct Var {
     len: u32,
     values: VecDeque<Value>,
+    sizes: VecDeque<u64>,
     seq: u64,
+}
+
+impl Var {
+    fn new(len: u32) -> Var {
+        Var {
+            len,
+            values: VecDeque::new(),
+            sizes: VecDeque::new(),
+            seq: 0,
+        }
+    }
+
+    /// Drops the oldest values beyond `len`; the bytes freed.
+    fn trim(&mut self) -> u64 {
+        let mut freed = 0;
+        while self.values.len() > self.len as usize {
+            self.values.pop_front();
+            freed += self.sizes.pop_front().unwrap_or(0);
+        }
+        freed
+    }
 }
 
 /// One counting semaphore with its FIFO queue of tickets.
@@ -130,6 +176,8 @@ pub struct Store {
     remembered_order: VecDeque<(Instant, String)>,
     next_anonymous: u64,
     held: BTreeMap<(Name, String), Held>,
+    limits: Limits,
+    bytes: u64,
 }
 
 fn err(code: ErrorCode, message: impl Into<String>) -> ErrorReply {
@@ -157,7 +205,33 @@ impl Store {
             remembered_order: VecDeque::new(),
             next_anonymous: 0,
             held: BTreeMap::new(),
+            limits: Limits::default(),
+            bytes: 0,
         }
+    }
+
+    /// Sets the limits on what the store holds.
+    pub fn with_limits(mut self, limits: Limits) -> Self {
+        self.limits = limits;
+        self
+    }
+
+    /// Bytes of values held now, every history counted.
+    pub fn bytes(&self) -> u64 {
+        self.bytes
+    }
+
+    fn room_for_variable(&self, name: &Name) -> Result<(), ErrorReply> {
+        if !self.vars.contains_key(name) && self.vars.len() >= self.limits.max_variables {
+            return Err(err(
+                ErrorCode::Quota,
+                format!(
+                    "variable '{name}' would be one too many: the data server holds at most {} variables (--max-variables)",
+                    self.limits.max_variables
+                ),
+            ));
+        }
+        Ok(())
     }
 
     /// Sets how long an owned grant may wait for its `ack`.
@@ -199,28 +273,46 @@ impl Store {
 
     // ----- variables -----------------------------------------------------
 
-    fn commit(&mut self, name: &Name, value: Value) -> Committed {
-        let default = self.default_history;
-        let var = self.vars.entry(name.clone()).or_insert_with(|| Var {
-            len: default,
-            values: VecDeque::new(),
-            seq: 0,
-        });
-        var.values.push_back(value.clone());
-        while var.values.len() > var.len as usize {
-            var.values.pop_front();
+    fn commit(&mut self, name: &Name, value: Value) -> Result<Committed, ErrorReply> {
+        self.room_for_variable(name)?;
+        let size = serde_json::to_vec(&value).map_or(0, |v| v.len() as u64);
+        // A full history gives its oldest value's bytes back.
+        let freed = match self.vars.get(name) {
+            Some(v) if v.values.len() >= v.len as usize => v.sizes.front().copied().unwrap_or(0),
+            _ => 0,
+        };
+        let after = (self.bytes + size).saturating_sub(freed);
+        if after > self.limits.max_bytes {
+            return Err(err(
+                ErrorCode::Quota,
+                format!(
+                    "writing {size} bytes to '{name}' would take the data server to {after} bytes of values, above its limit of {} (--max-mb); shorten histories or delete variables",
+                    self.limits.max_bytes
+                ),
+            ));
         }
+        let default = self.default_history;
+        let var = self
+            .vars
+            .entry(name.clone())
+            .or_insert_with(|| Var::new(default));
+        var.values.push_back(value.clone());
+        var.sizes.push_back(size);
+        let freed = var.trim();
         var.seq += 1;
-        Committed {
+        let seq = var.seq;
+        self.bytes = (self.bytes + size).saturating_sub(freed);
+        Ok(Committed {
             name: name.to_string(),
-            seq: var.seq,
+            seq,
             value: Some(value),
             deleted: false,
-        }
+        })
     }
 
-    /// A plain write (Zenoh `put` on `var/<name>`): always commits.
-    pub fn put(&mut self, name: &Name, value: Value) -> Committed {
+    /// A plain write (Zenoh `put` on `var/<name>`): commits unless a limit
+    /// would be passed.
+    pub fn put(&mut self, name: &Name, value: Value) -> Result<Committed, ErrorReply> {
         self.commit(name, value)
     }
 
@@ -242,7 +334,7 @@ impl Store {
             Some(_) => return Err(Self::reused(op.unwrap_or_default(), "set")),
             None => {}
         }
-        let commit = self.commit(name, value);
+        let commit = self.commit(name, value)?;
         let reply = SetReply {
             name: name.to_string(),
             seq: commit.seq,
@@ -262,6 +354,8 @@ impl Store {
             return None;
         }
         var.values.clear();
+        let freed: u64 = var.sizes.drain(..).sum();
+        self.bytes = self.bytes.saturating_sub(freed);
         var.seq += 1;
         Some(Committed {
             name: name.to_string(),
@@ -326,16 +420,16 @@ impl Store {
                         format!("history length must be between 1 and {MAX_HISTORY}, got {len}"),
                     ));
                 }
-                let var = self.vars.entry(name.clone()).or_insert_with(|| Var {
-                    len,
-                    values: VecDeque::new(),
-                    seq: 0,
-                });
+                self.room_for_variable(name)?;
+                let var = self
+                    .vars
+                    .entry(name.clone())
+                    .or_insert_with(|| Var::new(len));
                 var.len = len;
-                while var.values.len() > len as usize {
-                    var.values.pop_front();
-                }
-                Ok(Self::info(name, var))
+                let freed = var.trim();
+                let info = Self::info(name, var);
+                self.bytes = self.bytes.saturating_sub(freed);
+                Ok(info)
             }
             None => self
                 .vars
@@ -363,6 +457,15 @@ impl Store {
             return Err(err(
                 ErrorCode::OutOfRange,
                 format!("initial value {value} is above the maximum {MAX_SEMAPHORE_VALUE}"),
+            ));
+        }
+        if !self.sems.contains_key(name) && self.sems.len() >= self.limits.max_semaphores {
+            return Err(err(
+                ErrorCode::Quota,
+                format!(
+                    "semaphore '{name}' would be one too many: the data server holds at most {} semaphores (--max-semaphores)",
+                    self.limits.max_semaphores
+                ),
             ));
         }
         let mut created = false;
@@ -911,7 +1014,7 @@ mod tests {
         let d = s.delete(&n("v")).unwrap();
         assert_eq!((d.seq, d.deleted), (2, true));
         assert!(s.delete(&n("v")).is_none());
-        assert_eq!(s.put(&n("v"), json!(2)).seq, 3);
+        assert_eq!(s.put(&n("v"), json!(2)).unwrap().seq, 3);
     }
 
     #[test]
@@ -1201,5 +1304,42 @@ mod tests {
             s.cancel(&n("B"), "x").unwrap_err().code,
             ErrorCode::Conflict
         );
+    }
+
+    #[test]
+    fn limits_refuse_with_quota_naming_the_limit_and_deletes_give_room_back() {
+        let mut s = Store::new(2).with_limits(Limits {
+            max_variables: 2,
+            max_semaphores: 1,
+            max_bytes: 10,
+        });
+        let now = Instant::now();
+        let a = n("a");
+        // "12345" is 7 bytes of JSON; a history of two holds 14: too many.
+        s.set(&a, json!("12345"), None, now).unwrap();
+        assert_eq!(s.bytes(), 7);
+        let e = s.set(&a, json!("12345"), None, now).unwrap_err();
+        assert_eq!(e.code, ErrorCode::Quota);
+        assert!(e.message.contains("--max-mb"), "{e}");
+        assert_eq!(s.get(&a, 0).unwrap(), &json!("12345"));
+        // A history of one gives the old value's bytes back as it goes.
+        s.history(&a, Some(1)).unwrap();
+        s.set(&a, json!("67890"), None, now).unwrap();
+        assert_eq!(s.bytes(), 7);
+        // Variables and semaphores are counted.
+        s.put(&n("b"), json!(1)).unwrap();
+        let e = s.put(&n("c"), json!(1)).unwrap_err();
+        assert_eq!(e.code, ErrorCode::Quota);
+        assert!(e.message.contains("at most 2 variables"), "{e}");
+        let e = s.history(&n("c"), Some(3)).unwrap_err();
+        assert_eq!(e.code, ErrorCode::Quota);
+        s.create(&n("S"), 0).unwrap();
+        s.create(&n("S"), 0).unwrap();
+        let e = s.create(&n("T"), 0).unwrap_err();
+        assert!(e.message.contains("at most 1 semaphores"), "{e}");
+        // A delete gives its bytes back.
+        s.delete(&a);
+        assert_eq!(s.bytes(), 1);
+        s.set(&a, json!("12345"), None, now).unwrap();
     }
 }

@@ -15,6 +15,15 @@ pub struct Args {
     /// an unconfirmed grant to a vanished client is kept (milliseconds).
     #[arg(long, default_value_t = 5000, value_name = "MS")]
     pub grace_ms: u64,
+    /// At most this many variables; past it writes are refused `quota`.
+    #[arg(long, default_value_t = 100_000, value_name = "N")]
+    pub max_variables: usize,
+    /// At most this many semaphores.
+    #[arg(long, default_value_t = 100_000, value_name = "N")]
+    pub max_semaphores: usize,
+    /// At most this many mebibytes of stored values, every history counted.
+    #[arg(long, default_value_t = 1024, value_name = "MIB")]
+    pub max_mb: u64,
 }
 
 /// Runs the server.
@@ -24,6 +33,11 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
         root: common.root()?,
         default_history: args.history,
         grace: Duration::from_millis(args.grace_ms),
+        limits: rome_data::Limits {
+            max_variables: args.max_variables,
+            max_semaphores: args.max_semaphores,
+            max_bytes: args.max_mb.saturating_mul(1 << 20),
+        },
         ..ServerConfig::default()
     };
     eprintln!(
