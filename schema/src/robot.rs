@@ -34,6 +34,9 @@ pub mod param {
     pub const OWNER: &str = "owner";
     /// `lock`: how long the grant lasts without a renewal, ms.
     pub const TTL_MS: &str = "ttl_ms";
+    /// A command that acts: its request id. A repeat with the same id is
+    /// answered as the first was, without acting again.
+    pub const OP: &str = "op";
     /// Any command: the sender's id (last chunk of its liveliness token).
     /// A base set moving by a client that then goes away is stopped.
     pub const CLIENT: &str = "client";
@@ -180,10 +183,13 @@ pub struct Meta {
     pub wait_ms: u64,
     /// The sender's id, if it gave one (`client`).
     pub client: Option<String>,
+    /// The request id, if it gave one (`op`).
+    pub op: Option<String>,
 }
 
 impl Meta {
-    /// Takes `priority`, `fence`, `wait_ms` and `client` from the parameters.
+    /// Takes `priority`, `fence`, `wait_ms`, `client` and `op` from the
+    /// parameters.
     pub fn take(params: &mut Params) -> Result<Meta, ErrorReply> {
         let priority = params
             .take_int(param::PRIORITY, 0, 255)?
@@ -195,11 +201,13 @@ impl Meta {
             .take_int(param::WAIT_MS, 0, i128::from(MAX_WAIT_MS))?
             .map_or(DEFAULT_WAIT_MS, |w| w as u64);
         let client = params.take_id(param::CLIENT)?;
+        let op = params.take_id(param::OP)?;
         Ok(Meta {
             priority,
             fence,
             wait_ms,
             client,
+            op,
         })
     }
 }
@@ -211,6 +219,7 @@ impl Default for Meta {
             fence: None,
             wait_ms: DEFAULT_WAIT_MS,
             client: None,
+            op: None,
         }
     }
 }

@@ -286,6 +286,45 @@ async fn a_killed_holder_loses_the_lock_within_three_seconds() {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 4)]
+async fn a_repeated_request_id_is_answered_again_without_acting_twice() {
+    let rec = Recorder::default();
+    let rig = Rig::recorder(&rec, false).await;
+    let s = rig.peer_session().await;
+    let go = |op: &'static str, v: u32| {
+        let s = s.clone();
+        async move {
+            plain(
+                &s,
+                &format!("rome/robot/r1/base/go?op={op}"),
+                &format!("{{\"velocity_mm_s\":{v}}}"),
+            )
+            .await
+        }
+    };
+    let first = go("a1", 100).await.unwrap();
+    // The reply was "lost": the same request comes again, twice.
+    assert_eq!(go("a1", 100).await.unwrap(), first);
+    assert_eq!(go("a1", 100).await.unwrap(), first);
+    assert_eq!(velocities(&rec), [100.0]);
+    // A refused request is refused again the same way, not retried.
+    let bad = plain(&s, "rome/robot/r1/base/go?op=a2", "{}")
+        .await
+        .unwrap_err();
+    assert_eq!(
+        plain(&s, "rome/robot/r1/base/go?op=a2", "{}")
+            .await
+            .unwrap_err(),
+        bad
+    );
+    // Another id acts again; the client library gives every command that
+    // acts an id of its own.
+    go("a3", 100).await.unwrap();
+    rig.client("c", 128).await.go(200.0).await.unwrap();
+    rig.client("c", 128).await.go(200.0).await.unwrap();
+    assert_eq!(velocities(&rec), [100.0, 100.0, 200.0, 200.0]);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 4)]
 async fn a_full_queue_behind_a_lock_answers_busy_and_serves_the_rest_afterwards() {
     let rec = Recorder::default();
     let rig = Rig::recorder(&rec, false).await;

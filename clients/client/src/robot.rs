@@ -7,8 +7,10 @@
 //! Every call is one Zenoh query to `<root>/robot/<robot>/<device>/<command>`
 //! (see `docs/keys.md`) carrying the client's priority, both as the
 //! `priority` parameter the server queues by and as the query's Zenoh QoS
-//! priority. Motion commands are not retried: a lost reply must not move
-//! the robot twice.
+//! priority. A command that acts (move, turn, go, jog, stop, set-pose,
+//! adjust-pose, set-bumper, timeout) carries a request id (`op`) and is sent
+//! again, up to [`ACTING_ATTEMPTS`] times, when its reply does not come: the
+//! server answers a repeat as it answered the first and does not act twice.
 //!
 //! While this client holds a device's lock, its commands to that device
 //! carry the grant's fence and a task renews the grant; dropping the
@@ -38,6 +40,24 @@ use zenoh::sample::Sample;
 use zenoh::Session;
 
 static NEXT_CLIENT: AtomicU64 = AtomicU64::new(1);
+
+/// How often a command that acts is sent at most when no reply comes.
+pub const ACTING_ATTEMPTS: u32 = 3;
+
+/// Commands that change something on the device: each carries a request id.
+const ACTING: &[&str] = &[
+    "move",
+    "turn",
+    "go",
+    "jog",
+    "stop",
+    "set-pose",
+    "adjust-pose",
+    "set-bumper",
+    "timeout",
+];
+
+static NEXT_OP: AtomicU64 = AtomicU64::new(1);
 
 /// The Zenoh QoS priority a RoME priority (0 … 255) travels in; see
 /// [`Band::of`].
@@ -269,6 +289,11 @@ impl RobotClient {
         if o.deadman {
             params.push((param::CLIENT, self.inner.owner.clone()));
         }
+        let acting = ACTING.contains(&command);
+        if acting {
+            let n = NEXT_OP.fetch_add(1, Ordering::Relaxed);
+            params.push((param::OP, format!("{}-{n}", self.inner.owner)));
+        }
         let holds = self.fence(device);
         if let (Some(f), false) = (holds, extra.iter().any(|(k, _)| *k == param::FENCE)) {
             params.push((param::FENCE, f.to_string()));
@@ -281,30 +306,43 @@ impl RobotClient {
         };
         let timeout = wait + o.reply_timeout;
         let selector = selector(&key, &params);
-        let mut get = self
-            .inner
-            .session
-            .get(selector.as_str())
-            .timeout(timeout)
-            .priority(zenoh_priority(o.priority));
-        if let Some(p) = payload {
-            get = get.payload(p).encoding(Encoding::APPLICATION_JSON);
-        }
         let started = std::time::Instant::now();
-        let replies = get.await.map_err(ClientError::zenoh)?;
-        match replies.recv_async().await {
-            Ok(reply) => match reply.result() {
-                Ok(sample) => Ok((
-                    sample.payload().to_bytes().into_owned(),
-                    sample.encoding().clone(),
-                )),
-                Err(err) => match refusal(&err.payload().to_bytes())? {
-                    Some(e) => Err(ClientError::Server(e)),
-                    None => Err(no_reply(device, key, started.elapsed())),
-                },
-            },
-            Err(_) => Err(no_reply(device, key, started.elapsed())),
+        let attempts = if acting { ACTING_ATTEMPTS } else { 1 };
+        for attempt in 1..=attempts {
+            let mut get = self
+                .inner
+                .session
+                .get(selector.as_str())
+                .timeout(timeout)
+                .priority(zenoh_priority(o.priority));
+            if let Some(p) = &payload {
+                get = get.payload(p.clone()).encoding(Encoding::APPLICATION_JSON);
+            }
+            let tried = std::time::Instant::now();
+            let replies = get.await.map_err(ClientError::zenoh)?;
+            if let Ok(reply) = replies.recv_async().await {
+                match reply.result() {
+                    Ok(sample) => {
+                        return Ok((
+                            sample.payload().to_bytes().into_owned(),
+                            sample.encoding().clone(),
+                        ))
+                    }
+                    Err(err) => {
+                        if let Some(e) = refusal(&err.payload().to_bytes())? {
+                            return Err(ClientError::Server(e));
+                        }
+                    }
+                }
+            }
+            // No reply: the request or its answer was lost (or no server
+            // is there). The same id makes sending again safe; a silence
+            // that came at once (nobody serving) gets a short pause.
+            if attempt < attempts && tried.elapsed() < Duration::from_millis(50) {
+                tokio::time::sleep(Duration::from_millis(100)).await;
+            }
         }
+        Err(no_reply(device, key, started.elapsed()))
     }
 
     async fn json<T: DeserializeOwned>(

@@ -987,7 +987,7 @@ mod tests {
             ErrorCode::UnknownVariable
         );
         for v in 0..5 {
-            s.put(&n("x"), json!(v));
+            s.put(&n("x"), json!(v)).unwrap();
         }
         assert_eq!(s.history(&n("x"), None).unwrap().stored, 2);
     }
@@ -1010,7 +1010,7 @@ mod tests {
     #[test]
     fn delete_keeps_the_commit_numbering() {
         let mut s = Store::new(4);
-        s.put(&n("v"), json!(1));
+        s.put(&n("v"), json!(1)).unwrap();
         let d = s.delete(&n("v")).unwrap();
         assert_eq!((d.seq, d.deleted), (2, true));
         assert!(s.delete(&n("v")).is_none());

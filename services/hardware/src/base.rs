@@ -174,7 +174,7 @@ impl<D: BaseDevice> Service for Base<D> {
         params: Params,
         body: Option<&[u8]>,
     ) -> Result<BaseCmd, ErrorReply> {
-        params.finish(command, &["priority", "fence", "wait_ms", "client"])?;
+        params.finish(command, &["priority", "fence", "wait_ms", "client", "op"])?;
         let no_payload = |cmd: BaseCmd| -> Result<BaseCmd, ErrorReply> {
             match body {
                 Some(b) if !b.is_empty() && b.iter().any(|c| !c.is_ascii_whitespace()) => Err(

@@ -136,14 +136,14 @@ impl<D: CameraDevice> Service for Camera<D> {
     ) -> Result<CameraCmd, ErrorReply> {
         match command {
             "size" => {
-                params.finish(command, &["priority", "fence", "wait_ms", "client"])?;
+                params.finish(command, &["priority", "fence", "wait_ms", "client", "op"])?;
                 Ok(CameraCmd::Size)
             }
             "grab" => {
                 let format = params.take_id(param::FORMAT)?;
                 params.finish(
                     command,
-                    &["format", "priority", "fence", "wait_ms", "client"],
+                    &["format", "priority", "fence", "wait_ms", "client", "op"],
                 )?;
                 match format.as_deref() {
                     None | Some("raw") => Ok(CameraCmd::Grab { png: false }),
@@ -161,7 +161,10 @@ impl<D: CameraDevice> Service for Camera<D> {
                         "'rows' needs the parameter 'rows' (e.g. rows=120,241,360)",
                     )
                 })?;
-                params.finish(command, &["rows", "priority", "fence", "wait_ms", "client"])?;
+                params.finish(
+                    command,
+                    &["rows", "priority", "fence", "wait_ms", "client", "op"],
+                )?;
                 let rows = parse_rows(&list)?;
                 let (_, height) = self.device.size();
                 if rows.is_empty() || rows.len() > MAX_ROWS {

@@ -111,7 +111,7 @@ impl<D: ProximityDevice> Service for Proximity<D> {
         params: Params,
         body: Option<&[u8]>,
     ) -> Result<ProxCmd, ErrorReply> {
-        params.finish(command, &["priority", "wait_ms", "client"])?;
+        params.finish(command, &["priority", "wait_ms", "client", "op"])?;
         match command {
             "sonar" => Ok(ProxCmd::Sonar),
             "ir" => Ok(ProxCmd::Ir),

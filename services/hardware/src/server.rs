@@ -15,6 +15,7 @@ use rome_schema::robot::{
     DEFAULT_LOCK_TTL_MS, LOCK_TTL_RANGE_MS,
 };
 use rome_schema::{decode, encode, ErrorCode, ErrorReply, Name, Params, Root};
+use std::collections::{HashMap, VecDeque};
 use std::future::Future;
 use std::time::{Duration, Instant, SystemTime};
 use zenoh::bytes::Encoding;
@@ -26,6 +27,8 @@ use zenoh::Session;
 /// How many requests may wait for a server (in its channel, and again in
 /// its priority queue) before it answers `busy`.
 pub const EVENT_QUEUE: usize = 1024;
+/// How many request ids (`op`) a server remembers with their answers.
+pub const REMEMBERED_OPS: usize = 4096;
 /// How often lapsed grants and overdue requests are swept.
 pub const SWEEP: Duration = Duration::from_millis(100);
 
@@ -179,6 +182,7 @@ struct Pending<C> {
     query: Query,
     command: String,
     client: Option<String>,
+    op_id: Option<String>,
     arrived: Instant,
     op: Op<C>,
 }
@@ -195,6 +199,11 @@ struct Server<S: Service> {
     gate: Gate<Pending<S::Cmd>>,
     /// The client whose command left the device moving, if it named itself.
     mover: Option<String>,
+    /// Answers to requests that carried an id, so a repeat (a client whose
+    /// reply was lost) is answered without acting twice; oldest dropped
+    /// first past [`REMEMBERED_OPS`].
+    done: HashMap<String, Result<Body, ErrorReply>>,
+    done_order: VecDeque<String>,
 }
 
 /// Runs a hardware server for `service` until `shutdown` completes.
@@ -259,6 +268,8 @@ pub async fn run<S: Service>(
     let mut server = Server {
         gate: Gate::new(0),
         mover: None,
+        done: HashMap::new(),
+        done_order: VecDeque::new(),
         session,
         config,
         service,
@@ -400,6 +411,7 @@ impl<S: Service> Server<S> {
             query,
             command,
             client: meta.client,
+            op_id: meta.op,
             arrived: now,
             op,
         };
@@ -449,6 +461,16 @@ impl<S: Service> Server<S> {
 
     async fn serve(&mut self, p: Pending<S::Cmd>) {
         let now = Instant::now();
+        let key = p.query.key_expr().as_str().to_string();
+        if let Some(done) = p.op_id.as_ref().and_then(|id| self.done.get(id)) {
+            // A repeat waits its turn like the first, so the first has
+            // been carried out by now: answer as it was answered.
+            tracing::debug!(%key, op = ?p.op_id, "repeated request answered from memory");
+            return match done.clone() {
+                Ok(body) => reply(&p.query, &key, body).await,
+                Err(e) => reply_err(&p.query, &e).await,
+            };
+        }
         let result = match p.op {
             Op::Lock { owner, ttl } => {
                 // The holder's own lock request renews; anyone else's is
@@ -488,15 +510,28 @@ impl<S: Service> Server<S> {
                     // the device is no longer tied to the last one's life.
                     self.mover = if moving { p.client.clone() } else { None };
                 }
+                if let Some(id) = &p.op_id {
+                    self.remember(id, &result);
+                }
                 result
             }
         };
-        let key = p.query.key_expr().as_str().to_string();
         match result {
             Ok(body) => reply(&p.query, &key, body).await,
             Err(e) => {
                 tracing::debug!(%key, command = %p.command, error = %e, "command failed");
                 reply_err(&p.query, &e).await
+            }
+        }
+    }
+
+    fn remember(&mut self, id: &str, result: &Result<Body, ErrorReply>) {
+        if self.done.insert(id.to_string(), result.clone()).is_none() {
+            self.done_order.push_back(id.to_string());
+        }
+        while self.done_order.len() > REMEMBERED_OPS {
+            if let Some(old) = self.done_order.pop_front() {
+                self.done.remove(&old);
             }
         }
     }
