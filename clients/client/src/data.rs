@@ -238,9 +238,7 @@ impl DataClient {
                 // Busy: the server took nothing in, so sending again is
                 // safe whatever the call; pause as for silence.
                 Some(Answer::Refused(e)) if e.code == ErrorCode::Busy => {
-                    self.inner.retries.fetch_add(1, Ordering::Relaxed);
-                    tokio::time::sleep(backoff.min(left)).await;
-                    backoff = (backoff * 2).min(MAX_BACKOFF);
+                    self.busy(&mut backoff, left).await
                 }
                 Some(Answer::Refused(e)) => return Err(ClientError::Server(e)),
                 None => self.silence(&mut backoff, tried, left).await,
@@ -258,6 +256,15 @@ impl DataClient {
             tokio::time::sleep((*backoff).min(left)).await;
             *backoff = (*backoff * 2).min(MAX_BACKOFF);
         }
+    }
+
+    /// An attempt was answered `busy` (the server took nothing in): counts
+    /// the retry, waits `backoff` (at most `left`) and doubles it up to
+    /// [`MAX_BACKOFF`].
+    async fn busy(&self, backoff: &mut Duration, left: Duration) {
+        self.inner.retries.fetch_add(1, Ordering::Relaxed);
+        tokio::time::sleep((*backoff).min(left)).await;
+        *backoff = (*backoff * 2).min(MAX_BACKOFF);
     }
 
     /// A wildcard query: every reply's key and body.
@@ -551,9 +558,7 @@ impl DataClient {
                 .await?
             {
                 Some(Answer::Refused(e)) if e.code == ErrorCode::Busy => {
-                    self.inner.retries.fetch_add(1, Ordering::Relaxed);
-                    tokio::time::sleep(backoff).await;
-                    backoff = (backoff * 2).min(MAX_BACKOFF);
+                    self.busy(&mut backoff, Duration::MAX).await
                 }
                 Some(Answer::Refused(e)) => return Err(ClientError::Server(e)),
                 Some(Answer::Reply((_, body))) => {

@@ -244,13 +244,8 @@ pub async fn run<S: Service>(
     let _queryable = session
         .declare_queryable(config.root.robot_device_all(&config.robot, &config.device))
         .callback(move |q| {
-            if let Err(flume::TrySendError::Full(Event::Query(q))) =
-                tx.try_send(Event::Query(q))
-            {
-                let e = ErrorReply::new(
-                    ErrorCode::Busy,
-                    format!("{label} has {EVENT_QUEUE} requests waiting and did not take this one; nothing was done, send it again after a pause"),
-                );
+            if let Err(flume::TrySendError::Full(Event::Query(q))) = tx.try_send(Event::Query(q)) {
+                let e = busy(&label, "waiting");
                 runtime.spawn(async move { reply_err(&q, &e).await });
             }
         })
@@ -420,14 +415,7 @@ impl<S: Service> Server<S> {
         if self.gate.queued() >= EVENT_QUEUE && !holds {
             // Requests wait up to MAX_WAIT_MS behind a lock: without a cap a
             // flood would hold memory for that long.
-            let e = ErrorReply::new(
-                ErrorCode::Busy,
-                format!(
-                    "{} has {EVENT_QUEUE} requests queued and did not take this one; nothing was done, send it again after a pause",
-                    self.config.label()
-                ),
-            );
-            return reply_err(&pending.query, &e).await;
+            return reply_err(&pending.query, &busy(&self.config.label(), "queued")).await;
         }
         match self
             .gate
@@ -689,6 +677,15 @@ async fn reply(query: &Query, key: &str, body: Body) {
     if let Err(e) = query.reply(key, bytes).encoding(encoding).await {
         tracing::warn!(%key, error = %e, "reply failed");
     }
+}
+
+/// The answer to a request that found [`EVENT_QUEUE`] others `waiting` (in
+/// the channel) or `queued` (behind a lock) on server `label`.
+fn busy(label: &str, waiting: &str) -> ErrorReply {
+    ErrorReply::new(
+        ErrorCode::Busy,
+        format!("{label} has {EVENT_QUEUE} requests {waiting} and did not take this one; nothing was done, send it again after a pause"),
+    )
 }
 
 async fn reply_err(query: &Query, e: &ErrorReply) {
