@@ -37,7 +37,8 @@ cleanup() { kill "${pids[@]}" 2>/dev/null || true; wait 2>/dev/null || true; }
 trap cleanup EXIT
 
 start=$(date +%s.%N)
-"$rome" --no-multicast -l "tcp/127.0.0.1:$port" data-server >"$logs/data-server.log" 2>&1 &
+# A simulated run starts from nothing: its state need not outlive it.
+"$rome" --no-multicast -l "tcp/127.0.0.1:$port" data-server --in-memory >"$logs/data-server.log" 2>&1 &
 pids+=($!)
 "$rome" "${net[@]}" -l tcp/127.0.0.1:0 -m peer sim --robots "$n" --at "$at" "$@" >"$logs/sim.log" 2>&1 &
 pids+=($!)

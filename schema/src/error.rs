@@ -42,6 +42,9 @@ pub enum ErrorCode {
     /// The server has too many requests waiting and did not take this one
     /// in: nothing was done, so it is safe to send again after a pause.
     Busy,
+    /// The server could not keep the change on disk; the change was not
+    /// acknowledged and may or may not survive a restart.
+    Storage,
 }
 
 impl ErrorCode {
@@ -62,6 +65,7 @@ impl ErrorCode {
             ErrorCode::TimedOut => "timed_out",
             ErrorCode::Device => "device",
             ErrorCode::Busy => "busy",
+            ErrorCode::Storage => "storage",
             ErrorCode::Quota => "quota",
         }
     }

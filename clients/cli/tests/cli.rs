@@ -20,7 +20,7 @@ impl Shell {
     fn start() -> Shell {
         let port = free_loopback_port().unwrap();
         let child = Command::new(ROME)
-            .args(["data-server", "--no-multicast", "--listen"])
+            .args(["data-server", "--in-memory", "--no-multicast", "--listen"])
             .arg(format!("tcp/127.0.0.1:{port}"))
             .stdin(Stdio::null())
             .stdout(Stdio::null())

@@ -77,7 +77,13 @@ fn data_server(port: u16) -> ChildGuard {
     let child = rome(
         port,
         "data-server",
-        &["--no-multicast", "--listen", &endpoint, "data-server"],
+        &[
+            "--no-multicast",
+            "--listen",
+            &endpoint,
+            "data-server",
+            "--in-memory",
+        ],
         Stdio::null(),
     );
     rome_tests::await_port(port, Duration::from_secs(60));

@@ -76,7 +76,7 @@ async fn servers_and_clients_meet_through_the_router_and_rest_answers() {
     rome_tests::await_port(port, Duration::from_secs(60));
     // Each names only the router, as on other hosts.
     let via = ["--no-multicast", "-m", "client", "-e", router_ep.as_str()];
-    let _data = rome(&[&via[..], &["data-server"]].concat());
+    let _data = rome(&[&via[..], &["data-server", "--in-memory"]].concat());
     let _sim = rome(&[&via[..], &["sim", "--robots", "1", "--at", "350R"]].concat());
 
     let session = NetOptions::loopback_client(port).open().await.unwrap();

@@ -19,7 +19,7 @@
 //! them, and they come no faster than peers can come and go.
 
 use crate::cmd::{Params, Request};
-use crate::store::{Grant, Store};
+use crate::store::{Disk, DiskError, Flush, Grant, Store};
 use rome_schema::data::{Committed, Rejected, WaitReply, WaitStatus, DEFAULT_HISTORY};
 use rome_schema::keys::DataOp;
 use rome_schema::{encode, ErrorCode, ErrorReply, Root};
@@ -39,6 +39,11 @@ use zenoh::Session;
 /// `busy` and plain puts dropped.
 pub const EVENT_QUEUE: usize = 256;
 
+/// How long after a restart a queued place waits for its client to ask
+/// again, beyond the grace: a client may be in the middle of its longest
+/// default poll (10 s hold and 3 s of slack) when the old server died.
+const PLACES_KEPT_AFTER_LOAD: Duration = Duration::from_secs(15);
+
 /// How the data server runs.
 #[derive(Debug, Clone)]
 pub struct ServerConfig {
@@ -54,6 +59,18 @@ pub struct ServerConfig {
     pub sweep_every: Duration,
     /// What the server may hold at most.
     pub limits: crate::store::Limits,
+    /// Where the state is kept.
+    pub storage: Storage,
+}
+
+/// Where a data server keeps its state.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Storage {
+    /// Only in memory: gone when the server stops.
+    InMemory,
+    /// In `DIR/data.redb`: every answered change is on disk (fsync)
+    /// before its answer is sent, and loaded again at start.
+    Dir(std::path::PathBuf),
 }
 
 impl Default for ServerConfig {
@@ -64,6 +81,7 @@ impl Default for ServerConfig {
             grace: Duration::from_secs(5),
             sweep_every: Duration::from_millis(500),
             limits: crate::store::Limits::default(),
+            storage: Storage::InMemory,
         }
     }
 }
@@ -79,6 +97,9 @@ pub enum ServerError {
         /// Zenoh's error.
         detail: String,
     },
+    /// The state file could not be opened or read.
+    #[error(transparent)]
+    Disk(#[from] DiskError),
     /// The server task ended abnormally (it panicked or was aborted).
     #[error("the data server task failed: {0}")]
     Task(String),
@@ -136,6 +157,9 @@ struct Server {
     generation: u64,
     alive: HashSet<String>,
     events: flume::Sender<Event>,
+    disk: Option<Disk>,
+    /// Plain puts written to disk but not yet synced.
+    unsynced: bool,
 }
 
 fn declare_err(what: &str, e: zenoh::Error) -> ServerError {
@@ -155,6 +179,24 @@ pub async fn run(
     shutdown: impl Future<Output = ()>,
 ) -> Result<(), ServerError> {
     let root = config.root.clone();
+    // The state first: a server that cannot keep it must not answer.
+    let mut store = Store::new(config.default_history).with_limits(config.limits);
+    let disk = match &config.storage {
+        Storage::InMemory => None,
+        Storage::Dir(dir) => {
+            let disk = Disk::open(dir)?;
+            store = store.track_changes();
+            disk.load(&mut store, config.grace + PLACES_KEPT_AFTER_LOAD)?;
+            tracing::info!(
+                file = %disk.path().display(),
+                variables = store.histories().count(),
+                semaphores = store.semaphores().count(),
+                waiters = store.open_tickets(),
+                "state loaded"
+            );
+            Some(disk)
+        }
+    };
     let (tx, rx) = flume::bounded(EVENT_QUEUE);
     let (alive_tx, alive_rx) = flume::unbounded();
     let runtime = tokio::runtime::Handle::current();
@@ -214,7 +256,9 @@ pub async fn run(
     tracing::info!(root = root.as_str(), zid = %session.zid(), "data server ready");
 
     let mut server = Server {
-        store: Store::new(config.default_history).with_limits(config.limits),
+        store,
+        disk,
+        unsynced: false,
         session,
         held: HashMap::new(),
         generation: 0,
@@ -256,7 +300,8 @@ impl Server {
         let payload = query.payload().map(|p| p.to_bytes().into_owned());
         let now = Instant::now();
         let applied = Request::parse(&self.config.root, &key, params, payload.as_deref())
-            .and_then(|request| request.apply(&mut self.store, now));
+            .and_then(|request| request.apply(&mut self.store, now))
+            .and_then(|applied| self.keep(Flush::Sync).map(|()| applied));
         match applied {
             Err(e) => {
                 tracing::debug!(%key, error = %e, "request refused");
@@ -333,10 +378,14 @@ impl Server {
             (DataOp::Var, SampleKind::Delete) => Ok(self.store.delete(&data_key.name)),
             (DataOp::Signal, SampleKind::Put) => match self.store.signal(&data_key.name, None, now)
             {
-                Ok(signalled) => {
-                    self.answer_grants(signalled.grants).await;
-                    Ok(None)
-                }
+                // Its grants are answered: on disk first.
+                Ok(signalled) => match self.keep(Flush::Sync) {
+                    Ok(()) => {
+                        self.answer_grants(signalled.grants).await;
+                        Ok(None)
+                    }
+                    Err(e) => Err(e),
+                },
                 Err(e) => Err(e),
             },
             (DataOp::Signal, SampleKind::Delete) => Err(ErrorReply::new(
@@ -345,6 +394,9 @@ impl Server {
             )),
             _ => return,
         };
+        // A plain put promises nothing: it reaches the disk with the next
+        // answered change, or shortly after on the housekeeping tick.
+        let result = result.and_then(|commit| self.keep(Flush::Later).map(|()| commit));
         match result {
             Ok(Some(commit)) => self.publish(&commit).await,
             Ok(None) => {}
@@ -408,7 +460,11 @@ impl Server {
             _ => return,
         };
         let lapse_at = Instant::now() + self.config.grace;
-        if let Some(reply) = self.store.release_hold(&ticket, lapse_at) {
+        let released = self.store.release_hold(&ticket, lapse_at);
+        if let Err(e) = self.keep(Flush::Sync) {
+            return reply_err(&held.query, &e).await;
+        }
+        if let Some(reply) = released {
             let key = held.query.key_expr().as_str().to_string();
             reply_json(&held.query, &key, encode(&reply)).await;
         }
@@ -445,7 +501,9 @@ impl Server {
                 self.alive.remove(&owner);
                 let grants = self.store.owner_gone(&owner, Instant::now());
                 tracing::debug!(%owner, passed_on = grants.len(), "client gone; its waits dropped");
-                self.answer_grants(grants).await;
+                if self.keep(Flush::Sync).is_ok() {
+                    self.answer_grants(grants).await;
+                }
             }
         }
     }
@@ -455,7 +513,38 @@ impl Server {
         let grants = self
             .store
             .sweep(Instant::now(), self.config.grace, |o| alive.contains(o));
-        self.answer_grants(grants).await;
+        // Also makes plain puts since the last answered change durable.
+        if self.keep(Flush::Sync).is_ok() {
+            self.answer_grants(grants).await;
+        }
+    }
+
+    /// Writes what changed since the last call to disk (a no-op in memory
+    /// or when nothing changed). On failure the changes stay to be written
+    /// with the next call and the caller answers `storage`.
+    fn keep(&mut self, flush: Flush) -> Result<(), ErrorReply> {
+        let Some(disk) = &self.disk else {
+            return Ok(());
+        };
+        let changes = self.store.take_changes();
+        if changes.is_empty() {
+            if flush == Flush::Sync && self.unsynced {
+                self.unsynced = false;
+                return disk.sync().map_err(storage_error);
+            }
+            return Ok(());
+        }
+        match disk.write(&mut self.store, &changes, flush) {
+            Ok(()) => {
+                self.unsynced = flush == Flush::Later;
+                Ok(())
+            }
+            Err(e) => {
+                tracing::error!(error = %e, "state not written");
+                self.store.restore_changes(changes);
+                Err(storage_error(e))
+            }
+        }
     }
 }
 
@@ -467,6 +556,13 @@ async fn reply_json(query: &Query, key: &str, payload: Vec<u8>) {
     {
         tracing::warn!(%key, error = %e, "reply failed");
     }
+}
+
+fn storage_error(e: DiskError) -> ErrorReply {
+    ErrorReply::new(
+        ErrorCode::Storage,
+        format!("the change could not be kept on disk, so it is not acknowledged: {e}"),
+    )
 }
 
 /// The answer to a query that found the event queue full.

@@ -27,8 +27,11 @@ use rome_schema::data::{
 };
 use rome_schema::{ErrorCode, ErrorReply, Name};
 use serde_json::Value;
-use std::collections::{BTreeMap, HashMap, VecDeque};
+use std::collections::{BTreeMap, BTreeSet, HashMap, VecDeque};
 use std::time::{Duration, Instant};
+
+mod durable;
+pub use durable::{Disk, DiskError, Flush, FILE_NAME};
 
 /// How long a finished request's reply is kept for retries.
 pub const DEFAULT_RETENTION: Duration = Duration::from_secs(600);
@@ -64,13 +67,16 @@ impl Default for Limits {
 }
 
 /// One variable: the last `len` values, newest at the back, each with its
-/// size in bytes.
+/// size in bytes. The values carry consecutive commit numbers ending at
+/// `seq` (a delete empties the history, a trim drops the oldest).
 #[derive(Debug)]
 struct Var {
     len: u32,
     values: VecDeque<Value>,
     sizes: VecDeque<u64>,
     seq: u64,
+    /// The newest commit number already on disk (durable stores only).
+    stored_seq: u64,
 }
 
 impl Var {
@@ -80,7 +86,13 @@ impl Var {
             values: VecDeque::new(),
             sizes: VecDeque::new(),
             seq: 0,
+            stored_seq: 0,
         }
+    }
+
+    /// The commit number of the oldest value held (`seq + 1` when empty).
+    fn first_seq(&self) -> u64 {
+        self.seq + 1 - self.values.len() as u64
     }
 
     /// Drops the oldest values beyond `len`; the bytes freed.
@@ -127,7 +139,8 @@ struct Held {
 }
 
 /// A reply kept for requests that may be retried.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
 enum Remembered {
     Set(SetReply),
     Signal(SignalReply),
@@ -178,6 +191,43 @@ pub struct Store {
     held: BTreeMap<(Name, String), Held>,
     limits: Limits,
     bytes: u64,
+    /// What changed since the last [`Store::take_changes`] (durable
+    /// stores only).
+    changes: Option<Changes>,
+}
+
+/// The keys of everything a request changed, so a durable store writes
+/// exactly those (each written as it is now, or removed if gone).
+#[derive(Debug, Default, Clone, PartialEq, Eq)]
+pub struct Changes {
+    vars: BTreeSet<Name>,
+    sems: BTreeSet<Name>,
+    tickets: BTreeSet<String>,
+    held: BTreeSet<(Name, String)>,
+    ops: BTreeSet<String>,
+    counter: bool,
+}
+
+impl Changes {
+    /// Nothing changed.
+    pub fn is_empty(&self) -> bool {
+        self.vars.is_empty()
+            && self.sems.is_empty()
+            && self.tickets.is_empty()
+            && self.held.is_empty()
+            && self.ops.is_empty()
+            && !self.counter
+    }
+
+    /// Adds `other`'s keys (changes not yet written stay to be written).
+    fn merge(&mut self, other: Changes) {
+        self.vars.extend(other.vars);
+        self.sems.extend(other.sems);
+        self.tickets.extend(other.tickets);
+        self.held.extend(other.held);
+        self.ops.extend(other.ops);
+        self.counter |= other.counter;
+    }
 }
 
 fn err(code: ErrorCode, message: impl Into<String>) -> ErrorReply {
@@ -207,6 +257,58 @@ impl Store {
             held: BTreeMap::new(),
             limits: Limits::default(),
             bytes: 0,
+            changes: None,
+        }
+    }
+
+    /// Keeps track of what changes, for a durable store to write.
+    pub fn track_changes(mut self) -> Self {
+        self.changes = Some(Changes::default());
+        self
+    }
+
+    /// What changed since the last call (empty when not tracking).
+    pub fn take_changes(&mut self) -> Changes {
+        self.changes
+            .as_mut()
+            .map(std::mem::take)
+            .unwrap_or_default()
+    }
+
+    /// Puts back changes that could not be written, to try again.
+    pub fn restore_changes(&mut self, changes: Changes) {
+        if let Some(c) = self.changes.as_mut() {
+            c.merge(changes);
+        }
+    }
+
+    fn touch_var(&mut self, name: &Name) {
+        if let Some(c) = self.changes.as_mut() {
+            c.vars.insert(name.clone());
+        }
+    }
+
+    fn touch_sem(&mut self, name: &Name) {
+        if let Some(c) = self.changes.as_mut() {
+            c.sems.insert(name.clone());
+        }
+    }
+
+    fn touch_ticket(&mut self, ticket: &str) {
+        if let Some(c) = self.changes.as_mut() {
+            c.tickets.insert(ticket.to_string());
+        }
+    }
+
+    fn touch_held(&mut self, key: &(Name, String)) {
+        if let Some(c) = self.changes.as_mut() {
+            c.held.insert(key.clone());
+        }
+    }
+
+    fn touch_op(&mut self, op: &str) {
+        if let Some(c) = self.changes.as_mut() {
+            c.ops.insert(op.to_string());
         }
     }
 
@@ -254,12 +356,14 @@ impl Store {
 
     fn remember(&mut self, op: Option<&str>, now: Instant, what: Remembered) {
         let Some(op) = op else { return };
+        self.touch_op(op);
         if self.remembered.insert(op.to_string(), what).is_none() {
             self.remembered_order.push_back((now, op.to_string()));
         }
         while self.remembered_order.len() > MAX_REMEMBERED {
             if let Some((_, old)) = self.remembered_order.pop_front() {
                 self.remembered.remove(&old);
+                self.touch_op(&old);
             }
         }
     }
@@ -292,6 +396,7 @@ impl Store {
             ));
         }
         let default = self.default_history;
+        self.touch_var(name);
         let var = self
             .vars
             .entry(name.clone())
@@ -349,10 +454,11 @@ impl Store {
     /// Deletes a variable's values (Zenoh `delete`); its history length and
     /// commit numbering carry on, so watchers still see consecutive numbers.
     pub fn delete(&mut self, name: &Name) -> Option<Committed> {
-        let var = self.vars.get_mut(name)?;
-        if var.values.is_empty() {
+        if self.vars.get(name).is_none_or(|v| v.values.is_empty()) {
             return None;
         }
+        self.touch_var(name);
+        let var = self.vars.get_mut(name)?;
         var.values.clear();
         let freed: u64 = var.sizes.drain(..).sum();
         self.bytes = self.bytes.saturating_sub(freed);
@@ -421,6 +527,7 @@ impl Store {
                     ));
                 }
                 self.room_for_variable(name)?;
+                self.touch_var(name);
                 let var = self
                     .vars
                     .entry(name.clone())
@@ -467,6 +574,9 @@ impl Store {
                     self.limits.max_semaphores
                 ),
             ));
+        }
+        if !self.sems.contains_key(name) {
+            self.touch_sem(name);
         }
         let mut created = false;
         let sem = self.sems.entry(name.clone()).or_insert_with(|| {
@@ -519,6 +629,10 @@ impl Store {
                 break;
             };
             sem.value -= 1;
+            if let Some(c) = self.changes.as_mut() {
+                c.sems.insert(name.clone());
+                c.tickets.insert(ticket.clone());
+            }
             if let Some(t) = self.tickets.get_mut(&ticket) {
                 if t.owner.is_some() {
                     t.state = TicketState::Granted { at: now };
@@ -573,6 +687,7 @@ impl Store {
         }
         if let Some(owner) = undo_owner {
             let key = (name.clone(), owner.to_string());
+            self.touch_held(&key);
             match self.held.get_mut(&key) {
                 Some(h) if h.units > 1 => h.units -= 1,
                 Some(_) => {
@@ -586,6 +701,7 @@ impl Store {
                 }
             }
         }
+        self.touch_sem(name);
         let Some(sem) = self.sems.get_mut(name) else {
             return Err(unknown_sem(name));
         };
@@ -621,10 +737,14 @@ impl Store {
         if acquired {
             sem.value -= 1;
         }
+        let value = sem.value;
+        if acquired {
+            self.touch_sem(name);
+        }
         let reply = TryWaitReply {
             name: name.to_string(),
             acquired,
-            value: sem.value,
+            value,
         };
         self.remember(op, now, Remembered::TryWait(reply.clone()));
         Ok(reply)
@@ -702,6 +822,9 @@ impl Store {
             Some(t) => t.to_string(),
             None => {
                 self.next_anonymous += 1;
+                if let Some(c) = self.changes.as_mut() {
+                    c.counter = true;
+                }
                 format!("anon-{}", self.next_anonymous)
             }
         };
@@ -719,6 +842,8 @@ impl Store {
             // Already granted and confirmed: a late duplicate of the wait.
             return Ok(reply.clone());
         }
+        self.touch_ticket(&ticket);
+        self.touch_sem(name);
         self.tickets.insert(
             ticket.clone(),
             Ticket {
@@ -765,6 +890,8 @@ impl Store {
 
     fn drop_queued(&mut self, ticket: &str) {
         if let Some(t) = self.tickets.remove(ticket) {
+            self.touch_ticket(ticket);
+            self.touch_sem(&t.sem);
             if let Some(sem) = self.sems.get_mut(&t.sem) {
                 sem.queue.retain(|q| q != ticket);
             }
@@ -799,12 +926,14 @@ impl Store {
         self.check_ticket_sem(name, ticket)?;
         match self.tickets.get(ticket).map(|t| t.state) {
             Some(TicketState::Granted { .. }) => {
+                self.touch_ticket(ticket);
                 if let Some(Ticket {
                     owner: Some(owner),
                     undo: true,
                     ..
                 }) = self.tickets.remove(ticket)
                 {
+                    self.touch_held(&(name.clone(), owner.clone()));
                     let h = self.held.entry((name.clone(), owner)).or_insert(Held {
                         units: 0,
                         since: now,
@@ -830,6 +959,8 @@ impl Store {
         let Some(t) = self.tickets.remove(ticket) else {
             return Vec::new();
         };
+        self.touch_ticket(ticket);
+        self.touch_sem(&t.sem);
         let Some(sem) = self.sems.get_mut(&t.sem) else {
             return Vec::new();
         };
@@ -876,6 +1007,8 @@ impl Store {
             let Some(h) = self.held.remove(&key) else {
                 continue;
             };
+            self.touch_held(&key);
+            self.touch_sem(&key.0);
             if let Some(sem) = self.sems.get_mut(&key.0) {
                 sem.value = sem.value.saturating_add(h.units);
                 grants.extend(self.dispatch(&key.0, now));
@@ -929,6 +1062,7 @@ impl Store {
             }
             if let Some((_, op)) = self.remembered_order.pop_front() {
                 self.remembered.remove(&op);
+                self.touch_op(&op);
             }
         }
         grants

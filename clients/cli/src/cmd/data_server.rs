@@ -2,7 +2,9 @@
 
 use crate::args::CommonArgs;
 use crate::exit;
-use rome_data::ServerConfig;
+use anyhow::Context;
+use rome_data::{ServerConfig, Storage};
+use std::path::PathBuf;
 use std::time::Duration;
 
 /// Flags of `rome data-server`.
@@ -24,13 +26,48 @@ pub struct Args {
     /// At most this many mebibytes of stored values, every history counted.
     #[arg(long, default_value_t = 1024, value_name = "MIB")]
     pub max_mb: u64,
+    /// Keep the state (values, histories, semaphores, waiters) in
+    /// DIR/data.redb; every answered change is on disk before its answer.
+    /// Default: $XDG_DATA_HOME/rome/<root> (~/.local/share/rome/<root>).
+    #[arg(
+        long,
+        value_name = "DIR",
+        env = "ROME_DATA_DIR",
+        conflicts_with = "in_memory"
+    )]
+    pub data_dir: Option<PathBuf>,
+    /// Keep the state only in memory: it is gone when the server stops.
+    #[arg(long)]
+    pub in_memory: bool,
+}
+
+/// The per-user default data directory of a deployment root.
+fn default_dir(root: &str) -> anyhow::Result<PathBuf> {
+    let base = match std::env::var_os("XDG_DATA_HOME").filter(|d| !d.is_empty()) {
+        Some(d) => PathBuf::from(d),
+        None => std::env::var_os("HOME")
+            .filter(|d| !d.is_empty())
+            .map(|h| PathBuf::from(h).join(".local/share"))
+            .context("neither XDG_DATA_HOME nor HOME is set, so there is no default data directory; give --data-dir DIR or --in-memory")?,
+    };
+    Ok(base.join("rome").join(root.replace('/', "_")))
 }
 
 /// Runs the server.
 pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
+    let root = common.root()?;
+    let storage = if args.in_memory {
+        Storage::InMemory
+    } else {
+        Storage::Dir(match args.data_dir {
+            Some(dir) => dir,
+            None => default_dir(root.as_str())?,
+        })
+    };
     let (session, net) = common.open_server().await?;
     let config = ServerConfig {
-        root: common.root()?,
+        root,
+        storage,
         default_history: args.history,
         grace: Duration::from_millis(args.grace_ms),
         limits: rome_data::Limits {
@@ -40,8 +77,15 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
         },
         ..ServerConfig::default()
     };
+    let kept = match &config.storage {
+        Storage::InMemory => "in memory only".to_string(),
+        Storage::Dir(dir) => format!(
+            "state in {}",
+            dir.join(rome_data::store::FILE_NAME).display()
+        ),
+    };
     eprintln!(
-        "rome data-server: serving '{}/data/**' (listen {:?}, connect {:?}); Ctrl-C to stop",
+        "rome data-server: serving '{}/data/**' (listen {:?}, connect {:?}; {kept}); Ctrl-C to stop",
         config.root.as_str(),
         net.listen,
         net.connect
