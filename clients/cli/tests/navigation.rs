@@ -4,8 +4,9 @@
 //! `rome planner --robot rK`, every one a process of its own, meeting only
 //! through Zenoh on loopback. Both robots drive at once and must end within
 //! a metre of their goals by ground truth, as the same run does in one
-//! process; and a robot whose clients are all killed inside a narrow
-//! passage stops there and does not close the passage for the other.
+//! process; a robot whose clients are all killed inside a narrow
+//! passage stops there and does not close the passage for the other; and a
+//! run whose durable data server is killed mid-route still arrives.
 
 #![allow(clippy::unwrap_used)]
 
@@ -398,5 +399,68 @@ async fn a_robot_whose_clients_are_killed_inside_a_narrow_passage_stops_and_free
     for mut c in crews[survivor].drain(..) {
         c.kill();
     }
+    let _ = session.close().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_run_whose_data_server_is_killed_and_restarted_mid_route_still_arrives() {
+    // As deployed: a router in the middle, a durable data server beside it.
+    let route = ("r1", "350R", "376L");
+    let port = free_loopback_port().unwrap();
+    let endpoint = format!("tcp/127.0.0.1:{port}");
+    let _router = rome(
+        port,
+        "router",
+        &[
+            "--no-multicast",
+            "-l",
+            &endpoint,
+            "router",
+            "--rest-port",
+            "none",
+            "--no-storage",
+        ],
+        Stdio::null(),
+    );
+    rome_tests::await_port(port, Duration::from_secs(60));
+    let state = log_dir(port).join("state");
+    let _ = std::fs::remove_dir_all(&state);
+    let state = state.display().to_string();
+    let data_args = ["data-server", "--data-dir", state.as_str()];
+    let mut data = client(port, "data-server", &data_args, Stdio::null());
+    let _sim = sim(port, "eb3", &[route.1]);
+    let _crew = helpers(port, route.0, "eb3");
+    let session = NetOptions::loopback_client(port).open().await.unwrap();
+    await_up(&session, port, 1).await;
+    let root = rome_schema::Root::default();
+    let truth = rome_client::sim::TruthClient::new(&session, &root, route.0).unwrap();
+    let planner = planner(port, "eb3", route);
+
+    // Well on its way: killed, and back at once, as a supervisor would.
+    let deadline = Instant::now() + Duration::from_secs(300);
+    let at_kill = loop {
+        assert!(
+            Instant::now() < deadline,
+            "r1 never got going\n{}",
+            logs(port)
+        );
+        if let Ok(t) = truth.get().await {
+            if t.travelled_mm > 6_000.0 {
+                break t;
+            }
+        }
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    };
+    data.kill();
+    let _data = client(port, "data-server-again", &data_args, Stdio::null());
+
+    arrived(port, route.0, route.2, planner).await;
+    let end = truth.get().await.unwrap();
+    assert!(
+        at_kill.travelled_mm < 0.5 * end.travelled_mm,
+        "the kill came late: {:.0} of {:.0} mm",
+        at_kill.travelled_mm,
+        end.travelled_mm
+    );
     let _ = session.close().await;
 }

@@ -35,6 +35,10 @@ pub struct DataBench {
     /// Print JSON rows instead of a table.
     #[arg(long)]
     pub json: bool,
+    /// Also measure set and signal on a second data server that keeps its
+    /// state in DIR (on disk, fsync before every answer), side by side.
+    #[arg(long, value_name = "DIR")]
+    pub data_dir: Option<std::path::PathBuf>,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -43,6 +47,8 @@ enum Op {
     Get,
     Set,
     Signal,
+    DiskSet,
+    DiskSignal,
 }
 
 impl Op {
@@ -52,6 +58,8 @@ impl Op {
             Op::Get => "get",
             Op::Set => "set",
             Op::Signal => "signal",
+            Op::DiskSet => "set, on disk",
+            Op::DiskSignal => "signal, on disk",
         }
     }
 }
@@ -78,6 +86,8 @@ const RAW_KEY: &str = "rome-bench/raw";
 struct Client {
     session: zenoh::Session,
     data: DataClient,
+    /// A client of the durable server, when measured.
+    disk: Option<(zenoh::Session, DataClient)>,
 }
 
 async fn once(client: &Client, op: Op) -> anyhow::Result<()> {
@@ -102,6 +112,17 @@ async fn once(client: &Client, op: Op) -> anyhow::Result<()> {
         }
         Op::Signal => {
             client.data.signal("bench").await?;
+        }
+        Op::DiskSet | Op::DiskSignal => {
+            let (_, data) = client
+                .disk
+                .as_ref()
+                .ok_or_else(|| anyhow::anyhow!("no durable server to measure"))?;
+            if op == Op::DiskSet {
+                data.set("bench/x", &1).await?;
+            } else {
+                data.signal("bench").await?;
+            }
         }
     }
     Ok(())
@@ -208,6 +229,22 @@ pub async fn data_rows(args: &DataBench, progress: bool) -> anyhow::Result<Vec<R
         .await
         .map_err(|e| anyhow::anyhow!("{e}"))?;
     let server = rome_data::spawn(server_session.clone(), rome_data::ServerConfig::default());
+    let disk_port = free_loopback_port()?;
+    let durable = match &args.data_dir {
+        Some(dir) => {
+            let session = NetOptions::loopback(Some(disk_port), &[]).open().await?;
+            let config = rome_data::ServerConfig {
+                storage: rome_data::Storage::Dir(dir.clone()),
+                ..rome_data::ServerConfig::default()
+            };
+            Some((session.clone(), rome_data::spawn(session, config)))
+        }
+        None => None,
+    };
+    let mut ops = vec![Op::Raw, Op::Get, Op::Set, Op::Signal];
+    if durable.is_some() {
+        ops.extend([Op::DiskSet, Op::DiskSignal]);
+    }
     let mut rows = Vec::new();
     for &n in &args.clients {
         if progress {
@@ -218,11 +255,26 @@ pub async fn data_rows(args: &DataBench, progress: bool) -> anyhow::Result<Vec<R
             let session = NetOptions::loopback_client(port).open().await?;
             let data =
                 DataClient::connect(&session, DataOptions::new(&format!("bench{i}"))).await?;
-            clients.push(Client { session, data });
+            let disk = match &durable {
+                Some(_) => {
+                    let session = NetOptions::loopback_client(disk_port).open().await?;
+                    let data =
+                        DataClient::connect(&session, DataOptions::new(&format!("bench{i}")))
+                            .await?;
+                    data.create_semaphore("bench", 0).await?;
+                    Some((session, data))
+                }
+                None => None,
+            };
+            clients.push(Client {
+                session,
+                data,
+                disk,
+            });
         }
         clients[0].data.set("bench/x", &0).await?;
         clients[0].data.create_semaphore("bench", 0).await?;
-        for op in [Op::Raw, Op::Get, Op::Set, Op::Signal] {
+        for &op in &ops {
             if progress {
                 eprintln!(
                     "  {:16} {n:>3} client(s), {:.1} s …",
@@ -234,9 +286,16 @@ pub async fn data_rows(args: &DataBench, progress: bool) -> anyhow::Result<Vec<R
         }
         for c in clients {
             let _ = c.session.close().await;
+            if let Some((session, _)) = c.disk {
+                let _ = session.close().await;
+            }
         }
     }
     server.stop().await?;
+    if let Some((session, server)) = durable {
+        server.stop().await?;
+        let _ = session.close().await;
+    }
     let _ = server_session.close().await;
     Ok(rows)
 }
