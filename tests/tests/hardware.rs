@@ -78,11 +78,16 @@ impl Rig {
         };
         if storage {
             let s = rig.peer_session().await;
-            tokio::spawn(rome_hardware::storage::run(
-                s,
-                Root::default().store_all(),
-                std::future::pending::<()>(),
-            ));
+            tokio::spawn(async move {
+                let root = Root::default();
+                rome_hardware::storage::run(
+                    s,
+                    &root,
+                    root.store_all(),
+                    std::future::pending::<()>(),
+                )
+                .await
+            });
         }
         rig.start_base(rec).await;
         rig

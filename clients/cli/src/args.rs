@@ -180,3 +180,15 @@ impl CommonArgs {
             .try_init();
     }
 }
+
+/// The per-user default data directory of a deployment root.
+pub fn default_data_dir(root: &str) -> anyhow::Result<PathBuf> {
+    let base = match std::env::var_os("XDG_DATA_HOME").filter(|d| !d.is_empty()) {
+        Some(d) => PathBuf::from(d),
+        None => std::env::var_os("HOME")
+            .filter(|d| !d.is_empty())
+            .map(|h| PathBuf::from(h).join(".local/share"))
+            .ok_or_else(|| anyhow::anyhow!("neither XDG_DATA_HOME nor HOME is set, so there is no default data directory; give --data-dir DIR or --in-memory"))?,
+    };
+    Ok(base.join("rome").join(root.replace('/', "_")))
+}

@@ -1,7 +1,8 @@
 //! `rome router` with its built-in plugins: servers and clients that name
 //! only the router find each other through it, the REST plugin answers
 //! `curl`-style HTTP for a variable and a robot's pose, and the storage
-//! manager keeps `rome/store/**`.
+//! manager keeps `rome/store/**`; and a lock record kept by the router
+//! outlives a SIGKILL of the router and of the robot's servers at once.
 
 #![allow(clippy::unwrap_used)]
 
@@ -14,12 +15,17 @@ use std::time::{Duration, Instant};
 const ROME: &str = env!("CARGO_BIN_EXE_rome");
 
 fn rome(args: &[&str]) -> ChildGuard {
+    let log = std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(std::env::temp_dir().join("rome-router-test.log"))
+        .unwrap();
     ChildGuard(Some(
         Command::new(ROME)
             .args(args)
             .stdin(Stdio::null())
             .stdout(Stdio::null())
-            .stderr(Stdio::null())
+            .stderr(log)
             .spawn()
             .unwrap(),
     ))
@@ -71,6 +77,7 @@ async fn servers_and_clients_meet_through_the_router_and_rest_answers() {
         "router",
         "--rest-port",
         &rest_s,
+        "--in-memory",
     ]);
     // The router is up once its port takes connections.
     rome_tests::await_port(port, Duration::from_secs(60));
@@ -119,4 +126,108 @@ async fn servers_and_clients_meet_through_the_router_and_rest_answers() {
             .unwrap();
     assert!(stored.contains("rome/store/test/record"), "{stored}");
     let _ = session.close().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_lock_record_outlives_the_router_and_the_robot_killed_together() {
+    let port = free_loopback_port().unwrap();
+    let router_ep = format!("tcp/127.0.0.1:{port}");
+    let dir = std::env::temp_dir().join(format!("rome-router-store-{port}"));
+    let _ = std::fs::remove_dir_all(&dir);
+    let dir_s = dir.display().to_string();
+    let router_args = [
+        "--no-multicast",
+        "-l",
+        &router_ep,
+        "router",
+        "--rest-port",
+        "none",
+        "--data-dir",
+        &dir_s,
+    ];
+    let via = ["--no-multicast", "-m", "client", "-e", router_ep.as_str()];
+    // The router keeps the records: the robot runs no storage of its own.
+    let sim_args = [
+        &via[..],
+        &["sim", "--robots", "1", "--at", "350R", "--no-storage"],
+    ]
+    .concat();
+    let mut router = rome(&router_args);
+    rome_tests::await_port(port, Duration::from_secs(60));
+    let mut sim = rome(&sim_args);
+
+    let session = NetOptions::loopback_client(port).open().await.unwrap();
+    let root = rome_schema::Root::default();
+    rome_client::alive::await_server(&session, &root, "robot", "r1/base", Duration::from_secs(60))
+        .await
+        .unwrap();
+    let client =
+        rome_client::RobotClient::connect(&session, "r1", rome_client::RobotOptions::new("holder"))
+            .await
+            .unwrap();
+    let lock = client.lock().await.unwrap();
+    let fence = lock.fence();
+    // The record is in the router's storage once a query finds it there.
+    let robot = rome_schema::Name::new("r1").unwrap();
+    let key = root.lock_store(&robot, &rome_schema::robot::Device::Base);
+    let deadline = Instant::now() + Duration::from_secs(30);
+    loop {
+        let replies = session.get(&key).await.unwrap();
+        let mut seen = None;
+        while let Ok(reply) = replies.recv_async().await {
+            match reply.result() {
+                Ok(sample) => {
+                    seen = Some(String::from_utf8_lossy(&sample.payload().to_bytes()).into_owned())
+                }
+                Err(e) => {
+                    seen = Some(format!(
+                        "error reply: {}",
+                        String::from_utf8_lossy(&e.payload().to_bytes())
+                    ))
+                }
+            }
+        }
+        if seen
+            .as_deref()
+            .is_some_and(|r| r.contains(&format!("\"fence\":{fence}")))
+        {
+            break;
+        }
+        assert!(
+            Instant::now() < deadline,
+            "lock record never stored: {seen:?}"
+        );
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+
+    // Power lost at both: everything killed at once, then started again.
+    router.kill();
+    sim.kill();
+    let _router = rome(&router_args);
+    rome_tests::await_port(port, Duration::from_secs(60));
+    // As a robot booting after its router would (one that boots first stores
+    // its record again when the storage comes up, but cannot know the old
+    // holder).
+    rome_client::alive::await_server(&session, &root, "store", "*", Duration::from_secs(60))
+        .await
+        .unwrap();
+    let _sim = rome(&sim_args);
+    rome_client::alive::await_server(&session, &root, "robot", "r1/base", Duration::from_secs(60))
+        .await
+        .unwrap();
+
+    // The new base server knows the holder and its fence …
+    let state = client.state().await.unwrap();
+    let s = state.next().await.unwrap().unwrap();
+    assert_eq!(
+        s.lock.map(|l| l.fence),
+        Some(fence),
+        "the lock was forgotten"
+    );
+    // … and the next grant goes above it.
+    lock.unlock().await.unwrap();
+    let again = client.lock().await.unwrap();
+    assert_eq!(again.fence(), fence + 1);
+    let _ = session.close().await;
+    let _ = std::fs::remove_dir_all(dir);
 }

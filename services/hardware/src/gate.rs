@@ -163,6 +163,11 @@ impl<T> Gate<T> {
         holder
     }
 
+    /// Makes the next grant's fence go above `fence` as well.
+    pub fn raise(&mut self, fence: u64) {
+        self.last_fence = self.last_fence.max(fence);
+    }
+
     /// Puts back a grant a restarted server read from the storage.
     pub fn restore(&mut self, info: &LockInfo, ttl: Duration, now: Instant) {
         self.last_fence = self.last_fence.max(info.fence);

@@ -251,6 +251,7 @@ pub async fn run<S: Service>(
         })
         .await
         .map_err(|e| declare_err("the device queryable", e))?;
+    let stores_tx = alive_tx.clone();
     let _alive = session
         .liveliness()
         .declare_subscriber(config.root.alive_clients())
@@ -259,6 +260,16 @@ pub async fn run<S: Service>(
         })
         .await
         .map_err(|e| declare_err("the liveliness subscriber", e))?;
+    // A storage that comes (back) up may have missed the last lock record,
+    // which is a plain put: it gets it again.
+    let _stores = session
+        .liveliness()
+        .declare_subscriber(config.root.alive_server(crate::storage::STORE_KIND, "*"))
+        .callback(move |s| {
+            let _ = stores_tx.send(Event::Alive(s));
+        })
+        .await
+        .map_err(|e| declare_err("the storage liveliness subscriber", e))?;
 
     let mut server = Server {
         gate: Gate::new(0),
@@ -525,12 +536,20 @@ impl<S: Service> Server<S> {
     }
 
     async fn alive(&mut self, sample: Sample) {
-        if sample.kind() != SampleKind::Delete {
-            return;
-        }
         let Some(alive) = self.config.root.parse_alive(sample.key_expr().as_str()) else {
             return;
         };
+        if alive.class == rome_schema::keys::AliveClass::Server
+            && alive.role == crate::storage::STORE_KIND
+        {
+            if sample.kind() == SampleKind::Put && self.service.lockable() {
+                self.storage_up(alive.id).await;
+            }
+            return;
+        }
+        if sample.kind() != SampleKind::Delete {
+            return;
+        }
         if self.mover.as_deref() == Some(alive.id) {
             // A deadman: nobody is left to stop what that client started
             // (its process died, or its host dropped off the network).
@@ -628,6 +647,43 @@ impl<S: Service> Server<S> {
     /// Reads the lock state a previous run stored; without one, fences
     /// start from the clock so they never repeat a lost run's.
     async fn restore_lock(&mut self) {
+        let record = self.stored().await;
+        let clock = SystemTime::now()
+            .duration_since(SystemTime::UNIX_EPOCH)
+            .map_or(0, |d| d.as_millis() as u64);
+        match record {
+            Some(r) => {
+                self.gate = Gate::new(r.last_fence);
+                if let Some(holder) = &r.holder {
+                    // The holder gets one grant life to show it is still there.
+                    self.gate
+                        .restore(holder, Duration::from_millis(r.ttl_ms), Instant::now());
+                    tracing::info!(server = %self.config.label(), holder = %holder.holder, fence = holder.fence, "lock restored from the storage");
+                }
+            }
+            None => self.gate = Gate::new(clock * 1000),
+        }
+    }
+
+    /// A storage came (back) up: what it knows is merged (fences only ever
+    /// go up; its holder comes back only if nothing was granted since),
+    /// and it gets the lock record it may have missed.
+    async fn storage_up(&mut self, storage: &str) {
+        if let Some(r) = self.stored().await {
+            let newer = r.last_fence >= self.gate.last_fence();
+            self.gate.raise(r.last_fence);
+            if let (Some(holder), None, true) = (&r.holder, self.gate.holder(), newer) {
+                self.gate
+                    .restore(holder, Duration::from_millis(r.ttl_ms), Instant::now());
+                tracing::info!(server = %self.config.label(), holder = %holder.holder, fence = holder.fence, "lock restored from a storage that came up");
+            }
+        }
+        tracing::info!(server = %self.config.label(), %storage, "a storage came up; lock record stored again");
+        self.persist().await;
+    }
+
+    /// The lock record in the storage, if one answers with a readable one.
+    async fn stored(&self) -> Option<LockRecord> {
         let key = self
             .config
             .root
@@ -649,21 +705,7 @@ impl<S: Service> Server<S> {
                 }
             }
         }
-        let clock = SystemTime::now()
-            .duration_since(SystemTime::UNIX_EPOCH)
-            .map_or(0, |d| d.as_millis() as u64);
-        match record {
-            Some(r) => {
-                self.gate = Gate::new(r.last_fence);
-                if let Some(holder) = &r.holder {
-                    // The holder gets one grant life to show it is still there.
-                    self.gate
-                        .restore(holder, Duration::from_millis(r.ttl_ms), Instant::now());
-                    tracing::info!(server = %self.config.label(), holder = %holder.holder, fence = holder.fence, "lock restored from the storage");
-                }
-            }
-            None => self.gate = Gate::new(clock * 1000),
-        }
+        record
     }
 }
 

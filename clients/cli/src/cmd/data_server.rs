@@ -2,7 +2,6 @@
 
 use crate::args::CommonArgs;
 use crate::exit;
-use anyhow::Context;
 use rome_data::{ServerConfig, Storage};
 use std::path::PathBuf;
 use std::time::Duration;
@@ -41,18 +40,6 @@ pub struct Args {
     pub in_memory: bool,
 }
 
-/// The per-user default data directory of a deployment root.
-fn default_dir(root: &str) -> anyhow::Result<PathBuf> {
-    let base = match std::env::var_os("XDG_DATA_HOME").filter(|d| !d.is_empty()) {
-        Some(d) => PathBuf::from(d),
-        None => std::env::var_os("HOME")
-            .filter(|d| !d.is_empty())
-            .map(|h| PathBuf::from(h).join(".local/share"))
-            .context("neither XDG_DATA_HOME nor HOME is set, so there is no default data directory; give --data-dir DIR or --in-memory")?,
-    };
-    Ok(base.join("rome").join(root.replace('/', "_")))
-}
-
 /// Runs the server.
 pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
     let root = common.root()?;
@@ -61,7 +48,7 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
     } else {
         Storage::Dir(match args.data_dir {
             Some(dir) => dir,
-            None => default_dir(root.as_str())?,
+            None => crate::args::default_data_dir(root.as_str())?,
         })
     };
     let (session, net) = common.open_server().await?;

@@ -14,8 +14,16 @@
 //! ```
 //!
 //! By default the router keeps `<root>/store/**` (the hardware servers'
-//! lock records) in a memory storage, so a restarted hardware server finds
-//! its lock's holder and last fence there even when no `rome storage` runs.
+//! lock records) in a storage of its own, written through to a redb file,
+//! so a restarted hardware server finds its lock's holder and last fence
+//! there, and so does one restarted after the router itself.
+//!
+//! Why not the storage manager for that: its durable backends load only as
+//! shared libraries built by the very same toolchain and zenoh version as
+//! the router, which a one-binary `cargo install` cannot ship, and its
+//! replication keeps records only while one of two routers stays up (a lab
+//! whose power goes loses both). One file, one binary, no ABI to match.
+//! The storage manager stays linked for storages a `--config` file asks for.
 
 use crate::args::CommonArgs;
 use anyhow::Context;
@@ -31,10 +39,20 @@ pub struct Args {
     /// `--config` file says].
     #[arg(long, value_name = "PORT|none")]
     pub rest_port: Option<String>,
-    /// Do not keep the lock records (`<root>/store/**`) in a memory storage.
+    /// Do not keep the lock records (`<root>/store/**`) at all.
     #[arg(long)]
     pub no_storage: bool,
+    /// Keep the lock records in DIR/router-store.redb [default:
+    /// $XDG_DATA_HOME/rome/<root>, beside the data server's state].
+    #[arg(long, value_name = "DIR", env = "ROME_ROUTER_DIR", conflicts_with_all = ["in_memory", "no_storage"])]
+    pub data_dir: Option<std::path::PathBuf>,
+    /// Keep the lock records in memory only: gone when the router stops.
+    #[arg(long, conflicts_with = "no_storage")]
+    pub in_memory: bool,
 }
+
+/// The lock-record file inside a data directory.
+pub const STORE_FILE: &str = "router-store.redb";
 
 /// Builds the router's configuration: the common flags (mode router, and
 /// tcp/0.0.0.0:7447 when no endpoint is given) plus the plugins'.
@@ -77,28 +95,22 @@ pub fn config(common: &CommonArgs, args: &Args) -> anyhow::Result<zenoh::Config>
             set(&mut config, "plugins/rest/__required__", "true".into())?;
         }
     }
-    if !args.no_storage {
-        let root = common.root()?;
-        set(
-            &mut config,
-            "plugins/storage_manager/storages/rome_locks",
-            format!(
-                r#"{{ key_expr: "{}", volume: {{ id: "memory" }} }}"#,
-                root.store_all()
-            ),
-        )?;
-        set(
-            &mut config,
-            "plugins/storage_manager/__required__",
-            "true".into(),
-        )?;
-    }
     Ok(config)
 }
 
 /// Runs the router until Ctrl-C or SIGTERM.
 pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
     let config = config(common, &args)?;
+    let root = common.root()?;
+    // The file first: a router that cannot keep its records says so at once.
+    let file = match (args.no_storage, args.in_memory, &args.data_dir) {
+        (true, _, _) | (_, true, _) => None,
+        (_, _, Some(dir)) => Some(dir.join(STORE_FILE)),
+        (_, _, None) => Some(crate::args::default_data_dir(root.as_str())?.join(STORE_FILE)),
+    };
+    let file = file
+        .map(|path| rome_hardware::storage::StorageFile::open(&path))
+        .transpose()?;
     let rest = match config.get_json("plugins/rest/http_port") {
         Ok(p) => format!("on port {}", p.trim_matches('"')),
         Err(_) => "off".to_string(),
@@ -135,14 +147,38 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
         .iter()
         .map(|l| l.to_string())
         .collect();
+    let records = match (&file, args.no_storage) {
+        (_, true) => "not kept".to_string(),
+        (None, false) => "in memory".to_string(),
+        (Some(f), false) => format!("in {}", f.path().display()),
+    };
+    let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
+    let store = (!args.no_storage).then(|| {
+        let (session, root) = (session.clone(), root.clone());
+        tokio::spawn(async move {
+            rome_hardware::storage::run_on(session, &root, root.store_all(), file, async move {
+                let _ = stopped.await;
+            })
+            .await
+        })
+    });
     eprintln!(
-        "rome router: zid {}, listening on {}; REST {}; storage manager {}; Ctrl-C to stop",
+        "rome router: zid {}, listening on {}; REST {}; lock records {}; storage manager {}; Ctrl-C to stop",
         session.zid(),
         listen.join(", "),
         rest,
+        records,
         if storage { "on" } else { "off" },
     );
     crate::exit::interrupted().await;
+    let _ = stop.send(());
+    if let Some(store) = store {
+        match store.await {
+            Ok(Ok(())) => {}
+            Ok(Err(e)) => tracing::error!(error = %e, "the lock-record storage failed"),
+            Err(e) => tracing::error!(error = %e, "the lock-record storage task failed"),
+        }
+    }
     let _ = session.close().await;
     Ok(0)
 }

@@ -152,13 +152,13 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
     let _stepper = world.start((!args.free).then_some(args.speed));
     let (storage_stop, storage_stopped) = tokio::sync::oneshot::channel::<()>();
     let storage = (!args.no_storage).then(|| {
-        tokio::spawn(rome_hardware::storage::run(
-            session.clone(),
-            root.store_all(),
-            async move {
+        let (session, root) = (session.clone(), root.clone());
+        tokio::spawn(async move {
+            rome_hardware::storage::run(session, &root, root.store_all(), async move {
                 let _ = storage_stopped.await;
-            },
-        ))
+            })
+            .await
+        })
     });
     let mut servers = vec![rome_hardware::robot::spawn_truth(
         &session,

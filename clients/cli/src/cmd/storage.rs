@@ -21,7 +21,7 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
         "rome storage: keeping '{key}' (listen {:?}, connect {:?}); Ctrl-C to stop",
         net.listen, net.connect
     );
-    rome_hardware::storage::run(session.clone(), key, exit::interrupted())
+    rome_hardware::storage::run(session.clone(), &root, key, exit::interrupted())
         .await
         .map_err(|e| anyhow::anyhow!("the storage failed: {e}"))?;
     let _ = session.close().await;
