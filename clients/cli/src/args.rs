@@ -1,7 +1,7 @@
 //! Flags shared by every command, turned into network options in one place.
 
 use clap::Args;
-use rome_client::net::{NetOptions, DEFAULT_PORT};
+use rome_client::net::{NetOptions, Secrets, DEFAULT_PORT};
 use rome_schema::Root;
 use std::path::PathBuf;
 
@@ -55,6 +55,20 @@ pub struct CommonArgs {
         value_name = "SECS"
     )]
     pub connect_timeout: f64,
+    /// Who this program is in a deployment with access control (a role:
+    /// observer, operator, data; a robot: r1 …; or router); its TLS
+    /// certificate, key and password are read from --secrets.
+    #[arg(
+        long,
+        global = true,
+        env = "ROME_IDENTITY",
+        value_name = "NAME",
+        requires = "secrets"
+    )]
+    pub identity: Option<String>,
+    /// The directory `rome certs` filled with the deployment's credentials.
+    #[arg(long, global = true, env = "ROME_SECRETS", value_name = "DIR")]
+    pub secrets: Option<PathBuf>,
     /// More log output (-v info, -vv debug); RUST_LOG overrides.
     #[arg(short, long, global = true, action = clap::ArgAction::Count)]
     pub verbose: u8,
@@ -93,6 +107,10 @@ impl CommonArgs {
             listen: self.listen.clone(),
             no_multicast: self.no_multicast,
             connect_timeout: None,
+            secrets: self.identity.as_ref().map(|identity| Secrets {
+                dir: self.secrets.clone().unwrap_or_else(|| PathBuf::from(".")),
+                identity: identity.clone(),
+            }),
         };
         if net.is_unconfigured() {
             match side {

@@ -68,6 +68,8 @@ pub enum Command {
     Storage(cmd::storage::Args),
     /// Run a Zenoh router with the storage manager and REST plugins built in.
     Router(cmd::router::Args),
+    /// Make a deployment's TLS certificates and passwords (for --identity and --secrets).
+    Certs(cmd::certs::Args),
     /// Run everything in one process: a simulated robot drives from room to room (no router, no configuration).
     Demo(cmd::demo::Args),
     /// Path Planner (§5.3): plan a route, register the robot at its start, hand goals to the Navigator.
@@ -140,6 +142,7 @@ pub async fn run(cli: Cli) -> anyhow::Result<u8> {
         Command::Robot(args) => cmd::robot::run(&common, args).await,
         Command::Storage(args) => cmd::storage::run(&common, args).await,
         Command::Router(args) => cmd::router::run(&common, args).await,
+        Command::Certs(args) => cmd::certs::run(args),
         Command::Demo(args) => cmd::demo::run(args).await,
         Command::Planner(args) => cmd::nav::planner(&common, args).await,
         Command::Navigator(args) => cmd::nav::navigator(&common, args).await,

@@ -13,7 +13,7 @@ pub enum ClientError {
     #[error(transparent)]
     Key(#[from] KeyError),
     /// No server answered in time.
-    #[error("no reply from {what} on '{key}' after {waited:.1?}; is it running and reachable? (`rome ls` lists what is alive)")]
+    #[error("no reply from {what} on '{key}' after {waited:.1?}; is it running and reachable, and does the router's access control let this identity ask? (`rome ls` lists what is alive)")]
     NoReply {
         /// Which server was asked.
         what: &'static str,

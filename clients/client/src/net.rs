@@ -27,6 +27,76 @@ pub struct NetOptions {
     /// How long opening may keep trying the connect endpoints (Zenoh's
     /// `connect/timeout_ms`); Zenoh's default (a client tries once) if unset.
     pub connect_timeout: Option<std::time::Duration>,
+    /// Who this program is in a deployment with access control: its TLS
+    /// certificate and its user name and password (see [`Secrets`]).
+    pub secrets: Option<Secrets>,
+}
+
+/// A program's credentials, as `rome certs DIR` makes them: in `dir`,
+/// `ca.pem` (the deployment's authority), `<identity>.pem` and
+/// `<identity>-key.pem` (its certificate and key, for mutual TLS),
+/// `<identity>.password` (its password, user name `<identity>`), and on the
+/// router `users.txt` (every user's password, to check them).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Secrets {
+    /// The directory holding the files.
+    pub dir: PathBuf,
+    /// The name this program goes by: a role (`observer`, `operator`,
+    /// `data`), a robot (`r1`), or `router`.
+    pub identity: String,
+}
+
+impl Secrets {
+    /// The path of one of the files, checked to exist.
+    pub fn file(&self, name: &str) -> Result<PathBuf, ClientError> {
+        let path = self.dir.join(name);
+        if path.is_file() {
+            Ok(path)
+        } else {
+            Err(ClientError::Zenoh(format!(
+                "{} is missing: identity '{}' needs it (`rome certs {} --names {}` makes it)",
+                path.display(),
+                self.identity,
+                self.dir.display(),
+                self.identity
+            )))
+        }
+    }
+
+    /// The configuration entries (key, JSON value) these credentials set.
+    pub fn entries(&self) -> Result<Vec<(&'static str, String)>, ClientError> {
+        let path = |name: &str| {
+            self.file(name)
+                .map(|p| json_string(&p.display().to_string()))
+        };
+        let cert = path(&format!("{}.pem", self.identity))?;
+        let key = path(&format!("{}-key.pem", self.identity))?;
+        let password_file = self.file(&format!("{}.password", self.identity))?;
+        let password = std::fs::read_to_string(&password_file).map_err(|e| {
+            ClientError::Zenoh(format!("cannot read {}: {e}", password_file.display()))
+        })?;
+        let mut out = vec![
+            ("transport/link/tls/root_ca_certificate", path("ca.pem")?),
+            ("transport/link/tls/connect_certificate", cert.clone()),
+            ("transport/link/tls/connect_private_key", key.clone()),
+            ("transport/link/tls/listen_certificate", cert),
+            ("transport/link/tls/listen_private_key", key),
+            ("transport/link/tls/enable_mtls", "true".into()),
+            ("transport/auth/usrpwd/user", json_string(&self.identity)),
+            (
+                "transport/auth/usrpwd/password",
+                json_string(password.trim()),
+            ),
+        ];
+        let users = self.dir.join("users.txt");
+        if users.is_file() {
+            out.push((
+                "transport/auth/usrpwd/dictionary_file",
+                json_string(&users.display().to_string()),
+            ));
+        }
+        Ok(out)
+    }
 }
 
 impl NetOptions {
@@ -45,6 +115,7 @@ impl NetOptions {
             listen: vec![format!("tcp/127.0.0.1:{}", listen.unwrap_or(0))],
             no_multicast: true,
             connect_timeout: None,
+            secrets: None,
         }
     }
 
@@ -60,6 +131,7 @@ impl NetOptions {
             listen: Vec::new(),
             no_multicast: true,
             connect_timeout: None,
+            secrets: None,
         }
     }
 
@@ -73,6 +145,7 @@ impl NetOptions {
             listen: Vec::new(),
             no_multicast: true,
             connect_timeout: None,
+            secrets: None,
         }
     }
 
@@ -119,6 +192,11 @@ impl NetOptions {
         if let Some(timeout) = self.connect_timeout {
             set("connect/timeout_ms", timeout.as_millis().to_string())?;
         }
+        if let Some(secrets) = &self.secrets {
+            for (key, value) in secrets.entries()? {
+                set(key, value)?;
+            }
+        }
         Ok(config)
     }
 
@@ -128,10 +206,18 @@ impl NetOptions {
         zenoh::open(config).await.map_err(|e| {
             let text = e.to_string();
             if text.contains("Unable to connect") {
-                ClientError::Zenoh(format!(
-                    "cannot reach {} (is a server or router running there? --connect names another)",
-                    self.connect.join(", ")
-                ))
+                let hint = match &self.secrets {
+                    Some(s) => format!(
+                        "is a router running there, and does it take identity '{}' (its certificate from {}'s authority and its password)?",
+                        s.identity,
+                        s.dir.join("ca.pem").display()
+                    ),
+                    None if self.connect.iter().any(|e| e.starts_with("tls/")) => {
+                        "a tls/ endpoint needs credentials: --identity NAME --secrets DIR (`rome certs DIR` makes them)".to_string()
+                    }
+                    None => "is a server or router running there? --connect names another".to_string(),
+                };
+                ClientError::Zenoh(format!("cannot reach {} ({hint})", self.connect.join(", ")))
             } else {
                 ClientError::Zenoh(format!(
                     "cannot open a session (connect {:?}, listen {:?}): {text}",

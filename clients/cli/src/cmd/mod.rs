@@ -3,6 +3,7 @@
 pub mod bench;
 pub mod bench_robot;
 pub mod bench_sim;
+pub mod certs;
 pub mod data;
 pub mod data_server;
 pub mod demo;
