@@ -4,9 +4,12 @@
 //!
 //! How this crate is laid out:
 //! - this file: the helpers;
+//! - [`relay`]: a TCP relay standing for a wireless link (delay, pause);
 //! - `src/bin/peer.rs`: `rome-test-peer`, a client playing one role
 //!   (planner, navigator, waiter) in its own process;
 //! - `tests/`: the tests, one file per subject.
+
+pub mod relay;
 
 use rome_client::net::{free_loopback_port, NetOptions};
 use rome_client::{DataClient, DataOptions};

@@ -416,54 +416,21 @@ async fn a_base_set_moving_by_a_client_that_goes_away_is_stopped() {
     );
 }
 
-/// A TCP relay that can be cut: bytes stop flowing, sockets stay open (a
-/// radio link gone quiet, not a closed connection).
-async fn relay(upstream: u16, cut: Arc<std::sync::atomic::AtomicBool>) -> u16 {
-    use std::sync::atomic::Ordering;
-    use tokio::io::{AsyncReadExt, AsyncWriteExt};
-    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
-    let port = listener.local_addr().unwrap().port();
-    tokio::spawn(async move {
-        while let Ok((inbound, _)) = listener.accept().await {
-            let Ok(outbound) = tokio::net::TcpStream::connect(("127.0.0.1", upstream)).await else {
-                continue;
-            };
-            let (ri, wi) = inbound.into_split();
-            let (ro, wo) = outbound.into_split();
-            for (mut r, mut w) in [
-                (
-                    Box::new(ri) as Box<dyn tokio::io::AsyncRead + Unpin + Send>,
-                    Box::new(wo) as Box<dyn tokio::io::AsyncWrite + Unpin + Send>,
-                ),
-                (Box::new(ro), Box::new(wi)),
-            ] {
-                let cut = cut.clone();
-                tokio::spawn(async move {
-                    let mut buf = vec![0u8; 65536];
-                    while let Ok(n) = r.read(&mut buf).await {
-                        if n == 0 {
-                            break;
-                        }
-                        if !cut.load(Ordering::Relaxed) && w.write_all(&buf[..n]).await.is_err() {
-                            break;
-                        }
-                    }
-                    // Keep the socket open: a cut link says nothing.
-                    std::future::pending::<()>().await;
-                });
-            }
-        }
-    });
-    port
-}
-
 #[tokio::test(flavor = "multi_thread", worker_threads = 4)]
 async fn a_cut_off_holder_loses_the_lock_within_three_seconds() {
     let rec = Recorder::default();
     let rig = Rig::recorder(&rec, false).await;
-    let cut = Arc::new(std::sync::atomic::AtomicBool::new(false));
-    let via = relay(rig.port, cut.clone()).await;
-    let far = NetOptions::loopback_client(via).open().await.unwrap();
+    let relay = rome_tests::relay::Relay::start(
+        ([127, 0, 0, 1], 0).into(),
+        ([127, 0, 0, 1], rig.port).into(),
+        Duration::ZERO,
+    )
+    .await
+    .unwrap();
+    let far = NetOptions::loopback_client(relay.addr.port())
+        .open()
+        .await
+        .unwrap();
     let holder = RobotClient::connect(&far, "r1", RobotOptions::new("far"))
         .await
         .unwrap();
@@ -476,7 +443,7 @@ async fn a_cut_off_holder_loses_the_lock_within_three_seconds() {
     })
     .await;
     let cut_at = Instant::now();
-    cut.store(true, std::sync::atomic::Ordering::Relaxed);
+    relay.pause();
     queued.await.unwrap().unwrap();
     let took = cut_at.elapsed();
     assert!(took < Duration::from_secs(3), "released after {took:?}");

@@ -11,6 +11,18 @@ use zenoh::{Config, Session};
 /// The port zenohd and `rome` servers listen on by default.
 pub const DEFAULT_PORT: u16 = 7447;
 
+/// The link lease every `rome` program announces (Zenoh's default is
+/// 10 s), with [`KEEP_ALIVES`] keep-alives in it: a link silent for 1 s
+/// (a wireless dropout) keeps its session, its liveliness tokens and so a
+/// client's waits and locks; one silent for about 5 s is closed, so its
+/// tokens go and what it held is given back, 10 s cut or not. The
+/// hardware lock's own 2.5 s life is shorter still (docs/hardware.md).
+pub const LEASE: std::time::Duration = std::time::Duration::from_secs(5);
+
+/// Keep-alives sent per [`LEASE`] on an otherwise idle link (Zenoh's
+/// default): one every 1.25 s, so three can be lost before the lease ends.
+pub const KEEP_ALIVES: u32 = 4;
+
 /// How a program joins the Zenoh network.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct NetOptions {
@@ -191,6 +203,11 @@ impl NetOptions {
         }
         if let Some(timeout) = self.connect_timeout {
             set("connect/timeout_ms", timeout.as_millis().to_string())?;
+        }
+        if self.config.is_none() {
+            // A configuration file says for itself (deploy/*.json5 do).
+            set("transport/link/tx/lease", LEASE.as_millis().to_string())?;
+            set("transport/link/tx/keep_alive", KEEP_ALIVES.to_string())?;
         }
         if let Some(secrets) = &self.secrets {
             for (key, value) in secrets.entries()? {
