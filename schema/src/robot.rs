@@ -514,6 +514,26 @@ pub struct Unlocked {
     pub fence: u64,
 }
 
+/// `stats` (every hardware server): what the server has carried out, so
+/// a repeat carried out twice shows. Answered at once, never queued.
+///
+/// ```text
+/// {"executed":1200,"with_id":310,"answered_from_memory":4,"ids_executed_twice":0}
+/// ```
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CommandStats {
+    /// Device commands carried out (locks not counted).
+    pub executed: u64,
+    /// Of those, the ones that carried a request id (`op=`).
+    pub with_id: u64,
+    /// Repeats of a request id answered from memory without acting.
+    pub answered_from_memory: u64,
+    /// Request ids carried out more than once (kept for the last
+    /// 65 536 ids): 0 unless a repeat was acted on.
+    pub ids_executed_twice: u64,
+}
+
 /// Who holds a device's lock (in the state stream and the storage).
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]

@@ -327,6 +327,12 @@ async fn a_repeated_request_id_is_answered_again_without_acting_twice() {
     rig.client("c", 128).await.go(200.0).await.unwrap();
     rig.client("c", 128).await.go(200.0).await.unwrap();
     assert_eq!(velocities(&rec), [100.0, 100.0, 200.0, 200.0]);
+    // The server's own count: four carried out, two repeats answered.
+    let stats = plain(&s, "rome/robot/r1/base/stats", "").await.unwrap();
+    assert_eq!(
+        stats,
+        serde_json::json!({"executed": 4, "with_id": 4, "answered_from_memory": 2, "ids_executed_twice": 0})
+    );
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 4)]

@@ -686,4 +686,15 @@ impl<T: DeserializeOwned> Stream<T> {
         let sample = self.subscriber.recv_async().await.ok()?;
         Some(decode(&sample.payload().to_bytes(), &self.what).map_err(ClientError::from))
     }
+
+    /// The newest message: waits for one, then skips any queued behind it,
+    /// so a reader slower than the stream (over a slow link) steers by the
+    /// latest reading rather than by one seconds old.
+    pub async fn latest(&self) -> Option<Result<T, ClientError>> {
+        let mut sample = self.subscriber.recv_async().await.ok()?;
+        while let Ok(Some(newer)) = self.subscriber.try_recv() {
+            sample = newer;
+        }
+        Some(decode(&sample.payload().to_bytes(), &self.what).map_err(ClientError::from))
+    }
 }

@@ -320,6 +320,7 @@ struct Child {
 
 impl Child {
     async fn run(self, tx: mpsc::Sender<Sighting>) -> Result<(), NavError> {
+        let track = crate::track::PoseTrack::start(&self.robot).await?;
         let frames = self.robot.frames(&self.camera).await?;
         let size = self.robot.camera_size(&self.camera).await?;
         let rows = scan_lines(size.height);
@@ -327,12 +328,8 @@ impl Child {
         while let Some(frame) = frames.next().await {
             let frame = frame?;
             let img = self.robot.camera_rows(&self.camera, &rows).await?;
-            let p = self.robot.pose().await?;
-            let pose = Pose {
-                x: f64::from(p.x_mm),
-                y: f64::from(p.y_mm),
-                heading: p.heading_deg,
-            };
+            // Where the rows' image was grabbed, not where the robot is now.
+            let pose = track.at(&self.robot, img.time_ms).await?;
             let lines = [0, 1, 2].map(|k| line_has_light(img.row(k), self.edge));
             let lit = lines.iter().any(|l| *l);
             if lit && !lit_before {

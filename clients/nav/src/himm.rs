@@ -511,6 +511,7 @@ impl Himm {
                 }
             }
         });
+        let track = crate::track::PoseTrack::start(&self.robot).await?;
         let scans = self.robot.scans().await?;
         let mapping = async {
             loop {
@@ -564,10 +565,12 @@ impl Himm {
                                 return Err(NavError::Gone("the proximity server's scan stream closed"));
                             };
                             let scan = scan?;
-                            let p = self.robot.pose().await?;
-                            let at = (f64::from(p.x_mm), f64::from(p.y_mm));
+                            // Where the ring fired, not where the robot is
+                            // by the time the scan got here.
+                            let p = track.at(&self.robot, scan.time_ms).await?;
+                            let at = (p.x, p.y);
                             for (i, r) in scan.sonar_mm.iter().enumerate() {
-                                grid.add(at, p.heading_deg + crate::navigator::bearing(i), *r);
+                                grid.add(at, p.heading + crate::navigator::bearing(i), *r);
                             }
                         }
                     }

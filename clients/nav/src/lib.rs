@@ -16,6 +16,8 @@
 //!   truth, contacts) and reported as rows of Tables 6.1–6.2 and a picture.
 //! - [`run`]: whole runs in one process: data server, simulated robots,
 //!   hardware servers and every robot's clients, driving at once.
+//! - [`track`]: where the robot was when a scan or frame was taken, from
+//!   the base's state stream, so readings are placed right over a slow link.
 
 pub mod board;
 pub mod ctracker;
@@ -26,6 +28,7 @@ pub mod planner;
 pub mod plfinder;
 pub mod report;
 pub mod run;
+pub mod track;
 
 use std::time::Duration;
 

@@ -475,6 +475,11 @@ pub struct Navigator {
     /// The last speed set with Go, mm/s.
     speed: f64,
     odometer_at: Option<Pose>,
+    /// Poses by device time, from the base's state stream.
+    track: Option<crate::track::PoseTrack>,
+    /// A smoothed round trip of a drive command, seconds: how late a
+    /// decision reaches the base, and so how far ahead to stop.
+    rtt_s: f64,
 }
 
 impl Navigator {
@@ -491,6 +496,8 @@ impl Navigator {
             goals: 0,
             log: NavLog::default(),
             odometer: 0.0,
+            track: None,
+            rtt_s: 0.0,
             odometer_at: None,
             speed,
         }
@@ -515,6 +522,7 @@ impl Navigator {
     ) -> Result<(), NavError> {
         self.board.declare().await?;
         let scans = self.robot.scans().await?;
+        self.track = Some(crate::track::PoseTrack::start(&self.robot).await?);
         loop {
             let goal = self.next_goal(&scans).await?;
             self.goals += 1;
@@ -547,7 +555,10 @@ impl Navigator {
                         tracing::info!("navigator: no goal; stopping the robot while it waits");
                         self.send(Drive::Halt).await?;
                         self.hallway = None;
-                        self.carry = None;
+                        // `carry` stays: the Planner's next D or E goal is
+                        // measured from where the last segment ended, not
+                        // from where the robot came to rest waiting for it
+                        // (over a slow link that can be a metre on).
                     }
                 }
             }
@@ -565,17 +576,32 @@ impl Navigator {
             y: f64::from(p.y_mm),
             heading: p.heading_deg,
         };
+        Ok(self.odometer_to(pose))
+    }
+
+    /// The pose when `scan` was taken (from the state stream), so a step
+    /// steers by the scan and the pose of one moment.
+    async fn pose_of(&mut self, scan: &Scan) -> Result<Pose, NavError> {
+        let pose = match &self.track {
+            Some(track) => track.at(&self.robot, scan.time_ms).await?,
+            None => return self.pose().await,
+        };
+        Ok(self.odometer_to(pose))
+    }
+
+    fn odometer_to(&mut self, pose: Pose) -> Pose {
         if let Some(before) = self.odometer_at {
             self.odometer += pose.dist(&before);
         }
         self.odometer_at = Some(pose);
-        Ok(pose)
+        pose
     }
 
     async fn send(&mut self, d: Drive) -> Result<(), NavError> {
         if self.last == Some(d) && !matches!(d, Drive::Turn(_)) {
             return Ok(());
         }
+        let sent = std::time::Instant::now();
         match d {
             Drive::Go(v) => {
                 self.speed = v;
@@ -596,12 +622,19 @@ impl Navigator {
             }
             Drive::Halt => self.robot.stop(false).await?,
         };
+        let rtt = sent.elapsed().as_secs_f64().min(2.0);
+        self.rtt_s = if self.rtt_s == 0.0 {
+            rtt
+        } else {
+            0.8 * self.rtt_s + 0.2 * rtt
+        };
         self.last = Some(d);
         Ok(())
     }
 
     async fn next_scan(&self, scans: &rome_client::robot::Stream<Scan>) -> Result<Scan, NavError> {
-        match tokio::time::timeout(self.cfg.scan_timeout, scans.next()).await {
+        // The newest scan: steering by a backlog would steer by the past.
+        match tokio::time::timeout(self.cfg.scan_timeout, scans.latest()).await {
             Ok(Some(scan)) => Ok(scan?),
             Ok(None) => Err(NavError::Gone("the proximity server's scan stream closed")),
             Err(_) => Err(NavError::Silent {
@@ -634,7 +667,7 @@ impl Navigator {
         scans: &rome_client::robot::Stream<Scan>,
     ) -> Result<(), NavError> {
         let mut scan = self.next_scan(scans).await?;
-        let mut pose = self.pose().await?;
+        let mut pose = self.pose_of(&scan).await?;
         let start = match (goal.goal_type, self.carry) {
             (GoalType::D | GoalType::E, Some(p)) => p,
             _ => pose,
@@ -669,7 +702,10 @@ impl Navigator {
             let axis = rome_maps::geometry::direction(goal.direction_deg);
             let travelled = (pose.x - start.x) * axis.0 + (pose.y - start.y) * axis.1;
             let speed = self.robot_speed();
-            let stopping = speed * speed / (2.0 * self.cfg.stop_accel_mm_s2);
+            // Braking distance, and what is driven while the pose and the
+            // stop travel the link (a real robot runs at real time, so the
+            // round trip in seconds is the robot's seconds).
+            let stopping = speed * speed / (2.0 * self.cfg.stop_accel_mm_s2) + speed * self.rtt_s;
             let done = match goal.goal_type {
                 GoalType::L => {
                     let n: i64 = self.board.get(Var::CeilingLight).await.unwrap_or(0);
@@ -761,7 +797,7 @@ impl Navigator {
                 self.publish(goal, &pose, corner).await?;
             }
             scan = self.next_scan(scans).await?;
-            pose = self.pose().await?;
+            pose = self.pose_of(&scan).await?;
         }
         self.carry = None;
         match goal.goal_type {

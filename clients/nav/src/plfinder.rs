@@ -346,6 +346,7 @@ impl PlFinder {
             .client()
             .set_history(&self.board.var_name(Var::Plate), 256)
             .await?;
+        let track = crate::track::PoseTrack::start(&self.robot).await?;
         let frames = self.robot.frames(&self.cfg.camera).await?;
         let size = self.robot.camera_size(&self.cfg.camera).await?;
         let (w, h) = (size.width, size.height);
@@ -363,27 +364,32 @@ impl PlFinder {
             let lock = self.robot.camera_lock(&self.cfg.camera).await?;
             // The server hands out at most 64 rows a request.
             let mut pixels = Vec::with_capacity(rows.len() * w as usize);
+            let mut grabbed_ms = None;
             for chunk in rows.chunks(64) {
-                pixels.extend(
-                    self.robot
-                        .camera_rows(&self.cfg.camera, chunk)
-                        .await?
-                        .pixels,
-                );
+                let img = self.robot.camera_rows(&self.cfg.camera, chunk).await?;
+                grabbed_ms = Some(img.time_ms);
+                pixels.extend(img.pixels);
             }
-            let pose = self.robot.pose().await?;
+            // Where the (locked, so frozen) image was grabbed.
+            let pose = match grabbed_ms {
+                Some(t) => track.at(&self.robot, t).await?,
+                None => {
+                    lock.unlock().await?;
+                    continue;
+                }
+            };
             let sonar = self.robot.sonar().await?;
             lock.unlock().await?;
-            let beta = normalize_deg(pose.heading_deg - goal);
+            let beta = normalize_deg(pose.heading - goal);
             let reading = f64::from(sonar.sonar_mm.get(18).copied().unwrap_or(u32::MAX));
             if beta.abs() >= BETA_LIMIT_DEG || reading >= 5_000.0 {
                 last = None;
                 continue;
             }
             let d = reading * beta.to_radians().cos();
-            let heading = pose.heading_deg;
+            let heading = pose.heading;
             let eye_dir = direction(heading + 90.0);
-            let centre = (f64::from(pose.x_mm), f64::from(pose.y_mm));
+            let centre = (pose.x, pose.y);
             let eye = (
                 centre.0 + eye_dir.0 * self.cfg.ring_mm,
                 centre.1 + eye_dir.1 * self.cfg.ring_mm,

@@ -29,6 +29,11 @@ use zenoh::Session;
 pub const EVENT_QUEUE: usize = 1024;
 /// How many request ids (`op`) a server remembers with their answers.
 pub const REMEMBERED_OPS: usize = 4096;
+
+/// How many request ids carried out are kept to count any carried out
+/// twice: far more than [`REMEMBERED_OPS`], so a repeat that came after its
+/// answer was forgotten would still be seen.
+const COUNTED_OPS: usize = 65_536;
 /// How often lapsed grants and overdue requests are swept.
 pub const SWEEP: Duration = Duration::from_millis(100);
 
@@ -204,6 +209,10 @@ struct Server<S: Service> {
     /// first past [`REMEMBERED_OPS`].
     done: HashMap<String, Result<Body, ErrorReply>>,
     done_order: VecDeque<String>,
+    /// What was carried out, for `stats`.
+    stats: rome_schema::robot::CommandStats,
+    executed_ids: std::collections::HashSet<String>,
+    executed_order: VecDeque<String>,
 }
 
 /// Runs a hardware server for `service` until `shutdown` completes.
@@ -276,6 +285,9 @@ pub async fn run<S: Service>(
         mover: None,
         done: HashMap::new(),
         done_order: VecDeque::new(),
+        stats: Default::default(),
+        executed_ids: Default::default(),
+        executed_order: VecDeque::new(),
         session,
         config,
         service,
@@ -404,6 +416,13 @@ impl<S: Service> Server<S> {
             Err(e) => return reply_err(&query, &e).await,
         };
         let command = key.rsplit('/').next().unwrap_or_default().to_string();
+        if command == "stats" {
+            // Not a device command: answered at once, lock or no lock.
+            if let Err(e) = params.finish("stats", &[]) {
+                return reply_err(&query, &e).await;
+            }
+            return reply(&query, &key, Body::json(&self.stats)).await;
+        }
         let payload = query.payload().map(|p| p.to_bytes().into_owned());
         let op = match self.parse(&command, params, meta.fence, payload.as_deref()) {
             Ok(op) => op,
@@ -465,6 +484,7 @@ impl<S: Service> Server<S> {
             // A repeat waits its turn like the first, so the first has
             // been carried out by now: answer as it was answered.
             tracing::debug!(%key, op = ?p.op_id, "repeated request answered from memory");
+            self.stats.answered_from_memory += 1;
             return match done.clone() {
                 Ok(body) => reply(&p.query, &key, body).await,
                 Err(e) => reply_err(&p.query, &e).await,
@@ -501,6 +521,7 @@ impl<S: Service> Server<S> {
                 Err(_) => Err(ErrorReply::new(ErrorCode::Conflict, "the lock is not held")),
             },
             Op::Do(cmd) => {
+                self.count(p.op_id.as_deref());
                 let lock = self.lock();
                 let moving = self.service.sets_moving(&cmd);
                 let result = self.service.apply(cmd, lock).await;
@@ -520,6 +541,24 @@ impl<S: Service> Server<S> {
             Err(e) => {
                 tracing::debug!(%key, command = %p.command, error = %e, "command failed");
                 reply_err(&p.query, &e).await
+            }
+        }
+    }
+
+    /// Counts a command carried out, and its id if it was carried out before.
+    fn count(&mut self, id: Option<&str>) {
+        self.stats.executed += 1;
+        let Some(id) = id else { return };
+        self.stats.with_id += 1;
+        if !self.executed_ids.insert(id.to_string()) {
+            tracing::error!(server = %self.config.label(), op = %id, "a request id was carried out twice");
+            self.stats.ids_executed_twice += 1;
+            return;
+        }
+        self.executed_order.push_back(id.to_string());
+        while self.executed_order.len() > COUNTED_OPS {
+            if let Some(old) = self.executed_order.pop_front() {
+                self.executed_ids.remove(&old);
             }
         }
     }
