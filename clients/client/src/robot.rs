@@ -92,6 +92,9 @@ pub struct RobotOptions {
     /// default; a one-shot command line tool turns it off so the robot
     /// goes on after the tool exits.
     pub deadman: bool,
+    /// How long a request keeps being sent again while nobody serves its
+    /// key (a server or the router restarting) before it fails.
+    pub unreachable_for: Duration,
 }
 
 impl RobotOptions {
@@ -105,6 +108,7 @@ impl RobotOptions {
             reply_timeout: Duration::from_secs(5),
             lock_ttl: Duration::from_millis(DEFAULT_LOCK_TTL_MS),
             deadman: true,
+            unreachable_for: Duration::from_secs(10),
         }
     }
 }
@@ -308,7 +312,9 @@ impl RobotClient {
         let selector = selector(&key, &params);
         let started = std::time::Instant::now();
         let attempts = if acting { ACTING_ATTEMPTS } else { 1 };
-        for attempt in 1..=attempts {
+        let mut attempt = 0;
+        let mut pause = Duration::from_millis(100);
+        loop {
             let mut get = self
                 .inner
                 .session
@@ -335,11 +341,22 @@ impl RobotClient {
                     }
                 }
             }
-            // No reply: the request or its answer was lost (or no server
-            // is there). The same id makes sending again safe; a silence
-            // that came at once (nobody serving) gets a short pause.
-            if attempt < attempts && tried.elapsed() < Duration::from_millis(50) {
-                tokio::time::sleep(Duration::from_millis(100)).await;
+            // A silence that came at once: nobody serves the key right now
+            // (a server or the router restarting, a link being rebuilt).
+            // Nothing was delivered, so asking again is safe for any
+            // command; it is, for a while, after a growing pause.
+            if tried.elapsed() < Duration::from_millis(50)
+                && started.elapsed() + pause < o.unreachable_for
+            {
+                tokio::time::sleep(pause).await;
+                pause = (pause * 2).min(Duration::from_secs(1));
+                continue;
+            }
+            // A silence after waiting: the request or its answer was lost.
+            // The same id makes sending an acting command again safe.
+            attempt += 1;
+            if attempt >= attempts {
+                break;
             }
         }
         Err(no_reply(device, key, started.elapsed()))

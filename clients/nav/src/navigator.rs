@@ -778,6 +778,12 @@ impl Navigator {
             // The timers: Check-Bumper and Check-Goal.
             if scan.time_ms >= next_check {
                 next_check = scan.time_ms + self.cfg.check_period_ms;
+                // The next step sends its drive again even if unchanged:
+                // a base the deadman stopped (this client's link dropped
+                // for longer than its lease, a router restarted) goes on.
+                if matches!(self.last, Some(Drive::Go(_) | Drive::Jog(_))) {
+                    self.last = None;
+                }
                 self.check_bumper(&pose, goal, &scan).await?;
                 // Between two walls the walls are the better compass:
                 // Check-Goal only steps in when they are out of sight.
