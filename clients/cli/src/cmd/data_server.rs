@@ -27,7 +27,7 @@ pub struct Args {
     pub max_mb: u64,
     /// Keep the state (values, histories, semaphores, waiters) in
     /// DIR/data.redb; every answered change is on disk before its answer.
-    /// Default: $XDG_DATA_HOME/rome/<root> (~/.local/share/rome/<root>).
+    /// Default: $XDG_DATA_HOME/rome/ROOT (~/.local/share/rome/ROOT).
     #[arg(
         long,
         value_name = "DIR",

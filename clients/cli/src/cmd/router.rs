@@ -43,7 +43,7 @@ pub struct Args {
     #[arg(long)]
     pub no_storage: bool,
     /// Keep the lock records in DIR/router-store.redb [default:
-    /// $XDG_DATA_HOME/rome/<root>, beside the data server's state].
+    /// $XDG_DATA_HOME/rome/ROOT, beside the data server's state].
     #[arg(long, value_name = "DIR", env = "ROME_ROUTER_DIR", conflicts_with_all = ["in_memory", "no_storage"])]
     pub data_dir: Option<std::path::PathBuf>,
     /// Keep the lock records in memory only: gone when the router stops.
