@@ -21,6 +21,24 @@ use serde::{Deserialize, Serialize};
 /// Number of sonars on the ring, and of infrared slots in a reply (§4.6.2).
 pub const SONARS: usize = 24;
 
+/// Decodes a per-sensor list that must have exactly [`SONARS`] entries: a
+/// short or long one from anyone on the network is refused at decoding, so
+/// no reader can index past its end.
+fn exactly_sonars<'de, D, T>(d: D) -> Result<Vec<T>, D::Error>
+where
+    D: serde::Deserializer<'de>,
+    T: Deserialize<'de>,
+{
+    let v = Vec::<T>::deserialize(d)?;
+    if v.len() != SONARS {
+        return Err(serde::de::Error::custom(format!(
+            "expected {SONARS} readings, one per sensor, got {}",
+            v.len()
+        )));
+    }
+    Ok(v)
+}
+
 /// The selector parameters every hardware server takes.
 pub mod param {
     /// The client's priority, 0 (lowest) … 255 (highest); default
@@ -610,6 +628,7 @@ pub struct BaseState {
 #[serde(deny_unknown_fields)]
 pub struct SonarReply {
     /// 24 ranges, mm; the sensor's maximum when nothing echoed.
+    #[serde(deserialize_with = "exactly_sonars")]
     pub sonar_mm: Vec<u32>,
     /// When the ring fired, device ms.
     pub time_ms: u64,
@@ -624,6 +643,7 @@ pub struct SonarReply {
 #[serde(deny_unknown_fields)]
 pub struct IrReply {
     /// 24 values, 0 or 1.
+    #[serde(deserialize_with = "exactly_sonars")]
     pub ir: Vec<u8>,
     /// When the detectors were read, device ms.
     pub time_ms: u64,
@@ -660,6 +680,7 @@ pub enum MaxRange {
 #[serde(deny_unknown_fields)]
 pub struct TimeoutReply {
     /// 24 maximum ranges, mm.
+    #[serde(deserialize_with = "exactly_sonars")]
     pub max_mm: Vec<u32>,
 }
 
@@ -678,8 +699,10 @@ pub struct Scan {
     /// When the ring fired, device ms.
     pub time_ms: u64,
     /// 24 ranges, mm.
+    #[serde(deserialize_with = "exactly_sonars")]
     pub sonar_mm: Vec<u32>,
     /// 24 infrared values, 0 or 1.
+    #[serde(deserialize_with = "exactly_sonars")]
     pub ir: Vec<u8>,
 }
 

@@ -832,3 +832,30 @@ async fn the_scan_stream_follows_the_sonar_period_and_timeouts_cap_ranges() {
     let err = c.set_timeout([20_000; 24]).await.unwrap_err();
     assert_eq!(err.code(), Some(ErrorCode::OutOfRange));
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 4)]
+async fn a_short_scan_published_by_anyone_is_skipped_by_readers() {
+    let rig = Rig::sim(Duration::from_millis(500)).await;
+    let c = rig.client("reader", 128).await;
+    let scans = c.scans().await.unwrap();
+    let first = scans.next().await.unwrap().unwrap();
+    // Someone else publishes garbage on the scan key: three readings.
+    let intruder = rig.peer_session().await;
+    let short = r#"{"robot":"r1","seq":999999,"time_ms":1,"sonar_mm":[1,2,3],"ir":[0,0,0]}"#;
+    let e = rome_schema::decode::<rome_schema::robot::Scan>(short.as_bytes(), "scan").unwrap_err();
+    assert!(e.to_string().contains("expected 24 readings"), "{e}");
+    for _ in 0..3 {
+        intruder
+            .put("rome/robot/r1/proximity/scan", short)
+            .await
+            .unwrap();
+    }
+    // The reader goes on with the server's scans, every one of 24.
+    for _ in 0..5 {
+        let s = scans.next().await.unwrap().unwrap();
+        assert_eq!((s.sonar_mm.len(), s.ir.len()), (24, 24));
+        assert!(s.seq > first.seq && s.seq != 999_999);
+    }
+    let newest = scans.latest().await.unwrap().unwrap();
+    assert_eq!(newest.sonar_mm.len(), 24);
+}

@@ -698,20 +698,47 @@ pub struct Stream<T> {
 }
 
 impl<T: DeserializeOwned> Stream<T> {
-    /// The next message; `None` when the session closed.
-    pub async fn next(&self) -> Option<Result<T, ClientError>> {
-        let sample = self.subscriber.recv_async().await.ok()?;
-        Some(decode(&sample.payload().to_bytes(), &self.what).map_err(ClientError::from))
+    /// Decodes a message; one that does not decode (anyone on the network
+    /// may publish on a stream's key) is skipped with a warning, so a
+    /// reader never stops on one bad message.
+    fn decoded(&self, sample: &Sample) -> Option<T> {
+        match decode(&sample.payload().to_bytes(), &self.what) {
+            Ok(t) => Some(t),
+            Err(e) => {
+                tracing::warn!(key = %sample.key_expr(), error = %e, "stream message skipped");
+                None
+            }
+        }
     }
 
-    /// The newest message: waits for one, then skips any queued behind it,
-    /// so a reader slower than the stream (over a slow link) steers by the
-    /// latest reading rather than by one seconds old.
-    pub async fn latest(&self) -> Option<Result<T, ClientError>> {
-        let mut sample = self.subscriber.recv_async().await.ok()?;
-        while let Ok(Some(newer)) = self.subscriber.try_recv() {
-            sample = newer;
+    /// The next message that decodes; `None` when the session closed.
+    pub async fn next(&self) -> Option<Result<T, ClientError>> {
+        loop {
+            let sample = self.subscriber.recv_async().await.ok()?;
+            if let Some(t) = self.decoded(&sample) {
+                return Some(Ok(t));
+            }
         }
-        Some(decode(&sample.payload().to_bytes(), &self.what).map_err(ClientError::from))
+    }
+
+    /// The newest message that decodes: waits for one, then skips any
+    /// queued behind it, so a reader slower than the stream (over a slow
+    /// link) steers by the latest reading rather than by one seconds old.
+    pub async fn latest(&self) -> Option<Result<T, ClientError>> {
+        let mut newest = None;
+        loop {
+            if newest.is_none() {
+                let sample = self.subscriber.recv_async().await.ok()?;
+                newest = self.decoded(&sample);
+            }
+            while let Ok(Some(sample)) = self.subscriber.try_recv() {
+                if let Some(t) = self.decoded(&sample) {
+                    newest = Some(t);
+                }
+            }
+            if let Some(t) = newest {
+                return Some(Ok(t));
+            }
+        }
     }
 }
