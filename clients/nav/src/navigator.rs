@@ -693,6 +693,7 @@ impl Navigator {
         }
         let hallway_start = scan.time_ms;
         let mut next_check = scan.time_ms + self.cfg.check_period_ms;
+        let mut checked_at: Option<Pose> = None;
         let mut next_status = scan.time_ms;
         let mut counted_low = false;
         let mut walls = Walls::default();
@@ -778,12 +779,18 @@ impl Navigator {
             // The timers: Check-Bumper and Check-Goal.
             if scan.time_ms >= next_check {
                 next_check = scan.time_ms + self.cfg.check_period_ms;
-                // The next step sends its drive again even if unchanged:
-                // a base the deadman stopped (this client's link dropped
-                // for longer than its lease, a router restarted) goes on.
-                if matches!(self.last, Some(Drive::Go(_) | Drive::Jog(_))) {
+                // Told to drive but standing still since the last check: the
+                // base may have been stopped by its deadman (this client's
+                // link dropped for longer than its lease, a router
+                // restarted). The next step sends its drive again.
+                let still = checked_at.is_some_and(|p: Pose| pose.dist(&p) < 50.0);
+                if still && matches!(self.last, Some(Drive::Go(_) | Drive::Jog(_))) {
+                    tracing::info!(
+                        "navigator: standing still while driving; sending the drive again"
+                    );
                     self.last = None;
                 }
+                checked_at = Some(pose);
                 self.check_bumper(&pose, goal, &scan).await?;
                 // Between two walls the walls are the better compass:
                 // Check-Goal only steps in when they are out of sight.
