@@ -106,6 +106,25 @@ pub fn await_port(port: u16, within: Duration) {
     }
 }
 
+/// Starts `exe ARGS` with no input or output, its stderr appended to
+/// `log` (to read when a test fails); killed when the guard is dropped.
+pub fn spawn_logged(exe: &str, args: &[&str], log: &std::path::Path) -> ChildGuard {
+    let log = std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(log)
+        .expect("the log file opens");
+    ChildGuard(Some(
+        Command::new(exe)
+            .args(args)
+            .stdin(Stdio::null())
+            .stdout(Stdio::null())
+            .stderr(log)
+            .spawn()
+            .expect("the program starts"),
+    ))
+}
+
 /// A child process killed (SIGKILL) when dropped.
 pub struct ChildGuard(pub Option<Child>);
 

@@ -70,14 +70,18 @@ async fn link() -> Link {
     }
 }
 
-/// The far client holding r1's base lock and queued on semaphore `gate`.
+/// The far client holding r1's base lock and queued on semaphore `gate`,
+/// with a data client on the near side to watch and signal it.
 struct Holder {
     robot: RobotClient,
     lock: rome_client::robot::Lock,
     waiter: tokio::task::JoinHandle<Result<(), rome_client::ClientError>>,
 }
 
-async fn hold(l: &Link, near_data: &DataClient) -> Holder {
+async fn hold(l: &Link) -> (DataClient, Holder) {
+    let near_data = DataClient::connect(&l.near, DataOptions::new("near"))
+        .await
+        .unwrap();
     rome_client::alive::await_server(
         &l.far,
         &Root::default(),
@@ -101,11 +105,14 @@ async fn hold(l: &Link, near_data: &DataClient) -> Holder {
         async move { d.semaphore("gate").await.is_ok_and(|s| s.waiters == 1) }
     })
     .await;
-    Holder {
-        robot,
-        lock,
-        waiter,
-    }
+    (
+        near_data,
+        Holder {
+            robot,
+            lock,
+            waiter,
+        },
+    )
 }
 
 /// The lock holder's fence as the base's state stream shows it now.
@@ -121,10 +128,7 @@ async fn lock_shown(near: &Session) -> Option<u64> {
 #[tokio::test(flavor = "multi_thread", worker_threads = 4)]
 async fn a_one_second_dropout_keeps_the_lock_and_the_place_in_the_queue() {
     let l = link().await;
-    let near_data = DataClient::connect(&l.near, DataOptions::new("near"))
-        .await
-        .unwrap();
-    let h = hold(&l, &near_data).await;
+    let (near_data, h) = hold(&l).await;
     let fence = h.lock.fence();
 
     l.relay.pause();
@@ -150,10 +154,7 @@ async fn a_one_second_dropout_keeps_the_lock_and_the_place_in_the_queue() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 4)]
 async fn a_ten_second_dropout_gives_the_lock_and_the_place_back() {
     let l = link().await;
-    let near_data = DataClient::connect(&l.near, DataOptions::new("near"))
-        .await
-        .unwrap();
-    let h = hold(&l, &near_data).await;
+    let (near_data, h) = hold(&l).await;
     let fence = h.lock.fence();
     assert_eq!(lock_shown(&l.near).await, Some(fence));
 

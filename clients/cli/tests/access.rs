@@ -13,7 +13,7 @@ use rome_client::net::{free_loopback_port, NetOptions, Secrets};
 use rome_client::{DataClient, DataOptions, RobotClient, RobotOptions};
 use rome_tests::ChildGuard;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
+use std::process::Command;
 use std::time::{Duration, Instant};
 use zenoh::Session;
 
@@ -27,20 +27,7 @@ fn router_config() -> String {
 }
 
 fn rome(args: &[&str], log: &Path) -> ChildGuard {
-    let log = std::fs::OpenOptions::new()
-        .create(true)
-        .append(true)
-        .open(log)
-        .unwrap();
-    ChildGuard(Some(
-        Command::new(ROME)
-            .args(args)
-            .stdin(Stdio::null())
-            .stdout(Stdio::null())
-            .stderr(log)
-            .spawn()
-            .unwrap(),
-    ))
+    rome_tests::spawn_logged(ROME, args, log)
 }
 
 fn net(port: u16, secrets: Option<Secrets>) -> NetOptions {

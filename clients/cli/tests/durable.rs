@@ -11,7 +11,7 @@ use rome_client::data::{DataClient, DataOptions};
 use rome_client::net::{free_loopback_port, NetOptions};
 use rome_tests::ChildGuard;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
+
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -27,20 +27,7 @@ fn scratch(what: &str) -> PathBuf {
 
 /// `rome ARGS`, its stderr appended to `log`.
 fn rome(args: &[&str], log: &Path) -> ChildGuard {
-    let log = std::fs::OpenOptions::new()
-        .create(true)
-        .append(true)
-        .open(log)
-        .unwrap();
-    ChildGuard(Some(
-        Command::new(ROME)
-            .args(args)
-            .stdin(Stdio::null())
-            .stdout(Stdio::null())
-            .stderr(log)
-            .spawn()
-            .unwrap(),
-    ))
+    rome_tests::spawn_logged(ROME, args, log)
 }
 
 /// Acknowledged sets of 0, 1, 2 … to `seq` (history long enough for all),

@@ -9,26 +9,14 @@
 use rome_client::net::{free_loopback_port, NetOptions};
 use rome_tests::ChildGuard;
 use std::io::{Read, Write};
-use std::process::{Command, Stdio};
+
 use std::time::{Duration, Instant};
 
 const ROME: &str = env!("CARGO_BIN_EXE_rome");
 
 fn rome(args: &[&str]) -> ChildGuard {
-    let log = std::fs::OpenOptions::new()
-        .create(true)
-        .append(true)
-        .open(std::env::temp_dir().join("rome-router-test.log"))
-        .unwrap();
-    ChildGuard(Some(
-        Command::new(ROME)
-            .args(args)
-            .stdin(Stdio::null())
-            .stdout(Stdio::null())
-            .stderr(log)
-            .spawn()
-            .unwrap(),
-    ))
+    let log = std::env::temp_dir().join("rome-router-test.log");
+    rome_tests::spawn_logged(ROME, args, &log)
 }
 
 /// One HTTP GET on loopback; the status line and the body.
