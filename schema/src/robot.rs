@@ -803,18 +803,41 @@ impl Gray8 {
                 .split_once('=')
                 .ok_or_else(|| bad("a word without '='"))?;
             let num = |v: &str| v.parse::<u64>().map_err(|_| bad("a field is not a number"));
+            let side = |v: &str| {
+                num(v)?
+                    .try_into()
+                    .ok()
+                    .filter(|n| (1..=MAX_IMAGE_SIDE).contains(n))
+                    .ok_or_else(|| bad(&format!("width and height must be 1 … {MAX_IMAGE_SIDE}")))
+            };
             match k {
-                "width" => g.width = num(v)? as u32,
-                "height" => g.height = num(v)? as u32,
+                "width" => g.width = side(v)?,
+                "height" => g.height = side(v)?,
                 "frame" => g.frame = num(v)?,
                 "time_ms" => g.time_ms = num(v)?,
-                "rows" => g.rows = Some(parse_rows(v).map_err(|e| bad(&e.message))?),
+                "rows" => g.rows = Some(parse_rows(v, MAX_ROWS).map_err(|e| bad(&e.message))?),
                 _ => {}
             }
+        }
+        if g.width == 0 || g.height == 0 {
+            return Err(bad("it needs a width and a height"));
+        }
+        if let Some(r) = g.rows.iter().flatten().find(|r| **r >= g.height) {
+            return Err(bad(&format!(
+                "row {r} is outside the image's {} rows",
+                g.height
+            )));
         }
         Ok(g)
     }
 }
+
+/// The most rows one `rows` request may ask for, and one reply may carry.
+pub const MAX_ROWS: usize = 64;
+
+/// The widest and tallest image a camera reply may describe, pixels: far
+/// above any camera's, low enough that a reply's size cannot be absurd.
+pub const MAX_IMAGE_SIDE: u32 = 8_192;
 
 /// The longest schema Zenoh carries in an encoding, bytes.
 pub const MAX_SCHEMA_LEN: usize = 255;
@@ -840,14 +863,21 @@ pub fn format_rows(rows: &[u32]) -> String {
 }
 
 /// Parses a row list: row numbers and ranges separated by ','
-/// (`120,241,360`, `200-263`).
-pub fn parse_rows(text: &str) -> Result<Vec<u32>, ErrorReply> {
+/// (`120,241,360`, `200-263`), refusing a list of more than `max` rows
+/// before expanding it, whoever wrote it.
+pub fn parse_rows(text: &str, max: usize) -> Result<Vec<u32>, ErrorReply> {
     let bad = || {
         ErrorReply::new(
             ErrorCode::WrongType,
             format!(
                 "parameter 'rows' must be row numbers or ranges (200-263) separated by ',', got '{text}'"
             ),
+        )
+    };
+    let too_many = || {
+        ErrorReply::new(
+            ErrorCode::OutOfRange,
+            format!("parameter 'rows' asks for more than {max} rows"),
         )
     };
     let mut out = Vec::new();
@@ -857,12 +887,20 @@ pub fn parse_rows(text: &str) -> Result<Vec<u32>, ErrorReply> {
             Some((a, b)) => {
                 let a: u32 = a.trim().parse().map_err(|_| bad())?;
                 let b: u32 = b.trim().parse().map_err(|_| bad())?;
-                if b < a || b - a >= 4_096 {
+                if b < a {
                     return Err(bad());
+                }
+                if (b - a) as usize >= max.saturating_sub(out.len()) {
+                    return Err(too_many());
                 }
                 out.extend(a..=b);
             }
-            None => out.push(part.parse().map_err(|_| bad())?),
+            None => {
+                if out.len() >= max {
+                    return Err(too_many());
+                }
+                out.push(part.parse().map_err(|_| bad())?)
+            }
         }
     }
     Ok(out)
@@ -934,14 +972,14 @@ mod tests {
     fn row_lists_use_ranges_and_fit_a_schema() {
         let rows: Vec<u32> = (181..301).collect();
         assert_eq!(format_rows(&rows), "181-300");
-        assert_eq!(parse_rows("181-300").unwrap(), rows);
+        assert_eq!(parse_rows("181-300", 200).unwrap(), rows);
         assert_eq!(format_rows(&[120, 241, 242, 360]), "120,241,242,360");
         assert_eq!(
-            parse_rows("120, 200-202,5").unwrap(),
+            parse_rows("120, 200-202,5", 10).unwrap(),
             vec![120, 200, 201, 202, 5]
         );
-        assert!(parse_rows("9-3").is_err());
-        assert!(parse_rows("a-3").is_err());
+        assert!(parse_rows("9-3", 10).is_err());
+        assert!(parse_rows("a-3", 10).is_err());
         let g = Gray8 {
             width: 512,
             height: 482,
@@ -951,5 +989,27 @@ mod tests {
         };
         assert!(g.schema().len() <= MAX_SCHEMA_LEN);
         assert_eq!(Gray8::parse(&g.schema()).unwrap(), g);
+    }
+
+    #[test]
+    fn hostile_image_schemas_are_refused_before_anything_is_allocated() {
+        // 2^32 + 1 once read as a width of 1.
+        let e = Gray8::parse("gray8 width=4294967297 height=2").unwrap_err();
+        assert!(e.message.contains("width and height"), "{}", e.message);
+        assert!(Gray8::parse("gray8 width=9000 height=2").is_err());
+        assert!(Gray8::parse("gray8 width=0 height=4000000000").is_err());
+        assert!(Gray8::parse("gray8 frame=1").is_err(), "no size");
+        let e = Gray8::parse("gray8 width=8 height=10 rows=3,10").unwrap_err();
+        assert!(e.message.contains("row 10"), "{}", e.message);
+        // Many ranges, each short enough alone, once expanded to 150 000
+        // rows inside the device task.
+        let many = vec!["0-4095"; 40].join(",");
+        let e = parse_rows(&many, MAX_ROWS).unwrap_err();
+        assert_eq!(e.code, ErrorCode::OutOfRange);
+        assert!(parse_rows("0-4294967295", MAX_ROWS).is_err());
+        let singles = vec!["1"; MAX_ROWS + 1].join(",");
+        assert!(parse_rows(&singles, MAX_ROWS).is_err());
+        assert_eq!(parse_rows("0-63", MAX_ROWS).unwrap().len(), MAX_ROWS);
+        assert!(parse_rows("0-64", MAX_ROWS).is_err());
     }
 }

@@ -147,10 +147,16 @@ pub struct Image {
 }
 
 impl Image {
-    /// The pixels of the `k`-th row carried.
-    pub fn row(&self, k: usize) -> &[u8] {
+    /// The pixels of the `k`-th row carried, or `None` past the last.
+    pub fn row(&self, k: usize) -> Option<&[u8]> {
         let w = self.width as usize;
-        &self.pixels[k * w..(k + 1) * w]
+        self.pixels
+            .get(k.checked_mul(w)?..k.checked_add(1)?.checked_mul(w)?)
+    }
+
+    /// The pixels of image row `row`, if this image carries it.
+    pub fn image_row(&self, row: u32) -> Option<&[u8]> {
+        self.row(self.rows.iter().position(|r| *r == row)?)
     }
 }
 
@@ -552,12 +558,25 @@ impl RobotClient {
     }
 
     /// `CameraGrabRow`: some rows of the last image, in one round trip.
+    /// A reply that does not carry exactly the rows asked for, in order,
+    /// is an error, so `row(k)` is the `k`-th row asked for.
     pub async fn camera_rows(&self, camera: &str, rows: &[u32]) -> Result<Image, ClientError> {
         let params = [(param::ROWS, format_rows(rows))];
         let (bytes, encoding) = self
             .raw(&Self::camera(camera)?, "rows", &params, None, true)
             .await?;
-        image(bytes, &encoding)
+        let img = image(bytes, &encoding)?;
+        if img.rows != rows {
+            return Err(ClientError::Server(rome_schema::ErrorReply::new(
+                ErrorCode::Device,
+                format!(
+                    "the camera server sent rows {}, not the rows asked for ({})",
+                    format_rows(&img.rows),
+                    format_rows(rows)
+                ),
+            )));
+        }
+        Ok(img)
     }
 
     /// Subscribes to a camera's frame stream: one message after each grab.
@@ -661,19 +680,21 @@ fn no_reply(device: &Device, key: String, waited: Duration) -> ClientError {
 fn image(bytes: Vec<u8>, encoding: &Encoding) -> Result<Image, ClientError> {
     let text = encoding.to_string();
     let schema = text.split_once(';').map(|(_, s)| s).unwrap_or_default();
+    // Gray8::parse bounds the size and the row list; the payload must
+    // match them before anything is built on the server's numbers.
     let g = Gray8::parse(schema)?;
-    let rows = g.rows.unwrap_or_else(|| (0..g.height).collect());
-    if bytes.len() != rows.len() * g.width as usize {
+    let carried = g.rows.as_ref().map_or(g.height as usize, Vec::len);
+    if bytes.len() as u64 != carried as u64 * u64::from(g.width) {
         return Err(ClientError::Server(rome_schema::ErrorReply::new(
             ErrorCode::Device,
             format!(
-                "image reply has {} bytes, not {} rows × {} columns",
+                "image reply has {} bytes, not {carried} rows × {} columns",
                 bytes.len(),
-                rows.len(),
                 g.width
             ),
         )));
     }
+    let rows = g.rows.unwrap_or_else(|| (0..g.height).collect());
     Ok(Image {
         width: g.width,
         height: g.height,

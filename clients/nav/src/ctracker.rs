@@ -330,7 +330,8 @@ impl Child {
             let img = self.robot.camera_rows(&self.camera, &rows).await?;
             // Where the rows' image was grabbed, not where the robot is now.
             let pose = track.at(&self.robot, img.time_ms).await?;
-            let lines = [0, 1, 2].map(|k| line_has_light(img.row(k), self.edge));
+            // camera_rows checked the reply carries the three rows asked for.
+            let lines = [0, 1, 2].map(|k| img.row(k).is_some_and(|r| line_has_light(r, self.edge)));
             let lit = lines.iter().any(|l| *l);
             if lit && !lit_before {
                 holding = self.board.try_down(Sem::LightToken).await?;

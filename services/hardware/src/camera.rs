@@ -14,6 +14,7 @@
 
 use crate::device::{CameraDevice, Frame};
 use crate::server::{Body, Service};
+pub use rome_schema::robot::MAX_ROWS;
 use rome_schema::robot::{format_rows, param, parse_rows, FrameInfo, Gray8, LockInfo, SizeReply};
 use rome_schema::{ErrorCode, ErrorReply, Params};
 use std::time::Duration;
@@ -23,8 +24,6 @@ use zenoh::bytes::Encoding;
 pub const COMMANDS: &[&str] = &["size", "grab", "rows"];
 /// The thesis' grab period.
 pub const DEFAULT_PERIOD: Duration = Duration::from_millis(500);
-/// The most rows one `rows` request may ask for.
-pub const MAX_ROWS: usize = 64;
 /// Longest row list a reply can describe (as ranges), characters: the rest
 /// of the 255-byte schema holds the image's size, frame and time.
 pub const MAX_ROW_LIST_LEN: usize = 160;
@@ -165,7 +164,7 @@ impl<D: CameraDevice> Service for Camera<D> {
                     command,
                     &["rows", "priority", "fence", "wait_ms", "client", "op"],
                 )?;
-                let rows = parse_rows(&list)?;
+                let rows = parse_rows(&list, MAX_ROWS)?;
                 let (_, height) = self.device.size();
                 if rows.is_empty() || rows.len() > MAX_ROWS {
                     return Err(ErrorReply::new(
