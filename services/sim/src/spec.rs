@@ -138,6 +138,10 @@ pub struct SimConfig {
     pub elevator_delay_s: f64,
     /// Seconds an elevator door stays open.
     pub elevator_open_s: f64,
+    /// Most poses a robot's trail keeps: when full, every other pose is
+    /// dropped and the trail is recorded half as often, so it covers the
+    /// whole run at coarser spacing however long the simulator runs.
+    pub trail_max: usize,
 }
 
 impl Default for SimConfig {
@@ -151,6 +155,7 @@ impl Default for SimConfig {
             noise: Noise::default(),
             elevator_delay_s: 5.0,
             elevator_open_s: 10.0,
+            trail_max: 4_096,
         }
     }
 }

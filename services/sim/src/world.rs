@@ -127,8 +127,11 @@ pub struct Robot {
     pub side: Option<GrayImage>,
     /// Distance truly travelled, mm.
     pub travelled_mm: f64,
-    /// True poses every half second of simulated time.
+    /// True poses every half second of simulated time, thinned out to at
+    /// most [`SimConfig::trail_max`] over a long run.
     pub trail: Vec<Pose>,
+    /// Simulated ms between trail poses: doubles each time it is thinned.
+    pub trail_every_ms: u64,
     /// Touches of walls and other robots so far.
     pub contacts: Contacts,
     /// Cameras with their lens covered (a fault to inject): bit 0 up,
@@ -323,6 +326,7 @@ impl Sim {
             side: None,
             travelled_mm: 0.0,
             trail: vec![pose],
+            trail_every_ms: TRAIL_MS,
             contacts: Contacts::default(),
             covered: 0,
             wheel_bias,
@@ -442,9 +446,20 @@ impl Sim {
             if camera_due {
                 self.grab(i);
             }
-            if self.time_ms % TRAIL_MS < dt_ms {
-                let pose = self.robots[i].pose;
-                self.robots[i].trail.push(pose);
+            let max = self.config.trail_max.max(2);
+            let r = &mut self.robots[i];
+            if self.time_ms % r.trail_every_ms < dt_ms {
+                if r.trail.len() >= max {
+                    let mut k = 0;
+                    r.trail.retain(|_| {
+                        k += 1;
+                        k % 2 == 1
+                    });
+                    r.trail_every_ms *= 2;
+                }
+                if self.time_ms % r.trail_every_ms < dt_ms {
+                    r.trail.push(r.pose);
+                }
             }
         }
     }

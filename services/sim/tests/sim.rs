@@ -607,3 +607,29 @@ fn the_pacer_holds_simulated_time_to_a_multiple_of_real_time() {
         "nonsense pace runs free"
     );
 }
+
+#[test]
+fn a_trail_stays_bounded_and_still_covers_the_whole_run() {
+    let mut sim = Sim::new(
+        &eb3(),
+        SimConfig {
+            trail_max: 16,
+            sonar_period_ms: 0,
+            ..SimConfig::default()
+        },
+    );
+    let i = sim.add_robot_at("a", "350R", 90.0).unwrap();
+    let start = sim.robot(i).pose;
+    sim.robot_mut(i).drive.jog(20.0).unwrap();
+    // 10 minutes at 2 poses a second would be 1 200 poses.
+    let mut longest = 0;
+    for _ in 0..60 {
+        sim.run_for(10_000);
+        longest = longest.max(sim.robot(i).trail.len());
+    }
+    let r = sim.robot(i);
+    assert!(longest <= 16, "the trail grew to {longest} poses");
+    assert!(r.trail.len() >= 8, "{}", r.trail.len());
+    assert_eq!(r.trail[0], start, "the first pose stays");
+    assert!(r.trail_every_ms >= 600_000 / 16, "{}", r.trail_every_ms);
+}
