@@ -154,7 +154,7 @@ async fn await_up(session: &zenoh::Session, port: u16, robots: usize) {
         };
         // Each client process holds two tokens (its data-server and its
         // robot client).
-        let up = ["navigator", "ctracker", "himm", "plfinder"]
+        let up = ["navigator", "ctracker", "mapper", "plfinder"]
             .iter()
             .all(|role| count("client", role) == 2 * robots)
             && count("server", "robot") == 4 * robots

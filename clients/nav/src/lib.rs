@@ -14,8 +14,6 @@
 //! - [`plfinder`]: door-plate detection from the side camera (§5.7).
 //! - [`report`]: how a run is judged by what happened (lights seen, ground
 //!   truth, contacts) and reported as rows of Tables 6.1–6.2 and a picture.
-//! - [`run`]: whole runs in one process: data server, simulated robots,
-//!   hardware servers and every robot's clients, driving at once.
 //! - [`track`]: where the robot was when a scan or frame was taken, from
 //!   the base's state stream, so readings are placed right over a slow link.
 
@@ -27,7 +25,6 @@ pub mod plan;
 pub mod planner;
 pub mod plfinder;
 pub mod report;
-pub mod run;
 pub mod track;
 
 use std::time::Duration;
@@ -45,6 +42,14 @@ pub enum NavError {
         what: &'static str,
         /// How long the client waited.
         waited: Duration,
+    },
+    /// A value a goal depends on could not be read; the robot was stopped.
+    #[error("{what} could not be read, so the robot was stopped: {source}")]
+    Unreadable {
+        /// Which value.
+        what: &'static str,
+        /// Why.
+        source: rome_client::ClientError,
     },
     /// A server went away or misbehaved.
     #[error("{0}")]

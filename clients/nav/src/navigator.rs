@@ -72,6 +72,9 @@ pub struct NavConfig {
     /// Scans without a new goal after which a moving robot is stopped
     /// (2 s of robot time at the sonar ring's 10 scans a second).
     pub idle_scans: usize,
+    /// How long a read of the light count may go unanswered before the
+    /// robot is stopped: without it an L goal cannot tell when it ends.
+    pub blind_after: Duration,
 }
 
 impl Default for NavConfig {
@@ -87,6 +90,7 @@ impl Default for NavConfig {
             stop_accel_mm_s2: 500.0,
             scan_timeout: Duration::from_secs(10),
             idle_scans: 20,
+            blind_after: Duration::from_secs(1),
         }
     }
 }
@@ -565,6 +569,37 @@ impl Navigator {
         }
     }
 
+    /// The lights counted in this L segment. A read unanswered for
+    /// [`NavConfig::blind_after`] stops the robot while it goes on; a read
+    /// that fails stops the robot and ends the goal with the reason. Only
+    /// a count not yet written reads as 0.
+    async fn light_count(&mut self) -> Result<i64, NavError> {
+        let board = self.board.clone();
+        let read = board.get::<i64>(Var::CeilingLight);
+        tokio::pin!(read);
+        let got = tokio::select! {
+            got = &mut read => got,
+            _ = tokio::time::sleep(self.cfg.blind_after) => {
+                tracing::warn!("navigator: the light count goes unanswered; stopping the robot until it is read");
+                self.send(Drive::Halt).await?;
+                read.await
+            }
+        };
+        match got {
+            Ok(n) => Ok(n),
+            Err(e) if e.code() == Some(rome_schema::ErrorCode::UnknownVariable) => Ok(0),
+            Err(e) => {
+                if let Err(stop) = self.send(Drive::Halt).await {
+                    tracing::warn!(error = %stop, "navigator: could not stop the robot");
+                }
+                Err(NavError::Unreadable {
+                    what: "the ceiling-light count (CeilingLight)",
+                    source: e,
+                })
+            }
+        }
+    }
+
     fn is_moving(&self) -> bool {
         !matches!(self.last, None | Some(Drive::Halt))
     }
@@ -709,7 +744,7 @@ impl Navigator {
             let stopping = speed * speed / (2.0 * self.cfg.stop_accel_mm_s2) + speed * self.rtt_s;
             let done = match goal.goal_type {
                 GoalType::L => {
-                    let n: i64 = self.board.get(Var::CeilingLight).await.unwrap_or(0);
+                    let n = self.light_count().await?;
                     // Armed once the count of this segment has been seen
                     // below the goal, so a count left from the segment
                     // before cannot end this one.

@@ -4,16 +4,14 @@
 //! robot has its own blackboard (`nav/<robot>/…`) on the one data server,
 //! and they drive at the same time. The result is a row of Table 6.1 per
 //! robot, judged by ground truth, and one picture of every trajectory.
+//!
+//! How this crate is laid out: this file only. [`Rig`] starts the servers
+//! and the simulated world; [`run`] and [`run_fleet`] add each robot's
+//! clients from `rome-nav` and judge the run with its `report` module. It
+//! is kept apart from `rome-nav` so the navigation clients depend on the
+//! data and hardware servers' protocol only, never on the servers or the
+//! simulator.
 
-use crate::board::{Board, Var};
-use crate::ctracker::{CTracker, TrackConfig};
-use crate::himm::{Himm, HimmConfig};
-use crate::navigator::{NavConfig, NavLog, Navigator};
-use crate::plan::Plan;
-use crate::planner::{self, Handed, Progress};
-use crate::plfinder::{PlConfig, PlFinder};
-use crate::report::{Ended, Report};
-use crate::NavError;
 use rome_client::net::NetOptions;
 use rome_client::sim::TruthClient;
 use rome_client::{DataClient, DataOptions, RobotClient, RobotOptions};
@@ -21,12 +19,21 @@ use rome_hardware::robot::{spawn_sim_robot, spawn_truth, Rates};
 use rome_hardware::sim::SimWorld;
 use rome_maps::geometry::Point;
 use rome_maps::{Map, Network, World};
+use rome_nav::board::{Board, Var};
+use rome_nav::ctracker::{CTracker, TrackConfig};
+use rome_nav::himm::{Himm, HimmConfig};
+use rome_nav::navigator::{NavConfig, NavLog, Navigator};
+use rome_nav::plan::Plan;
+use rome_nav::planner::{self, Handed, Progress};
+use rome_nav::plfinder::{PlConfig, PlFinder};
+use rome_nav::report::{Ended, Report};
+use rome_nav::NavError;
 use rome_schema::Root;
 use rome_sim::{Noise, Pose, Sim, SimConfig};
 use std::time::{Duration, Instant};
 use tokio::sync::mpsc;
 
-pub use crate::report::ARRIVED_CM;
+pub use rome_nav::report::ARRIVED_CM;
 
 /// One robot's route.
 #[derive(Debug, Clone, PartialEq)]
@@ -316,7 +323,7 @@ impl FleetReport {
 
     /// Every trajectory on the map, as PNG bytes.
     pub fn picture(&self, map: &Map, world: &World, width_px: u32) -> Vec<u8> {
-        crate::report::fleet_picture(&self.robots, map, world, width_px)
+        rome_nav::report::fleet_picture(&self.robots, map, world, width_px)
     }
 }
 
@@ -332,7 +339,7 @@ pub struct Rig {
     /// Each robot's index in it, in the order of the plans.
     pub index: Vec<usize>,
     servers: Vec<rome_hardware::robot::Running>,
-    data: rome_data::Running,
+    data: Option<rome_data::Running>,
 }
 
 impl Rig {
@@ -425,7 +432,7 @@ impl Rig {
             world,
             index,
             servers,
-            data,
+            data: Some(data),
         })
     }
 
@@ -434,12 +441,20 @@ impl Rig {
         self.world.lock().robot(self.index[k]).pose
     }
 
+    /// Stops the data server alone (a fault to inject); the hardware
+    /// servers and the world go on.
+    pub async fn stop_data_server(&mut self) {
+        if let Some(data) = self.data.take() {
+            let _ = data.stop().await;
+        }
+    }
+
     /// Stops the servers and closes the session.
-    pub async fn stop(self) {
-        for s in self.servers {
+    pub async fn stop(mut self) {
+        for s in std::mem::take(&mut self.servers) {
             let _ = s.stop().await;
         }
-        let _ = self.data.stop().await;
+        self.stop_data_server().await;
         let _ = self.session.close().await;
     }
 }
@@ -551,11 +566,11 @@ pub async fn run_fleet(
             });
         }
         if cfg.himm {
-            let (board, robot) = connect(&session, name, "himm").await?;
+            let (board, robot) = connect(&session, name, "mapper").await?;
             let himm = cfg.himm_cfg.clone();
             tasks.spawn(async move {
                 let r = Himm::new(robot, board, himm).run().await;
-                (k, r.map(|_| "himm"))
+                (k, r.map(|_| "mapper"))
             });
         }
         if cfg.plfinder {

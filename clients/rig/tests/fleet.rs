@@ -4,7 +4,7 @@
 //! made to fail and is reported failed.
 
 use rome_nav::report::Report;
-use rome_nav::run::{self, Event, FleetReport, PassageState, RouteSpec, RunConfig};
+use rome_rig::{self as run, Event, FleetReport, PassageState, RouteSpec, RunConfig};
 use std::time::Duration;
 
 fn eb3() -> rome_maps::Map {

@@ -4,7 +4,7 @@
 //! needs (the L / C / D columns of Tables 6.1–6.2).
 
 use rome_nav::report::Report;
-use rome_nav::run::{self, RunConfig};
+use rome_rig::{self as run, RunConfig};
 use std::time::Duration;
 
 async fn drive(from: &str, to: &str, seed: u64) -> Report {

@@ -17,7 +17,7 @@ use crate::exit;
 use anyhow::Context;
 use rome_nav::board::GoalType;
 use rome_nav::report::Report;
-use rome_nav::run::{self, Event, PassageState, RobotTick, RouteSpec, RunConfig};
+use rome_rig::{self as run, Event, PassageState, RobotTick, RouteSpec, RunConfig};
 use rome_sim::Noise;
 use std::io::{IsTerminal, Write};
 use std::path::PathBuf;

@@ -317,7 +317,7 @@ pub async fn ctracker(common: &CommonArgs, args: CTrackerArgs) -> anyhow::Result
 
 /// `rome mapper`.
 pub async fn mapper(common: &CommonArgs, args: RobotArg) -> anyhow::Result<u8> {
-    let (board, robot) = connect(common, &args.robot, "himm").await?;
+    let (board, robot) = connect(common, &args.robot, "mapper").await?;
     println!("local mapper (HIMM) for robot '{}'", args.robot);
     Himm::new(robot, board, HimmConfig::default()).run().await?;
     Ok(exit::OK)
