@@ -858,4 +858,5 @@ async fn a_short_scan_published_by_anyone_is_skipped_by_readers() {
     }
     let newest = scans.latest().await.unwrap().unwrap();
     assert_eq!(newest.sonar_mm.len(), 24);
+    assert_eq!(scans.skipped(), 3, "each bad scan is counted once");
 }

@@ -633,6 +633,7 @@ impl RobotClient {
         Ok(Stream {
             subscriber,
             what: chunk.to_string(),
+            skipped: std::sync::Mutex::new(Skipped::default()),
             _t: std::marker::PhantomData,
         })
     }
@@ -715,8 +716,20 @@ pub const STREAM_BACKLOG: usize = 64;
 pub struct Stream<T> {
     subscriber: Subscriber<RingChannelHandler<Sample>>,
     what: String,
+    skipped: std::sync::Mutex<Skipped>,
     _t: std::marker::PhantomData<T>,
 }
+
+/// Messages a stream skipped, for warnings that cannot flood the log.
+#[derive(Default)]
+struct Skipped {
+    total: u64,
+    unreported: u64,
+    reported_at: Option<std::time::Instant>,
+}
+
+/// The least time between two warnings about skipped stream messages.
+const SKIP_WARNING_EVERY: Duration = Duration::from_secs(10);
 
 impl<T: DeserializeOwned> Stream<T> {
     /// Decodes a message; one that does not decode (anyone on the network
@@ -726,10 +739,33 @@ impl<T: DeserializeOwned> Stream<T> {
         match decode(&sample.payload().to_bytes(), &self.what) {
             Ok(t) => Some(t),
             Err(e) => {
-                tracing::warn!(key = %sample.key_expr(), error = %e, "stream message skipped");
+                // Someone flooding a stream with garbage must not fill the
+                // reader's disk with warnings: the first, then one every
+                // SKIP_WARNING_EVERY with the count in between.
+                let mut s = self.skipped.lock().unwrap_or_else(|p| p.into_inner());
+                s.total += 1;
+                s.unreported += 1;
+                if s.reported_at
+                    .is_none_or(|t| t.elapsed() >= SKIP_WARNING_EVERY)
+                {
+                    tracing::warn!(
+                        key = %sample.key_expr(),
+                        error = %e,
+                        skipped = s.unreported,
+                        total = s.total,
+                        "stream messages skipped"
+                    );
+                    s.unreported = 0;
+                    s.reported_at = Some(std::time::Instant::now());
+                }
                 None
             }
         }
+    }
+
+    /// Messages skipped so far because they did not decode.
+    pub fn skipped(&self) -> u64 {
+        self.skipped.lock().map_or(0, |s| s.total)
     }
 
     /// The next message that decodes; `None` when the session closed.
