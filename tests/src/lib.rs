@@ -106,6 +106,33 @@ pub fn await_port(port: u16, within: Duration) {
     }
 }
 
+/// Waits until a `rome` server started with `--listen tcp/127.0.0.1:0`
+/// has said in its log (`log`, its standard error) which port the system
+/// gave it, and returns that port: the port is bound for real, never
+/// picked free and released for someone else to take first.
+pub fn listening_port(log: &std::path::Path, within: Duration) -> u16 {
+    const SAID: &str = "rome: listening on tcp/127.0.0.1:";
+    let deadline = Instant::now() + within;
+    loop {
+        let text = std::fs::read_to_string(log).unwrap_or_default();
+        if let Some(port) = text.lines().find_map(|l| {
+            l.strip_prefix(SAID)?
+                .split_whitespace()
+                .next()?
+                .parse::<u16>()
+                .ok()
+        }) {
+            return port;
+        }
+        assert!(
+            Instant::now() < deadline,
+            "{} did not say where it listens within {within:?}:\n{text}",
+            log.display()
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
 /// Starts `exe ARGS` with no input or output, its stderr appended to
 /// `log` (to read when a test fails); killed when the guard is dropped.
 pub fn spawn_logged(exe: &str, args: &[&str], log: &std::path::Path) -> ChildGuard {

@@ -145,7 +145,23 @@ impl CommonArgs {
     /// and listening on a loopback port of its own for the other peers),
     /// so `rome data-server`, `rome sim` and `rome storage` run side by
     /// side with no flags, and clients reach them all through 7447.
+    ///
+    /// Says on standard error where it listens, with the port the system
+    /// gave for a `:0` endpoint: `rome: listening on tcp/127.0.0.1:40211`.
     pub async fn open_server(&self) -> anyhow::Result<(zenoh::Session, NetOptions)> {
+        let (session, net) = self.open_server_session().await?;
+        let bound: Vec<String> = session
+            .info()
+            .locators()
+            .await
+            .iter()
+            .map(|l| l.to_string())
+            .collect();
+        eprintln!("rome: listening on {}", bound.join(" "));
+        Ok((session, net))
+    }
+
+    async fn open_server_session(&self) -> anyhow::Result<(zenoh::Session, NetOptions)> {
         let net = self.net(Side::Server);
         let defaulted = self.config.is_none() && self.connect.is_empty() && self.listen.is_empty();
         let join = || NetOptions {

@@ -85,6 +85,8 @@ pub enum Command {
     /// Measure round trips and throughput.
     #[command(subcommand)]
     Bench(cmd::bench::BenchCmd),
+    /// Send generated garbage to every key of a running deployment and check that nothing broke.
+    Fuzz(cmd::fuzz::Args),
 }
 
 /// Runs a parsed command line and returns the process exit code.
@@ -150,5 +152,6 @@ pub async fn run(cli: Cli) -> anyhow::Result<u8> {
         Command::Mapper(args) => cmd::nav::mapper(&common, args).await,
         Command::Plfinder(args) => cmd::nav::plfinder(&common, args).await,
         Command::Bench(c) => cmd::bench::run(&common, c).await,
+        Command::Fuzz(args) => cmd::fuzz::run(&common, args).await,
     }
 }
