@@ -7,7 +7,8 @@
 //! - [`plan`]: the Path Planner's route and its segments S^l, S^d, S^c
 //!   (§5.3); [`planner`] runs it against a Navigator.
 //! - [`navigator`]: the deterministic state machine of §5.4 (Center-Hallway,
-//!   Corner; L-, D-, E-Goal; Check-Bumper, Check-Goal).
+//!   Corner; L-, D-, E-Goal; Check-Bumper, Check-Goal); [`hallway`] is
+//!   what its states steer by (sonar geometry, hallway model, wall fits).
 //! - [`ctracker`]: ceiling-light tracking from three scan lines (§5.6).
 //! - [`himm`]: the local mapper's histogram grid and Hough transform for
 //!   heading correction (§5.5).
@@ -19,6 +20,7 @@
 
 pub mod board;
 pub mod ctracker;
+pub mod hallway;
 pub mod himm;
 pub mod navigator;
 pub mod plan;

@@ -15,6 +15,9 @@
 //! answers each with `$RobotStatus` (Table 5.4).
 
 use crate::board::{Board, Goal, GoalType, Sem, Status, Var};
+pub use crate::hallway::{
+    bearing, corner_step, open_sonar, sonar_add, sonar_towards, Hallway, Walls,
+};
 use crate::NavError;
 use rome_client::RobotClient;
 use rome_maps::geometry::normalize_deg;
@@ -22,11 +25,11 @@ use rome_schema::robot::Scan;
 use std::time::Duration;
 
 /// Sonars in a ring (Fig. 5.9): 12 ahead, 18 left, 6 right, 15° apart.
-const SONARS: usize = 24;
+pub(crate) const SONARS: usize = 24;
 /// The forward sonar.
-const FORWARD: usize = 12;
+pub(crate) const FORWARD: usize = 12;
 /// Degrees between sonars.
-const SPACING: f64 = 15.0;
+pub(crate) const SPACING: f64 = 15.0;
 /// The jog rate of the superimposed turn, degrees per second (§5.4.1).
 pub const JOG_RATE_DEG_S: f64 = 4.0;
 /// A reading along the hallway axis at least this long means the axis is
@@ -45,7 +48,7 @@ pub const KEEP_RIGHT_FOR_MM: f64 = 3_000.0;
 pub const KEEP_RIGHT_BEAR_DEG: f64 = 8.0;
 /// A robot's radius, mm (a Pioneer-sized disc), with room to spare when
 /// keeping right.
-const ROBOT_CLEARANCE_MM: f64 = 380.0 + 300.0;
+pub(crate) const ROBOT_CLEARANCE_MM: f64 = 380.0 + 300.0;
 
 /// How the Navigator drives.
 #[derive(Debug, Clone, PartialEq)]
@@ -110,319 +113,6 @@ pub enum Drive {
     Spin(f64),
     /// Stand still.
     Halt,
-}
-
-/// The sonar index `k` steps from `i`, modulo 24.
-pub fn sonar_add(i: usize, k: i64) -> usize {
-    (i as i64 + k).rem_euclid(SONARS as i64) as usize
-}
-
-/// The bearing of sonar `i` from the heading, degrees counter-clockwise.
-pub fn bearing(i: usize) -> f64 {
-    normalize_deg((i as f64 - FORWARD as f64) * SPACING)
-}
-
-/// The sonar pointing closest to a bearing (degrees counter-clockwise from
-/// the heading): M of §5.4.1.
-pub fn sonar_towards(bearing_deg: f64) -> usize {
-    sonar_add(
-        FORWARD,
-        (normalize_deg(bearing_deg) / SPACING).round() as i64,
-    )
-}
-
-/// The open direction (§5.4.1): the largest reading among sonars
-/// M−2 … M+2 (modulo 24) around the hallway axis estimated from the heading
-/// and the goal direction; of equal readings the one nearest M. `half`
-/// narrows the window (the Corner state uses 1).
-pub fn open_sonar(sonar: &[u32], heading_deg: f64, axis_deg: f64, half: i64) -> usize {
-    let m = sonar_towards(axis_deg - heading_deg);
-    if sonar[m] >= OPEN_ENOUGH_MM {
-        // The axis itself is open: a longer reading beside it is a side
-        // corridor or a door ahead, not the way to go.
-        return m;
-    }
-    let mut best = m;
-    for k in (-half..=half).filter(|k| *k != 0) {
-        let i = sonar_add(m, k);
-        let better = f64::from(sonar[i]) > f64::from(sonar[best]) * 1.05;
-        let tie = !better && f64::from(sonar[i]) * 1.05 >= f64::from(sonar[best]);
-        let nearer = (k.unsigned_abs() as usize) < circular(best, m);
-        if better || (tie && nearer && sonar[i] > sonar[best]) {
-            best = i;
-        }
-    }
-    best
-}
-
-fn circular(a: usize, b: usize) -> usize {
-    let d = a.abs_diff(b);
-    d.min(SONARS - d)
-}
-
-/// The Center-Hallway state's memory: its safe threshold and when it last
-/// turned (§5.4.1).
-#[derive(Debug, Clone, PartialEq)]
-pub struct Hallway {
-    /// The safe threshold, mm.
-    pub safe_mm: f64,
-    /// How far the goal still is along the hallway, mm (infinite when the
-    /// goal is a count of lights): something ahead nearer than that is in
-    /// the way, not the hallway's end.
-    pub room_mm: f64,
-    walls: Walls,
-    turns: Vec<u64>,
-    calm_since: u64,
-    slow_until: u64,
-    /// Keep to the right until the robot has driven this far, mm.
-    keep_right_until: f64,
-    /// (distance driven, range on the axis ahead) over the last metre and
-    /// a half, while something is there, mm.
-    ahead: std::collections::VecDeque<(f64, f64)>,
-}
-
-impl Hallway {
-    /// A fresh state at time `now_ms`, threshold 1 m.
-    pub fn new(now_ms: u64) -> Hallway {
-        Hallway {
-            safe_mm: SAFE_START_MM,
-            room_mm: f64::INFINITY,
-            walls: Walls::default(),
-            turns: Vec::new(),
-            calm_since: now_ms,
-            slow_until: 0,
-            keep_right_until: f64::NEG_INFINITY,
-            ahead: std::collections::VecDeque::new(),
-        }
-    }
-
-    /// One pass of Center-Hallway: what to do given the sonar ranges, the
-    /// odometry heading, the goal direction and the distance driven so far.
-    pub fn step(
-        &mut self,
-        cfg: &NavConfig,
-        sonar: &[u32],
-        heading_deg: f64,
-        goal_deg: f64,
-        along_mm: f64,
-        now_ms: u64,
-    ) -> Drive {
-        self.adapt(cfg, now_ms);
-        let speed = if now_ms < self.slow_until {
-            cfg.cruise_mm_s * 0.75
-        } else {
-            cfg.cruise_mm_s
-        };
-        // Beyond the thesis: something on the axis ahead that comes towards
-        // the robot (the range shrinks faster than the robot drives: another
-        // robot, met head-on) makes it keep to the right for the next few
-        // metres, so the two pass each other as people do in a hallway.
-        // Something still or going the same way is left to the open
-        // direction, as any obstacle.
-        let ahead = (11..=13)
-            .map(|i| f64::from(sonar[i]))
-            .fold(f64::MAX, f64::min);
-        if ahead > 600.0 && ahead < KEEP_RIGHT_AHEAD_MM && ahead + 500.0 < self.room_mm {
-            self.ahead
-                .retain(|(a, _)| along_mm - a <= 1_500.0 && *a <= along_mm);
-            self.ahead.push_back((along_mm, ahead));
-            if let (Some(first), Some(last)) = (self.ahead.front(), self.ahead.back()) {
-                let driven = last.0 - first.0;
-                if driven >= 300.0 && (first.1 - last.1) / driven > ONCOMING_CLOSING {
-                    self.keep_right_until = along_mm + KEEP_RIGHT_FOR_MM;
-                }
-            }
-        } else {
-            self.ahead.clear();
-        }
-        let keep_right = along_mm < self.keep_right_until;
-        // Safety: a reading below the threshold within 60° of ahead. The
-        // thesis excepts sonars 6 and 18; their neighbours 5, 7, 17 and 19
-        // see the same side walls at nearly the same range, so they are
-        // excepted too. Keeping right to pass, a robot passing abeam is
-        // expected: then only 15° either side of ahead counts.
-        let cone = if keep_right { 11..=13 } else { 8..=16 };
-        let (closest, min) = cone
-            .map(|i| (i, sonar[i]))
-            .min_by_key(|(_, r)| *r)
-            .unwrap_or((FORWARD, u32::MAX));
-        if f64::from(min) < self.safe_mm {
-            // Turn so the closed direction lies on sonar 6 or 18, whichever
-            // leaves the heading nearer the goal direction.
-            let closed = heading_deg + bearing(closest);
-            let left = normalize_deg(closed - 90.0 - heading_deg);
-            let right = normalize_deg(closed + 90.0 - heading_deg);
-            let err = |d: f64| normalize_deg(heading_deg + d - goal_deg).abs();
-            let turn = if err(left) <= err(right) { left } else { right };
-            let turn = turn.clamp(-30.0, 30.0);
-            if turn.abs() >= 5.0 {
-                self.turns.push(now_ms);
-                self.calm_since = now_ms;
-                self.slow_until = now_ms + cfg.calm_ms;
-                return Drive::Turn(turn);
-            }
-        }
-        self.walls.lane_mm = if keep_right {
-            -self.walls.keep_right_mm()
-        } else {
-            0.0
-        };
-        // Safe: steer the open direction onto sonar 12.
-        let open = open_sonar(sonar, heading_deg, goal_deg, 2);
-        let delta = if open != sonar_towards(goal_deg - heading_deg) && !keep_right {
-            bearing(open)
-        } else if let Some(d) = self.walls.steer(sonar, along_mm) {
-            // The open direction is the axis itself, which odometry alone
-            // cannot hold to a degree: the side walls say how the robot
-            // moves relative to them and how far off the middle it is.
-            d
-        } else if keep_right {
-            // No walls to steer by: bear a little right of the axis.
-            normalize_deg(goal_deg - KEEP_RIGHT_BEAR_DEG - heading_deg)
-        } else {
-            normalize_deg(goal_deg - heading_deg)
-        };
-        if delta.abs() < 1.0 {
-            Drive::Go(speed)
-        } else {
-            Drive::Jog(delta.signum() * JOG_RATE_DEG_S)
-        }
-    }
-
-    fn adapt(&mut self, cfg: &NavConfig, now_ms: u64) {
-        self.turns
-            .retain(|t| now_ms.saturating_sub(*t) <= cfg.busy_window_ms);
-        if self.turns.len() >= cfg.busy_turns {
-            self.safe_mm = (self.safe_mm * 0.5).max(cfg.safe_min_mm);
-            self.turns.clear();
-        } else if now_ms.saturating_sub(self.calm_since) >= cfg.calm_ms {
-            self.safe_mm = (self.safe_mm * 1.25).min(SAFE_START_MM);
-            self.calm_since = now_ms;
-        }
-    }
-}
-
-/// Where the robot is between two hallway walls, from the side sonars 6
-/// and 18: how far off the middle, and (over the last metre) at what angle
-/// it is moving relative to the walls.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct Walls {
-    /// (distance driven, offset left of the middle, hallway width), mm.
-    samples: std::collections::VecDeque<(f64, f64, f64)>,
-    /// Where to keep across the hallway: offset left of the middle, mm
-    /// (negative: right of it).
-    lane_mm: f64,
-    /// The Corner state's stop-and-go turn in progress, degrees per second.
-    spin: Option<f64>,
-}
-
-/// Driving this far is enough to tell the angle to the walls, mm.
-const WALL_WINDOW_MM: f64 = 1_000.0;
-
-impl Walls {
-    /// Adds a scan; returns the steering correction (degrees
-    /// counter-clockwise) that brings the robot back to the middle, when
-    /// both walls have been in view long enough to tell.
-    pub fn steer(&mut self, sonar: &[u32], along_mm: f64) -> Option<f64> {
-        let (left, right) = (f64::from(sonar[18]), f64::from(sonar[6]));
-        let width = left + right;
-        while self
-            .samples
-            .front()
-            .is_some_and(|s| along_mm - s.0 > WALL_WINDOW_MM || s.0 > along_mm)
-        {
-            self.samples.pop_front();
-        }
-        // A door recess or a side corridor changes the width: not a wall.
-        let steady =
-            self.samples.is_empty() || self.samples.iter().all(|s| (s.2 - width).abs() < 250.0);
-        if left < 3_500.0 && right < 3_500.0 && steady {
-            self.samples
-                .push_back((along_mm, (right - left) / 2.0, width));
-        }
-        self.fit()
-    }
-
-    /// How far right of the middle a robot keeps to let another pass: up
-    /// to 0.6 m, leaving at least 0.3 m between its side and the wall.
-    pub fn keep_right_mm(&self) -> f64 {
-        // Side sonars read from the robot's skin: the half-width from the
-        // middle is half their sum plus the radius.
-        let half = self.width().map_or(1_500.0, |w| w / 2.0 + 380.0);
-        (half - ROBOT_CLEARANCE_MM).clamp(0.0, 600.0)
-    }
-
-    /// The hallway's width between the side sonars (the robot's own width
-    /// left out), mm, if the walls are in view.
-    pub fn width(&self) -> Option<f64> {
-        let n = self.samples.len();
-        (n >= 4).then(|| self.samples.iter().map(|s| s.2).sum::<f64>() / n as f64)
-    }
-
-    /// The steering correction from the samples so far, if there are
-    /// enough.
-    pub fn fit(&self) -> Option<f64> {
-        let n = self.samples.len() as f64;
-        let (s0, s1) = (self.samples.front()?.0, self.samples.back()?.0);
-        if self.samples.len() < 4 || s1 - s0 < WALL_WINDOW_MM / 2.0 {
-            return None;
-        }
-        let ms = self.samples.iter().map(|s| s.0).sum::<f64>() / n;
-        let me = self.samples.iter().map(|s| s.1).sum::<f64>() / n;
-        let (mut sxy, mut sxx) = (0.0, 0.0);
-        for s in &self.samples {
-            sxy += (s.0 - ms) * (s.1 - me);
-            sxx += (s.0 - ms) * (s.0 - ms);
-        }
-        // Moving left (counter-clockwise of the walls) raises the offset.
-        let angle = (sxy / sxx).atan().to_degrees();
-        let offset = self.samples.back()?.1 - self.lane_mm;
-        let wanted = (-offset / 1_000.0 * 10.0).clamp(-12.0, 12.0);
-        Some(wanted - angle)
-    }
-}
-
-/// The Corner state (§5.4.2): a narrow window of sonars toward the goal
-/// direction, infrared stop-and-go. Like Center-Hallway, when the window's
-/// open direction is the goal direction itself and both walls are in view,
-/// the walls steer (`walls`, fed with the distance driven `along_mm`).
-pub fn corner_step(
-    cfg: &NavConfig,
-    scan: &Scan,
-    heading_deg: f64,
-    goal_deg: f64,
-    walls: &mut Walls,
-    along_mm: f64,
-) -> Drive {
-    let err = normalize_deg(goal_deg - heading_deg);
-    let by_walls = walls.steer(&scan.sonar_mm, along_mm);
-    // Forward-looking infrared detectors are slots 0–3, looking 45° and 15°
-    // right, then 15° and 45° left. On a detection: stop, and turn slowly
-    // away from the side that sees something (toward the goal direction
-    // when both do), the same way until they are clear.
-    let ir = |i: usize| scan.ir.get(i).is_some_and(|b| *b != 0);
-    let (right, left) = (ir(0) || ir(1), ir(2) || ir(3));
-    if right || left {
-        let rate = *walls.spin.get_or_insert(match (right, left) {
-            (true, false) => 8.0,
-            (false, true) => -8.0,
-            _ if err >= 0.0 => 8.0,
-            _ => -8.0,
-        });
-        return Drive::Spin(rate);
-    }
-    walls.spin = None;
-    let open = open_sonar(&scan.sonar_mm, heading_deg, goal_deg, 1);
-    let delta = if open != sonar_towards(err) {
-        bearing(open)
-    } else {
-        by_walls.unwrap_or(err)
-    };
-    if delta.abs() < 1.0 {
-        Drive::Go(cfg.corner_mm_s)
-    } else {
-        Drive::Jog(delta.signum() * JOG_RATE_DEG_S)
-    }
 }
 
 /// A pose from the base, in the odometry frame.
