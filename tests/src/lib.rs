@@ -4,12 +4,17 @@
 //!
 //! How this crate is laid out:
 //! - this file: the helpers;
-//! - [`relay`]: a TCP relay standing for a wireless link (delay, pause);
+//! - [`decoders`]: every decoder of network input behind one signature,
+//!   for `fuzz/` and `tests/decoders.rs`;
+//! - [`relay`]: re-exported from `rome_client`: a TCP relay standing for a
+//!   wireless link (delay, pause, cut);
 //! - `src/bin/peer.rs`: `rome-test-peer`, a client playing one role
 //!   (planner, navigator, waiter) in its own process;
 //! - `tests/`: the tests, one file per subject.
 
-pub mod relay;
+pub mod decoders;
+/// The TCP relay, now part of the client library.
+pub use rome_client::relay;
 
 use rome_client::net::{free_loopback_port, NetOptions};
 use rome_client::{DataClient, DataOptions};
