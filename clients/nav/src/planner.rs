@@ -141,9 +141,22 @@ pub async fn run(
             failure: None,
         };
         progress(Progress::Handed(&handed));
-        board.down(Sem::RobotStatus).await?;
+        // The Navigator writes its Status every second of robot time while
+        // it works on a goal: silence means it died with the goal.
+        let status = board.var_name(Var::Status);
+        let ds = board.client();
+        await_while(
+            board,
+            Sem::RobotStatus,
+            NAVIGATOR_SILENCE,
+            "Navigator (no Status written while it has a goal; is `rome navigator` running?)",
+            || async { ds.history(&status).await.map_or(0, |h| h.seq) },
+        )
+        .await?;
         if step.goal.goal_type == GoalType::L {
-            board.down(Sem::EndLMode).await?;
+            // The CTracker closes the segment as the count is reached.
+            await_while(board, Sem::EndLMode, NAVIGATOR_SILENCE, "CTracker (the light segment was not closed after the Navigator ended it; is `rome ctracker` running?)", || async { 0 })
+                .await?;
             overshoot = board.get(Var::Overshoot).await?;
             handed_overshoot = Some(overshoot);
             handed.track = board.get(Var::TrackLog).await.ok();
@@ -163,6 +176,43 @@ pub async fn run(
         }
     }
     Ok(out)
+}
+
+/// How long the Planner waits for a sign of life from the Navigator (a new
+/// Status) or the CTracker before it gives the run up as failed, wall time.
+pub const NAVIGATOR_SILENCE: std::time::Duration = std::time::Duration::from_secs(30);
+
+/// down(`sem`), failing with [`NavError::Silent`] naming `what` if
+/// `progress` (a counter the other side moves) stands still for `silence`.
+async fn await_while<F, Fut>(
+    board: &Board,
+    sem: Sem,
+    silence: std::time::Duration,
+    what: &'static str,
+    progress: F,
+) -> Result<(), NavError>
+where
+    F: Fn() -> Fut,
+    Fut: std::future::Future<Output = u64>,
+{
+    let name = board.sem_name(sem);
+    let mut seen = progress().await;
+    let mut since = std::time::Instant::now();
+    loop {
+        let slice = silence.min(std::time::Duration::from_secs(2));
+        if board.client().wait_timeout(&name, slice).await? {
+            return Ok(());
+        }
+        let now = progress().await;
+        if now != seen {
+            (seen, since) = (now, std::time::Instant::now());
+        } else if since.elapsed() >= silence {
+            return Err(NavError::Silent {
+                what,
+                waited: since.elapsed(),
+            });
+        }
+    }
 }
 
 /// Takes a narrow passage before `step`; a robot that may be moving
