@@ -87,6 +87,8 @@ pub enum Command {
     Bench(cmd::bench::BenchCmd),
     /// Send generated garbage to every key of a running deployment and check that nothing broke.
     Fuzz(cmd::fuzz::Args),
+    /// Chaos soak on loopback: robots, clients and data-server load while processes and links are killed at random; then check that nothing was lost.
+    Soak(cmd::soak::Args),
 }
 
 /// Runs a parsed command line and returns the process exit code.
@@ -153,5 +155,6 @@ pub async fn run(cli: Cli) -> anyhow::Result<u8> {
         Command::Plfinder(args) => cmd::nav::plfinder(&common, args).await,
         Command::Bench(c) => cmd::bench::run(&common, c).await,
         Command::Fuzz(args) => cmd::fuzz::run(&common, args).await,
+        Command::Soak(args) => cmd::soak::run(&common, args).await,
     }
 }

@@ -12,6 +12,8 @@
 //! - [`sim`]: [`sim::TruthClient`], a simulated robot's ground truth (for
 //!   judging runs, never for navigation).
 //! - [`alive`]: who is alive (servers and clients), from liveliness tokens.
+//! - [`relay`]: a TCP relay standing for a wireless link (delay, pause,
+//!   cut), for tests and `rome soak`.
 //! - [`error`]: [`ClientError`], what every call can fail with.
 //!
 //! ```no_run
@@ -31,6 +33,7 @@ pub mod alive;
 pub mod data;
 pub mod error;
 pub mod net;
+pub mod relay;
 pub mod robot;
 pub mod sim;
 

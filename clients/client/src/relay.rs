@@ -1,7 +1,9 @@
-//! A TCP relay the test controls, standing for a wireless link: every byte
-//! is held back `delay` in each direction, and the link can be *paused*
-//! (bytes stop flowing and wait; the sockets stay open, as when a radio
-//! link goes quiet) and resumed, when the held bytes go on in order.
+//! A TCP relay standing for a wireless link, under the control of a test
+//! or of `rome soak`: every byte is held back `delay` in each direction;
+//! the link can be *paused* (bytes stop flowing and wait; the sockets stay
+//! open, as when a radio link goes quiet) and resumed, when the held bytes
+//! go on in order; and it can be *cut*: every connection through it is
+//! closed at once, as when a link drops, and new ones are let through.
 
 use std::net::SocketAddr;
 use std::time::Duration;
@@ -14,6 +16,7 @@ pub struct Relay {
     /// Where it listens.
     pub addr: SocketAddr,
     paused: watch::Sender<bool>,
+    cuts: watch::Sender<u64>,
     task: tokio::task::JoinHandle<()>,
 }
 
@@ -28,6 +31,7 @@ impl Relay {
         let listener = tokio::net::TcpListener::bind(listen).await?;
         let addr = listener.local_addr()?;
         let (paused, watch) = watch::channel(false);
+        let (cuts, cut_watch) = watch::channel(0u64);
         let task = tokio::spawn(async move {
             while let Ok((inbound, _)) = listener.accept().await {
                 let Ok(outbound) = tokio::net::TcpStream::connect(upstream).await else {
@@ -37,11 +41,31 @@ impl Relay {
                 let _ = outbound.set_nodelay(true);
                 let (ri, wi) = inbound.into_split();
                 let (ro, wo) = outbound.into_split();
-                tokio::spawn(pipe(ri, wo, delay, watch.clone()));
-                tokio::spawn(pipe(ro, wi, delay, watch.clone()));
+                let a = tokio::spawn(pipe(ri, wo, delay, watch.clone()));
+                let b = tokio::spawn(pipe(ro, wi, delay, watch.clone()));
+                // Both directions end when the link is cut.
+                let mut cut = cut_watch.clone();
+                cut.mark_unchanged();
+                tokio::spawn(async move {
+                    if cut.changed().await.is_ok() {
+                        a.abort();
+                        b.abort();
+                    }
+                });
             }
         });
-        Ok(Relay { addr, paused, task })
+        Ok(Relay {
+            addr,
+            paused,
+            cuts,
+            task,
+        })
+    }
+
+    /// Closes every connection through the relay now; later connections
+    /// go through as before.
+    pub fn cut(&self) {
+        self.cuts.send_modify(|n| *n += 1);
     }
 
     /// Stops the bytes (they wait in the relay).
@@ -70,7 +94,7 @@ async fn pipe(
     mut paused: watch::Receiver<bool>,
 ) {
     let (tx, mut rx) = mpsc::unbounded_channel::<(Instant, Vec<u8>)>();
-    let reader = tokio::spawn(async move {
+    let reader = AbortOnDrop(tokio::spawn(async move {
         let mut buf = vec![0u8; 65536];
         loop {
             match from.read(&mut buf).await {
@@ -85,7 +109,7 @@ async fn pipe(
                 }
             }
         }
-    });
+    }));
     while let Some((due, bytes)) = rx.recv().await {
         tokio::time::sleep_until(due).await;
         while *paused.borrow() {
@@ -98,5 +122,15 @@ async fn pipe(
         }
     }
     let _ = to.shutdown().await;
-    reader.abort();
+    drop(reader);
+}
+
+/// Ends a task when dropped: a cut link aborts a pipe, and its reader
+/// must end with it.
+struct AbortOnDrop(tokio::task::JoinHandle<()>);
+
+impl Drop for AbortOnDrop {
+    fn drop(&mut self) {
+        self.0.abort();
+    }
 }

@@ -16,6 +16,7 @@ pub mod robot;
 pub mod router;
 pub mod sem;
 pub mod sim;
+pub mod soak;
 pub mod storage;
 
 use crate::args::{CommonArgs, Side};

@@ -18,6 +18,10 @@ pub struct Args {
     /// How many robots (named r1, r2, …).
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=1000))]
     pub robots: u32,
+    /// Number of the first robot: `--first 3 --robots 2` runs r3 and r4,
+    /// so several worlds (one `rome sim` each) can share one deployment.
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=100_000))]
+    pub first: u32,
     /// Where they start: named positions (350R, 376L …), one per robot;
     /// without it robots are spread over the map's doors.
     #[arg(long, value_delimiter = ',', value_name = "POS")]
@@ -85,7 +89,7 @@ pub fn world(args: &Args) -> anyhow::Result<(Sim, Vec<String>)> {
     let mut names = Vec::new();
     if !args.at.is_empty() {
         for (k, pos) in args.at.iter().enumerate() {
-            let name = format!("r{}", k + 1);
+            let name = format!("r{}", args.first as usize + k);
             let heading = sim
                 .scene()
                 .world
@@ -114,7 +118,7 @@ pub fn world(args: &Args) -> anyhow::Result<(Sim, Vec<String>)> {
     while names.len() < n && tried < spots.len() * 2 {
         let (pos, heading) = &spots[(tried * 7919 + names.len() * spots.len() / n) % spots.len()];
         tried += 1;
-        let name = format!("r{}", names.len() + 1);
+        let name = format!("r{}", args.first as usize + names.len());
         if sim.add_robot_at(&name, pos, *heading).is_ok() {
             names.push(name);
         }

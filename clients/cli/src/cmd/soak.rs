@@ -1,0 +1,1172 @@
+//! `rome soak`: a chaos soak. Robots drive routes back and forth while
+//! writers and waiters load the data server, and faults are thrown at
+//! random: processes killed with SIGKILL (navigation clients, planners, a
+//! robot's simulator and hardware servers, the data server) and started
+//! again, links paused and cut, data clients crashed. At the end it checks
+//! what a user relies on:
+//!
+//! - no acknowledged write is lost: every writer's variable holds at least
+//!   the last value whose write was acknowledged (and nothing it never
+//!   tried to write);
+//! - no semaphore unit is lost or duplicated: never more holders than
+//!   units, and once everyone has let go the count is back where it began;
+//! - no robot is held by a dead client for longer than the promised bound
+//!   ([`LOCK_BOUND`], docs/hardware.md): a client that took a robot's base
+//!   lock and is killed loses it within the bound, and a robot whose
+//!   navigator is killed while driving stops within it;
+//! - every navigation run either arrived or was reported failed with a
+//!   reason (runs the soak itself killed, or that were still driving at
+//!   the end, are counted apart).
+//!
+//! Layout of the deployment, every part a `rome` process of its own:
+//!
+//! ```text
+//! rome data-server (durable, in DIR/data) ── listens on P
+//!   ├─ rome sim --first k --robots 1   one world per robot, connected to P
+//!   ├─ relay k ── rK's navigator, ctracker, mapper, plfinder, planner
+//!   └─ relay D ── the writers and waiters (tasks of `rome soak`)
+//! ```
+//!
+//! Each robot has a world of its own so a robot that failed can be put
+//! back at its start by restarting its simulator.
+
+use crate::args::CommonArgs;
+use crate::exit;
+use anyhow::Context;
+use rome_client::net::NetOptions;
+use rome_client::relay::Relay;
+use rome_client::{DataClient, DataOptions};
+use rome_schema::robot::BaseState;
+use rome_sim::rng::Rng;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+/// The longest a dead client may hold a robot's base lock (docs/hardware.md:
+/// a crashed holder is released at once, one cut off within 2.6 s, and the
+/// state stream shows it), and the longest a robot may drive on after the
+/// client driving it died.
+pub const LOCK_BOUND: Duration = Duration::from_millis(3_000);
+
+/// Flags of `rome soak`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// How long to run, minutes.
+    #[arg(long, default_value_t = 2.0)]
+    pub minutes: f64,
+    /// Robots, each in its own simulated world (EB3), driving the first
+    /// routes of maps/data/eb3.routes back and forth.
+    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u32).range(1..=10))]
+    pub robots: u32,
+    /// Writers, each writing 1, 2, 3 … to a variable of its own.
+    #[arg(long, default_value_t = 4)]
+    pub writers: usize,
+    /// Waiters, each taking a unit of one semaphore, holding it a moment
+    /// and giving it back.
+    #[arg(long, default_value_t = 6)]
+    pub waiters: usize,
+    /// Units of the waiters' semaphore.
+    #[arg(long, default_value_t = 2)]
+    pub units: u64,
+    /// Simulated time per real time.
+    #[arg(long, default_value_t = 4.0)]
+    pub speed: f64,
+    /// Mean seconds between two faults.
+    #[arg(long, default_value_t = 6.0)]
+    pub fault_every: f64,
+    /// Seed of the faults and of the worlds.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Where the logs and the data server's files go (default: a new
+    /// directory under the system's temporary directory).
+    #[arg(long)]
+    pub dir: Option<PathBuf>,
+    /// Print the summary as JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// One `rome` child process, started again after it is killed.
+struct Proc {
+    name: String,
+    args: Vec<String>,
+    log: PathBuf,
+    child: Option<Child>,
+    starts: u32,
+}
+
+impl Proc {
+    fn new(dir: &Path, name: &str, args: Vec<String>) -> Proc {
+        Proc {
+            name: name.to_string(),
+            args,
+            log: dir.join(format!("{name}.log")),
+            child: None,
+            starts: 0,
+        }
+    }
+
+    fn start(&mut self, exe: &Path) -> anyhow::Result<()> {
+        let log = std::fs::OpenOptions::new()
+            .create(true)
+            .append(true)
+            .open(&self.log)
+            .with_context(|| format!("cannot open {}", self.log.display()))?;
+        let out = std::fs::OpenOptions::new()
+            .create(true)
+            .append(true)
+            .open(self.log.with_extension("out"))?;
+        self.starts += 1;
+        self.child = Some(
+            Command::new(exe)
+                .args(&self.args)
+                .stdin(Stdio::null())
+                .stdout(out)
+                .stderr(log)
+                .spawn()
+                .with_context(|| format!("cannot start {}", self.name))?,
+        );
+        Ok(())
+    }
+
+    fn kill(&mut self) {
+        if let Some(mut c) = self.child.take() {
+            let _ = c.kill();
+            let _ = c.wait();
+        }
+    }
+
+    /// The exit status if it ended by itself.
+    fn ended(&mut self) -> Option<std::process::ExitStatus> {
+        let status = self.child.as_mut()?.try_wait().ok()??;
+        self.child = None;
+        Some(status)
+    }
+
+    fn running(&self) -> bool {
+        self.child.is_some()
+    }
+}
+
+impl Drop for Proc {
+    fn drop(&mut self) {
+        self.kill();
+    }
+}
+
+/// How navigation runs ended.
+#[derive(Debug, Default, serde::Serialize)]
+struct Runs {
+    arrived: u64,
+    failed_with_reason: u64,
+    failed_without_reason: u64,
+    killed_by_soak: u64,
+    cut_short_by_end: u64,
+    reasons: BTreeMap<String, u64>,
+}
+
+#[derive(Debug, Default, serde::Serialize)]
+struct Summary {
+    minutes: f64,
+    faults: BTreeMap<String, u64>,
+    writes_acked: u64,
+    writes_failed: u64,
+    writes_lost: Vec<String>,
+    units: u64,
+    waits_granted: u64,
+    /// Holds whose unit the server had taken back (its owner seemed gone).
+    holds_revoked: u64,
+    /// The most holds the server stood behind at one moment.
+    most_holders: i64,
+    semaphore_at_end: String,
+    units_lost_or_duplicated: Option<String>,
+    /// How long a base lock stayed with a killed holder, ms.
+    lock_releases_ms: Vec<u64>,
+    /// How long a robot drove on after its navigator was killed, ms.
+    stops_ms: Vec<u64>,
+    /// Releases and stops not seen (the robot's world was down meanwhile).
+    releases_unseen: u64,
+    /// Lock holders started that did not get the lock in time.
+    locks_not_taken: u64,
+    runs: Runs,
+    failures: Vec<String>,
+    passed: bool,
+    logs: String,
+}
+
+struct Shared {
+    stop: AtomicBool,
+    granted: AtomicU64,
+    holds: Mutex<Vec<Hold>>,
+    acked: Mutex<Vec<u64>>,
+    attempted: Mutex<Vec<u64>>,
+    write_errors: AtomicU64,
+}
+
+/// Runs `rome soak`.
+pub async fn run(_common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
+    anyhow::ensure!(
+        args.minutes.is_finite() && args.minutes > 0.0,
+        "--minutes must be a positive number"
+    );
+    anyhow::ensure!(
+        args.speed.is_finite() && args.speed > 0.0 && args.speed <= 20.0,
+        "--speed must be in (0, 20]"
+    );
+    anyhow::ensure!(
+        args.fault_every.is_finite() && args.fault_every > 0.0,
+        "--fault-every must be a positive number of seconds"
+    );
+    anyhow::ensure!(args.units > 0, "--units must be at least 1");
+    let exe = std::env::current_exe().context("cannot find the rome program")?;
+    let dir = match &args.dir {
+        Some(d) => d.clone(),
+        None => std::env::temp_dir().join(format!("rome-soak-{}", std::process::id())),
+    };
+    std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    eprintln!("soak: logs in {}", dir.display());
+    let routes = eb3_routes(args.robots as usize)?;
+    let mut rng = Rng::new(args.seed);
+
+    // The data server, first on a port of the system's choosing, then
+    // always on that one.
+    let data_dir = dir.join("data");
+    let mut ds = Proc::new(
+        &dir,
+        "data-server",
+        strings(&[
+            "--no-multicast",
+            "--listen",
+            "tcp/127.0.0.1:0",
+            "data-server",
+            "--data-dir",
+            &data_dir.to_string_lossy(),
+        ]),
+    );
+    ds.start(&exe)?;
+    let port = listening_port(&ds.log, Duration::from_secs(60)).await?;
+    ds.args[2] = format!("tcp/127.0.0.1:{port}");
+    let upstream: std::net::SocketAddr = ([127, 0, 0, 1], port).into();
+    let endpoint = format!("tcp/127.0.0.1:{port}");
+
+    // Each robot's world, link and clients.
+    let mut robots = Vec::new();
+    for (k, (from, to)) in routes.iter().enumerate() {
+        let n = k + 1;
+        let robot = format!("r{n}");
+        let relay = Relay::start(([127, 0, 0, 1], 0).into(), upstream, Duration::ZERO).await?;
+        let link = format!("tcp/127.0.0.1:{}", relay.addr.port());
+        let mut sim_args = strings(&[
+            "--no-multicast",
+            "--listen",
+            "tcp/127.0.0.1:0",
+            "--connect",
+            &endpoint,
+            "sim",
+            "--robots",
+            "1",
+            "--first",
+            &n.to_string(),
+            "--at",
+            from,
+            "--speed",
+            &args.speed.to_string(),
+            "--seed",
+            &(args.seed + n as u64).to_string(),
+        ]);
+        if n > 1 {
+            // One storage of lock records is enough (the first world's).
+            sim_args.push("--no-storage".into());
+        }
+        let mut sim = Proc::new(&dir, &format!("sim-{robot}"), sim_args);
+        sim.start(&exe)?;
+        let mut clients = Vec::new();
+        for role in ["navigator", "ctracker", "mapper", "plfinder"] {
+            let mut p = Proc::new(
+                &dir,
+                &format!("{role}-{robot}"),
+                strings(&[
+                    "--no-multicast",
+                    "--mode",
+                    "client",
+                    "--connect",
+                    &link,
+                    role,
+                    "--robot",
+                    &robot,
+                ]),
+            );
+            p.start(&exe)?;
+            clients.push(p);
+        }
+        robots.push(RobotRig {
+            robot,
+            from: from.clone(),
+            to: to.clone(),
+            at_start: true,
+            relay,
+            link,
+            sim,
+            clients,
+            planner: None,
+            runs: 0,
+        });
+    }
+
+    // The data-load clients, through a link of their own.
+    let data_relay = Relay::start(([127, 0, 0, 1], 0).into(), upstream, Duration::ZERO).await?;
+    let data_port = data_relay.addr.port();
+    let shared = Arc::new(Shared {
+        stop: AtomicBool::new(false),
+        granted: AtomicU64::new(0),
+        holds: Mutex::new(Vec::new()),
+        acked: Mutex::new(vec![0; args.writers]),
+        attempted: Mutex::new(vec![0; args.writers]),
+        write_errors: AtomicU64::new(0),
+    });
+    let setup = data_client(data_port, "soak-setup").await?;
+    let pool = "soak/pool";
+    let created = setup.create_semaphore(pool, args.units).await?;
+    anyhow::ensure!(
+        created.value == args.units && created.created,
+        "the semaphore {pool} already exists in {} (value {}); soak in a fresh --dir",
+        data_dir.display(),
+        created.value
+    );
+    let mut writers: Vec<tokio::task::JoinHandle<()>> = (0..args.writers)
+        .map(|i| tokio::spawn(writer(i, data_port, shared.clone())))
+        .collect();
+    let mut waiters: Vec<Waiter> = (0..args.waiters)
+        .map(|i| Waiter::start(i, data_port, pool, shared.clone(), &mut rng))
+        .collect();
+
+    // Watches every robot's base state for lock releases.
+    let watcher = NetOptions::loopback_client(port).open().await?;
+
+    let mut summary = Summary {
+        units: args.units,
+        logs: dir.display().to_string(),
+        ..Summary::default()
+    };
+    let started = Instant::now();
+    let end = started + Duration::from_secs_f64(args.minutes * 60.0);
+    let mut next_fault = started + exp_secs(&mut rng, args.fault_every);
+    let mut pending: Vec<(Instant, Restart)> = Vec::new();
+    let mut watches: Vec<tokio::task::JoinHandle<(Released, Option<Duration>)>> = Vec::new();
+    let mut paused: Vec<(Instant, usize)> = Vec::new();
+    let mut last_line = Instant::now();
+    while Instant::now() < end {
+        tokio::time::sleep(Duration::from_millis(200)).await;
+        let now = Instant::now();
+        // Restarts that are due.
+        let (due, later): (Vec<_>, Vec<_>) = pending.into_iter().partition(|(t, _)| *t <= now);
+        pending = later;
+        for (_, r) in due {
+            match r {
+                Restart::DataServer => start_again(&mut ds, &exe),
+                Restart::Sim(k) => start_again(&mut robots[k].sim, &exe),
+                Restart::Client(k, c) => start_again(&mut robots[k].clients[c], &exe),
+                Restart::Waiter(i) => {
+                    waiters[i] = Waiter::start(i, data_port, pool, shared.clone(), &mut rng)
+                }
+                Restart::Writer(i) => {
+                    writers[i] = tokio::spawn(writer(i, data_port, shared.clone()))
+                }
+            }
+        }
+        for (t, relay) in std::mem::take(&mut paused) {
+            if t <= now {
+                link_of(&robots, &data_relay, relay).resume();
+            } else {
+                paused.push((t, relay));
+            }
+        }
+        // Processes that ended by themselves are started again (a client
+        // that gave up is as good as crashed); planners are judged.
+        if ds.ended().is_some() {
+            start_again(&mut ds, &exe);
+        }
+        for (k, r) in robots.iter_mut().enumerate() {
+            let restarting = |p: &Restart| matches!(p, Restart::Sim(j) if *j == k);
+            if r.sim.ended().is_some() && !pending.iter().any(|(_, p)| restarting(p)) {
+                start_again(&mut r.sim, &exe);
+            }
+            for c in 0..r.clients.len() {
+                let waiting = pending
+                    .iter()
+                    .any(|(_, p)| matches!(p, Restart::Client(j, i) if *j == k && *i == c));
+                if r.clients[c].ended().is_some() && !waiting {
+                    start_again(&mut r.clients[c], &exe);
+                }
+            }
+            r.judge_planner(&mut summary.runs, &exe)?;
+        }
+        // A fault.
+        if now >= next_fault {
+            next_fault = now + exp_secs(&mut rng, args.fault_every);
+            let kind = pick(&mut rng, FAULTS.len());
+            let name = FAULTS[kind];
+            let back = now + Duration::from_millis(1_000 + rng.next_u64() % 2_000);
+            let k = pick(&mut rng, robots.len());
+            match name {
+                "kill-navigator" => {
+                    // A robot driving when its controller dies must stop.
+                    let moving = base_state(&watcher, &robots[k].robot)
+                        .await
+                        .is_some_and(|s| s.wheel_speed_mm_s.abs() > 1.0);
+                    robots[k].clients[0].kill();
+                    if moving {
+                        watches.push(tokio::spawn(released(
+                            watcher.clone(),
+                            robots[k].robot.clone(),
+                            Released::Stopped,
+                            Instant::now(),
+                        )));
+                    }
+                    pending.push((back, Restart::Client(k, 0)));
+                }
+                "kill-lock-holder" => {
+                    // Someone takes the robot's base lock and dies holding it.
+                    let mut p = Proc::new(
+                        &dir,
+                        &format!("lock-{}", robots[k].robot),
+                        strings(&[
+                            "--no-multicast",
+                            "--mode",
+                            "client",
+                            "--connect",
+                            &robots[k].link,
+                            "robot",
+                            &robots[k].robot,
+                            "lock",
+                            "--hold",
+                            "600",
+                        ]),
+                    );
+                    p.start(&exe)?;
+                    let holder =
+                        lock_taken(&watcher, &robots[k].robot, Duration::from_secs(5)).await;
+                    p.kill();
+                    match holder {
+                        Some(holder) => watches.push(tokio::spawn(released(
+                            watcher.clone(),
+                            robots[k].robot.clone(),
+                            Released::Lock(holder),
+                            Instant::now(),
+                        ))),
+                        None => summary.locks_not_taken += 1,
+                    }
+                }
+                "kill-nav-client" => {
+                    let c = 1 + pick(&mut rng, robots[k].clients.len() - 1);
+                    robots[k].clients[c].kill();
+                    pending.push((back, Restart::Client(k, c)));
+                }
+                "kill-planner" => {
+                    if let Some(p) = robots[k].planner.as_mut() {
+                        p.kill();
+                        robots[k].planner = None;
+                        summary.runs.killed_by_soak += 1;
+                        // Where the robot stopped is unknown: back to the start.
+                        robots[k].reset(&exe);
+                    }
+                }
+                "kill-sim" => {
+                    robots[k].sim.kill();
+                    pending.push((back, Restart::Sim(k)));
+                }
+                "kill-data-server" => {
+                    ds.kill();
+                    pending.push((back, Restart::DataServer));
+                }
+                "pause-link" => {
+                    let l = pick(&mut rng, robots.len() + 1);
+                    link_of(&robots, &data_relay, l).pause();
+                    paused.push((
+                        now + Duration::from_millis(1_000 + rng.next_u64() % 5_000),
+                        l,
+                    ));
+                }
+                "cut-link" => {
+                    let l = pick(&mut rng, robots.len() + 1);
+                    link_of(&robots, &data_relay, l).cut();
+                }
+                "crash-waiter" if !waiters.is_empty() => {
+                    let i = pick(&mut rng, waiters.len());
+                    waiters[i].crash().await;
+                    pending.push((back, Restart::Waiter(i)));
+                }
+                "crash-writer" if !writers.is_empty() => {
+                    let i = pick(&mut rng, writers.len());
+                    writers[i].abort();
+                    pending.push((back, Restart::Writer(i)));
+                }
+                _ => {}
+            }
+            *summary.faults.entry(name.to_string()).or_default() += 1;
+        }
+        if last_line.elapsed() >= Duration::from_secs(10) {
+            last_line = Instant::now();
+            let acked: u64 = shared.acked.lock().map_or(0, |a| a.iter().sum());
+            eprintln!(
+                "soak: {:.0} s, {} faults, runs {} arrived / {} failed, {} writes acked, {} units granted",
+                started.elapsed().as_secs_f64(),
+                summary.faults.values().sum::<u64>(),
+                summary.runs.arrived,
+                summary.runs.failed_with_reason + summary.runs.failed_without_reason,
+                acked,
+                shared.granted.load(Ordering::Relaxed)
+            );
+        }
+    }
+
+    // The end: no more faults; everything that is down comes back.
+    eprintln!("soak: time is up; checking");
+    for r in &robots {
+        r.relay.resume();
+    }
+    data_relay.resume();
+    if !ds.running() {
+        start_again(&mut ds, &exe);
+    }
+    for r in robots.iter_mut() {
+        if let Some(mut p) = r.planner.take() {
+            if p.ended().is_some() {
+                r.planner = Some(p);
+                r.judge_planner(&mut summary.runs, &exe)?;
+            } else {
+                p.kill();
+                summary.runs.cut_short_by_end += 1;
+            }
+        }
+    }
+    shared.stop.store(true, Ordering::SeqCst);
+    for w in writers {
+        w.abort();
+    }
+    for w in &mut waiters {
+        w.finish().await;
+    }
+    for h in watches {
+        match h.await {
+            Ok((Released::Lock(_), Some(d))) => summary.lock_releases_ms.push(d.as_millis() as u64),
+            Ok((Released::Stopped, Some(d))) => summary.stops_ms.push(d.as_millis() as u64),
+            _ => summary.releases_unseen += 1,
+        }
+    }
+
+    // What the data server says now, from a fresh client.
+    let check = data_client(port, "soak-check").await?;
+    let acked = shared.acked.lock().map(|a| a.clone()).unwrap_or_default();
+    let attempted = shared
+        .attempted
+        .lock()
+        .map(|a| a.clone())
+        .unwrap_or_default();
+    summary.writes_acked = acked.iter().sum();
+    summary.writes_failed = shared.write_errors.load(Ordering::Relaxed);
+    for i in 0..args.writers {
+        let name = format!("soak/w{i}");
+        let value: u64 = if acked[i] == 0 {
+            continue;
+        } else {
+            match check.get_as(&name).await {
+                Ok(v) => v,
+                Err(e) => {
+                    summary
+                        .writes_lost
+                        .push(format!("{name}: cannot be read: {e}"));
+                    continue;
+                }
+            }
+        };
+        if value < acked[i] || value > attempted[i] {
+            summary.writes_lost.push(format!(
+                "{name} holds {value}; {} was acknowledged and {} the last tried",
+                acked[i], attempted[i]
+            ));
+        }
+    }
+    // Every waiter has let go (and crashed ones' units came back when
+    // their owners went): the count must settle back at `units`.
+    let settle = Instant::now() + Duration::from_secs(30);
+    let last = loop {
+        let s = check.semaphore(pool).await;
+        if let Ok(s) = &s {
+            if s.value == args.units && s.held == 0 && s.waiters == 0 {
+                break s.clone();
+            }
+        }
+        if Instant::now() > settle {
+            break s?;
+        }
+        tokio::time::sleep(Duration::from_millis(200)).await;
+    };
+    summary.semaphore_at_end = format!(
+        "value {}, held {}, waiters {}",
+        last.value, last.held, last.waiters
+    );
+    summary.waits_granted = shared.granted.load(Ordering::Relaxed);
+    let holds = shared.holds.lock().map(|h| h.clone()).unwrap_or_default();
+    summary.holds_revoked = holds.iter().filter(|h| h.revoked).count() as u64;
+    summary.most_holders = deepest_overlap(&holds);
+    if last.value != args.units || last.held != 0 || summary.most_holders > args.units as i64 {
+        summary.units_lost_or_duplicated = Some(format!(
+            "{} units at the start; at the end {}; at most {} holders at once",
+            args.units, summary.semaphore_at_end, summary.most_holders
+        ));
+    }
+    summary.minutes = started.elapsed().as_secs_f64() / 60.0;
+
+    let mut failures = Vec::new();
+    failures.extend(summary.writes_lost.iter().cloned());
+    failures.extend(summary.units_lost_or_duplicated.iter().cloned());
+    if let Some(worst) = summary.lock_releases_ms.iter().max() {
+        if *worst > LOCK_BOUND.as_millis() as u64 {
+            failures.push(format!(
+                "a robot stayed locked by a killed client for {worst} ms (bound {} ms)",
+                LOCK_BOUND.as_millis()
+            ));
+        }
+    }
+    if let Some(worst) = summary.stops_ms.iter().max() {
+        if *worst > LOCK_BOUND.as_millis() as u64 {
+            failures.push(format!(
+                "a robot drove on for {worst} ms after its navigator was killed (bound {} ms)",
+                LOCK_BOUND.as_millis()
+            ));
+        }
+    }
+    if summary.runs.failed_without_reason > 0 {
+        failures.push(format!(
+            "{} navigation run(s) ended without saying why",
+            summary.runs.failed_without_reason
+        ));
+    }
+    if summary.writes_acked == 0 || summary.waits_granted == 0 {
+        failures.push("the data-load clients got nothing done".into());
+    }
+    summary.passed = failures.is_empty();
+    summary.failures = failures;
+    let _ = check;
+    let _ = watcher.close().await;
+    drop(robots);
+    drop(ds);
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&summary)?);
+    } else {
+        print_summary(&summary);
+    }
+    Ok(if summary.passed {
+        exit::OK
+    } else {
+        exit::ERROR
+    })
+}
+
+const FAULTS: &[&str] = &[
+    "kill-navigator",
+    "kill-lock-holder",
+    "kill-nav-client",
+    "kill-planner",
+    "kill-sim",
+    "kill-data-server",
+    "pause-link",
+    "cut-link",
+    "crash-waiter",
+    "crash-writer",
+];
+
+enum Restart {
+    DataServer,
+    Sim(usize),
+    Client(usize, usize),
+    Waiter(usize),
+    Writer(usize),
+}
+
+struct RobotRig {
+    robot: String,
+    from: String,
+    to: String,
+    /// Whether the robot is at `from` (else at `to`).
+    at_start: bool,
+    relay: Relay,
+    link: String,
+    sim: Proc,
+    /// navigator, ctracker, mapper, plfinder.
+    clients: Vec<Proc>,
+    planner: Option<Proc>,
+    runs: u32,
+}
+
+impl RobotRig {
+    /// Judges a planner that ended, and starts the next run when the
+    /// robot's world and clients are up.
+    fn judge_planner(&mut self, runs: &mut Runs, exe: &Path) -> anyhow::Result<()> {
+        if let Some(p) = self.planner.as_mut() {
+            let Some(status) = p.ended() else {
+                return Ok(());
+            };
+            let out = std::fs::read_to_string(p.log.with_extension("out")).unwrap_or_default();
+            let err = std::fs::read_to_string(&p.log).unwrap_or_default();
+            self.planner = None;
+            if status.success() {
+                runs.arrived += 1;
+                self.at_start = !self.at_start;
+            } else {
+                match reason(&out, &err) {
+                    Some(why) => {
+                        runs.failed_with_reason += 1;
+                        *runs.reasons.entry(why).or_default() += 1;
+                    }
+                    None => runs.failed_without_reason += 1,
+                }
+                // Back to the start, in a fresh world.
+                self.reset(exe);
+            }
+        }
+        if self.planner.is_none() && self.sim.running() && self.clients.iter().all(Proc::running) {
+            self.runs += 1;
+            let (from, to) = if self.at_start {
+                (&self.from, &self.to)
+            } else {
+                (&self.to, &self.from)
+            };
+            let dir = self.sim.log.parent().unwrap_or(Path::new("."));
+            let mut p = Proc::new(
+                dir,
+                &format!("planner-{}-{}", self.robot, self.runs),
+                strings(&[
+                    "--no-multicast",
+                    "--mode",
+                    "client",
+                    "--connect",
+                    &self.link,
+                    "planner",
+                    "--robot",
+                    &self.robot,
+                    "--from",
+                    from,
+                    "--to",
+                    to,
+                    "--timeout",
+                    "600",
+                ]),
+            );
+            p.start(exe)?;
+            self.planner = Some(p);
+        }
+        Ok(())
+    }
+
+    fn reset(&mut self, exe: &Path) {
+        self.sim.kill();
+        start_again(&mut self.sim, exe);
+        self.at_start = true;
+    }
+}
+
+/// Why a planner failed, in its own words: the reasons it printed under
+/// its table, or its error.
+fn reason(out: &str, err: &str) -> Option<String> {
+    if let Some(e) = err.lines().rev().find(|l| l.starts_with("error:")) {
+        return Some(shorten(e));
+    }
+    if let Some(g) = err.lines().rev().find(|l| l.contains("gave up after")) {
+        return Some(shorten(g));
+    }
+    let done = out.lines().rev().find(|l| l.starts_with("done:"))?;
+    // The starred reasons under the table: the first says what went wrong
+    // first.
+    let first = out.lines().find(|l| l.starts_with("* "));
+    Some(shorten(first.unwrap_or(done)))
+}
+
+/// A reason with its numbers taken out, to count alike reasons together.
+fn shorten(line: &str) -> String {
+    let words: String = line
+        .chars()
+        .map(|c| if c.is_ascii_digit() { '#' } else { c })
+        .collect();
+    words.chars().take(140).collect()
+}
+
+fn start_again(p: &mut Proc, exe: &Path) {
+    p.kill();
+    if let Err(e) = p.start(exe) {
+        eprintln!("soak: {e:#}");
+    }
+}
+
+fn link_of<'a>(robots: &'a [RobotRig], data: &'a Relay, k: usize) -> &'a Relay {
+    robots.get(k).map_or(data, |r| &r.relay)
+}
+
+/// What a watch waits for after a kill.
+#[derive(Debug, Clone)]
+enum Released {
+    /// The lock of this holder is gone.
+    Lock(String),
+    /// The wheels stand still.
+    Stopped,
+}
+
+/// The next message of a robot's base state stream.
+async fn base_state(s: &zenoh::Session, robot: &str) -> Option<BaseState> {
+    let sub = s
+        .declare_subscriber(format!("rome/robot/{robot}/base/state"))
+        .await
+        .ok()?;
+    let deadline = Instant::now() + Duration::from_secs(2);
+    while let Ok(Ok(sample)) = tokio::time::timeout_at(deadline.into(), sub.recv_async()).await {
+        if let Ok(state) = rome_schema::decode(&sample.payload().to_bytes(), "state") {
+            return Some(state);
+        }
+    }
+    None
+}
+
+/// The holder of a robot's base lock once someone holds it.
+async fn lock_taken(s: &zenoh::Session, robot: &str, within: Duration) -> Option<String> {
+    let deadline = Instant::now() + within;
+    while Instant::now() < deadline {
+        if let Some(lock) = base_state(s, robot).await.and_then(|st| st.lock) {
+            return Some(lock.holder);
+        }
+    }
+    None
+}
+
+/// How long after `killed` the robot's state first shows `what`.
+async fn released(
+    s: zenoh::Session,
+    robot: String,
+    what: Released,
+    killed: Instant,
+) -> (Released, Option<Duration>) {
+    let Ok(sub) = s
+        .declare_subscriber(format!("rome/robot/{robot}/base/state"))
+        .await
+    else {
+        return (what, None);
+    };
+    let deadline = killed + Duration::from_secs(15);
+    while let Ok(Ok(sample)) = tokio::time::timeout_at(deadline.into(), sub.recv_async()).await {
+        let Ok(state) = rome_schema::decode::<BaseState>(&sample.payload().to_bytes(), "state")
+        else {
+            continue;
+        };
+        let done = match &what {
+            Released::Lock(holder) => state.lock.is_none_or(|l| &l.holder != holder),
+            Released::Stopped => state.wheel_speed_mm_s.abs() < 1.0,
+        };
+        if done {
+            return (what, Some(killed.elapsed()));
+        }
+    }
+    (what, None)
+}
+
+async fn data_client(port: u16, role: &str) -> anyhow::Result<DataClient> {
+    let session = NetOptions::loopback_client(port).open().await?;
+    let options = DataOptions {
+        connect_timeout: Duration::from_secs(30),
+        request_timeout: Duration::from_secs(15),
+        ..DataOptions::new(role)
+    };
+    Ok(DataClient::connect(&session, options).await?)
+}
+
+/// Writes 1, 2, 3 … to `soak/w<i>`, each after the last was answered.
+async fn writer(i: usize, port: u16, shared: Arc<Shared>) {
+    let name = format!("soak/w{i}");
+    let Ok(ds) = data_client(port, "soak-writer").await else {
+        return;
+    };
+    while !shared.stop.load(Ordering::SeqCst) {
+        let seq = shared.attempted.lock().map_or(0, |a| a[i]) + 1;
+        if let Ok(mut a) = shared.attempted.lock() {
+            a[i] = seq;
+        }
+        match ds.set(&name, &seq).await {
+            Ok(_) => {
+                if let Ok(mut a) = shared.acked.lock() {
+                    a[i] = seq;
+                }
+            }
+            Err(_) => {
+                shared.write_errors.fetch_add(1, Ordering::Relaxed);
+            }
+        }
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+}
+
+/// One unit held by a waiter, from grant to give-back.
+#[derive(Debug, Clone, Copy)]
+struct Hold {
+    start: Instant,
+    end: Instant,
+    revoked: bool,
+}
+
+/// The most holds (not revoked) overlapping at any moment.
+fn deepest_overlap(holds: &[Hold]) -> i64 {
+    let mut events: Vec<(Instant, i64)> = holds
+        .iter()
+        .filter(|h| !h.revoked)
+        .flat_map(|h| [(h.start, 1), (h.end, -1)])
+        .collect();
+    // Ends before starts at the same instant: a unit handed straight on.
+    events.sort_by(|a, b| a.0.cmp(&b.0).then(a.1.cmp(&b.1)));
+    let (mut now, mut most) = (0, 0);
+    for (_, d) in events {
+        now += d;
+        most = most.max(now);
+    }
+    most
+}
+
+/// A waiter task and what it holds.
+struct Waiter {
+    task: tokio::task::JoinHandle<()>,
+    holding: Arc<AtomicBool>,
+    session: Arc<Mutex<Option<zenoh::Session>>>,
+}
+
+impl Waiter {
+    fn start(
+        i: usize,
+        port: u16,
+        pool: &'static str,
+        shared: Arc<Shared>,
+        rng: &mut Rng,
+    ) -> Waiter {
+        let holding = Arc::new(AtomicBool::new(false));
+        let session = Arc::new(Mutex::new(None));
+        let (h, s, sh) = (holding.clone(), session.clone(), shared.clone());
+        let seed = rng.next_u64() ^ i as u64;
+        let task = tokio::spawn(async move {
+            let mut rng = Rng::new(seed);
+            let Ok(zs) = NetOptions::loopback_client(port).open().await else {
+                return;
+            };
+            if let Ok(mut slot) = s.lock() {
+                *slot = Some(zs.clone());
+            }
+            let options = DataOptions {
+                connect_timeout: Duration::from_secs(30),
+                ..DataOptions::new("soak-waiter")
+            };
+            let Ok(ds) = DataClient::connect(&zs, options).await else {
+                return;
+            };
+            while !sh.stop.load(Ordering::SeqCst) {
+                if ds.wait_undo(pool).await.is_err() {
+                    tokio::time::sleep(Duration::from_millis(300)).await;
+                    continue;
+                }
+                let start = Instant::now();
+                h.store(true, Ordering::SeqCst);
+                sh.granted.fetch_add(1, Ordering::Relaxed);
+                tokio::time::sleep(Duration::from_millis(50 + rng.next_u64() % 250)).await;
+                // The server takes an undo unit back when its owner seems
+                // gone (a link cut closes the session); the give-back then
+                // says so (conflict), and the hold did not count. Only the
+                // holds the server stood behind must never overlap more
+                // than `units` deep.
+                let end = Instant::now();
+                let revoked = matches!(
+                    ds.give_back(pool).await,
+                    Err(e) if e.code() == Some(rome_schema::ErrorCode::Conflict)
+                );
+                h.store(false, Ordering::SeqCst);
+                if let Ok(mut holds) = sh.holds.lock() {
+                    holds.push(Hold {
+                        start,
+                        end,
+                        revoked,
+                    });
+                }
+            }
+        });
+        Waiter {
+            task,
+            holding,
+            session,
+        }
+    }
+
+    /// The client dies: its task stops and its session closes, so the
+    /// server sees the owner go.
+    async fn crash(&mut self) {
+        self.task.abort();
+        let s = self.session.lock().ok().and_then(|mut s| s.take());
+        if let Some(s) = s {
+            let _ = s.close().await;
+        }
+        // A crashed holder's hold is not judged: its end is unknown, and
+        // the server gives its unit back when it sees the owner gone.
+        self.holding.store(false, Ordering::SeqCst);
+    }
+
+    /// Lets the waiter finish its hold, give the unit back and go.
+    async fn finish(&mut self) {
+        let _ = tokio::time::timeout(Duration::from_secs(20), &mut self.task).await;
+        self.crash().await;
+    }
+}
+
+async fn listening_port(log: &Path, within: Duration) -> anyhow::Result<u16> {
+    const SAID: &str = "rome: listening on tcp/127.0.0.1:";
+    let deadline = Instant::now() + within;
+    loop {
+        let text = std::fs::read_to_string(log).unwrap_or_default();
+        if let Some(port) = text.lines().find_map(|l| {
+            l.strip_prefix(SAID)?
+                .split_whitespace()
+                .next()?
+                .parse::<u16>()
+                .ok()
+        }) {
+            return Ok(port);
+        }
+        anyhow::ensure!(
+            Instant::now() < deadline,
+            "the data server did not start within {within:?}; see {}",
+            log.display()
+        );
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+}
+
+fn eb3_routes(n: usize) -> anyhow::Result<Vec<(String, String)>> {
+    let text = include_str!("../../../../maps/data/eb3.routes");
+    let routes: Vec<(String, String)> = text
+        .lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty() && !l.starts_with('#'))
+        .filter_map(|l| {
+            let mut w = l.split_whitespace();
+            Some((w.next()?.to_string(), w.next()?.to_string()))
+        })
+        .take(n)
+        .collect();
+    anyhow::ensure!(
+        routes.len() == n,
+        "eb3.routes has only {} routes",
+        routes.len()
+    );
+    Ok(routes)
+}
+
+fn strings(a: &[&str]) -> Vec<String> {
+    a.iter().map(|s| s.to_string()).collect()
+}
+
+fn pick(rng: &mut Rng, n: usize) -> usize {
+    (rng.next_u64() % n.max(1) as u64) as usize
+}
+
+/// Exponentially distributed seconds with this mean.
+fn exp_secs(rng: &mut Rng, mean: f64) -> Duration {
+    let u = rng.uniform().max(1e-9);
+    Duration::from_secs_f64((-u.ln() * mean).min(mean * 5.0))
+}
+
+fn print_summary(s: &Summary) {
+    println!("soak of {:.1} minutes; logs in {}", s.minutes, s.logs);
+    println!("\nfaults thrown:");
+    for (k, n) in &s.faults {
+        println!("  {k:<18} {n}");
+    }
+    println!(
+        "\nwrites: {} acknowledged, {} failed (not acknowledged); lost: {}",
+        s.writes_acked,
+        s.writes_failed,
+        if s.writes_lost.is_empty() {
+            "none".to_string()
+        } else {
+            s.writes_lost.join("; ")
+        }
+    );
+    println!(
+        "semaphore: {} units, {} grants, at most {} holders at once ({} holds taken back by the server when their owner seemed gone); at the end {}",
+        s.units, s.waits_granted, s.most_holders, s.holds_revoked, s.semaphore_at_end
+    );
+    let worst = |v: &[u64]| v.iter().max().copied().unwrap_or(0);
+    println!(
+        "base lock held by a killed client: released {} times, within {} ms at worst; a robot whose navigator was killed while driving: stopped {} times, within {} ms at worst (bound {} ms for both); {} not seen (the robot's world was down), {} locks not taken in time",
+        s.lock_releases_ms.len(),
+        worst(&s.lock_releases_ms),
+        s.stops_ms.len(),
+        worst(&s.stops_ms),
+        LOCK_BOUND.as_millis(),
+        s.releases_unseen,
+        s.locks_not_taken
+    );
+    let r = &s.runs;
+    println!(
+        "navigation runs: {} arrived, {} failed with a reason, {} failed without one, {} killed by the soak, {} cut short by the end",
+        r.arrived, r.failed_with_reason, r.failed_without_reason, r.killed_by_soak, r.cut_short_by_end
+    );
+    for (why, n) in &r.reasons {
+        println!("  {n} × {why}");
+    }
+    for f in &s.failures {
+        println!("FAILED: {f}");
+    }
+    println!("{}", if s.passed { "PASSED" } else { "FAILED" });
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn overlap_counts_only_the_holds_the_server_stood_behind() {
+        let t0 = Instant::now();
+        let at = |ms: u64| t0 + Duration::from_millis(ms);
+        let hold = |a, b, revoked| Hold {
+            start: at(a),
+            end: at(b),
+            revoked,
+        };
+        // Two at once, then a third while both still hold.
+        let holds = [
+            hold(0, 100, false),
+            hold(50, 150, false),
+            hold(60, 70, false),
+        ];
+        assert_eq!(deepest_overlap(&holds), 3);
+        // The third had been taken back: not a duplicate.
+        let holds = [
+            hold(0, 100, false),
+            hold(50, 150, false),
+            hold(60, 70, true),
+        ];
+        assert_eq!(deepest_overlap(&holds), 2);
+        // A unit handed straight on is not two holders.
+        let holds = [hold(0, 100, false), hold(100, 200, false)];
+        assert_eq!(deepest_overlap(&holds), 1);
+    }
+
+    #[test]
+    fn a_failed_run_is_explained_by_its_first_reason_or_its_error() {
+        let out = "No. Robot Path\n1 r1 350R to 376L ...\n* r1: L (goal 1, subpath 1): ended on distance alone\n* r1: D (goal 2, subpath 1): stopped 29.82 m from its goal\ndone: 2 goal(s); ground truth puts r1 29.82 m from 376L\n";
+        assert_eq!(
+            reason(out, "").as_deref(),
+            Some("* r#: L (goal #, subpath #): ended on distance alone")
+        );
+        let err = "rome planner: waiting\nerror: the Navigator has been silent for 30.2s\n";
+        assert_eq!(
+            reason("plan 350R -> 376L\n", err).as_deref(),
+            Some("error: the Navigator has been silent for ##.#s")
+        );
+        assert_eq!(reason("plan 350R -> 376L\n", "killed\n"), None);
+    }
+}
