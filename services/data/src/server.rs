@@ -16,13 +16,15 @@
 //! again after a pause) and a plain put is dropped and counted, as Zenoh
 //! drops puts on a congested link. Liveliness changes go on a channel of
 //! their own that never drops: a waiter's cleanup and an undo depend on
-//! them, and they come no faster than peers can come and go.
+//! them, and they come no faster than peers can come and go. The queues and
+//! the loop are `rome_serve`'s, shared with the hardware servers.
 
 use crate::cmd::{Params, Request};
 use crate::store::{Disk, DiskError, Flush, Grant, Store};
 use rome_schema::data::{Committed, Rejected, WaitReply, WaitStatus, DEFAULT_HISTORY};
 use rome_schema::keys::DataOp;
 use rome_schema::{encode, ErrorCode, ErrorReply, Root};
+use rome_serve::{reply_err, Handler, Inbox, Periods};
 use serde::Serialize;
 use std::collections::hash_map::Entry;
 use std::collections::{HashMap, HashSet};
@@ -137,12 +139,13 @@ pub fn spawn(session: Session, config: ServerConfig) -> Running {
     }
 }
 
-enum Event {
-    Query(Query),
-    Put(Sample),
-    Alive(Sample),
-    HoldOver { ticket: String, generation: u64 },
+/// The data server's own event: a held wait whose time is up.
+struct HoldOver {
+    ticket: String,
+    generation: u64,
 }
+
+type Event = rome_serve::Event<HoldOver>;
 
 struct Held {
     query: Query,
@@ -197,43 +200,18 @@ pub async fn run(
             Some(disk)
         }
     };
-    let (tx, rx) = flume::bounded(EVENT_QUEUE);
-    let (alive_tx, alive_rx) = flume::unbounded();
-    let runtime = tokio::runtime::Handle::current();
-
-    let sender = tx.clone();
+    let inbox = Inbox::<HoldOver>::new("the data server", EVENT_QUEUE);
     let _queryable = session
         .declare_queryable(root.data_all())
-        .callback(move |q| {
-            if let Err(flume::TrySendError::Full(Event::Query(q))) =
-                sender.try_send(Event::Query(q))
-            {
-                runtime.spawn(async move { reply_err(&q, &busy()).await });
-            }
-        })
+        .callback(inbox.on_query())
         .await
         .map_err(|e| declare_err("the data queryable", e))?;
     let mut subscribers = Vec::new();
-    let dropped = std::sync::Arc::new(std::sync::atomic::AtomicU64::new(0));
     for op in [DataOp::Var, DataOp::Signal] {
-        let sender = tx.clone();
-        let dropped = dropped.clone();
         subscribers.push(
             session
                 .declare_subscriber(root.data_all_of(op))
-                .callback(move |s| {
-                    if let Err(flume::TrySendError::Full(_)) = sender.try_send(Event::Put(s)) {
-                        let n = dropped.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
-                        // 1, 2, 4, 8 …: a flood is reported, not echoed.
-                        if n.is_power_of_two() {
-                            tracing::warn!(
-                                dropped = n,
-                                queue = EVENT_QUEUE,
-                                "data server too busy: plain puts dropped"
-                            );
-                        }
-                    }
-                })
+                .callback(inbox.on_put())
                 .await
                 .map_err(|e| declare_err("the put subscriber", e))?,
         );
@@ -242,9 +220,7 @@ pub async fn run(
         .liveliness()
         .declare_subscriber(root.alive_clients())
         .history(true)
-        .callback(move |s| {
-            let _ = alive_tx.send(Event::Alive(s));
-        })
+        .callback(inbox.on_alive())
         .await
         .map_err(|e| declare_err("the liveliness subscriber", e))?;
     // Declared last: a client that sees this token can query at once.
@@ -263,34 +239,34 @@ pub async fn run(
         held: HashMap::new(),
         generation: 0,
         alive: HashSet::new(),
-        events: tx,
+        events: inbox.sender(),
         config,
     };
-    let mut tick = tokio::time::interval(server.config.sweep_every);
-    tokio::pin!(shutdown);
-    loop {
-        tokio::select! {
-            biased;
-            _ = &mut shutdown => break,
-            Ok(event) = alive_rx.recv_async() => server.handle(event).await,
-            Ok(event) = rx.recv_async() => server.handle(event).await,
-            _ = tick.tick() => server.sweep().await,
-        }
-    }
+    let periods = Periods {
+        sweep: server.config.sweep_every,
+        tick: None,
+    };
+    inbox.run(&mut server, periods, shutdown).await;
     tracing::info!(held = server.held.len(), "data server stopping");
     Ok(())
 }
 
-impl Server {
-    async fn handle(&mut self, event: Event) {
+impl Handler<HoldOver> for Server {
+    async fn event(&mut self, event: Event) {
         match event {
             Event::Query(q) => self.query(q).await,
             Event::Put(s) => self.put(s).await,
             Event::Alive(s) => self.alive(s).await,
-            Event::HoldOver { ticket, generation } => self.hold_over(ticket, generation).await,
+            Event::Own(HoldOver { ticket, generation }) => self.hold_over(ticket, generation).await,
         }
     }
 
+    async fn sweep(&mut self) {
+        self.sweep_now().await
+    }
+}
+
+impl Server {
     async fn query(&mut self, query: Query) {
         let key = query.key_expr().as_str().to_string();
         if key.contains('*') {
@@ -448,7 +424,7 @@ impl Server {
         tokio::spawn(async move {
             tokio::time::sleep(hold).await;
             let _ = events
-                .send_async(Event::HoldOver { ticket, generation })
+                .send_async(Event::Own(HoldOver { ticket, generation }))
                 .await;
         });
     }
@@ -508,7 +484,7 @@ impl Server {
         }
     }
 
-    async fn sweep(&mut self) {
+    async fn sweep_now(&mut self) {
         let alive = &self.alive;
         let grants = self
             .store
@@ -549,13 +525,7 @@ impl Server {
 }
 
 async fn reply_json(query: &Query, key: &str, payload: Vec<u8>) {
-    if let Err(e) = query
-        .reply(key, payload)
-        .encoding(Encoding::APPLICATION_JSON)
-        .await
-    {
-        tracing::warn!(%key, error = %e, "reply failed");
-    }
+    rome_serve::reply(query, key, payload, Encoding::APPLICATION_JSON).await
 }
 
 fn storage_error(e: DiskError) -> ErrorReply {
@@ -563,22 +533,4 @@ fn storage_error(e: DiskError) -> ErrorReply {
         ErrorCode::Storage,
         format!("the change could not be kept on disk, so it is not acknowledged: {e}"),
     )
-}
-
-/// The answer to a query that found the event queue full.
-fn busy() -> ErrorReply {
-    ErrorReply::new(
-        ErrorCode::Busy,
-        format!("the data server has {EVENT_QUEUE} requests waiting and did not take this one; nothing was done, send it again after a pause"),
-    )
-}
-
-async fn reply_err(query: &Query, e: &ErrorReply) {
-    if let Err(err) = query
-        .reply_err(encode(e))
-        .encoding(Encoding::APPLICATION_JSON)
-        .await
-    {
-        tracing::warn!(error = %err, "error reply failed");
-    }
 }

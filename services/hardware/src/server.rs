@@ -15,6 +15,7 @@ use rome_schema::robot::{
     DEFAULT_LOCK_TTL_MS, LOCK_TTL_RANGE_MS,
 };
 use rome_schema::{decode, encode, ErrorCode, ErrorReply, Name, Params, Root};
+use rome_serve::{reply_err, Handler, Inbox, Periods};
 use std::collections::{HashMap, VecDeque};
 use std::future::Future;
 use std::time::{Duration, Instant, SystemTime};
@@ -192,10 +193,8 @@ struct Pending<C> {
     op: Op<C>,
 }
 
-enum Event {
-    Query(Query),
-    Alive(Sample),
-}
+/// A hardware server has no events of its own.
+type Event = rome_serve::Event<std::convert::Infallible>;
 
 struct Server<S: Service> {
     session: Session,
@@ -244,29 +243,18 @@ pub async fn run<S: Service>(
 
     // A callback never waits on the queue (it runs on the link's receive
     // path, or on the task of a client in the same session): a full queue
-    // answers `busy` at once. Liveliness changes have a channel of their
+    // answers `busy` at once. Liveliness changes have a queue of their
     // own that never drops: lock releases and the deadman depend on them.
-    let (tx, rx) = flume::bounded(EVENT_QUEUE);
-    let (alive_tx, alive_rx) = flume::unbounded();
-    let runtime = tokio::runtime::Handle::current();
-    let label = config.label();
+    let inbox = Inbox::new(&config.label(), EVENT_QUEUE);
     let _queryable = session
         .declare_queryable(config.root.robot_device_all(&config.robot, &config.device))
-        .callback(move |q| {
-            if let Err(flume::TrySendError::Full(Event::Query(q))) = tx.try_send(Event::Query(q)) {
-                let e = busy(&label, "waiting");
-                runtime.spawn(async move { reply_err(&q, &e).await });
-            }
-        })
+        .callback(inbox.on_query())
         .await
         .map_err(|e| declare_err("the device queryable", e))?;
-    let stores_tx = alive_tx.clone();
     let _alive = session
         .liveliness()
         .declare_subscriber(config.root.alive_clients())
-        .callback(move |s| {
-            let _ = alive_tx.send(Event::Alive(s));
-        })
+        .callback(inbox.on_alive())
         .await
         .map_err(|e| declare_err("the liveliness subscriber", e))?;
     // A storage that comes (back) up may have missed the last lock record,
@@ -274,9 +262,7 @@ pub async fn run<S: Service>(
     let _stores = session
         .liveliness()
         .declare_subscriber(config.root.alive_server(crate::storage::STORE_KIND, "*"))
-        .callback(move |s| {
-            let _ = stores_tx.send(Event::Alive(s));
-        })
+        .callback(inbox.on_alive())
         .await
         .map_err(|e| declare_err("the storage liveliness subscriber", e))?;
 
@@ -303,29 +289,11 @@ pub async fn run<S: Service>(
         .map_err(|e| declare_err("the liveliness token", e))?;
     tracing::info!(server = %server.config.label(), "ready");
 
-    let mut sweep = tokio::time::interval(SWEEP);
-    let period = server.service.period();
-    let mut tick = tokio::time::interval(period.unwrap_or(Duration::from_secs(3600)));
-    tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
-    tokio::pin!(shutdown);
-    loop {
-        tokio::select! {
-            biased;
-            _ = &mut shutdown => break,
-            Ok(event) = alive_rx.recv_async() => server.take(event).await,
-            Ok(event) = rx.recv_async() => {
-                server.take(event).await;
-                // Everything that arrived meanwhile joins the queue before
-                // the next request is chosen.
-                while let Ok(event) = rx.try_recv() {
-                    server.take(event).await;
-                }
-                server.drain().await;
-            }
-            _ = sweep.tick() => server.sweep().await,
-            _ = tick.tick(), if period.is_some() => server.tick().await,
-        }
-    }
+    let periods = Periods {
+        sweep: SWEEP,
+        tick: server.service.period(),
+    };
+    inbox.run(&mut server, periods, shutdown).await;
     for pending in server.gate.drain_all() {
         let e = ErrorReply::new(
             ErrorCode::ShuttingDown,
@@ -337,16 +305,32 @@ pub async fn run<S: Service>(
     Ok(())
 }
 
-impl<S: Service> Server<S> {
-    fn lock(&self) -> Option<LockInfo> {
-        self.gate.holder().map(Holder::info)
-    }
-
-    async fn take(&mut self, event: Event) {
+impl<S: Service> Handler<std::convert::Infallible> for Server<S> {
+    async fn event(&mut self, event: Event) {
         match event {
             Event::Query(q) => self.query(q).await,
             Event::Alive(s) => self.alive(s).await,
+            // Nobody subscribes to puts here, and there are no own events.
+            Event::Put(_) | Event::Own(_) => {}
         }
+    }
+
+    async fn drained(&mut self) {
+        self.drain().await
+    }
+
+    async fn sweep(&mut self) {
+        self.sweep_now().await
+    }
+
+    async fn tick(&mut self) {
+        self.tick_now().await
+    }
+}
+
+impl<S: Service> Server<S> {
+    fn lock(&self) -> Option<LockInfo> {
+        self.gate.holder().map(Holder::info)
     }
 
     fn parse(
@@ -609,7 +593,7 @@ impl<S: Service> Server<S> {
         }
     }
 
-    async fn sweep(&mut self) {
+    async fn sweep_now(&mut self) {
         let now = Instant::now();
         if let Some(h) = self.gate.expire(now) {
             tracing::warn!(server = %self.config.label(), holder = %h.owner, fence = h.fence, "lock not renewed in time; released");
@@ -634,7 +618,7 @@ impl<S: Service> Server<S> {
         }
     }
 
-    async fn tick(&mut self) {
+    async fn tick_now(&mut self) {
         let lock = self.lock();
         let queued = self.gate.queued();
         if let Some((chunk, body)) = self.service.tick(lock, queued).await {
@@ -748,33 +732,16 @@ impl<S: Service> Server<S> {
     }
 }
 
-/// Zenoh sends a reply in its query's priority band, so a client's
-/// priority rides both ways without more work here.
 async fn reply(query: &Query, key: &str, body: Body) {
     let (bytes, encoding) = match body {
         Body::Json(b) => (b, Encoding::APPLICATION_JSON),
         Body::Binary(b, e) => (b, e),
     };
-    if let Err(e) = query.reply(key, bytes).encoding(encoding).await {
-        tracing::warn!(%key, error = %e, "reply failed");
-    }
+    rome_serve::reply(query, key, bytes, encoding).await
 }
 
 /// The answer to a request that found [`EVENT_QUEUE`] others `waiting` (in
-/// the channel) or `queued` (behind a lock) on server `label`.
+/// the queue) or `queued` (behind a lock) on server `label`.
 fn busy(label: &str, waiting: &str) -> ErrorReply {
-    ErrorReply::new(
-        ErrorCode::Busy,
-        format!("{label} has {EVENT_QUEUE} requests {waiting} and did not take this one; nothing was done, send it again after a pause"),
-    )
-}
-
-async fn reply_err(query: &Query, e: &ErrorReply) {
-    if let Err(err) = query
-        .reply_err(encode(e))
-        .encoding(Encoding::APPLICATION_JSON)
-        .await
-    {
-        tracing::warn!(error = %err, "error reply failed");
-    }
+    rome_serve::busy(label, EVENT_QUEUE, waiting)
 }

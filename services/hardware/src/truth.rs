@@ -9,15 +9,15 @@ use crate::sim::SimWorld;
 use rome_schema::robot::robot_name;
 use rome_schema::sim::{ContactCount, Truth};
 use rome_schema::{encode, Root};
+use rome_serve::{Event, Handler, Inbox, Periods};
 use std::future::Future;
 use std::time::Duration;
 use zenoh::bytes::Encoding;
 use zenoh::key_expr::KeyExpr;
 use zenoh::qos::CongestionControl;
-use zenoh::query::Query;
 use zenoh::Session;
 
-/// How many queries may wait before new ones are dropped.
+/// How many queries may wait before new ones are answered `busy`.
 const QUERY_QUEUE: usize = 1024;
 
 fn truth(r: &rome_sim::Robot, time_ms: u64) -> Truth {
@@ -66,14 +66,10 @@ pub async fn run(
     period: Option<Duration>,
     shutdown: impl Future<Output = ()>,
 ) -> Result<(), ServerError> {
-    let (tx, rx) = flume::bounded::<Query>(QUERY_QUEUE);
+    let inbox = Inbox::new("the truth server", QUERY_QUEUE);
     let _queryable = session
         .declare_queryable(root.sim_truth_all())
-        .callback(move |q| {
-            if tx.try_send(q).is_err() {
-                tracing::warn!("truth: too many queries waiting; one dropped");
-            }
-        })
+        .callback(inbox.on_query())
         .await
         .map_err(|e| declare_err("the truth queryable", e))?;
     let _token = session
@@ -81,34 +77,48 @@ pub async fn run(
         .declare_token(root.alive_server("sim", "truth"))
         .await
         .map_err(|e| declare_err("the liveliness token", e))?;
-    let mut tick = tokio::time::interval(period.unwrap_or(Duration::from_secs(3_600)));
-    tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
-    tokio::pin!(shutdown);
-    loop {
-        tokio::select! {
-            biased;
-            _ = &mut shutdown => break,
-            Ok(query) = rx.recv_async() => {
-                for (key, truth) in snapshot(&world, &root) {
-                    let Ok(k) = KeyExpr::try_from(key.as_str()) else { continue };
-                    if query.key_expr().intersects(&k) {
-                        let _ = query
-                            .reply(k, encode(&truth))
-                            .encoding(Encoding::APPLICATION_JSON)
-                            .await;
-                    }
-                }
-            }
-            _ = tick.tick(), if period.is_some() => {
-                for (key, truth) in snapshot(&world, &root) {
-                    let _ = session
-                        .put(key, encode(&truth))
-                        .encoding(Encoding::APPLICATION_JSON)
-                        .congestion_control(CongestionControl::Drop)
-                        .await;
-                }
+    let mut server = TruthServer {
+        session,
+        root,
+        world,
+    };
+    let periods = Periods {
+        sweep: Duration::from_secs(3_600),
+        tick: period,
+    };
+    inbox.run(&mut server, periods, shutdown).await;
+    Ok(())
+}
+
+struct TruthServer {
+    session: Session,
+    root: Root,
+    world: SimWorld,
+}
+
+impl Handler<std::convert::Infallible> for TruthServer {
+    async fn event(&mut self, event: Event<std::convert::Infallible>) {
+        let Event::Query(query) = event else { return };
+        for (key, truth) in snapshot(&self.world, &self.root) {
+            let Ok(k) = KeyExpr::try_from(key.as_str()) else {
+                continue;
+            };
+            if query.key_expr().intersects(&k) {
+                rome_serve::reply(&query, &key, encode(&truth), Encoding::APPLICATION_JSON).await;
             }
         }
     }
-    Ok(())
+
+    async fn sweep(&mut self) {}
+
+    async fn tick(&mut self) {
+        for (key, truth) in snapshot(&self.world, &self.root) {
+            let _ = self
+                .session
+                .put(key, encode(&truth))
+                .encoding(Encoding::APPLICATION_JSON)
+                .congestion_control(CongestionControl::Drop)
+                .await;
+        }
+    }
 }

@@ -1,0 +1,202 @@
+//! What every RoME server (the data server, each hardware server) does
+//! alike on the Zenoh side, so it is written once.
+//!
+//! How this crate is laid out (one file):
+//! - [`Inbox`]: a server's event queues. Zenoh callbacks run on a link's
+//!   receive path (or on the task of a client in the same session), so
+//!   they never wait: requests and puts go to a bounded queue, and a query
+//!   that finds it full is answered [`busy`] at once; liveliness changes
+//!   go to an unbounded queue of their own, because releases and undo
+//!   depend on every one of them.
+//! - [`Handler`] and [`Inbox::run`]: the event loop, one task per server:
+//!   liveliness first, then requests (a burst taken in whole before the
+//!   handler chooses what to do next), a sweep and an optional tick, until
+//!   the shutdown future completes.
+//! - [`reply`], [`reply_err`], [`busy`]: answers, with failures to send
+//!   logged rather than returned (the asker may be gone).
+
+use rome_schema::{encode, ErrorCode, ErrorReply};
+use std::future::Future;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
+use std::time::Duration;
+use zenoh::bytes::Encoding;
+use zenoh::query::Query;
+use zenoh::sample::Sample;
+
+/// Something a server has to deal with; `T` is the server's own kind of
+/// event (a timer it set, …).
+pub enum Event<T> {
+    /// A query on one of its keys.
+    Query(Query),
+    /// A put or delete on a key it subscribes to.
+    Put(Sample),
+    /// A liveliness token that appeared or went.
+    Alive(Sample),
+    /// The server's own event.
+    Own(T),
+}
+
+/// A server's event queues. See the crate docs.
+pub struct Inbox<T> {
+    label: String,
+    capacity: usize,
+    tx: flume::Sender<Event<T>>,
+    rx: flume::Receiver<Event<T>>,
+    alive_tx: flume::Sender<Event<T>>,
+    alive_rx: flume::Receiver<Event<T>>,
+    dropped: Arc<AtomicU64>,
+}
+
+/// When the event loop calls [`Handler::sweep`] and [`Handler::tick`].
+#[derive(Debug, Clone, Copy)]
+pub struct Periods {
+    /// Between two sweeps (expiries, leases).
+    pub sweep: Duration,
+    /// Between two ticks (a device's periodic work), if it has any.
+    pub tick: Option<Duration>,
+}
+
+/// A server's reactions; the event loop calls them one at a time.
+pub trait Handler<T> {
+    /// One event.
+    fn event(&mut self, event: Event<T>) -> impl Future<Output = ()> + Send;
+    /// After a burst of requests was taken in: a server that queues
+    /// requests chooses what to serve next here.
+    fn drained(&mut self) -> impl Future<Output = ()> + Send {
+        async {}
+    }
+    /// Every [`Periods::sweep`].
+    fn sweep(&mut self) -> impl Future<Output = ()> + Send;
+    /// Every [`Periods::tick`].
+    fn tick(&mut self) -> impl Future<Output = ()> + Send {
+        async {}
+    }
+}
+
+impl<T: Send + 'static> Inbox<T> {
+    /// Queues for server `label` ("the data server", "robot r1 base"),
+    /// taking at most `capacity` requests and puts at once.
+    pub fn new(label: &str, capacity: usize) -> Self {
+        let (tx, rx) = flume::bounded(capacity);
+        let (alive_tx, alive_rx) = flume::unbounded();
+        Inbox {
+            label: label.to_string(),
+            capacity,
+            tx,
+            rx,
+            alive_tx,
+            alive_rx,
+            dropped: Arc::new(AtomicU64::new(0)),
+        }
+    }
+
+    /// A queryable callback: queues the query, or answers [`busy`] at once
+    /// when the queue is full. Call within the server's tokio runtime.
+    pub fn on_query(&self) -> impl Fn(Query) + Send + Sync + 'static {
+        let tx = self.tx.clone();
+        let runtime = tokio::runtime::Handle::current();
+        let refusal = busy(&self.label, self.capacity, "waiting");
+        move |q| {
+            if let Err(flume::TrySendError::Full(Event::Query(q))) = tx.try_send(Event::Query(q)) {
+                let e = refusal.clone();
+                runtime.spawn(async move { reply_err(&q, &e).await });
+            }
+        }
+    }
+
+    /// A subscriber callback for plain puts: queued, or dropped and
+    /// counted when the queue is full (a put has no one to answer; a flood
+    /// is reported at 1, 2, 4, 8 … drops, not echoed).
+    pub fn on_put(&self) -> impl Fn(Sample) + Send + Sync + 'static {
+        let tx = self.tx.clone();
+        let dropped = self.dropped.clone();
+        let (label, capacity) = (self.label.clone(), self.capacity);
+        move |s| {
+            if let Err(flume::TrySendError::Full(_)) = tx.try_send(Event::Put(s)) {
+                let n = dropped.fetch_add(1, Ordering::Relaxed) + 1;
+                if n.is_power_of_two() {
+                    tracing::warn!(server = %label, dropped = n, queue = capacity, "too busy: plain puts dropped");
+                }
+            }
+        }
+    }
+
+    /// A liveliness subscriber callback: every change is kept.
+    pub fn on_alive(&self) -> impl Fn(Sample) + Send + Sync + 'static {
+        let tx = self.alive_tx.clone();
+        move |s| {
+            let _ = tx.send(Event::Alive(s));
+        }
+    }
+
+    /// A sender of the server's own events into the bounded queue (send
+    /// with `send_async` from a task: they must not be dropped).
+    pub fn sender(&self) -> flume::Sender<Event<T>> {
+        self.tx.clone()
+    }
+
+    /// Plain puts dropped so far because the queue was full.
+    pub fn dropped(&self) -> u64 {
+        self.dropped.load(Ordering::Relaxed)
+    }
+
+    /// The event loop: runs until `shutdown` completes.
+    pub async fn run<H: Handler<T>>(
+        &self,
+        handler: &mut H,
+        periods: Periods,
+        shutdown: impl Future<Output = ()>,
+    ) {
+        let mut sweep = tokio::time::interval(periods.sweep);
+        let mut tick = tokio::time::interval(periods.tick.unwrap_or(Duration::from_secs(3_600)));
+        tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+        tokio::pin!(shutdown);
+        loop {
+            tokio::select! {
+                biased;
+                _ = &mut shutdown => break,
+                Ok(event) = self.alive_rx.recv_async() => handler.event(event).await,
+                Ok(event) = self.rx.recv_async() => {
+                    handler.event(event).await;
+                    // Everything that arrived meanwhile is taken in before
+                    // the handler chooses what comes next.
+                    while let Ok(event) = self.rx.try_recv() {
+                        handler.event(event).await;
+                    }
+                    handler.drained().await;
+                }
+                _ = sweep.tick() => handler.sweep().await,
+                _ = tick.tick(), if periods.tick.is_some() => handler.tick().await,
+            }
+        }
+    }
+}
+
+/// The answer to a request that found `capacity` others `waiting` (in the
+/// queue) or `queued` (behind a lock) on server `label`: nothing was done.
+pub fn busy(label: &str, capacity: usize, waiting: &str) -> ErrorReply {
+    ErrorReply::new(
+        ErrorCode::Busy,
+        format!("{label} has {capacity} requests {waiting} and did not take this one; nothing was done, send it again after a pause"),
+    )
+}
+
+/// Answers `query` with `bytes` on `key`. Zenoh sends a reply in its
+/// query's priority band, so a client's priority rides both ways.
+pub async fn reply(query: &Query, key: &str, bytes: Vec<u8>, encoding: Encoding) {
+    if let Err(e) = query.reply(key, bytes).encoding(encoding).await {
+        tracing::warn!(%key, error = %e, "reply failed");
+    }
+}
+
+/// Answers `query` with an error reply carrying `e` as JSON.
+pub async fn reply_err(query: &Query, e: &ErrorReply) {
+    if let Err(err) = query
+        .reply_err(encode(e))
+        .encoding(Encoding::APPLICATION_JSON)
+        .await
+    {
+        tracing::warn!(error = %err, "error reply failed");
+    }
+}
