@@ -16,7 +16,7 @@ pub mod decoders;
 /// The TCP relay, now part of the client library.
 pub use rome_client::relay;
 
-use rome_client::net::{free_loopback_port, NetOptions};
+use rome_client::net::{open_loopback_peer, NetOptions};
 use rome_client::{DataClient, DataOptions};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
@@ -39,9 +39,7 @@ impl TestServer {
 
     /// Starts a data server with this configuration.
     pub async fn start_with(config: rome_data::ServerConfig) -> TestServer {
-        let port = free_loopback_port().expect("a free loopback port");
-        let session = NetOptions::loopback(Some(port), &[])
-            .open()
+        let (session, port) = open_loopback_peer(&[])
             .await
             .expect("server session on loopback");
         let running = rome_data::spawn(session.clone(), config);
@@ -136,6 +134,55 @@ pub fn listening_port(log: &std::path::Path, within: Duration) -> u16 {
         );
         std::thread::sleep(Duration::from_millis(50));
     }
+}
+
+/// Starts `exe ARGS` (a `rome` server told `--listen tcp/127.0.0.1:0`) and
+/// returns it with the port it says it was given; its standard error is
+/// read on a thread of its own from then on, kept for `logs`.
+pub fn spawn_listening(
+    exe: &str,
+    args: &[&str],
+) -> (ChildGuard, u16, std::sync::Arc<std::sync::Mutex<String>>) {
+    use std::io::BufRead;
+    const SAID: &str = "rome: listening on tcp/127.0.0.1:";
+    let mut child = Command::new(exe)
+        .args(args)
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("the program starts");
+    let stderr = child.stderr.take().expect("stderr is piped");
+    let logs = std::sync::Arc::new(std::sync::Mutex::new(String::new()));
+    let (tx, rx) = std::sync::mpsc::channel();
+    let kept = logs.clone();
+    std::thread::spawn(move || {
+        for line in std::io::BufReader::new(stderr)
+            .lines()
+            .map_while(Result::ok)
+        {
+            if let Some(port) = line
+                .strip_prefix(SAID)
+                .and_then(|r| r.split_whitespace().next()?.parse::<u16>().ok())
+            {
+                let _ = tx.send(port);
+            }
+            if let Ok(mut k) = kept.lock() {
+                k.push_str(&line);
+                k.push('\n');
+            }
+        }
+    });
+    let guard = ChildGuard(Some(child));
+    let port = rx
+        .recv_timeout(Duration::from_secs(60))
+        .unwrap_or_else(|_| {
+            panic!(
+                "{exe} {args:?} did not say where it listens:\n{}",
+                logs.lock().map(|l| l.clone()).unwrap_or_default()
+            )
+        });
+    (guard, port, logs)
 }
 
 /// Starts `exe ARGS` with no input or output, its stderr appended to

@@ -6,7 +6,7 @@
 
 #![allow(clippy::unwrap_used)]
 
-use rome_client::net::{free_loopback_port, NetOptions};
+use rome_client::net::{open_loopback_peer, NetOptions};
 use rome_client::{DataClient, DataOptions, RobotClient, RobotOptions};
 use rome_hardware::robot::{spawn_sim_robot, Rates, Running};
 use rome_hardware::sim::{SimWorld, Stepper};
@@ -28,8 +28,7 @@ struct Link {
 }
 
 async fn link() -> Link {
-    let port = free_loopback_port().unwrap();
-    let near = NetOptions::loopback(Some(port), &[]).open().await.unwrap();
+    let (near, port) = open_loopback_peer(&[]).await.unwrap();
     let map = rome_maps::load_named("fig5_3").unwrap();
     let mut sim = Sim::new(
         &map,

@@ -8,7 +8,7 @@
 
 #![allow(clippy::unwrap_used)]
 
-use rome_client::net::{free_loopback_port, NetOptions};
+use rome_client::net::open_loopback_peer;
 use rome_client::{ClientError, DataClient, DataOptions, RobotClient, RobotOptions};
 use rome_hardware::robot::{spawn_sim_robot, Rates};
 use rome_hardware::sim::SimWorld;
@@ -43,8 +43,7 @@ fn watched<F: Future<Output = ()> + Send + 'static>(within: Duration, body: F) {
 #[test]
 fn clients_joining_the_data_servers_own_session_and_flooding_it_all_get_through() {
     watched(Duration::from_secs(120), async {
-        let port = free_loopback_port().unwrap();
-        let session = NetOptions::loopback(Some(port), &[]).open().await.unwrap();
+        let (session, _port) = open_loopback_peer(&[]).await.unwrap();
         let server = rome_data::spawn(session.clone(), rome_data::ServerConfig::default());
         let zid = session.zid().to_string();
         rome_client::alive::await_server(
@@ -94,8 +93,7 @@ fn clients_joining_the_data_servers_own_session_and_flooding_it_all_get_through(
 #[test]
 fn a_flood_on_a_robots_servers_from_their_own_session_is_answered() {
     watched(Duration::from_secs(120), async {
-        let port = free_loopback_port().unwrap();
-        let session = NetOptions::loopback(Some(port), &[]).open().await.unwrap();
+        let (session, _port) = open_loopback_peer(&[]).await.unwrap();
         let map = rome_maps::load_named("fig5_3").unwrap();
         let mut sim = Sim::new(&map, SimConfig::default());
         sim.add_robot_at("r1", "301L", 0.0).unwrap();

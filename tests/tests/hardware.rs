@@ -4,7 +4,7 @@
 
 #![allow(clippy::unwrap_used)]
 
-use rome_client::net::{free_loopback_port, NetOptions};
+use rome_client::net::{open_loopback_peer, NetOptions};
 use rome_client::{ClientError, RobotClient, RobotOptions};
 use rome_hardware::base::Base;
 use rome_hardware::device::{BaseDevice, BaseOp, BaseStatus, DeviceError};
@@ -61,14 +61,14 @@ struct Rig {
 }
 
 impl Rig {
-    async fn session(port: u16) -> Session {
-        NetOptions::loopback(Some(port), &[]).open().await.unwrap()
+    /// A peer session on a loopback port of its own, and that port.
+    async fn session() -> (Session, u16) {
+        open_loopback_peer(&[]).await.unwrap()
     }
 
     /// A recording base for robot `r1`, with a storage in another session.
     async fn recorder(rec: &Recorder, storage: bool) -> Rig {
-        let port = free_loopback_port().unwrap();
-        let session = Self::session(port).await;
+        let (session, port) = Self::session().await;
         let mut rig = Rig {
             port,
             state: Some(Duration::from_millis(20)),
@@ -105,8 +105,7 @@ impl Rig {
 
     /// Robot r1 on the Figure 5.3 map, all its servers, world at real time.
     async fn sim(camera: Duration) -> Rig {
-        let port = free_loopback_port().unwrap();
-        let session = Self::session(port).await;
+        let (session, port) = Self::session().await;
         let map = rome_maps::load_named("fig5_3").unwrap();
         let mut sim = Sim::new(
             &map,
@@ -501,11 +500,11 @@ async fn virtual_coordinates_unwrap_16_bit_registers_both_ways() {
         .lock()
         .unwrap()
         .extend(path.iter().map(|mm| mm.rem_euclid(65_536) as u16 as i16));
-    let port = free_loopback_port().unwrap();
+    let (session, port) = Rig::session().await;
     let mut rig = Rig {
         port,
         state: None,
-        session: Rig::session(port).await,
+        session,
         servers: Vec::new(),
         _stepper: None,
     };

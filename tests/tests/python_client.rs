@@ -92,12 +92,11 @@ async fn python_client_from_docs_alone() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn python_client_drives_a_robot_from_docs_alone() {
-    use rome_client::net::{free_loopback_port, NetOptions};
+    use rome_client::net::open_loopback_peer;
     let python = tokio::task::spawn_blocking(python_with_zenoh)
         .await
         .unwrap();
-    let port = free_loopback_port().unwrap();
-    let session = NetOptions::loopback(Some(port), &[]).open().await.unwrap();
+    let (session, port) = open_loopback_peer(&[]).await.unwrap();
     let map = rome_maps::load_named("fig5_3").unwrap();
     let mut sim = rome_sim::Sim::new(&map, rome_sim::SimConfig::default());
     let heading = sim.scene().world.position("301L").unwrap().wall_heading_deg;

@@ -3,7 +3,7 @@
 
 #![allow(clippy::unwrap_used)]
 
-use rome_client::net::{free_loopback_port, NetOptions};
+use rome_client::net::{open_loopback_peer, NetOptions};
 use rome_client::{DataClient, DataOptions};
 use rome_tests::{eventually, peer, TestServer};
 use serde_json::json;
@@ -207,8 +207,7 @@ async fn the_client_retries_a_lost_reply_with_the_same_id() {
     // every request and answers the second, recording the ids it saw. With
     // the test above (the real server does a repeated id once) this covers
     // the whole path of a lost reply.
-    let port = free_loopback_port().unwrap();
-    let fake = NetOptions::loopback(Some(port), &[]).open().await.unwrap();
+    let (fake, port) = open_loopback_peer(&[]).await.unwrap();
     let seen: Arc<Mutex<HashMap<String, u32>>> = Arc::default();
     let record = seen.clone();
     let _q = fake

@@ -18,19 +18,17 @@ struct Shell {
 
 impl Shell {
     fn start() -> Shell {
-        let port = free_loopback_port().unwrap();
-        let child = Command::new(ROME)
-            .args(["data-server", "--in-memory", "--no-multicast", "--listen"])
-            .arg(format!("tcp/127.0.0.1:{port}"))
-            .stdin(Stdio::null())
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .unwrap();
-        Shell {
-            port,
-            server: ChildGuard(Some(child)),
-        }
+        let (server, port, _) = rome_tests::spawn_listening(
+            ROME,
+            &[
+                "data-server",
+                "--in-memory",
+                "--no-multicast",
+                "--listen",
+                "tcp/127.0.0.1:0",
+            ],
+        );
+        Shell { port, server }
     }
 
     fn cmd(&self, args: &[&str]) -> Command {

@@ -245,8 +245,35 @@ impl NetOptions {
     }
 }
 
+/// Opens a peer session on loopback that listens on a port the system
+/// picks and connects to `connect`, and returns it with that port: the
+/// port is bound for real, never picked free and let go for another
+/// program to take first. For tests and benchmarks.
+pub async fn open_loopback_peer(connect: &[u16]) -> Result<(Session, u16), ClientError> {
+    let session = NetOptions::loopback(None, connect).open().await?;
+    let port = bound_port(&session)
+        .await
+        .ok_or_else(|| ClientError::Zenoh("the session listens on no tcp/127.0.0.1 port".into()))?;
+    Ok((session, port))
+}
+
+/// The port `session` listens on at 127.0.0.1, if any.
+pub async fn bound_port(session: &Session) -> Option<u16> {
+    session.info().locators().await.iter().find_map(|l| {
+        l.as_str()
+            .strip_prefix("tcp/127.0.0.1:")?
+            .split(['?', '#'])
+            .next()?
+            .parse()
+            .ok()
+    })
+}
+
 /// A TCP port on 127.0.0.1 that was free a moment ago (the OS picks it),
-/// for tests and benchmarks that start servers on loopback.
+/// for a program that must be told its port before it starts (a router
+/// with a configuration file). Another program may take it meanwhile:
+/// prefer [`open_loopback_peer`], or `--listen tcp/127.0.0.1:0` and the
+/// `rome: listening on` line a server prints.
 pub fn free_loopback_port() -> std::io::Result<u16> {
     let listener = std::net::TcpListener::bind(("127.0.0.1", 0))?;
     Ok(listener.local_addr()?.port())

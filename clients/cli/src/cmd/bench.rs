@@ -6,7 +6,7 @@
 use crate::args::CommonArgs;
 use crate::exit;
 use clap::Subcommand;
-use rome_client::net::{free_loopback_port, NetOptions};
+use rome_client::net::{open_loopback_peer, NetOptions};
 use rome_client::{DataClient, DataOptions};
 use serde::Serialize;
 use std::time::{Duration, Instant};
@@ -219,8 +219,7 @@ pub async fn data_rows(args: &DataBench, progress: bool) -> anyhow::Result<Vec<R
         "--clients takes counts between 1 and 500"
     );
     let span = Duration::from_secs_f64(args.seconds);
-    let port = free_loopback_port()?;
-    let server_session = NetOptions::loopback(Some(port), &[]).open().await?;
+    let (server_session, port) = open_loopback_peer(&[]).await?;
     let _raw = server_session
         .declare_queryable(RAW_KEY)
         .callback(|q| {
@@ -229,17 +228,19 @@ pub async fn data_rows(args: &DataBench, progress: bool) -> anyhow::Result<Vec<R
         .await
         .map_err(|e| anyhow::anyhow!("{e}"))?;
     let server = rome_data::spawn(server_session.clone(), rome_data::ServerConfig::default());
-    let disk_port = free_loopback_port()?;
-    let durable = match &args.data_dir {
+    let (durable, disk_port) = match &args.data_dir {
         Some(dir) => {
-            let session = NetOptions::loopback(Some(disk_port), &[]).open().await?;
+            let (session, disk_port) = open_loopback_peer(&[]).await?;
             let config = rome_data::ServerConfig {
                 storage: rome_data::Storage::Dir(dir.clone()),
                 ..rome_data::ServerConfig::default()
             };
-            Some((session.clone(), rome_data::spawn(session, config)))
+            (
+                Some((session.clone(), rome_data::spawn(session, config))),
+                disk_port,
+            )
         }
-        None => None,
+        None => (None, 0),
     };
     let mut ops = vec![Op::Raw, Op::Get, Op::Set, Op::Signal];
     if durable.is_some() {

@@ -3,7 +3,7 @@
 //! Zenoh queryable in the same run, and the sustained scan-stream rate.
 
 use crate::cmd::bench::Row;
-use rome_client::net::{free_loopback_port, NetOptions};
+use rome_client::net::{open_loopback_peer, NetOptions};
 use rome_client::{RobotClient, RobotOptions};
 use rome_hardware::robot::{spawn_sim_robot, Rates};
 use rome_hardware::sim::SimWorld;
@@ -64,8 +64,7 @@ pub async fn figures(args: &RobotBench, progress: bool) -> anyhow::Result<RobotF
         "--seconds must be positive"
     );
     let span = Duration::from_secs_f64(args.seconds);
-    let port = free_loopback_port()?;
-    let server = NetOptions::loopback(Some(port), &[]).open().await?;
+    let (server, port) = open_loopback_peer(&[]).await?;
     let _raw = server
         .declare_queryable(RAW_KEY)
         .callback(|q| {
