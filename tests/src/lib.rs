@@ -109,22 +109,35 @@ pub fn await_port(port: u16, within: Duration) {
     }
 }
 
+/// The last `lines` lines of every file in `dir` (the logs of a test's
+/// processes), for a failure message.
+pub fn tail_logs(dir: &std::path::Path, lines: usize) -> String {
+    let mut out = String::new();
+    let mut files: Vec<_> = std::fs::read_dir(dir)
+        .map(|d| d.flatten().map(|e| e.path()).collect())
+        .unwrap_or_default();
+    files.sort();
+    for path in files {
+        let text = std::fs::read_to_string(&path).unwrap_or_default();
+        let tail: Vec<&str> = text.lines().rev().take(lines).collect();
+        out.push_str(&format!("--- {} ---\n", path.display()));
+        for l in tail.into_iter().rev() {
+            out.push_str(l);
+            out.push('\n');
+        }
+    }
+    out
+}
+
 /// Waits until a `rome` server started with `--listen tcp/127.0.0.1:0`
 /// has said in its log (`log`, its standard error) which port the system
 /// gave it, and returns that port: the port is bound for real, never
 /// picked free and released for someone else to take first.
 pub fn listening_port(log: &std::path::Path, within: Duration) -> u16 {
-    const SAID: &str = "rome: listening on tcp/127.0.0.1:";
     let deadline = Instant::now() + within;
     loop {
         let text = std::fs::read_to_string(log).unwrap_or_default();
-        if let Some(port) = text.lines().find_map(|l| {
-            l.strip_prefix(SAID)?
-                .split_whitespace()
-                .next()?
-                .parse::<u16>()
-                .ok()
-        }) {
+        if let Some(port) = rome_client::net::said_port(&text) {
             return port;
         }
         assert!(
@@ -144,7 +157,6 @@ pub fn spawn_listening(
     args: &[&str],
 ) -> (ChildGuard, u16, std::sync::Arc<std::sync::Mutex<String>>) {
     use std::io::BufRead;
-    const SAID: &str = "rome: listening on tcp/127.0.0.1:";
     let mut child = Command::new(exe)
         .args(args)
         .stdin(Stdio::null())
@@ -161,10 +173,7 @@ pub fn spawn_listening(
             .lines()
             .map_while(Result::ok)
         {
-            if let Some(port) = line
-                .strip_prefix(SAID)
-                .and_then(|r| r.split_whitespace().next()?.parse::<u16>().ok())
-            {
+            if let Some(port) = rome_client::net::said_port(&line) {
                 let _ = tx.send(port);
             }
             if let Ok(mut k) = kept.lock() {

@@ -150,14 +150,11 @@ impl CommonArgs {
     /// gave for a `:0` endpoint: `rome: listening on tcp/127.0.0.1:40211`.
     pub async fn open_server(&self) -> anyhow::Result<(zenoh::Session, NetOptions)> {
         let (session, net) = self.open_server_session().await?;
-        let bound: Vec<String> = session
-            .info()
-            .locators()
-            .await
-            .iter()
-            .map(|l| l.to_string())
-            .collect();
-        eprintln!("rome: listening on {}", bound.join(" "));
+        eprintln!(
+            "{}{}",
+            rome_client::net::LISTENING,
+            rome_client::net::locators(&session).await.join(" ")
+        );
         Ok((session, net))
     }
 

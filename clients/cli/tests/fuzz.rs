@@ -28,17 +28,7 @@ fn log_dir() -> PathBuf {
 }
 
 fn logs(dir: &std::path::Path) -> String {
-    let mut out = String::new();
-    for e in std::fs::read_dir(dir).unwrap().flatten() {
-        let text = std::fs::read_to_string(e.path()).unwrap_or_default();
-        let tail: Vec<&str> = text.lines().rev().take(6).collect();
-        out.push_str(&format!("--- {} ---\n", e.path().display()));
-        for l in tail.into_iter().rev() {
-            out.push_str(l);
-            out.push('\n');
-        }
-    }
-    out
+    rome_tests::tail_logs(dir, 6)
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

@@ -38,19 +38,7 @@ fn rome(port: u16, name: &str, args: &[&str], stdout: Stdio) -> ChildGuard {
 
 /// Every process's standard error, for a failure message.
 fn logs(port: u16) -> String {
-    let mut out = String::new();
-    if let Ok(dir) = std::fs::read_dir(log_dir(port)) {
-        for e in dir.flatten() {
-            let text = std::fs::read_to_string(e.path()).unwrap_or_default();
-            let tail: Vec<&str> = text.lines().rev().take(8).collect();
-            out.push_str(&format!("--- {} ---\n", e.path().display()));
-            for l in tail.into_iter().rev() {
-                out.push_str(l);
-                out.push('\n');
-            }
-        }
-    }
-    out
+    rome_tests::tail_logs(&log_dir(port), 8)
 }
 
 /// A client process connected to the data server on `port`.

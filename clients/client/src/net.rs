@@ -257,16 +257,44 @@ pub async fn open_loopback_peer(connect: &[u16]) -> Result<(Session, u16), Clien
     Ok((session, port))
 }
 
+/// How a `rome` server says on standard error where it listens, with the
+/// port the system gave it for a `:0` endpoint:
+/// `rome: listening on tcp/127.0.0.1:40211`.
+pub const LISTENING: &str = "rome: listening on ";
+
+/// The endpoints `session` listens on, ports as bound.
+pub async fn locators(session: &Session) -> Vec<String> {
+    session
+        .info()
+        .locators()
+        .await
+        .iter()
+        .map(|l| l.to_string())
+        .collect()
+}
+
 /// The port `session` listens on at 127.0.0.1, if any.
 pub async fn bound_port(session: &Session) -> Option<u16> {
-    session.info().locators().await.iter().find_map(|l| {
-        l.as_str()
-            .strip_prefix("tcp/127.0.0.1:")?
+    loopback_port(&locators(session).await.join(" "))
+}
+
+/// The first 127.0.0.1 port among space-separated endpoints.
+fn loopback_port(endpoints: &str) -> Option<u16> {
+    endpoints.split_whitespace().find_map(|l| {
+        l.strip_prefix("tcp/127.0.0.1:")?
             .split(['?', '#'])
             .next()?
             .parse()
             .ok()
     })
+}
+
+/// The 127.0.0.1 port a server said it listens on ([`LISTENING`]), in
+/// the text of its standard error.
+pub fn said_port(stderr: &str) -> Option<u16> {
+    stderr
+        .lines()
+        .find_map(|l| loopback_port(l.strip_prefix(LISTENING)?))
 }
 
 /// A TCP port on 127.0.0.1 that was free a moment ago (the OS picks it),
@@ -290,6 +318,14 @@ fn json_list(items: &[String]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_servers_port_is_read_from_what_it_said() {
+        let err = "2026 INFO starting\nrome: listening on tcp/192.0.2.2:7447 tcp/127.0.0.1:40211\nready\n";
+        assert_eq!(said_port(err), Some(40211));
+        assert_eq!(said_port("rome: listening on tcp/10.0.0.1:7447\n"), None);
+        assert_eq!(said_port("listening on tcp/127.0.0.1:5\n"), None);
+    }
 
     #[test]
     fn loopback_options_become_config() {

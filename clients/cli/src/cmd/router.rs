@@ -140,13 +140,8 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
     let session = zenoh::session::init(runtime.into())
         .await
         .map_err(|e| anyhow::anyhow!("cannot open the router's session: {e}"))?;
-    let listen: Vec<String> = session
-        .info()
-        .locators()
-        .await
-        .iter()
-        .map(|l| l.to_string())
-        .collect();
+    let listen = rome_client::net::locators(&session).await;
+    eprintln!("{}{}", rome_client::net::LISTENING, listen.join(" "));
     let records = match (&file, args.no_storage) {
         (_, true) => "not kept".to_string(),
         (None, false) => "in memory".to_string(),

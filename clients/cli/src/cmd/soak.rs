@@ -1022,17 +1022,10 @@ impl Waiter {
 }
 
 async fn listening_port(log: &Path, within: Duration) -> anyhow::Result<u16> {
-    const SAID: &str = "rome: listening on tcp/127.0.0.1:";
     let deadline = Instant::now() + within;
     loop {
         let text = std::fs::read_to_string(log).unwrap_or_default();
-        if let Some(port) = text.lines().find_map(|l| {
-            l.strip_prefix(SAID)?
-                .split_whitespace()
-                .next()?
-                .parse::<u16>()
-                .ok()
-        }) {
+        if let Some(port) = rome_client::net::said_port(&text) {
             return Ok(port);
         }
         anyhow::ensure!(
