@@ -8,7 +8,7 @@
 #![allow(clippy::unwrap_used)]
 
 use rome_client::data::{DataClient, DataOptions};
-use rome_client::net::{free_loopback_port, NetOptions};
+use rome_client::net::NetOptions;
 use rome_tests::ChildGuard;
 use std::path::{Path, PathBuf};
 
@@ -92,19 +92,20 @@ fn client_options() -> DataOptions {
 async fn acknowledged_state_survives_sigkill_of_the_data_server() {
     let dir = scratch("durable-data");
     let log = dir.join("data-server.log");
-    let port = free_loopback_port().unwrap();
-    let ep = format!("tcp/127.0.0.1:{port}");
     let data_dir = dir.join("state");
-    let server_args = [
+    let mut server_args = [
         "--no-multicast",
         "-l",
-        &ep,
+        "tcp/127.0.0.1:0",
         "data-server",
         "--data-dir",
         data_dir.to_str().unwrap(),
     ];
+    // First on a port the system gives it, then always on that one.
     let mut server = rome(&server_args, &log);
-    rome_tests::await_port(port, Duration::from_secs(60));
+    let port = rome_tests::listening_port(&log, Duration::from_secs(60));
+    let ep = format!("tcp/127.0.0.1:{port}");
+    server_args[2] = &ep;
 
     let session = NetOptions::loopback_client(port).open().await.unwrap();
     let data = DataClient::connect(&session, client_options())
@@ -170,19 +171,19 @@ async fn acknowledged_state_survives_sigkill_of_the_data_server() {
 async fn clients_ride_through_a_router_killed_and_restarted() {
     let dir = scratch("durable-router");
     let log = dir.join("rome.log");
-    let port = free_loopback_port().unwrap();
-    let router_ep = format!("tcp/127.0.0.1:{port}");
-    let router_args = [
+    let mut router_args = [
         "--no-multicast",
         "-l",
-        &router_ep,
+        "tcp/127.0.0.1:0",
         "router",
         "--rest-port",
         "none",
         "--no-storage",
     ];
     let mut router = rome(&router_args, &log);
-    rome_tests::await_port(port, Duration::from_secs(60));
+    let port = rome_tests::listening_port(&log, Duration::from_secs(60));
+    let router_ep = format!("tcp/127.0.0.1:{port}");
+    router_args[2] = &router_ep;
     let data_dir = dir.join("state");
     let _server = rome(
         &[
