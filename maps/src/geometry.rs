@@ -1,21 +1,130 @@
 //! A map in world coordinates: x East, y North, millimetres; headings in
 //! degrees with North 0 and West 90 (counter-clockwise), as in the thesis.
+//!
+//! Points and displacements are nalgebra's ([`Point`], [`Vector`]); a
+//! heading is a [`Heading`], which knows the thesis' convention and turns
+//! into nalgebra's rotation; a robot's pose is a [`Pose`], the one pose
+//! type of the simulator and the navigation clients.
 
 use crate::model::{EdgeKind, Map, Ring};
+pub use nalgebra::{Isometry2, Point2, UnitComplex, Vector2};
 use std::collections::BTreeMap;
 
-/// A point, mm.
-pub type Point = (f64, f64);
+/// A point, mm (x East, y North).
+pub type Point = Point2<f64>;
 
-/// Unit vector of a heading (North 0, West 90).
-pub fn direction(heading_deg: f64) -> Point {
-    let h = heading_deg.to_radians();
-    (-h.sin(), h.cos())
+/// A displacement, mm.
+pub type Vector = Vector2<f64>;
+
+/// A point from its coordinates, mm.
+pub fn pt(x: f64, y: f64) -> Point {
+    Point::new(x, y)
+}
+
+/// A heading in the thesis' convention: degrees, North 0, West 90
+/// (counter-clockwise), East −90. Kept as given; [`Heading::normalized`]
+/// brings it into (−180, 180].
+#[derive(Debug, Clone, Copy, PartialEq, PartialOrd, Default)]
+pub struct Heading(f64);
+
+impl Heading {
+    /// North.
+    pub const NORTH: Heading = Heading(0.0);
+
+    /// A heading of `deg` degrees (North 0, West 90).
+    pub const fn from_deg(deg: f64) -> Heading {
+        Heading(deg)
+    }
+
+    /// Degrees (North 0, West 90), as given.
+    pub const fn deg(self) -> f64 {
+        self.0
+    }
+
+    /// The same direction in (−180, 180].
+    pub fn normalized(self) -> Heading {
+        Heading(normalize_deg(self.0))
+    }
+
+    /// Turned `deg` degrees counter-clockwise.
+    pub fn turned(self, deg: f64) -> Heading {
+        Heading(self.0 + deg)
+    }
+
+    /// The signed turn from `other` to `self`, degrees in (−180, 180].
+    pub fn minus(self, other: Heading) -> f64 {
+        normalize_deg(self.0 - other.0)
+    }
+
+    /// The unit vector pointing this way.
+    pub fn unit(self) -> Vector {
+        self.rotation() * Vector::x()
+    }
+
+    /// The rotation that takes the x axis (East) to this heading: the
+    /// thesis' North 0 is the mathematician's 90°.
+    pub fn rotation(self) -> UnitComplex<f64> {
+        UnitComplex::new((self.0 + 90.0).to_radians())
+    }
+
+    /// The heading of a direction (North for a zero vector).
+    pub fn of(v: Vector) -> Heading {
+        if v.x == 0.0 && v.y == 0.0 {
+            return Heading::NORTH;
+        }
+        Heading(normalize_deg((-v.x).atan2(v.y).to_degrees()))
+    }
+}
+
+impl std::fmt::Display for Heading {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}°", self.0)
+    }
+}
+
+/// Where a robot is and which way it faces: the one pose type of the
+/// simulator (truth) and the navigation clients (odometry).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Pose {
+    /// Position, mm.
+    pub at: Point,
+    /// Heading.
+    pub heading: Heading,
+}
+
+impl Pose {
+    /// A pose at (`x`, `y`) mm heading `heading_deg` (North 0, West 90).
+    pub fn new(x: f64, y: f64, heading_deg: f64) -> Pose {
+        Pose {
+            at: Point::new(x, y),
+            heading: Heading::from_deg(heading_deg),
+        }
+    }
+
+    /// Distance between two poses' positions, mm.
+    pub fn dist(&self, other: &Pose) -> f64 {
+        nalgebra::distance(&self.at, &other.at)
+    }
+
+    /// The point `d` mm ahead.
+    pub fn ahead(&self, d: f64) -> Point {
+        self.at + self.heading.unit() * d
+    }
+
+    /// As an isometry: robot frame (x ahead, y to the left) to world.
+    pub fn isometry(&self) -> Isometry2<f64> {
+        Isometry2::from_parts(self.at.coords.into(), self.heading.rotation())
+    }
+}
+
+/// Unit vector of a heading in degrees (North 0, West 90).
+pub fn direction(heading_deg: f64) -> Vector {
+    Heading::from_deg(heading_deg).unit()
 }
 
 /// Heading from p towards q, degrees (North 0, West 90).
 pub fn heading_to(p: Point, q: Point) -> f64 {
-    normalize_deg((-(q.0 - p.0)).atan2(q.1 - p.1).to_degrees())
+    Heading::of(q - p).deg()
 }
 
 /// Normalises an angle to (-180, 180].
@@ -29,17 +138,9 @@ pub fn normalize_deg(a: f64) -> f64 {
     a
 }
 
-pub(crate) fn add(p: Point, q: Point) -> Point {
-    (p.0 + q.0, p.1 + q.1)
-}
-
-pub(crate) fn scale(p: Point, k: f64) -> Point {
-    (p.0 * k, p.1 * k)
-}
-
 /// Distance between two points, mm.
 pub fn distance(p: Point, q: Point) -> f64 {
-    (p.0 - q.0).hypot(p.1 - q.1)
+    nalgebra::distance(&p, &q)
 }
 
 /// Where a ring's tracing goes: node positions, edge headings, and how it
@@ -65,7 +166,7 @@ pub fn trace(ring: &Ring) -> Trace {
     for (i, edge) in ring.edges.iter().enumerate() {
         nodes.push(p);
         headings.push(h);
-        p = add(p, scale(direction(h), edge.length_mm));
+        p += direction(h) * edge.length_mm;
         if let Some(next) = ring.nodes.get(i + 1) {
             h += next.turn_deg();
         }
@@ -139,10 +240,7 @@ impl Position {
     /// The point in the corridor abeam this position, on the line of the
     /// lights: where a robot stands to start from or arrive at it.
     pub fn in_corridor(&self) -> Point {
-        add(
-            self.at,
-            scale(direction(self.wall_heading_deg - 90.0), self.lateral_mm),
-        )
+        self.at + direction(self.wall_heading_deg - 90.0) * self.lateral_mm
     }
 }
 
@@ -162,13 +260,13 @@ pub struct World {
 }
 
 /// Intersection of the lines p + t·u and q + s·v, if not parallel.
-pub(crate) fn intersect(p: Point, u: Point, q: Point, v: Point) -> Option<Point> {
-    let det = u.0 * v.1 - u.1 * v.0;
+pub(crate) fn intersect(p: Point, u: Vector, q: Point, v: Vector) -> Option<Point> {
+    let det = u.perp(&v);
     if det.abs() < 1e-9 {
         return None;
     }
-    let t = ((q.0 - p.0) * v.1 - (q.1 - p.1) * v.0) / det;
-    Some(add(p, scale(u, t)))
+    let t = (q - p).perp(&v) / det;
+    Some(p + u * t)
 }
 
 impl World {
@@ -217,8 +315,8 @@ impl World {
                         continue;
                     }
                     used[ei][li] = true;
-                    let foot = add(start, scale(dir, d.abs()));
-                    let mut at = add(foot, scale(right, lateral));
+                    let foot = start + dir * d.abs();
+                    let mut at = foot + right * lateral;
                     if d < 0.0 {
                         let next = (ei + 1) % n;
                         let partner = ring.edges[next]
@@ -229,7 +327,7 @@ impl World {
                         if let Some((k, v)) = partner {
                             used[next][k] = true;
                             let h2 = tr.headings[next];
-                            let foot2 = add(tr.nodes[next], scale(direction(h2), v.abs()));
+                            let foot2 = tr.nodes[next] + direction(h2) * v.abs();
                             if let Some(p) = intersect(foot, right, foot2, direction(h2 - 90.0)) {
                                 at = p;
                             }
@@ -244,7 +342,7 @@ impl World {
                 for plate in &edge.plates {
                     world.plates.push(PlateAt {
                         label: plate.label.clone(),
-                        at: add(start, scale(dir, plate.offset_mm)),
+                        at: start + dir * plate.offset_mm,
                         wall_heading_deg: normalize_deg(h),
                     });
                 }
@@ -294,17 +392,66 @@ impl World {
 
     /// The bounding box of all segments: (min, max).
     pub fn bounds(&self) -> (Point, Point) {
-        let mut lo = (f64::INFINITY, f64::INFINITY);
-        let mut hi = (f64::NEG_INFINITY, f64::NEG_INFINITY);
+        let mut lo = pt(f64::INFINITY, f64::INFINITY);
+        let mut hi = pt(f64::NEG_INFINITY, f64::NEG_INFINITY);
         for s in &self.segments {
             for p in [s.a, s.b] {
-                lo = (lo.0.min(p.0), lo.1.min(p.1));
-                hi = (hi.0.max(p.0), hi.1.max(p.1));
+                lo = lo.inf(&p);
+                hi = hi.sup(&p);
             }
         }
-        if lo.0 > hi.0 {
-            return ((0.0, 0.0), (1.0, 1.0));
+        if lo.x > hi.x {
+            return (pt(0.0, 0.0), pt(1.0, 1.0));
         }
         (lo, hi)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn close(a: Vector, b: Vector) -> bool {
+        (a - b).norm() < 1e-12
+    }
+
+    #[test]
+    fn headings_follow_the_thesis_north_0_west_90() {
+        assert!(close(Heading::from_deg(0.0).unit(), Vector::new(0.0, 1.0)));
+        assert!(close(
+            Heading::from_deg(90.0).unit(),
+            Vector::new(-1.0, 0.0)
+        ));
+        assert!(close(
+            Heading::from_deg(-90.0).unit(),
+            Vector::new(1.0, 0.0)
+        ));
+        assert!(close(
+            Heading::from_deg(180.0).unit(),
+            Vector::new(0.0, -1.0)
+        ));
+        for deg in [-179.0, -90.0, -12.5, 0.0, 45.0, 90.0, 180.0] {
+            let h = Heading::from_deg(deg);
+            assert!((Heading::of(h.unit()).deg() - deg).abs() < 1e-9, "{deg}");
+        }
+        assert_eq!(heading_to(pt(0.0, 0.0), pt(-5.0, 0.0)), 90.0);
+        assert_eq!(
+            Heading::from_deg(350.0).minus(Heading::from_deg(10.0)),
+            -20.0
+        );
+        assert_eq!(Heading::from_deg(540.0).normalized().deg(), 180.0);
+    }
+
+    #[test]
+    fn a_pose_is_an_isometry_from_the_robot_frame() {
+        // Facing West at (1000, 2000): one metre ahead is x = 0.
+        let p = Pose::new(1_000.0, 2_000.0, 90.0);
+        let ahead = p.isometry() * Point::new(1_000.0, 0.0);
+        assert!((ahead - pt(0.0, 2_000.0)).norm() < 1e-9, "{ahead}");
+        assert!((p.ahead(1_000.0) - ahead).norm() < 1e-9);
+        // The robot's left (robot-frame +y) is South when facing West.
+        let left = p.isometry() * Point::new(0.0, 500.0);
+        assert!((left - pt(1_000.0, 1_500.0)).norm() < 1e-9, "{left}");
+        assert_eq!(p.dist(&Pose::new(1_000.0, 2_003.0, 0.0)), 3.0);
     }
 }

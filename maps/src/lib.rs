@@ -7,8 +7,11 @@
 //! - [`mod@validate`]: the rules a map must keep (rings close, angles and
 //!   lengths agree, names are unique, lights lie on their edge, links are
 //!   sound), each broken rule reported with its line.
-//! - [`geometry`]: a map turned into world coordinates: wall segments,
-//!   doors, ceiling lights, door plates and named positions (`350R`).
+//! - [`geometry`]: points, headings and poses on nalgebra, and a map turned
+//!   into world coordinates: wall segments, doors, ceiling lights, door
+//!   plates and named positions (`350R`).
+//! - [`wire`]: the one place a pose meets the wire's `x_mm`, `y_mm`,
+//!   `heading_deg`.
 //! - [`route`]: shortest paths between named positions along the
 //!   corridors' centre lines.
 //! - [`render`]: a picture of the map, as SVG or PNG, optionally with a
@@ -24,6 +27,7 @@ pub mod parse;
 pub mod render;
 pub mod route;
 pub mod validate;
+pub mod wire;
 
 pub use geometry::World;
 pub use model::Map;

@@ -107,7 +107,7 @@ pub struct Ring {
     /// Its name, unique in the map.
     pub name: String,
     /// Where its first node is: x (East) and y (North), mm.
-    pub at_mm: (f64, f64),
+    pub at_mm: crate::geometry::Point,
     /// The heading of its first edge, degrees (North 0, West 90).
     pub heading_deg: f64,
     /// Its nodes in tracing order; edge i runs from node i to node i+1

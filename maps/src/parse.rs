@@ -104,7 +104,7 @@ impl Parser<'_> {
                 none_left(it)?;
                 self.ring = Some(Ring {
                     name: ring_name.to_string(),
-                    at_mm: (x, y),
+                    at_mm: crate::geometry::Point::new(x, y),
                     heading_deg: heading,
                     nodes: Vec::new(),
                     edges: Vec::new(),

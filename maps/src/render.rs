@@ -116,7 +116,7 @@ pub fn scene(map: &Map, world: &World) -> Vec<Shape> {
     for s in &world.segments {
         let number = map.rings[s.ring].edges[s.edge].number.as_ref();
         if let Some(number) = number {
-            let mid = ((s.a.0 + s.b.0) / 2.0, (s.a.1 + s.b.1) / 2.0);
+            let mid = nalgebra::center(&s.a, &s.b);
             out.push(Shape::Text {
                 at: mid,
                 text: number.clone(),
@@ -232,8 +232,8 @@ impl View {
         let (lo, hi) = world.bounds();
         let margin = 40.0;
         let top = 40.0;
-        let span_x = (hi.0 - lo.0).max(1.0);
-        let span_y = (hi.1 - lo.1).max(1.0);
+        let span_x = (hi.x - lo.x).max(1.0);
+        let span_y = (hi.y - lo.y).max(1.0);
         let scale = (f64::from(width_px) - 2.0 * margin) / span_x;
         let per_row = ((f64::from(width_px) - 2.0 * margin) / LEGEND_SLOT).max(1.0) as usize;
         let rows = legend_entries.div_ceil(per_row);
@@ -262,14 +262,14 @@ impl View {
 
     fn px(&self, p: Point) -> (f64, f64) {
         (
-            self.margin + (p.0 - self.lo.0) * self.scale,
-            self.top + self.margin + (self.hi.1 - p.1) * self.scale,
+            self.margin + (p.x - self.lo.x) * self.scale,
+            self.top + self.margin + (self.hi.y - p.y) * self.scale,
         )
     }
 
     /// A 10 m (or 1 m) scale bar and the title, in pixel coordinates.
     fn furniture(&self, title: &str) -> (f64, String, String) {
-        let metres = if (self.hi.0 - self.lo.0) > 20_000.0 {
+        let metres = if (self.hi.x - self.lo.x) > 20_000.0 {
             10.0
         } else {
             1.0

@@ -12,7 +12,7 @@
 //! ring on each side) is one corridor.
 
 use crate::geometry::{
-    add, direction, distance, heading_to as heading, intersect, normalize_deg, scale, Point, World,
+    direction, distance, heading_to as heading, intersect, normalize_deg, Point, World,
 };
 use crate::model::{EdgeKind, Map};
 
@@ -288,13 +288,12 @@ fn edit_distance(a: &str, b: &str) -> usize {
 }
 
 fn offset(p: Point, heading_deg: f64, lateral: f64) -> Point {
-    add(p, scale(direction(heading_deg - 90.0), lateral))
+    p + direction(heading_deg - 90.0) * lateral
 }
 
 /// Whether segments pq and ab cross (touching counts).
 fn crosses(p: Point, q: Point, a: Point, b: Point) -> bool {
-    let orient =
-        |o: Point, s: Point, t: Point| (s.0 - o.0) * (t.1 - o.1) - (s.1 - o.1) * (t.0 - o.0);
+    let orient = |o: Point, s: Point, t: Point| (s - o).perp(&(t - o));
     let d1 = orient(a, b, p);
     let d2 = orient(a, b, q);
     let d3 = orient(p, q, a);

@@ -131,7 +131,7 @@ pub fn validate(map: &Map) -> Vec<Problem> {
         }
         let miss = distance(tr.end, ring.at_mm);
         if miss > map.tolerance_mm {
-            say(ring.line, format!("ring '{}' misses closing by {miss:.0} mm (tolerance {} mm): its last edge ends at ({:.0}, {:.0}), not at its first node ({:.0}, {:.0}); check lengths and angles", ring.name, map.tolerance_mm, tr.end.0, tr.end.1, ring.at_mm.0, ring.at_mm.1));
+            say(ring.line, format!("ring '{}' misses closing by {miss:.0} mm (tolerance {} mm): its last edge ends at ({:.0}, {:.0}), not at its first node ({:.0}, {:.0}); check lengths and angles", ring.name, map.tolerance_mm, tr.end.x, tr.end.y, ring.at_mm.x, ring.at_mm.y));
         }
     }
     for link in &map.links {

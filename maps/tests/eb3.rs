@@ -88,7 +88,7 @@ fn the_floor_has_the_structure_the_thesis_describes() {
     // Appendix A: four rings, the first enclosing the other three.
     assert_eq!(map.rings.len(), 4);
     let (lo, hi) = world.bounds();
-    let (w, h) = ((hi.0 - lo.0) / 1000.0, (hi.1 - lo.1) / 1000.0);
+    let (w, h) = ((hi.x - lo.x) / 1000.0, (hi.y - lo.y) / 1000.0);
     assert!(
         (115.0..136.0).contains(&w) && (95.0..116.0).contains(&h),
         "{w} x {h}"
@@ -103,7 +103,7 @@ fn the_floor_has_the_structure_the_thesis_describes() {
         let n = world
             .lights
             .iter()
-            .filter(|l| (l.at.0 - x).abs() < 1_500.0 && l.at.1 > 8_000.0 && l.at.1 < 53_000.0)
+            .filter(|l| (l.at.x - x).abs() < 1_500.0 && l.at.y > 8_000.0 && l.at.y < 53_000.0)
             .count();
         assert_eq!(n, 2, "corridor {corridor}");
     }

@@ -2,7 +2,7 @@
 
 #![allow(clippy::unwrap_used)]
 
-use rome_maps::geometry::distance;
+use rome_maps::geometry::{distance, pt, Point};
 use rome_maps::{load, World};
 use std::path::Path;
 
@@ -12,8 +12,8 @@ fn data(name: &str) -> std::path::PathBuf {
         .join(name)
 }
 
-fn near(p: (f64, f64), q: (f64, f64)) -> bool {
-    distance(p, q) < 1.0
+fn near(p: Point, q: (f64, f64)) -> bool {
+    distance(p, pt(q.0, q.1)) < 1.0
 }
 
 #[test]

@@ -241,10 +241,10 @@ fn eb3_with_passage(port: u16) -> String {
     let mut lines: Vec<String> = rome_maps::builtin::EB3.lines().map(String::from).collect();
     let mut tagged = 0;
     for s in &world.segments {
-        let along_n = (s.a.0 - 60_000.0).abs() < 1_500.0
-            && (s.b.0 - 60_000.0).abs() < 1_500.0
-            && s.a.1.min(s.b.1) > 8_000.0
-            && s.a.1.max(s.b.1) < 54_000.0;
+        let along_n = (s.a.x - 60_000.0).abs() < 1_500.0
+            && (s.b.x - 60_000.0).abs() < 1_500.0
+            && s.a.y.min(s.b.y) > 8_000.0
+            && s.a.y.max(s.b.y) < 54_000.0;
         if along_n {
             let line = map.rings[s.ring].edges[s.edge].line;
             if !lines[line - 1].contains("passage=") {

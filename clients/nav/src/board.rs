@@ -229,8 +229,8 @@ impl Corridor {
     /// The corridor of a plan step.
     pub fn of(step: &crate::plan::Step) -> Corridor {
         Corridor {
-            x_mm: step.from.0,
-            y_mm: step.from.1,
+            x_mm: step.from.x,
+            y_mm: step.from.y,
             heading_deg: step.goal.direction_deg,
             left_mm: step.walls_mm.map(|w| w.0),
             right_mm: step.walls_mm.map(|w| w.1),

@@ -214,12 +214,7 @@ impl CTracker {
     }
 
     async fn pose(&self) -> Result<Pose, NavError> {
-        let p = self.robot.pose().await?;
-        Ok(Pose {
-            x: f64::from(p.x_mm),
-            y: f64::from(p.y_mm),
-            heading: p.heading_deg,
-        })
+        Ok(Pose::from(&self.robot.pose().await?))
     }
 
     /// One L segment: down($TrackData) … up($EndLMode).
@@ -232,7 +227,7 @@ impl CTracker {
         // Sightings from before the segment are stale.
         while rx.try_recv().is_ok() {}
         let axis = direction(heading);
-        let along = |p: &Pose| p.x * axis.0 + p.y * axis.1;
+        let along = |p: &Pose| p.at.x * axis.x + p.at.y * axis.y;
         let mut last = along(&self.pose().await?);
         let mut count = 0usize;
         let total = usize::try_from(goal).unwrap_or(0).min(offsets.len());

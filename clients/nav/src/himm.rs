@@ -23,7 +23,9 @@
 use crate::board::{Board, Corridor, HeadingFix, Sem, Var};
 use crate::NavError;
 use rome_client::RobotClient;
-use rome_maps::geometry::{direction, distance, heading_to, normalize_deg};
+use rome_maps::geometry::{
+    direction, distance, heading_to, normalize_deg, pt, Point, Pose, Vector,
+};
 use tokio::sync::mpsc;
 
 /// Cell size, mm.
@@ -108,14 +110,14 @@ impl Default for HimmConfig {
 /// A histogram grid (HIMM) around an origin, in the odometry frame.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Grid {
-    origin: (f64, f64),
+    origin: Point,
     n: usize,
     cells: Vec<u8>,
 }
 
 impl Grid {
     /// An empty grid of `half_side_mm` around `origin`.
-    pub fn new(origin: (f64, f64), half_side_mm: f64) -> Grid {
+    pub fn new(origin: Point, half_side_mm: f64) -> Grid {
         let n = (2.0 * half_side_mm / CELL_MM).ceil() as usize;
         Grid {
             origin,
@@ -124,25 +126,22 @@ impl Grid {
         }
     }
 
-    fn cell(&self, p: (f64, f64)) -> Option<usize> {
+    fn cell(&self, p: Point) -> Option<usize> {
         let half = self.n as f64 / 2.0;
-        let cx = ((p.0 - self.origin.0) / CELL_MM + half).floor();
-        let cy = ((p.1 - self.origin.1) / CELL_MM + half).floor();
+        let cx = ((p.x - self.origin.x) / CELL_MM + half).floor();
+        let cy = ((p.y - self.origin.y) / CELL_MM + half).floor();
         (cx >= 0.0 && cy >= 0.0 && cx < self.n as f64 && cy < self.n as f64)
             .then(|| cy as usize * self.n + cx as usize)
     }
 
-    fn centre(&self, i: usize) -> (f64, f64) {
+    fn centre(&self, i: usize) -> Point {
         let half = self.n as f64 / 2.0;
         let (cx, cy) = ((i % self.n) as f64, (i / self.n) as f64);
-        (
-            self.origin.0 + (cx + 0.5 - half) * CELL_MM,
-            self.origin.1 + (cy + 0.5 - half) * CELL_MM,
-        )
+        self.origin + Vector::new(cx + 0.5 - half, cy + 0.5 - half) * CELL_MM
     }
 
     /// Adds one sonar reading taken at `at` along heading `axis_deg`.
-    pub fn add(&mut self, at: (f64, f64), axis_deg: f64, range_mm: u32) {
+    pub fn add(&mut self, at: Point, axis_deg: f64, range_mm: u32) {
         if range_mm >= MAX_RANGE_MM {
             return;
         }
@@ -150,18 +149,18 @@ impl Grid {
         let total = SONAR_RING_MM + f64::from(range_mm);
         let mut s = SONAR_RING_MM;
         while s < total - CELL_MM {
-            if let Some(i) = self.cell((at.0 + d.0 * s, at.1 + d.1 * s)) {
+            if let Some(i) = self.cell(pt(at.x + d.x * s, at.y + d.y * s)) {
                 self.cells[i] = self.cells[i].saturating_sub(1);
             }
             s += CELL_MM;
         }
-        if let Some(i) = self.cell((at.0 + d.0 * total, at.1 + d.1 * total)) {
+        if let Some(i) = self.cell(pt(at.x + d.x * total, at.y + d.y * total)) {
             self.cells[i] = (self.cells[i] + 3).min(15);
         }
     }
 
     /// Cells at least this certain, as points.
-    pub fn occupied(&self, min: u8) -> Vec<((f64, f64), u8)> {
+    pub fn occupied(&self, min: u8) -> Vec<(Point, u8)> {
         self.cells
             .iter()
             .enumerate()
@@ -178,7 +177,7 @@ pub struct HallwayWalls {
     /// directionless.
     pub orientation_deg: f64,
     /// The walls' common unit normal (x, y).
-    pub normal: (f64, f64),
+    pub normal: Vector,
     /// Each wall's distance from the frame's origin along the normal, mm:
     /// wall `i` is the set of points `p` with `p · normal = rho[i]`.
     pub rho: [f64; 2],
@@ -187,14 +186,14 @@ pub struct HallwayWalls {
 impl HallwayWalls {
     /// Signed distances of each wall from `p` along the normal turned to
     /// point left of `heading_deg`, mm: the left wall's is positive.
-    pub fn beside(&self, p: (f64, f64), heading_deg: f64) -> [f64; 2] {
+    pub fn beside(&self, p: Point, heading_deg: f64) -> [f64; 2] {
         let left = direction(heading_deg + 90.0);
-        let sign = if left.0 * self.normal.0 + left.1 * self.normal.1 >= 0.0 {
+        let sign = if left.dot(&self.normal) >= 0.0 {
             1.0
         } else {
             -1.0
         };
-        let at = p.0 * self.normal.0 + p.1 * self.normal.1;
+        let at = p.coords.dot(&self.normal);
         self.rho.map(|r| sign * (r - at))
     }
 }
@@ -203,7 +202,7 @@ impl HallwayWalls {
 /// a parallel one at least `min_gap_mm` away. `None` when no such pair.
 /// The result is the lines' direction, degrees in [0, 180) (North 0, West
 /// 90): directionless.
-pub fn hallway_orientation(points: &[((f64, f64), u8)], min_gap_mm: f64) -> Option<f64> {
+pub fn hallway_orientation(points: &[(Point, u8)], min_gap_mm: f64) -> Option<f64> {
     hallway_walls(points, min_gap_mm, None).map(|w| w.orientation_deg)
 }
 
@@ -212,35 +211,39 @@ pub fn hallway_orientation(points: &[((f64, f64), u8)], min_gap_mm: f64) -> Opti
 /// `near` = (point, mm) when there are enough of them there (the walls
 /// beside the robot now, not where odometry had drifted less), else all.
 pub fn hallway_walls(
-    points: &[((f64, f64), u8)],
+    points: &[(Point, u8)],
     min_gap_mm: f64,
-    near: Option<((f64, f64), f64)>,
+    near: Option<(Point, f64)>,
 ) -> Option<HallwayWalls> {
     if points.len() < 10 {
         return None;
     }
     const STEPS: usize = 360; // half-degree steps over 180°
     let rho_cell = CELL_MM;
-    let (cx, cy) = points
-        .iter()
-        .fold((0.0, 0.0), |a, (p, _)| (a.0 + p.0, a.1 + p.1));
-    let (cx, cy) = (cx / points.len() as f64, cy / points.len() as f64);
+    // The centroid, so the accumulator's distances stay small.
+    let c0 = Point::from(
+        points
+            .iter()
+            .fold(Vector::zeros(), |a, (p, _)| a + p.coords)
+            / points.len() as f64,
+    );
     let rmax = points
         .iter()
-        .map(|(p, _)| (p.0 - cx).hypot(p.1 - cy))
+        .map(|(p, _)| distance(*p, c0))
         .fold(0.0, f64::max);
     let nr = (2.0 * rmax / rho_cell).ceil() as usize + 2;
     let mut acc = vec![0u32; STEPS * nr];
-    let trig: Vec<(f64, f64)> = (0..STEPS)
+    // Unit normals at 0°, 0.5°, … from +x.
+    let trig: Vec<Vector> = (0..STEPS)
         .map(|k| {
             let t = (k as f64 * 0.5).to_radians();
-            (t.cos(), t.sin())
+            Vector::new(t.cos(), t.sin())
         })
         .collect();
-    for ((x, y), w) in points {
-        for (k, (c, s)) in trig.iter().enumerate() {
+    for (p, w) in points {
+        for (k, n) in trig.iter().enumerate() {
             // The line's normal makes angle t with +x.
-            let rho = (x - cx) * c + (y - cy) * s;
+            let rho = (p - c0).dot(n);
             let r = ((rho + rmax) / rho_cell).round() as usize;
             acc[k * nr + r] += u32::from(*w);
         }
@@ -265,14 +268,14 @@ pub fn hallway_walls(
     // direction at angle φ from +x has heading φ − 90° (North 0, West 90).
     let normal_from_x = k as f64 * 0.5;
     let normal = trig[k];
-    let centre = cx * normal.0 + cy * normal.1;
+    let centre = c0.coords.dot(&normal);
     let coarse = |rr: usize| centre + rr as f64 * rho_cell - rmax;
     let refine = |guess: f64| {
-        let on_line = |p: &(f64, f64)| (p.0 * normal.0 + p.1 * normal.1 - guess).abs() < 250.0;
-        let mean = |pts: &mut dyn Iterator<Item = &((f64, f64), u8)>| {
+        let on_line = |p: &Point| (p.coords.dot(&normal) - guess).abs() < 250.0;
+        let mean = |pts: &mut dyn Iterator<Item = &(Point, u8)>| {
             let (mut sum, mut weight, mut n) = (0.0, 0.0, 0usize);
             for (p, w) in pts {
-                sum += f64::from(*w) * (p.0 * normal.0 + p.1 * normal.1);
+                sum += f64::from(*w) * p.coords.dot(&normal);
                 weight += f64::from(*w);
                 n += 1;
             }
@@ -305,22 +308,22 @@ pub fn hallway_walls(
 /// rather than the average over the map. `None` when that stretch is too
 /// short or too sparse to tell.
 fn local_fit(
-    points: &[((f64, f64), u8)],
+    points: &[(Point, u8)],
     rough: &HallwayWalls,
-    at: (f64, f64),
+    at: Point,
     within: f64,
 ) -> Option<HallwayWalls> {
     let n = rough.normal;
-    let u = (-n.1, n.0);
+    let u = Vector::new(-n.y, n.x);
     let mut lines: [Vec<(f64, f64, f64)>; 2] = [Vec::new(), Vec::new()];
     for (p, w) in points {
         if distance(*p, at) > within {
             continue;
         }
-        let t = p.0 * n.0 + p.1 * n.1;
+        let t = p.coords.dot(&n);
         for (i, rho) in rough.rho.iter().enumerate() {
             if (t - rho).abs() < 400.0 {
-                lines[i].push((p.0 * u.0 + p.1 * u.1, t, f64::from(*w)));
+                lines[i].push((p.coords.dot(&u), t, f64::from(*w)));
             }
         }
     }
@@ -347,12 +350,11 @@ fn local_fit(
         return None;
     }
     let len = (1.0 + b * b).sqrt();
-    let normal = ((n.0 - b * u.0) / len, (n.1 - b * u.1) / len);
-    let s_at = at.0 * u.0 + at.1 * u.1;
+    let normal = (n - u * b) / len;
+    let s_at = at.coords.dot(&u);
     let rho = means.map(|(ms, mt)| {
         let t = mt + b * (s_at - ms);
-        let p = (s_at * u.0 + t * n.0, s_at * u.1 + t * n.1);
-        p.0 * normal.0 + p.1 * normal.1
+        (u * s_at + n * t).dot(&normal)
     });
     Some(HallwayWalls {
         orientation_deg: (rough.orientation_deg - b.atan().to_degrees()).rem_euclid(180.0),
@@ -368,7 +370,7 @@ fn local_fit(
 /// as the map's, within `tolerance_mm`).
 pub fn sideways_fix(
     walls: &HallwayWalls,
-    p: (f64, f64),
+    p: Point,
     corridor: &crate::board::Corridor,
     tolerance_mm: f64,
 ) -> Option<f64> {
@@ -385,19 +387,14 @@ pub fn sideways_fix(
     // odometry says.
     let seen = ((left - seen_left) + (seen_right - right)) / 2.0;
     let n = direction(corridor.heading_deg + 90.0);
-    let odometry = (p.0 - corridor.x_mm) * n.0 + (p.1 - corridor.y_mm) * n.1;
+    let odometry = (p.x - corridor.x_mm) * n.x + (p.y - corridor.y_mm) * n.y;
     Some(seen - odometry)
 }
 
 /// The angle between a directionless orientation `alpha_deg` and the
 /// straight track from `from` to `to` (both in the odometry frame),
 /// degrees in [0, 90]; `None` when the track is shorter than `min_mm`.
-pub fn track_disagreement(
-    alpha_deg: f64,
-    from: (f64, f64),
-    to: (f64, f64),
-    min_mm: f64,
-) -> Option<f64> {
+pub fn track_disagreement(alpha_deg: f64, from: Point, to: Point, min_mm: f64) -> Option<f64> {
     if distance(from, to) < min_mm {
         return None;
     }
@@ -461,7 +458,7 @@ impl Himm {
     /// drives, every half metre or so, for as long as scans come.
     async fn compensate(&self) -> Result<(), NavError> {
         let scans = self.robot.scans().await?;
-        let mut last: Option<(f64, f64)> = None;
+        let mut last: Option<Point> = None;
         let mut driven = 0.0;
         let mut n = 0u32;
         while let Some(scan) = scans.next().await {
@@ -472,7 +469,7 @@ impl Himm {
                 continue;
             }
             let p = self.robot.pose().await?;
-            let at = (f64::from(p.x_mm), f64::from(p.y_mm));
+            let at = Pose::from(&p).at;
             if let Some(before) = last {
                 let step = distance(before, at);
                 // A jump is a correction or a set-pose, not driving.
@@ -523,10 +520,7 @@ impl Himm {
                 let corridor: Option<Corridor> = self.board.get(Var::Corridor).await.ok();
                 let corridor = corridor.as_ref();
                 let p = self.robot.pose().await?;
-                let mut grid = Grid::new(
-                    (f64::from(p.x_mm), f64::from(p.y_mm)),
-                    self.cfg.half_side_mm,
-                );
+                let mut grid = Grid::new(Pose::from(&p).at, self.cfg.half_side_mm);
                 let mut seen = 0i64;
                 let mut in_map = 0i64;
                 while seen < total {
@@ -535,7 +529,7 @@ impl Himm {
                             seen += 1;
                             in_map += 1;
                             let p = self.robot.pose().await?;
-                            let now = (f64::from(p.x_mm), f64::from(p.y_mm));
+                            let now = Pose::from(&p).at;
                             let mapped = distance(grid.origin, now);
                             // Every three lights as in the thesis, and also at
                             // the segment's last light once the map is long
@@ -547,7 +541,7 @@ impl Himm {
                             if in_map >= self.cfg.lights_per_map || last || long {
                                 self.correct(&grid, now, goal, corridor, seen).await?;
                                 let p = self.robot.pose().await?;
-                                grid = Grid::new((f64::from(p.x_mm), f64::from(p.y_mm)), self.cfg.half_side_mm);
+                                grid = Grid::new(Pose::from(&p).at, self.cfg.half_side_mm);
                                 in_map = 0;
                             }
                         }
@@ -555,7 +549,7 @@ impl Himm {
                             // A map that has grown this long without three
                             // lights (lights far apart) is used as it is.
                             let p0 = self.robot.pose().await?;
-                            let now = (f64::from(p0.x_mm), f64::from(p0.y_mm));
+                            let now = Pose::from(&p0).at;
                             if distance(grid.origin, now) > self.cfg.max_map_mm {
                                 self.correct(&grid, now, goal, corridor, seen).await?;
                                 grid = Grid::new(now, self.cfg.half_side_mm);
@@ -568,9 +562,8 @@ impl Himm {
                             // Where the ring fired, not where the robot is
                             // by the time the scan got here.
                             let p = track.at(&self.robot, scan.time_ms).await?;
-                            let at = (p.x, p.y);
                             for (i, r) in scan.sonar_mm.iter().enumerate() {
-                                grid.add(at, p.heading + crate::navigator::bearing(i), *r);
+                                grid.add(p.at, p.heading.deg() + crate::navigator::bearing(i), *r);
                             }
                         }
                     }
@@ -594,7 +587,7 @@ impl Himm {
     async fn correct(
         &self,
         grid: &Grid,
-        now: (f64, f64),
+        now: Point,
         goal: f64,
         corridor: Option<&Corridor>,
         light: i64,
@@ -636,8 +629,8 @@ impl Himm {
         let left = direction(goal + 90.0);
         self.robot
             .adjust_pose(
-                (left.0 * shift).round() as i64,
-                (left.1 * shift).round() as i64,
+                (left.x * shift).round() as i64,
+                (left.y * shift).round() as i64,
                 fix,
             )
             .await?;
@@ -664,11 +657,11 @@ mod tests {
     fn corridor(heading_deg: f64, width_mm: f64) -> Grid {
         // A robot driving along a corridor, its side sonars hitting both
         // walls every 40 mm (a scan every 0.1 s at 0.4 m/s).
-        let mut g = Grid::new((0.0, 0.0), 12_000.0);
+        let mut g = Grid::new(pt(0.0, 0.0), 12_000.0);
         let d = direction(heading_deg);
         for k in 0..250 {
             let s = -5_000.0 + 40.0 * f64::from(k);
-            let at = (d.0 * s, d.1 * s);
+            let at = Point::origin() + d * s;
             let side = width_mm / 2.0 - SONAR_RING_MM;
             g.add(at, heading_deg + 90.0, side as u32);
             g.add(at, heading_deg - 90.0, side as u32);
@@ -678,19 +671,20 @@ mod tests {
 
     #[test]
     fn himm_raises_the_echo_cell_and_lowers_the_path() {
-        let mut g = Grid::new((0.0, 0.0), 2_000.0);
+        let mut g = Grid::new(pt(0.0, 0.0), 2_000.0);
         for _ in 0..6 {
-            g.add((0.0, 0.0), 0.0, 1_000);
+            g.add(pt(0.0, 0.0), 0.0, 1_000);
         }
         let hits = g.occupied(15);
         assert_eq!(hits.len(), 1);
-        let ((x, y), _) = hits[0];
+        let (Point { coords: c }, _) = hits[0];
+        let (x, y) = (c.x, c.y);
         assert!(x.abs() < 100.0 && (y - 1_380.0).abs() < 100.0, "{x} {y}");
         // A later echo farther along the same axis clears the old cell.
         for _ in 0..15 {
-            g.add((0.0, 0.0), 0.0, 1_800);
+            g.add(pt(0.0, 0.0), 0.0, 1_800);
         }
-        assert!(g.occupied(1).iter().all(|((_, y), _)| *y > 2_000.0));
+        assert!(g.occupied(1).iter().all(|(p, _)| p.y > 2_000.0));
     }
 
     #[test]
@@ -707,9 +701,9 @@ mod tests {
     fn both_walls_are_placed_within_a_few_centimetres() {
         for heading in [0.0, 90.0, -33.0] {
             let g = corridor(heading, 3_660.0);
-            let w = hallway_walls(&g.occupied(6), 1_000.0, Some(((0.0, 0.0), 5_000.0)))
+            let w = hallway_walls(&g.occupied(6), 1_000.0, Some((pt(0.0, 0.0), 5_000.0)))
                 .expect("two walls");
-            let mut d = w.beside((0.0, 0.0), heading);
+            let mut d = w.beside(pt(0.0, 0.0), heading);
             d.sort_by(f64::total_cmp);
             assert!((d[0] + 1_830.0).abs() < 80.0, "heading {heading}: {d:?}");
             assert!((d[1] - 1_830.0).abs() < 80.0, "heading {heading}: {d:?}");
@@ -731,10 +725,10 @@ mod tests {
         // right of where odometry puts the robot.
         let walls = HallwayWalls {
             orientation_deg: 0.0,
-            normal: (1.0, 0.0),
+            normal: rome_maps::geometry::Vector::new(1.0, 0.0),
             rho: [-2_330.0, 1_330.0],
         };
-        let shift = sideways_fix(&walls, (-200.0, 5_000.0), &corridor, 400.0).expect("a fix");
+        let shift = sideways_fix(&walls, pt(-200.0, 5_000.0), &corridor, 400.0).expect("a fix");
         assert!((shift + 500.0).abs() < 1e-6, "{shift}");
         // Walls much wider apart than the map's are not this corridor's.
         let wide = HallwayWalls {
@@ -742,7 +736,7 @@ mod tests {
             ..walls
         };
         assert_eq!(
-            sideways_fix(&wide, (-200.0, 5_000.0), &corridor, 400.0),
+            sideways_fix(&wide, pt(-200.0, 5_000.0), &corridor, 400.0),
             None
         );
         // Without the map's walls there is nothing to compare with.
@@ -751,16 +745,16 @@ mod tests {
             ..corridor
         };
         assert_eq!(
-            sideways_fix(&walls, (-200.0, 5_000.0), &unknown, 400.0),
+            sideways_fix(&walls, pt(-200.0, 5_000.0), &unknown, 400.0),
             None
         );
     }
 
     #[test]
     fn one_wall_alone_gives_no_orientation() {
-        let mut g = Grid::new((0.0, 0.0), 12_000.0);
+        let mut g = Grid::new(pt(0.0, 0.0), 12_000.0);
         for k in 0..250 {
-            g.add((0.0, -5_000.0 + 40.0 * f64::from(k)), 90.0, 1_000);
+            g.add(pt(0.0, -5_000.0 + 40.0 * f64::from(k)), 90.0, 1_000);
         }
         assert_eq!(hallway_orientation(&g.occupied(6), 1_000.0), None);
     }
@@ -776,17 +770,17 @@ mod tests {
     #[test]
     fn walls_are_checked_against_the_robots_track() {
         // 10 m due West (heading 90) with the walls found at 93°: 3° off.
-        let off = track_disagreement(93.0, (0.0, 0.0), (-10_000.0, 0.0), 6_000.0).unwrap();
+        let off = track_disagreement(93.0, pt(0.0, 0.0), pt(-10_000.0, 0.0), 6_000.0).unwrap();
         assert!((off - 3.0).abs() < 1e-9, "{off}");
         // Directionless: walls at -87° are the same line as 93°.
-        let off = track_disagreement(-87.0, (0.0, 0.0), (-10_000.0, 0.0), 6_000.0).unwrap();
+        let off = track_disagreement(-87.0, pt(0.0, 0.0), pt(-10_000.0, 0.0), 6_000.0).unwrap();
         assert!((off - 3.0).abs() < 1e-9, "{off}");
         // Heading North while the walls run East-West: a side corridor.
-        let off = track_disagreement(90.0, (0.0, 0.0), (0.0, 8_000.0), 6_000.0).unwrap();
+        let off = track_disagreement(90.0, pt(0.0, 0.0), pt(0.0, 8_000.0), 6_000.0).unwrap();
         assert!((off - 90.0).abs() < 1e-9, "{off}");
         // Too short a track to tell.
         assert_eq!(
-            track_disagreement(0.0, (0.0, 0.0), (0.0, 2_000.0), 6_000.0),
+            track_disagreement(0.0, pt(0.0, 0.0), pt(0.0, 2_000.0), 6_000.0),
             None
         );
     }

@@ -115,22 +115,8 @@ pub enum Drive {
     Halt,
 }
 
-/// A pose from the base, in the odometry frame.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Pose {
-    /// mm.
-    pub x: f64,
-    /// mm.
-    pub y: f64,
-    /// degrees.
-    pub heading: f64,
-}
-
-impl Pose {
-    fn dist(&self, o: &Pose) -> f64 {
-        (self.x - o.x).hypot(self.y - o.y)
-    }
-}
+/// A pose, here in the odometry frame: the project's one pose type.
+pub use rome_maps::geometry::Pose;
 
 /// What the Navigator did: goals carried out per mode, and each failure.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -295,12 +281,7 @@ impl Navigator {
     }
 
     async fn pose(&mut self) -> Result<Pose, NavError> {
-        let p = self.robot.pose().await?;
-        let pose = Pose {
-            x: f64::from(p.x_mm),
-            y: f64::from(p.y_mm),
-            heading: p.heading_deg,
-        };
+        let pose = Pose::from(&self.robot.pose().await?);
         Ok(self.odometer_to(pose))
     }
 
@@ -403,7 +384,7 @@ impl Navigator {
             self.send(Drive::Halt).await?;
             self.settle(scans).await?;
             pose = self.pose().await?;
-            let turn = normalize_deg(goal.direction_deg - pose.heading);
+            let turn = normalize_deg(goal.direction_deg - pose.heading.deg());
             if turn.abs() > 2.0 {
                 self.send(Drive::Turn(turn)).await?;
                 self.settle(scans).await?;
@@ -426,7 +407,7 @@ impl Navigator {
             // The goal function: progress along the goal direction, so a
             // robot that swerves round another does not count the swerve.
             let axis = rome_maps::geometry::direction(goal.direction_deg);
-            let travelled = (pose.x - start.x) * axis.0 + (pose.y - start.y) * axis.1;
+            let travelled = (pose.at.x - start.at.x) * axis.x + (pose.at.y - start.at.y) * axis.y;
             let speed = self.robot_speed();
             // Braking distance, and what is driven while the pose and the
             // stop travel the link (a real robot runs at real time, so the
@@ -446,7 +427,8 @@ impl Navigator {
                 GoalType::E => {
                     // The end wall of the turning space stands about half a
                     // hallway beyond its middle.
-                    let ahead = scan.sonar_mm[sonar_towards(goal.direction_deg - pose.heading)];
+                    let ahead =
+                        scan.sonar_mm[sonar_towards(goal.direction_deg - pose.heading.deg())];
                     let near = walls.width().map_or(1_200.0, |w| w / 2.0 + 300.0);
                     let remaining = goal.distance as f64 - travelled;
                     travelled + stopping >= goal.distance as f64
@@ -461,7 +443,7 @@ impl Navigator {
                 corner_step(
                     &self.cfg,
                     &scan,
-                    pose.heading,
+                    pose.heading.deg(),
                     goal.direction_deg,
                     &mut walls,
                     self.odometer,
@@ -477,7 +459,7 @@ impl Navigator {
                 hallway.step(
                     &self.cfg,
                     &scan.sonar_mm,
-                    pose.heading,
+                    pose.heading.deg(),
                     goal.direction_deg,
                     self.odometer,
                     scan.time_ms,
@@ -485,9 +467,9 @@ impl Navigator {
             };
             tracing::debug!(
                 t = scan.time_ms,
-                x = pose.x,
-                y = pose.y,
-                heading = pose.heading,
+                x = pose.at.x,
+                y = pose.at.y,
+                heading = pose.heading.deg(),
                 left = scan.sonar_mm[18],
                 right = scan.sonar_mm[6],
                 ?drive,
@@ -573,7 +555,7 @@ impl Navigator {
             tracing::warn!(front = b.front, rear = b.rear, "navigator: bumper contact");
             let back = if b.front { -300.0 } else { 300.0 };
             self.robot.move_by(back, 200.0, -1.0).await?;
-            let err = normalize_deg(goal.direction_deg - pose.heading);
+            let err = normalize_deg(goal.direction_deg - pose.heading.deg());
             let turn = if err.abs() >= 5.0 {
                 err.clamp(-30.0, 30.0)
             } else if scan.sonar_mm[18] > scan.sonar_mm[6] {
@@ -589,7 +571,7 @@ impl Navigator {
 
     /// Check-Goal: a heading far off the goal direction is turned back.
     async fn check_goal(&mut self, pose: &Pose, goal: &Goal, corner: bool) -> Result<(), NavError> {
-        let err = normalize_deg(goal.direction_deg - pose.heading);
+        let err = normalize_deg(goal.direction_deg - pose.heading.deg());
         if err.abs() > if corner { 10.0 } else { 20.0 } {
             tracing::info!(
                 err,
@@ -606,9 +588,9 @@ impl Navigator {
             goal: self.goals,
             goal_type: goal.goal_type,
             state: if corner { "corner" } else { "center-hallway" }.into(),
-            x_mm: pose.x.round() as i64,
-            y_mm: pose.y.round() as i64,
-            heading_deg: (pose.heading * 10.0).round() / 10.0,
+            x_mm: pose.at.x.round() as i64,
+            y_mm: pose.at.y.round() as i64,
+            heading_deg: (pose.heading.deg() * 10.0).round() / 10.0,
             safe_mm: self
                 .hallway
                 .as_ref()

@@ -124,13 +124,13 @@ impl Plan {
             };
             let end_t = if last { len } else { len - LIGHT_END_MARGIN_MM };
             let d = direction(heading);
-            let at = |t: f64| (a.0 + d.0 * t, a.1 + d.1 * t);
+            let at = |t: f64| a + d * t;
             let mut ts: Vec<f64> = lights
                 .iter()
                 .filter_map(|p| {
-                    let (dx, dy) = (p.0 - a.0, p.1 - a.1);
-                    let t = dx * d.0 + dy * d.1;
-                    let lateral = (dx * d.1 - dy * d.0).abs();
+                    let (dx, dy) = (p.x - a.x, p.y - a.y);
+                    let t = dx * d.x + dy * d.y;
+                    let lateral = (dx * d.y - dy * d.x).abs();
                     (lateral <= LIGHT_LATERAL_MM
                         && t >= start_t + LIGHT_START_MARGIN_MM
                         && t <= end_t)
@@ -185,7 +185,7 @@ impl Plan {
                     subpath,
                     light_offsets_mm: Vec::new(),
                     from: b,
-                    to: (b.0 + nd.0 * leave, b.1 + nd.1 * leave),
+                    to: b + nd * leave,
                     walls_mm: None,
                 });
             }
@@ -265,8 +265,8 @@ fn passages_on(
     for (i, &(a, _, len, heading)) in legs.iter().enumerate() {
         let d = direction(heading);
         let project = |p: Point| {
-            let (dx, dy) = (p.0 - a.0, p.1 - a.1);
-            (dx * d.0 + dy * d.1, (dx * d.1 - dy * d.0).abs())
+            let (dx, dy) = (p.x - a.x, p.y - a.y);
+            (dx * d.x + dy * d.y, (dx * d.y - dy * d.x).abs())
         };
         let subpath = i + 1;
         for seg in &world.segments {
@@ -315,14 +315,14 @@ fn ray(world: &World, at: Point, heading_deg: f64, max_mm: f64) -> Option<f64> {
         .iter()
         .filter(|s| s.kind != rome_maps::model::EdgeKind::Opening)
         .filter_map(|s| {
-            let e = (s.b.0 - s.a.0, s.b.1 - s.a.1);
-            let det = d.0 * e.1 - d.1 * e.0;
+            let e = (s.b.x - s.a.x, s.b.y - s.a.y);
+            let det = d.x * e.1 - d.y * e.0;
             if det.abs() < 1e-9 {
                 return None;
             }
-            let w = (s.a.0 - at.0, s.a.1 - at.1);
+            let w = (s.a.x - at.x, s.a.y - at.y);
             let t = (w.0 * e.1 - w.1 * e.0) / det;
-            let u = (w.0 * d.1 - w.1 * d.0) / det;
+            let u = (w.0 * d.y - w.1 * d.x) / det;
             (t > 0.0 && (0.0..=1.0).contains(&u)).then_some(t)
         })
         .fold(None, |best: Option<f64>, t| {
@@ -344,7 +344,7 @@ fn walls_beside(world: &World, from: Point, to: Point, heading_deg: f64) -> Opti
     let (mut left, mut right) = (Vec::new(), Vec::new());
     for k in 0..=10 {
         let f = f64::from(k) / 10.0;
-        let p = (from.0 + (to.0 - from.0) * f, from.1 + (to.1 - from.1) * f);
+        let p = from + (to - from) * f;
         left.extend(ray(world, p, heading_deg + 90.0, 5_000.0));
         right.extend(ray(world, p, heading_deg - 90.0, 5_000.0));
     }

@@ -81,7 +81,7 @@ pub async fn put_down(
         )));
     }
     robot
-        .set_pose(start.0.round() as i64, start.1.round() as i64, facing)
+        .set_pose(start.x.round() as i64, start.y.round() as i64, facing)
         .await?;
     let turn = rome_maps::geometry::normalize_deg(plan.start_heading_deg - facing);
     if turn.abs() > 1.0 {

@@ -380,7 +380,7 @@ impl PlFinder {
             };
             let sonar = self.robot.sonar().await?;
             lock.unlock().await?;
-            let beta = normalize_deg(pose.heading - goal);
+            let beta = normalize_deg(pose.heading.deg() - goal);
             let reading = f64::from(sonar.sonar_mm.get(18).copied().unwrap_or(u32::MAX));
             if beta.abs() >= BETA_LIMIT_DEG || reading >= 5_000.0 {
                 last = None;
@@ -388,12 +388,8 @@ impl PlFinder {
             }
             let d = reading * beta.to_radians().cos();
             let heading = pose.heading;
-            let eye_dir = direction(heading + 90.0);
-            let centre = (pose.x, pose.y);
-            let eye = (
-                centre.0 + eye_dir.0 * self.cfg.ring_mm,
-                centre.1 + eye_dir.1 * self.cfg.ring_mm,
-            );
+            let eye_dir = direction(heading.deg() + 90.0);
+            let eye = pose.at + eye_dir * self.cfg.ring_mm;
             let (l, r) = view_on_wall(d, beta, self.cfg.half_fov_deg);
             let start_col = match &last {
                 Some(prev) => {
@@ -421,10 +417,7 @@ impl PlFinder {
                 let s = d * (off - beta).to_radians().tan();
                 let normal = direction(goal + 90.0);
                 let along = direction(goal);
-                let at = (
-                    eye.0 + normal.0 * d + along.0 * s,
-                    eye.1 + normal.1 * d + along.1 * s,
-                );
+                let at = eye + normal * d + along * s;
                 if reported.iter().any(|p| distance(*p, at) < 500.0) {
                     continue;
                 }
@@ -438,8 +431,8 @@ impl PlFinder {
                     .filter(|(_, e)| *e <= 1_500.0);
                 let report = PlateReport {
                     frame: frame.frame,
-                    x_mm: at.0.round() as i64,
-                    y_mm: at.1.round() as i64,
+                    x_mm: at.x.round() as i64,
+                    y_mm: at.y.round() as i64,
                     bbox: [c.bbox[0], c.bbox[1] + top, c.bbox[2], c.bbox[3] + top],
                     label: near.map(|(l, _)| l.clone()),
                     error_mm: near.map(|(_, e)| e.round() as i64),

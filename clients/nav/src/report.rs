@@ -22,7 +22,7 @@ use crate::ctracker::SegmentLog;
 use crate::navigator::NavLog;
 use crate::plan::{ModeCount, Plan, Step};
 use crate::planner::Handed;
-use rome_maps::geometry::{direction, distance, normalize_deg, Point};
+use rome_maps::geometry::{direction, distance, normalize_deg, pt, Point, Pose};
 use rome_maps::render::{self, Rgb, Shape};
 use rome_maps::{Map, World};
 use rome_schema::sim::{ContactCount, Truth};
@@ -52,7 +52,7 @@ pub fn judge_step(
         },
         GoalType::D => {
             let t = truth?;
-            let miss = distance((t.x_mm, t.y_mm), step.to);
+            let miss = distance(Pose::from(t).at, step.to);
             (miss > ARRIVED_CM * 10.0)
                 .then(|| format!("stopped {:.2} m from its goal", miss / 1_000.0))
         }
@@ -61,9 +61,9 @@ pub fn judge_step(
             let heading = step.goal.direction_deg;
             let off = normalize_deg(t.heading_deg - heading);
             let d = direction(heading);
-            let (dx, dy) = (t.x_mm - step.from.0, t.y_mm - step.from.1);
-            let along = dx * d.0 + dy * d.1;
-            let lateral = (dx * d.1 - dy * d.0).abs();
+            let (dx, dy) = (t.x_mm - step.from.x, t.y_mm - step.from.y);
+            let along = dx * d.x + dy * d.y;
+            let lateral = (dx * d.y - dy * d.x).abs();
             if off.abs() > CORNER_HEADING_DEG {
                 Some(format!(
                     "heading {off:+.0}° off the corridor it should enter"
@@ -167,7 +167,8 @@ impl Report {
             .last()
             .map_or(e.plan.start_heading_deg, |l| l.3);
         let d = direction(last_heading);
-        let (dx, dy) = (end.x_mm - goal.0, end.y_mm - goal.1);
+        let end_at = Pose::from(end).at;
+        let off = end_at - goal;
         let mut done = ModeCount::default();
         for h in &e.steps {
             if h.failure.is_some() {
@@ -187,10 +188,10 @@ impl Report {
             modes_needed: e.plan.modes(),
             modes_done: done,
             driven_m: (end.travelled_mm - start.travelled_mm) / 1_000.0,
-            to_goal_cm: (dx * d.0 + dy * d.1) / 10.0,
-            off_line_cm: (dx * d.1 - dy * d.0).abs() / 10.0,
-            miss_cm: distance((end.x_mm, end.y_mm), goal) / 10.0,
-            odometry_error_cm: e.odometry.map(|o| distance(o, (end.x_mm, end.y_mm)) / 10.0),
+            to_goal_cm: off.dot(&d) / 10.0,
+            off_line_cm: off.perp(&d).abs() / 10.0,
+            miss_cm: distance(end_at, goal) / 10.0,
+            odometry_error_cm: e.odometry.map(|o| distance(o, end_at) / 10.0),
             odometry_max_error_cm: e.odometry_max_error_mm.map(|m| m / 10.0),
             run_time: Duration::from_millis(end.time_ms.saturating_sub(start.time_ms)),
             wall_time: e.wall_time,
@@ -382,7 +383,7 @@ pub fn fleet_picture(reports: &[Report], map: &Map, world: &World, width_px: u32
         }
         for p in &r.plates {
             overlay.push(Shape::Dot {
-                at: (p.x_mm as f64, p.y_mm as f64),
+                at: pt(p.x_mm as f64, p.y_mm as f64),
                 radius: 3.0,
                 color: render::FOUND,
             });
@@ -429,7 +430,7 @@ mod tests {
 
     #[test]
     fn a_d_segment_fails_beyond_a_metre_from_its_goal() {
-        let s = step(GoalType::D, (0.0, 0.0), (0.0, 10_000.0), 0.0);
+        let s = step(GoalType::D, pt(0.0, 0.0), pt(0.0, 10_000.0), 0.0);
         assert_eq!(
             judge_step(&s, Some(&truth(300.0, 9_400.0, 0.0)), None),
             None
@@ -443,7 +444,7 @@ mod tests {
     #[test]
     fn a_c_segment_fails_unless_the_robot_heads_into_the_corridor() {
         // Leaving a corner westwards (heading 90) from (0, 0).
-        let s = step(GoalType::C, (0.0, 0.0), (-1_800.0, 0.0), 90.0);
+        let s = step(GoalType::C, pt(0.0, 0.0), pt(-1_800.0, 0.0), 90.0);
         assert_eq!(
             judge_step(&s, Some(&truth(-1_700.0, 200.0, 95.0)), None),
             None
@@ -457,7 +458,7 @@ mod tests {
 
     #[test]
     fn an_l_segment_fails_when_the_lights_were_lost() {
-        let s = step(GoalType::L, (0.0, 0.0), (0.0, 10_000.0), 0.0);
+        let s = step(GoalType::L, pt(0.0, 0.0), pt(0.0, 10_000.0), 0.0);
         let log = |seen, missed, last_missed| SegmentLog {
             lights: 6,
             seen,

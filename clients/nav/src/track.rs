@@ -12,6 +12,7 @@
 use crate::navigator::Pose;
 use crate::NavError;
 use rome_client::RobotClient;
+use rome_maps::geometry::Heading;
 use std::collections::VecDeque;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
@@ -58,9 +59,8 @@ fn pose_at(states: &VecDeque<(u64, Pose)>, time_ms: u64) -> Option<Pose> {
     let (t0, p0) = states[after - 1];
     let f = (time_ms - t0) as f64 / (t1 - t0).max(1) as f64;
     Some(Pose {
-        x: p0.x + (p1.x - p0.x) * f,
-        y: p0.y + (p1.y - p0.y) * f,
-        heading: lerp_deg(p0.heading, p1.heading, f),
+        at: p0.at + (p1.at - p0.at) * f,
+        heading: Heading::from_deg(lerp_deg(p0.heading.deg(), p1.heading.deg(), f)),
     })
 }
 
@@ -81,14 +81,7 @@ impl PoseTrack {
                         if sh.states.back().is_some_and(|(t, _)| *t > s.time_ms) {
                             sh.states.clear();
                         }
-                        sh.states.push_back((
-                            s.time_ms,
-                            Pose {
-                                x: f64::from(s.x_mm),
-                                y: f64::from(s.y_mm),
-                                heading: s.heading_deg,
-                            },
-                        ));
+                        sh.states.push_back((s.time_ms, Pose::from(&s)));
                         while sh.states.len() > KEPT {
                             sh.states.pop_front();
                         }
@@ -138,12 +131,7 @@ impl PoseTrack {
                 break;
             }
         }
-        let p = robot.pose().await?;
-        Ok(Pose {
-            x: f64::from(p.x_mm),
-            y: f64::from(p.y_mm),
-            heading: p.heading_deg,
-        })
+        Ok(Pose::from(&robot.pose().await?))
     }
 }
 
@@ -152,17 +140,17 @@ mod tests {
     use super::*;
 
     fn p(x: f64, heading: f64) -> Pose {
-        Pose { x, y: 0.0, heading }
+        Pose::new(x, 0.0, heading)
     }
 
     #[test]
     fn the_pose_between_two_states_is_interpolated_and_headings_wrap() {
         let states: VecDeque<(u64, Pose)> = [(100, p(0.0, 350.0)), (200, p(100.0, 10.0))].into();
         let mid = pose_at(&states, 150).unwrap();
-        assert!((mid.x - 50.0).abs() < 1e-9);
-        assert!(mid.heading.abs() < 1e-9 || (mid.heading - 360.0).abs() < 1e-9);
-        assert_eq!(pose_at(&states, 200).unwrap().x, 100.0);
-        assert_eq!(pose_at(&states, 100).unwrap().x, 0.0);
+        assert!((mid.at.x - 50.0).abs() < 1e-9);
+        assert!(mid.heading.deg().abs() < 1e-9 || (mid.heading.deg() - 360.0).abs() < 1e-9);
+        assert_eq!(pose_at(&states, 200).unwrap().at.x, 100.0);
+        assert_eq!(pose_at(&states, 100).unwrap().at.x, 0.0);
         // Not yet reached: the caller waits for the stream.
         assert!(pose_at(&states, 201).is_none());
     }

@@ -130,7 +130,7 @@ pub fn pick_routes(
         world
             .position(name)
             .map(|p| p.in_corridor())
-            .unwrap_or((f64::NAN, f64::NAN))
+            .unwrap_or(Point::new(f64::NAN, f64::NAN))
     };
     let mut state = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
     let mut next = |m: usize| {
@@ -369,14 +369,7 @@ impl Rig {
         for (robot, plan) in plans {
             let (start, _) = plan.ends();
             let i = sim
-                .add_robot(
-                    robot,
-                    Pose {
-                        x: start.0,
-                        y: start.1,
-                        heading: plan.start_heading_deg,
-                    },
-                )
+                .add_robot(robot, Pose::new(start.x, start.y, plan.start_heading_deg))
                 .map_err(|e| NavError::Config(e.to_string()))?;
             index.push(i);
         }
@@ -676,7 +669,7 @@ pub async fn run_fleet(
                     if !finished {
                         let pose_now = if registered[k] { monitors[k].pose().await.ok() } else { None };
                         if let Some(p) = pose_now {
-                            odometry_error_mm = (f64::from(p.x_mm) - pose.x).hypot(f64::from(p.y_mm) - pose.y);
+                            odometry_error_mm = Pose::from(&p).dist(&pose);
                             max_err[k] = max_err[k].max(odometry_error_mm);
                         }
                         if travelled_mm - moved[k].1 >= 500.0 {
@@ -690,8 +683,8 @@ pub async fn run_fleet(
                         } else if Duration::from_millis(now - moved[k].0) > cfg.stuck {
                             Some(format!(
                                 "the robot is stuck at ({:.1}, {:.1}) m: it has moved less than half a metre in {} of simulated time",
-                                pose.x / 1_000.0,
-                                pose.y / 1_000.0,
+                                pose.at.x / 1_000.0,
+                                pose.at.y / 1_000.0,
                                 minutes(cfg.stuck)
                             ))
                         } else {
@@ -726,7 +719,7 @@ pub async fn run_fleet(
             .robot(rig.index[k])
             .trail
             .iter()
-            .map(|p| (p.x, p.y))
+            .map(|p| p.at)
             .collect::<Vec<Point>>();
         robots.push(r);
     }
@@ -795,12 +788,7 @@ async fn drive(
     // the others.
     let _ = crew.robot.stop(false).await;
     let end = rome_hardware::truth::truth_of(&world, crew.world_index);
-    let odometry = crew
-        .robot
-        .pose()
-        .await
-        .ok()
-        .map(|p| (f64::from(p.x_mm), f64::from(p.y_mm)));
+    let odometry = crew.robot.pose().await.ok().map(|p| Pose::from(&p).at);
     let mut report = Report::new(Ended {
         robot: crew.name.clone(),
         from: crew.from.clone(),

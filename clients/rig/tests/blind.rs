@@ -76,7 +76,7 @@ async fn an_l_goal_stops_the_robot_when_the_light_count_goes_unanswered() {
     let speed = move || world.lock().robot(i).drive.wheel_speed().abs();
     let moved = until(Duration::from_secs(20), || {
         let p = rig.truth(0);
-        (p.x - start.x).hypot(p.y - start.y) > 500.0
+        (p.at.x - start.at.x).hypot(p.at.y - start.at.y) > 500.0
     })
     .await;
     assert!(moved, "the robot never set off on its L goal");

@@ -62,7 +62,7 @@ async fn two_robots_meeting_head_on_in_one_corridor_both_arrive() {
     let r = fleet(cfg, |e| {
         if let Event::Tick { robots, .. } = e {
             let (a, b) = (robots[0].pose, robots[1].pose);
-            closest = closest.min((a.x - b.x).hypot(a.y - b.y));
+            closest = closest.min((a.at.x - b.at.x).hypot(a.at.y - b.at.y));
         }
     })
     .await;
@@ -85,7 +85,7 @@ async fn a_robot_catching_up_with_a_slower_one_arrives_and_so_does_the_slow_one(
     let r = fleet(cfg, |e| {
         if let Event::Tick { robots, .. } = e {
             // Westwards: r1 behind r2 means a larger x.
-            let gap = robots[0].pose.x - robots[1].pose.x;
+            let gap = robots[0].pose.at.x - robots[1].pose.at.x;
             behind_then_level.0 |= gap > 5_000.0;
             behind_then_level.1 |= behind_then_level.0 && gap < 1_500.0;
         }
@@ -107,10 +107,10 @@ fn eb3_with_passage() -> rome_maps::Map {
     let world = rome_maps::World::from_map(&map);
     let mut tagged = 0;
     for s in &world.segments {
-        let along_n = (s.a.0 - 60_000.0).abs() < 1_500.0
-            && (s.b.0 - 60_000.0).abs() < 1_500.0
-            && s.a.1.min(s.b.1) > 8_000.0
-            && s.a.1.max(s.b.1) < 54_000.0;
+        let along_n = (s.a.x - 60_000.0).abs() < 1_500.0
+            && (s.b.x - 60_000.0).abs() < 1_500.0
+            && s.a.y.min(s.b.y) > 8_000.0
+            && s.a.y.max(s.b.y) < 54_000.0;
         if along_n {
             map.rings[s.ring].edges[s.edge]
                 .tags
@@ -133,8 +133,9 @@ async fn robots_take_turns_through_a_narrow_passage() {
             RouteSpec::new("r2", "A353R", "301L"),
         ],
     );
-    let in_n =
-        |p: &rome_sim::Pose| (p.x - 60_000.0).abs() < 1_300.0 && p.y > 9_000.0 && p.y < 53_000.0;
+    let in_n = |p: &rome_sim::Pose| {
+        (p.at.x - 60_000.0).abs() < 1_300.0 && p.at.y > 9_000.0 && p.at.y < 53_000.0
+    };
     let (mut both_inside, mut waited) = (0, Vec::new());
     let r = fleet(cfg, |e| match e {
         Event::Tick { robots, .. } if in_n(&robots[0].pose) && in_n(&robots[1].pose) => {

@@ -22,19 +22,12 @@ const QUERY_QUEUE: usize = 1024;
 
 fn truth(r: &rome_sim::Robot, time_ms: u64) -> Truth {
     let c = r.contacts;
-    Truth {
-        robot: r.name.clone(),
-        time_ms,
-        x_mm: r.pose.x,
-        y_mm: r.pose.y,
-        heading_deg: r.pose.heading,
-        travelled_mm: r.travelled_mm,
-        contacts: ContactCount {
-            wall: c.wall,
-            robot: c.robot,
-            bumper: c.bumper,
-        },
-    }
+    let contacts = ContactCount {
+        wall: c.wall,
+        robot: c.robot,
+        bumper: c.bumper,
+    };
+    rome_maps::wire::truth(&r.name, time_ms, &r.pose, r.travelled_mm, contacts)
 }
 
 /// Robot `i`'s truth now.

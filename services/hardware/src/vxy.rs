@@ -7,6 +7,8 @@
 //! travels less than 32.768 m between two reads, which the servers' state
 //! stream (10 Hz by default) guarantees for any LABMATE or Pioneer speed.
 
+use rome_maps::geometry::{Isometry2, Point, UnitComplex};
+
 /// One 16-bit register unwrapped into a wider count.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct Unwrap {
@@ -51,8 +53,9 @@ pub struct VirtualPose {
     pub y: Unwrap,
     /// Rotation of the frame, degrees (counter-clockwise, as headings).
     turn_deg: f64,
-    /// Translation after the rotation, mm.
-    shift: (f64, f64),
+    /// Device position to virtual position: the rotation by `turn_deg`,
+    /// then a translation, mm.
+    frame: Isometry2<f64>,
 }
 
 /// A pose in virtual coordinates.
@@ -76,12 +79,10 @@ impl VirtualPose {
     }
 
     fn apply(&self, x: f64, y: f64, heading: f64) -> Pose32 {
-        let (s, c) = self.turn_deg.to_radians().sin_cos();
-        let vx = c * x - s * y + self.shift.0;
-        let vy = s * x + c * y + self.shift.1;
+        let v = self.frame * Point::new(x, y);
         Pose32 {
-            x_mm: clamp32(vx),
-            y_mm: clamp32(vy),
+            x_mm: clamp32(v.x),
+            y_mm: clamp32(v.y),
             heading_deg: (heading + self.turn_deg).rem_euclid(360.0),
         }
     }
@@ -89,9 +90,10 @@ impl VirtualPose {
     /// Set Position: from now on the last read pose reads as `to`.
     pub fn set(&mut self, raw_heading_deg: f64, to: Pose32Target) {
         self.turn_deg = to.heading_deg - raw_heading_deg;
-        let (x, y) = (self.x.value() as f64, self.y.value() as f64);
-        let (s, c) = self.turn_deg.to_radians().sin_cos();
-        self.shift = (to.x_mm - (c * x - s * y), to.y_mm - (s * x + c * y));
+        let turn = UnitComplex::new(self.turn_deg.to_radians());
+        let here = Point::new(self.x.value() as f64, self.y.value() as f64);
+        let shift = Point::new(to.x_mm, to.y_mm) - turn * here;
+        self.frame = Isometry2::from_parts(shift.into(), turn);
     }
 }
 

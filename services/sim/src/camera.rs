@@ -67,9 +67,9 @@ impl PixelNoise {
 pub fn lit(scene: &Scene, near: &[usize], p: Point) -> bool {
     near.iter().any(|&li| {
         let l = &scene.lamps[li];
-        let (dx, dy) = (p.0 - l.at.0, p.1 - l.at.1);
-        let along = dx * l.along.0 + dy * l.along.1;
-        let across = dx * l.along.1 - dy * l.along.0;
+        let d = p - l.at;
+        let along = d.dot(&l.along);
+        let across = l.along.perp(&d);
         along.abs() <= LIGHT_SIZE_MM.0 / 2.0 && across.abs() <= LIGHT_SIZE_MM.1 / 2.0
     })
 }
@@ -93,7 +93,7 @@ pub fn up_image(
         .lamps
         .iter()
         .enumerate()
-        .filter(|(_, l)| (l.at.0 - at.0).hypot(l.at.1 - at.1) <= reach)
+        .filter(|(_, l)| nalgebra::distance(&l.at, &at) <= reach)
         .map(|(i, _)| i)
         .collect();
     let mut img = GrayImage::new(w, h);
@@ -101,7 +101,7 @@ pub fn up_image(
         let fwd = (0.5 - (f64::from(row) + 0.5) / f64::from(h)) * UP_VIEW_MM.1;
         for col in 0..w {
             let lat = ((f64::from(col) + 0.5) / f64::from(w) - 0.5) * UP_VIEW_MM.0;
-            let p = (at.0 + f.0 * fwd + r.0 * lat, at.1 + f.1 * fwd + r.1 * lat);
+            let p = at + f * fwd + r * lat;
             let v = if !near.is_empty() && lit(scene, &near, p) {
                 LIGHT_GREY
             } else {
@@ -129,7 +129,7 @@ pub fn side_image(
     let (w, h) = size;
     let axis = heading + sonar_bearing_deg(18);
     let ad = direction(axis);
-    let eye = (at.0 + ad.0 * ROBOT_RADIUS_MM, at.1 + ad.1 * ROBOT_RADIUS_MM);
+    let eye = at + ad * ROBOT_RADIUS_MM;
     let focal = f64::from(w) / 2.0 / (SIDE_FOV_DEG / 2.0).to_radians().tan();
     let mut img = GrayImage::new(w, h);
     for col in 0..w {

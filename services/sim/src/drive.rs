@@ -375,8 +375,8 @@ impl Odometry {
         let dh = ((right_mm - left_mm) / WHEEL_BASE_MM).to_degrees();
         let mid = self.heading + dh / 2.0;
         let dir = rome_maps::geometry::direction(mid);
-        self.x += d * dir.0;
-        self.y += d * dir.1;
+        self.x += d * dir.x;
+        self.y += d * dir.y;
         self.heading = rome_maps::geometry::normalize_deg(self.heading + dh);
     }
 

@@ -2,7 +2,7 @@
 //! sensor makes of them, corner reflectors, ceiling lights, plates, posters,
 //! metal floors and elevators, with a grid for fast nearby-wall queries.
 
-use rome_maps::geometry::{direction, Point};
+use rome_maps::geometry::{direction, Point, Vector};
 use rome_maps::model::EdgeKind;
 use rome_maps::{Map, World};
 
@@ -19,11 +19,11 @@ pub struct Wall {
     /// End.
     pub b: Point,
     /// Unit vector from a to b.
-    pub dir: Point,
+    pub dir: Vector,
     /// Length, mm.
     pub len: f64,
     /// Unit normal pointing into the corridor (right of the tracing).
-    pub normal: Point,
+    pub normal: Vector,
     /// What it is.
     pub kind: EdgeKind,
     /// The elevator this door belongs to, if it is one.
@@ -42,13 +42,13 @@ impl Wall {
     /// A plain wall of a kind from a to b: no elevator, plates or posters.
     pub fn plain(a: Point, b: Point, kind: EdgeKind) -> Wall {
         let len = rome_maps::geometry::distance(a, b).max(1e-9);
-        let dir = ((b.0 - a.0) / len, (b.1 - a.1) / len);
+        let dir = (b - a) / len;
         Wall {
             a,
             b,
             dir,
             len,
-            normal: (dir.1, -dir.0),
+            normal: Vector::new(dir.y, -dir.x),
             kind,
             elevator: None,
             bricks: false,
@@ -65,7 +65,7 @@ pub struct Lamp {
     /// Centre, mm.
     pub at: Point,
     /// Unit vector along its wall (its short side runs this way).
-    pub along: Point,
+    pub along: Vector,
 }
 
 /// An elevator: its door and whether it is open.
@@ -130,7 +130,7 @@ impl Scene {
                         .unwrap_or_else(|| format!("elevator{}", elevators.len())),
                     door: walls.len(),
                 });
-                let back = |p: Point| (p.0 - normal.0 * CABIN_MM, p.1 - normal.1 * CABIN_MM);
+                let back = |p: Point| p - normal * CABIN_MM;
                 cabins.push((s.a, back(s.a)));
                 cabins.push((back(s.a), back(s.b)));
                 cabins.push((back(s.b), s.b));
@@ -140,7 +140,7 @@ impl Scene {
             };
             if edge.tags.get("floor").map(String::as_str) == Some("metal") {
                 let depth = 2.0 * edge.lateral_mm.unwrap_or(map.lateral_mm);
-                let out = |p: Point| (p.0 + normal.0 * depth, p.1 + normal.1 * depth);
+                let out = |p: Point| p + normal * depth;
                 metal.push([s.a, s.b, out(s.b), out(s.a)]);
             }
             wall.posters = edge
@@ -183,13 +183,13 @@ impl Scene {
                 at: l.at,
                 along: world
                     .segment(l.ring, l.edge)
-                    .map_or((1.0, 0.0), |i| walls[i].dir),
+                    .map_or(Vector::x(), |i| walls[i].dir),
             })
             .collect();
         let (lo, hi) = world.bounds();
-        let lo = (lo.0 - 3.0 * CELL_MM, lo.1 - 3.0 * CELL_MM);
-        let cols = (((hi.0 - lo.0) / CELL_MM).ceil() as usize + 4).max(1);
-        let rows = (((hi.1 - lo.1) / CELL_MM).ceil() as usize + 4).max(1);
+        let lo = lo - Vector::repeat(3.0 * CELL_MM);
+        let cols = (((hi.x - lo.x) / CELL_MM).ceil() as usize + 4).max(1);
+        let rows = (((hi.y - lo.y) / CELL_MM).ceil() as usize + 4).max(1);
         let mut scene = Scene {
             walls,
             reflectors,
@@ -208,7 +208,7 @@ impl Scene {
             let mut last = usize::MAX;
             for k in 0..=steps {
                 let t = w.len * k as f64 / steps as f64;
-                let c = scene.cell_of((w.a.0 + w.dir.0 * t, w.a.1 + w.dir.1 * t));
+                let c = scene.cell_of(w.a + w.dir * t);
                 if c != last && !scene.cells[c].contains(&(i as u32)) {
                     scene.cells[c].push(i as u32);
                 }
@@ -229,10 +229,10 @@ impl Scene {
 
     /// The grid cell (column, row) holding `p`, clamped to the grid.
     pub fn cell_xy(&self, p: Point) -> (usize, usize) {
-        let cx = ((p.0 - self.lo.0) / CELL_MM)
+        let cx = ((p.x - self.lo.x) / CELL_MM)
             .floor()
             .clamp(0.0, (self.cols - 1) as f64) as usize;
-        let cy = ((p.1 - self.lo.1) / CELL_MM)
+        let cy = ((p.y - self.lo.y) / CELL_MM)
             .floor()
             .clamp(0.0, (self.rows - 1) as f64) as usize;
         (cx, cy)
@@ -267,8 +267,8 @@ impl Scene {
     /// As [`Scene::walls_near`], possibly with repeats, in no order.
     pub fn walls_near_unsorted(&self, p: Point, r: f64, out: &mut Vec<u32>) {
         out.clear();
-        let (x0, y0) = self.cell_xy((p.0 - r, p.1 - r));
-        let (x1, y1) = self.cell_xy((p.0 + r, p.1 + r));
+        let (x0, y0) = self.cell_xy(p - Vector::repeat(r));
+        let (x1, y1) = self.cell_xy(p + Vector::repeat(r));
         for cy in y0..=y1 {
             for cx in x0..=x1 {
                 out.extend_from_slice(&self.cells[cy * self.cols + cx]);
@@ -279,8 +279,8 @@ impl Scene {
     /// Indices of corner reflectors within the cells around `p` ± `r`.
     pub fn reflectors_near(&self, p: Point, r: f64, out: &mut Vec<u32>) {
         out.clear();
-        let (x0, y0) = self.cell_xy((p.0 - r, p.1 - r));
-        let (x1, y1) = self.cell_xy((p.0 + r, p.1 + r));
+        let (x0, y0) = self.cell_xy(p - Vector::repeat(r));
+        let (x1, y1) = self.cell_xy(p + Vector::repeat(r));
         for cy in y0..=y1 {
             for cx in x0..=x1 {
                 out.extend_from_slice(&self.reflector_cells[cy * self.cols + cx]);
@@ -307,7 +307,7 @@ impl Scene {
     pub fn ray_dir(
         &self,
         from: Point,
-        d: Point,
+        d: Vector,
         max: f64,
         sense: Sense,
         open: &[bool],
@@ -315,29 +315,29 @@ impl Scene {
     ) -> Option<(f64, usize, f64)> {
         // Walk the grid cells the ray crosses (Amanatides & Woo, 1987).
         let (mut cx, mut cy) = self.cell_xy(from);
-        let step_x: isize = if d.0 > 0.0 { 1 } else { -1 };
-        let step_y: isize = if d.1 > 0.0 { 1 } else { -1 };
-        let next_x = self.lo.0 + (cx as f64 + if d.0 > 0.0 { 1.0 } else { 0.0 }) * CELL_MM;
-        let next_y = self.lo.1 + (cy as f64 + if d.1 > 0.0 { 1.0 } else { 0.0 }) * CELL_MM;
-        let mut t_max_x = if d.0.abs() < 1e-12 {
+        let step_x: isize = if d.x > 0.0 { 1 } else { -1 };
+        let step_y: isize = if d.y > 0.0 { 1 } else { -1 };
+        let next_x = self.lo.x + (cx as f64 + if d.x > 0.0 { 1.0 } else { 0.0 }) * CELL_MM;
+        let next_y = self.lo.y + (cy as f64 + if d.y > 0.0 { 1.0 } else { 0.0 }) * CELL_MM;
+        let mut t_max_x = if d.x.abs() < 1e-12 {
             f64::INFINITY
         } else {
-            (next_x - from.0) / d.0
+            (next_x - from.x) / d.x
         };
-        let mut t_max_y = if d.1.abs() < 1e-12 {
+        let mut t_max_y = if d.y.abs() < 1e-12 {
             f64::INFINITY
         } else {
-            (next_y - from.1) / d.1
+            (next_y - from.y) / d.y
         };
-        let t_dx = if d.0.abs() < 1e-12 {
+        let t_dx = if d.x.abs() < 1e-12 {
             f64::INFINITY
         } else {
-            CELL_MM / d.0.abs()
+            CELL_MM / d.x.abs()
         };
-        let t_dy = if d.1.abs() < 1e-12 {
+        let t_dy = if d.y.abs() < 1e-12 {
             f64::INFINITY
         } else {
-            CELL_MM / d.1.abs()
+            CELL_MM / d.y.abs()
         };
         let mut best: Option<(f64, usize, f64)> = None;
         loop {
@@ -397,9 +397,9 @@ impl Scene {
                 continue;
             }
             let w = &self.walls[wi];
-            let t = ((p.0 - w.a.0) * w.dir.0 + (p.1 - w.a.1) * w.dir.1).clamp(0.0, w.len);
-            let q = (w.a.0 + w.dir.0 * t, w.a.1 + w.dir.1 * t);
-            let d = ((p.0 - q.0).powi(2) + (p.1 - q.1).powi(2)).sqrt();
+            let t = (p - w.a).dot(&w.dir).clamp(0.0, w.len);
+            let q = w.a + w.dir * t;
+            let d = nalgebra::distance(&p, &q);
             if d <= r && best.is_none_or(|(bd, _)| d < bd) {
                 best = Some((d, q));
             }
@@ -410,14 +410,15 @@ impl Scene {
 
 /// Where the ray from + t·d meets the segment a + u·dir (0 ≤ u ≤ len):
 /// (t, u) with t > 0.
-pub fn hit(from: Point, d: Point, a: Point, dir: Point, len: f64) -> Option<(f64, f64)> {
-    let det = d.0 * (-dir.1) - d.1 * (-dir.0);
+pub fn hit(from: Point, d: Vector, a: Point, dir: Vector, len: f64) -> Option<(f64, f64)> {
+    // Solve from + t·d = a + u·dir with 2-D cross products.
+    let det = dir.perp(&d);
     if det.abs() < 1e-12 {
         return None;
     }
-    let (rx, ry) = (a.0 - from.0, a.1 - from.1);
-    let t = (rx * (-dir.1) - ry * (-dir.0)) / det;
-    let u = (d.0 * ry - d.1 * rx) / det;
+    let r = a - from;
+    let t = dir.perp(&r) / det;
+    let u = d.perp(&r) / det;
     (t > 1e-6 && (-1e-6..=len + 1e-6).contains(&u)).then_some((t, u))
 }
 
@@ -425,7 +426,7 @@ fn inside(q: &[Point; 4], p: Point) -> bool {
     let mut sign = 0.0;
     for i in 0..4 {
         let (a, b) = (q[i], q[(i + 1) % 4]);
-        let c = (b.0 - a.0) * (p.1 - a.1) - (b.1 - a.1) * (p.0 - a.0);
+        let c = (b - a).perp(&(p - a));
         if c != 0.0 {
             if sign != 0.0 && c.signum() != sign {
                 return false;

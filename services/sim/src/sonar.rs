@@ -16,7 +16,7 @@ use crate::spec::{
     ir_bearing_deg, sonar_bearing_deg, Noise, IR_RANGE_MM, IR_SENSORS, ROBOT_RADIUS_MM, SONARS,
     SONAR_HALF_BEAM_DEG, SONAR_MAX_INCIDENCE_DEG, SONAR_MAX_MM, SONAR_MIN_MM,
 };
-use rome_maps::geometry::{direction, heading_to, normalize_deg, Point};
+use rome_maps::geometry::{direction, heading_to, normalize_deg, Point, UnitComplex, Vector};
 
 /// Where a robot is, for the sensors of others.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -52,19 +52,16 @@ pub fn scan(
     scene.reflectors_near(at, reach, &mut scratch.corners);
     scratch.echoes.clear();
     // Each sensor's position on the ring and its axis.
-    let mut sensors = [((0.0, 0.0), (0.0, 0.0)); SONARS];
+    let mut sensors = [(at, Vector::zeros()); SONARS];
     for (i, s) in sensors.iter_mut().enumerate() {
         let d = direction(heading + sonar_bearing_deg(i));
-        *s = (
-            (at.0 + d.0 * ROBOT_RADIUS_MM, at.1 + d.1 * ROBOT_RADIUS_MM),
-            d,
-        );
+        *s = (at + d * ROBOT_RADIUS_MM, d);
     }
     let forward = direction(heading);
-    let left = (-forward.1, forward.0);
+    let left = Vector::new(-forward.y, forward.x);
     // The sonar nearest to a direction (a unit vector), by its bearing.
-    let index_near = |v: Point| {
-        let rel = (v.0 * left.0 + v.1 * left.1).atan2(v.0 * forward.0 + v.1 * forward.1);
+    let index_near = |v: Vector| {
+        let rel = v.dot(&left).atan2(v.dot(&forward));
         (rel.to_degrees() / 15.0).round() as i64 + 12
     };
     let cos_beam = SONAR_HALF_BEAM_DEG.to_radians().cos();
@@ -77,17 +74,13 @@ pub fn scan(
         }
         let w = &scene.walls[wi];
         // The robot must be on the side the wall faces.
-        let side = (at.0 - w.a.0) * w.normal.0 + (at.1 - w.a.1) * w.normal.1;
-        let n = if side >= 0.0 {
-            w.normal
-        } else {
-            (-w.normal.0, -w.normal.1)
-        };
+        let side = (at - w.a).dot(&w.normal);
+        let n = if side >= 0.0 { w.normal } else { -w.normal };
         if side.abs() > reach {
             continue;
         }
         // Too far along the wall's line to matter.
-        let along = (at.0 - w.a.0) * w.dir.0 + (at.1 - w.a.1) * w.dir.1;
+        let along = (at - w.a).dot(&w.dir);
         let beyond = if along < 0.0 {
             -along
         } else {
@@ -96,32 +89,30 @@ pub fn scan(
         if beyond * beyond + side * side > reach * reach {
             continue;
         }
-        let look = (-n.0, -n.1);
+        let look = -n;
         let centre = index_near(look);
         for k in centre - 2..=centre + 2 {
             let i = k.rem_euclid(SONARS as i64) as usize;
             let (s, axis) = sensors[i];
-            let cos_inc = axis.0 * look.0 + axis.1 * look.1;
+            let cos_inc = axis.dot(&look);
             if cos_inc < cos_max {
                 continue;
             }
-            let dist = (s.0 - w.a.0) * n.0 + (s.1 - w.a.1) * n.1;
+            let dist = (s - w.a).dot(&n);
             if dist <= 0.0 {
                 continue;
             }
             let (range, p) = if cos_inc >= cos_beam {
-                (dist, (s.0 - n.0 * dist, s.1 - n.1 * dist))
+                (dist, s - n * dist)
             } else {
-                // The beam's edge ray, the one closest to the normal.
+                // The beam's edge ray, the one closest to the normal:
+                // `look` turned by `off` towards the axis.
                 let off = cos_inc.min(1.0).acos() - SONAR_HALF_BEAM_DEG.to_radians();
                 let range = dist / off.cos();
-                // Turn `look` by `off` towards the axis.
-                let cross = look.0 * axis.1 - look.1 * axis.0;
-                let (sn, cs) = (off * cross.signum()).sin_cos();
-                let d = (look.0 * cs - look.1 * sn, look.0 * sn + look.1 * cs);
-                (range, (s.0 + d.0 * range, s.1 + d.1 * range))
+                let turn = UnitComplex::new(off * look.perp(&axis).signum());
+                (range, s + (turn * look) * range)
             };
-            let u = (p.0 - w.a.0) * w.dir.0 + (p.1 - w.a.1) * w.dir.1;
+            let u = (p - w.a).dot(&w.dir);
             if (0.0..=w.len).contains(&u) && range <= SONAR_MAX_MM {
                 scratch.echoes.push((i, range, wi, p));
             }
@@ -130,21 +121,18 @@ pub fn scan(
     // Corners.
     for &ci in &scratch.corners {
         let c = scene.reflectors[ci as usize];
-        let (dx, dy) = (c.0 - at.0, c.1 - at.1);
-        let dc = (dx * dx + dy * dy).sqrt();
+        let to = c - at;
+        let dc = to.norm();
         if dc > reach || dc < 1.0 {
             continue;
         }
-        let centre = index_near((dx / dc, dy / dc));
+        let centre = index_near(to / dc);
         for k in centre - 1..=centre + 1 {
             let i = k.rem_euclid(SONARS as i64) as usize;
             let (s, axis) = sensors[i];
-            let (ex, ey) = (c.0 - s.0, c.1 - s.1);
-            let range = (ex * ex + ey * ey).sqrt();
-            if range <= SONAR_MAX_MM
-                && range > 1.0
-                && (ex * axis.0 + ey * axis.1) >= cos_beam * range
-            {
+            let e = c - s;
+            let range = e.norm();
+            if range <= SONAR_MAX_MM && range > 1.0 && e.dot(&axis) >= cos_beam * range {
                 scratch.echoes.push((i, range, usize::MAX, c));
             }
         }
@@ -152,27 +140,26 @@ pub fn scan(
     // Other robots: the beam meets a robot's disc when the direction to its
     // centre is within half the beam plus the disc's angular radius.
     for other in others {
-        let (dx, dy) = (other.at.0 - at.0, other.at.1 - at.1);
-        let dc2 = dx * dx + dy * dy;
+        let to = other.at - at;
+        let dc2 = to.norm_squared();
         if dc2 < 1.0 || dc2 > (reach + ROBOT_RADIUS_MM).powi(2) {
             continue;
         }
         let dc = dc2.sqrt();
-        let rel = (dx * left.0 + dy * left.1)
-            .atan2(dx * forward.0 + dy * forward.1)
-            .to_degrees();
+        let rel = to.dot(&left).atan2(to.dot(&forward)).to_degrees();
         let spread = (ROBOT_RADIUS_MM / dc).min(1.0).asin().to_degrees() + SONAR_HALF_BEAM_DEG;
         let lo = ((rel - spread) / 15.0).ceil() as i64;
         let hi = ((rel + spread) / 15.0).floor() as i64;
         for k in lo..=hi {
             let i = (k + 12).rem_euclid(SONARS as i64) as usize;
             let (s, _) = sensors[i];
-            let (ex, ey) = (other.at.0 - s.0, other.at.1 - s.1);
-            let d = (ex * ex + ey * ey).sqrt();
+            let e = other.at - s;
+            let d = e.norm();
             let range = d - ROBOT_RADIUS_MM;
             if range > 0.0 && range <= SONAR_MAX_MM {
-                let p = (s.0 + ex / d * range, s.1 + ey / d * range);
-                scratch.echoes.push((i, range, usize::MAX - 1, p));
+                scratch
+                    .echoes
+                    .push((i, range, usize::MAX - 1, s + e / d * range));
             }
         }
     }
@@ -186,8 +173,8 @@ pub fn scan(
             continue;
         }
         let (s, _) = sensors[i];
-        let len = ((p.0 - s.0).powi(2) + (p.1 - s.1).powi(2)).sqrt().max(1e-9);
-        let dir = ((p.0 - s.0) / len, (p.1 - s.1) / len);
+        let len = nalgebra::distance(&p, &s).max(1e-9);
+        let dir = (p - s) / len;
         let skip = (wi < scene.walls.len()).then_some(wi);
         // Hidden if another wall is met clearly before the echo point.
         let hidden = scene
@@ -237,13 +224,13 @@ pub fn infrared(
     let reach2 = (2.0 * ROBOT_RADIUS_MM + IR_RANGE_MM).powi(2);
     let close: Vec<&Body> = others
         .iter()
-        .filter(|o| (o.at.0 - at.0).powi(2) + (o.at.1 - at.1).powi(2) <= reach2)
+        .filter(|o| nalgebra::distance_squared(&o.at, &at) <= reach2)
         .collect();
     let mut bits = 0u32;
     for i in 0..IR_SENSORS {
         let b = heading + ir_bearing_deg(i);
         let d = direction(b);
-        let s = (at.0 + d.0 * ROBOT_RADIUS_MM, at.1 + d.1 * ROBOT_RADIUS_MM);
+        let s = at + d * ROBOT_RADIUS_MM;
         let mut seen = [-10.0, 0.0, 10.0].iter().any(|spread| {
             let r = direction(b + spread);
             walls.iter().any(|&w| {
@@ -253,7 +240,7 @@ pub fn infrared(
         });
         if !seen {
             seen = close.iter().any(|o| {
-                let dist = (o.at.0 - s.0).hypot(o.at.1 - s.1) - ROBOT_RADIUS_MM;
+                let dist = nalgebra::distance(&o.at, &s) - ROBOT_RADIUS_MM;
                 dist <= IR_RANGE_MM
                     && dist > -ROBOT_RADIUS_MM
                     && normalize_deg(heading_to(s, o.at) - b).abs() <= 30.0

@@ -7,7 +7,7 @@ use crate::scene::Scene;
 use crate::sonar::{self, Body};
 use crate::spec::{SimConfig, ROBOT_RADIUS_MM, SONARS, SONAR_MAX_MM};
 use image::GrayImage;
-use rome_maps::geometry::{direction, normalize_deg};
+use rome_maps::geometry::{pt, Heading, Vector};
 use rome_maps::Map;
 
 /// Why a world request was refused.
@@ -42,16 +42,8 @@ pub enum SimError {
     BadSetting(String),
 }
 
-/// The true pose of a robot.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Pose {
-    /// x, mm.
-    pub x: f64,
-    /// y, mm.
-    pub y: f64,
-    /// Heading, degrees (North 0, West 90).
-    pub heading: f64,
-}
+/// The true pose of a robot: the one pose type of the project.
+pub use rome_maps::geometry::Pose;
 
 /// The bumpers.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -276,14 +268,17 @@ impl Sim {
         if self.robots.iter().any(|r| r.name == name) {
             return Err(SimError::Duplicate(name.to_string()));
         }
-        let at = (pose.x, pose.y);
+        let at = pose.at;
         let blocked = |why: String| SimError::Blocked {
             name: name.to_string(),
-            x: pose.x,
-            y: pose.y,
+            x: pose.at.x,
+            y: pose.at.y,
             why,
         };
-        if ![pose.x, pose.y, pose.heading].iter().all(|v| v.is_finite()) {
+        if ![pose.at.x, pose.at.y, pose.heading.deg()]
+            .iter()
+            .all(|v| v.is_finite())
+        {
             return Err(blocked(format!(
                 "the pose must be finite numbers, got {pose:?}"
             )));
@@ -297,7 +292,7 @@ impl Sim {
         if let Some(other) = self
             .robots
             .iter()
-            .find(|r| (r.pose.x - pose.x).hypot(r.pose.y - pose.y) < 2.0 * ROBOT_RADIUS_MM)
+            .find(|r| r.pose.dist(&pose) < 2.0 * ROBOT_RADIUS_MM)
         {
             return Err(blocked(format!("robot '{}' is there", other.name)));
         }
@@ -308,11 +303,11 @@ impl Sim {
             y: 0.0,
             heading: 0.0,
         };
-        odometry.set(pose.x, pose.y, pose.heading);
+        odometry.set(pose.at.x, pose.at.y, pose.heading.deg());
         self.robots.push(Robot {
             name: name.to_string(),
             pose: Pose {
-                heading: normalize_deg(pose.heading),
+                heading: pose.heading.normalized(),
                 ..pose
             },
             drive: Drive::default(),
@@ -355,14 +350,7 @@ impl Sim {
                     similar: self.scene.world.similar(position),
                 })?;
         let at = p.in_corridor();
-        self.add_robot(
-            name,
-            Pose {
-                x: at.0,
-                y: at.1,
-                heading,
-            },
-        )
+        self.add_robot(name, Pose::new(at.x, at.y, heading))
     }
 
     /// Sets one sonar's timeout (maximum range, mm).
@@ -480,12 +468,12 @@ impl Sim {
         let mut others = std::mem::take(&mut self.near);
         self.bodies_near(i, SONAR_MAX_MM + 2.0 * ROBOT_RADIUS_MM, &mut others);
         let r = &mut self.robots[i];
-        let at = (r.pose.x, r.pose.y);
+        let at = r.pose.at;
         r.sonar = sonar::scan(
             &self.scene,
             &self.open,
             at,
-            r.pose.heading,
+            r.pose.heading.deg(),
             &others,
             &r.timeouts,
             &self.config.noise,
@@ -496,7 +484,7 @@ impl Sim {
             &self.scene,
             &self.open,
             at,
-            r.pose.heading,
+            r.pose.heading.deg(),
             &others,
             &mut self.scratch,
         );
@@ -527,7 +515,7 @@ impl Sim {
     /// kept in the robot's `up` or `side`).
     pub fn grab_camera(&mut self, i: usize, which: Camera) -> GrayImage {
         let r = &mut self.robots[i];
-        let at = (r.pose.x, r.pose.y);
+        let at = r.pose.at;
         let size = self.config.image_size;
         let px = &self.pixel_noise;
         let image = if r.covered & Self::camera_bit(which) != 0 {
@@ -535,13 +523,13 @@ impl Sim {
         } else {
             match which {
                 Camera::Up => {
-                    camera::up_image(&self.scene, at, r.pose.heading, size, px, &mut r.rng)
+                    camera::up_image(&self.scene, at, r.pose.heading.deg(), size, px, &mut r.rng)
                 }
                 Camera::Side => camera::side_image(
                     &self.scene,
                     &self.open,
                     at,
-                    r.pose.heading,
+                    r.pose.heading.deg(),
                     size,
                     px,
                     &mut r.rng,
@@ -560,7 +548,7 @@ impl Sim {
         self.cell_start.clear();
         self.cell_start.resize(cols * rows + 1, 0);
         let cell = |r: &Robot| {
-            let (cx, cy) = self.scene.cell_xy((r.pose.x, r.pose.y));
+            let (cx, cy) = self.scene.cell_xy(r.pose.at);
             cy * cols + cx
         };
         for r in &self.robots {
@@ -590,8 +578,8 @@ impl Sim {
         out.clear();
         let me = &self.robots[i];
         let (cols, _) = self.scene.grid();
-        let (x0, y0) = self.scene.cell_xy((me.pose.x - r, me.pose.y - r));
-        let (x1, y1) = self.scene.cell_xy((me.pose.x + r, me.pose.y + r));
+        let (x0, y0) = self.scene.cell_xy(me.pose.at - Vector::repeat(r));
+        let (x1, y1) = self.scene.cell_xy(me.pose.at + Vector::repeat(r));
         for cy in y0..=y1 {
             for cx in x0..=x1 {
                 let c = cy * cols + cx;
@@ -599,9 +587,7 @@ impl Sim {
                 for &j in &self.cell_robots[a..b] {
                     if j as usize != i {
                         let o = &self.robots[j as usize];
-                        out.push(Body {
-                            at: (o.pose.x, o.pose.y),
-                        });
+                        out.push(Body { at: o.pose.at });
                     }
                 }
             }
@@ -613,7 +599,7 @@ impl Sim {
         self.bodies_near(i, 3.0 * ROBOT_RADIUS_MM, &mut others);
         let on_metal = {
             let r = &self.robots[i];
-            !self.scene.metal.is_empty() && self.scene.on_metal((r.pose.x, r.pose.y))
+            !self.scene.metal.is_empty() && self.scene.on_metal(r.pose.at)
         };
         let noise = self.config.noise.clone();
         let r = &mut self.robots[i];
@@ -626,12 +612,12 @@ impl Sim {
             let tl = dl * (1.0 + r.wheel_bias + r.rng.normal(slip));
             let tr = dr * (1.0 - r.wheel_bias + r.rng.normal(slip));
             let mut truth = Odometry {
-                x: r.pose.x,
-                y: r.pose.y,
-                heading: r.pose.heading,
+                x: r.pose.at.x,
+                y: r.pose.at.y,
+                heading: r.pose.heading.deg(),
             };
             truth.advance(tl, tr);
-            let to = (truth.x, truth.y);
+            let to = pt(truth.x, truth.y);
             // A body stops where it would touch a wall or another robot;
             // the wheels may go on turning (and the encoders counting).
             blocked = self
@@ -639,22 +625,18 @@ impl Sim {
                 .nearest_solid(to, ROBOT_RADIUS_MM, &self.open, &mut self.walls)
                 .is_some()
                 || others.iter().any(|o| {
-                    (o.at.0 - to.0).powi(2) + (o.at.1 - to.1).powi(2)
-                        < (2.0 * ROBOT_RADIUS_MM).powi(2)
+                    nalgebra::distance_squared(&o.at, &to) < (2.0 * ROBOT_RADIUS_MM).powi(2)
                 });
+            let heading = Heading::from_deg(truth.heading);
             if blocked {
                 // Turning in place never makes a disc touch anything new.
-                r.pose.heading = truth.heading;
+                r.pose.heading = heading;
             } else {
-                r.travelled_mm += (to.0 - r.pose.x).hypot(to.1 - r.pose.y);
-                r.pose = Pose {
-                    x: to.0,
-                    y: to.1,
-                    heading: truth.heading,
-                };
+                r.travelled_mm += nalgebra::distance(&to, &r.pose.at);
+                r.pose = Pose { at: to, heading };
             }
         }
-        let at = (r.pose.x, r.pose.y);
+        let at = r.pose.at;
         let wall = self
             .scene
             .nearest_solid(
@@ -667,15 +649,14 @@ impl Sim {
         let robot = others
             .iter()
             .find(|o| {
-                (o.at.0 - at.0).powi(2) + (o.at.1 - at.1).powi(2)
+                nalgebra::distance_squared(&o.at, &at)
                     < (2.0 * ROBOT_RADIUS_MM + CONTACT_MM).powi(2)
             })
-            .map(|o| ((o.at.0 + at.0) / 2.0, (o.at.1 + at.1) / 2.0));
+            .map(|o| nalgebra::center(&o.at, &at));
         r.bumpers.front = false;
         r.bumpers.rear = false;
         if let Some(c) = wall.or(robot) {
-            let ahead = direction(r.pose.heading);
-            let towards = (c.0 - at.0) * ahead.0 + (c.1 - at.1) * ahead.1;
+            let towards = (c - at).dot(&r.pose.heading.unit());
             r.bumpers.front = towards >= 0.0;
             r.bumpers.rear = towards < 0.0;
         }

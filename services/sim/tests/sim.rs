@@ -57,7 +57,7 @@ fn room(config: SimConfig) -> Sim {
 }
 
 fn at(x: f64, y: f64, heading: f64) -> Pose {
-    Pose { x, y, heading }
+    Pose::new(x, y, heading)
 }
 
 #[test]
@@ -98,7 +98,7 @@ fn glass_returns_no_echo_but_stops_the_robot() {
     sim.robot_mut(r).drive.go(-300.0).unwrap();
     sim.run_for(6_000);
     let pose = sim.robot(r).pose;
-    assert!((pose.y - ROBOT_RADIUS_MM).abs() < 10.0, "{pose:?}");
+    assert!((pose.at.y - ROBOT_RADIUS_MM).abs() < 10.0, "{pose:?}");
     assert!(sim.robot(r).bumpers.rear && !sim.robot(r).bumpers.front);
 }
 
@@ -192,12 +192,12 @@ fn a_watched_bumper_stops_the_robot_at_the_wall() {
     assert_eq!(robot.drive.v, 0.0);
     assert_eq!(robot.bumpers.status(), 1, "front bumper");
     assert!(
-        (robot.pose.y - (6_000.0 - ROBOT_RADIUS_MM)).abs() < 10.0,
+        (robot.pose.at.y - (6_000.0 - ROBOT_RADIUS_MM)).abs() < 10.0,
         "{:?}",
         robot.pose
     );
     // Odometry agrees with the truth: the wheels stopped when the body did.
-    assert!((robot.odometry.y - robot.pose.y).abs() < 20.0);
+    assert!((robot.odometry.y - robot.pose.at.y).abs() < 20.0);
 }
 
 #[test]
@@ -209,9 +209,9 @@ fn an_ignored_bumper_lets_the_wheels_slip_against_the_wall() {
     let robot = sim.robot(r);
     assert!(matches!(robot.drive.mode, Mode::Go { .. }));
     assert!(robot.bumpers.front);
-    assert!((robot.pose.y - (6_000.0 - ROBOT_RADIUS_MM)).abs() < 10.0);
+    assert!((robot.pose.at.y - (6_000.0 - ROBOT_RADIUS_MM)).abs() < 10.0);
     assert!(
-        robot.odometry.y - robot.pose.y > 1_000.0,
+        robot.odometry.y - robot.pose.at.y > 1_000.0,
         "the encoders kept counting"
     );
 }
@@ -261,15 +261,15 @@ fn point_to_point_go_and_turn_reach_their_targets() {
     sim.run_for(15_000);
     let robot = sim.robot(r);
     assert_eq!(robot.drive.mode, Mode::Go { velocity: 0.0 });
-    assert!((robot.pose.x - 6_000.0).abs() < 2.0, "{:?}", robot.pose);
-    assert!((robot.pose.y - 3_000.0).abs() < 2.0);
+    assert!((robot.pose.at.x - 6_000.0).abs() < 2.0, "{:?}", robot.pose);
+    assert!((robot.pose.at.y - 3_000.0).abs() < 2.0);
     // Turn 90° clockwise: from East (-90) to South (180).
     sim.robot_mut(r).drive.turn(90.0, 45.0, 90.0).unwrap();
     sim.run_for(5_000);
     let robot = sim.robot(r);
-    let err = rome_maps::geometry::normalize_deg(robot.pose.heading - 180.0);
+    let err = rome_maps::geometry::normalize_deg(robot.pose.heading.deg() - 180.0);
     assert!(err.abs() < 0.2, "{}", robot.pose.heading);
-    assert!((robot.pose.x - 6_000.0).abs() < 2.0, "turning in place");
+    assert!((robot.pose.at.x - 6_000.0).abs() < 2.0, "turning in place");
     // Backwards with negative distance, current settings kept (-1).
     sim.robot_mut(r)
         .drive
@@ -277,7 +277,7 @@ fn point_to_point_go_and_turn_reach_their_targets() {
         .unwrap();
     sim.run_for(6_000);
     let robot = sim.robot(r);
-    assert!((robot.pose.y - 4_000.0).abs() < 2.0, "{:?}", robot.pose);
+    assert!((robot.pose.at.y - 4_000.0).abs() < 2.0, "{:?}", robot.pose);
     assert_eq!(robot.drive.speed_setting, 500.0);
 }
 
@@ -290,11 +290,11 @@ fn jog_superimposes_a_turn_on_forward_motion() {
     sim.run_for(3_000);
     let robot = sim.robot(r);
     assert!(
-        robot.pose.heading < -20.0,
+        robot.pose.heading.deg() < -20.0,
         "turned clockwise: {}",
         robot.pose.heading
     );
-    assert!(robot.pose.y > 2_000.0, "and moved on");
+    assert!(robot.pose.at.y > 2_000.0, "and moved on");
 }
 
 #[test]
@@ -351,7 +351,7 @@ fn the_upward_camera_sees_a_light_exactly_when_it_is_overhead() {
             assert_eq!(n, 60 * 120);
         }
         let i = sim.index(&format!("x{}", k - 1)).unwrap();
-        sim.robot_mut(i).pose.x = -50_000.0; // out of the way
+        sim.robot_mut(i).pose.at.x = -50_000.0; // out of the way
     }
     for dy in (-1_600..=1_600).step_by(100) {
         let i = sim
@@ -364,7 +364,7 @@ fn the_upward_camera_sees_a_light_exactly_when_it_is_overhead() {
             f64::from(dy).abs() < 1_200.0,
             "dy {dy}: {n} lit pixels"
         );
-        sim.robot_mut(i).pose.x = -50_000.0;
+        sim.robot_mut(i).pose.at.x = -50_000.0;
     }
 }
 
@@ -497,7 +497,7 @@ fn the_same_seed_gives_the_same_trajectory() {
     assert_ne!(a, c, "another seed, another run");
     // They did move: 20 s at 400 mm/s.
     let last = a[0].last().unwrap();
-    assert!((last.x - a[0][0].x).abs() > 7_000.0, "{last:?}");
+    assert!((last.at.x - a[0][0].at.x).abs() > 7_000.0, "{last:?}");
 }
 
 #[test]
@@ -525,7 +525,7 @@ fn wheels_slip_more_on_the_metal_junction() {
                 .unwrap();
             sim.run_for(12_000);
             let r = sim.robot(i);
-            total += (r.odometry.x - r.pose.x).hypot(r.odometry.y - r.pose.y);
+            total += (r.odometry.x - r.pose.at.x).hypot(r.odometry.y - r.pose.at.y);
         }
         total / 12.0
     };
@@ -539,7 +539,9 @@ fn wheels_slip_more_on_the_metal_junction() {
 }
 
 fn sim_on_metal(p: (f64, f64)) -> bool {
-    Sim::new(&eb3(), SimConfig::default()).scene().on_metal(p)
+    Sim::new(&eb3(), SimConfig::default())
+        .scene()
+        .on_metal(rome_maps::geometry::pt(p.0, p.1))
 }
 
 #[test]
@@ -555,7 +557,7 @@ fn a_turn_while_going_resumes_going_and_a_turn_from_standstill_stands() {
     sim.run_for(3_000);
     assert_eq!(sim.robot(going).drive.mode, Mode::Go { velocity: 250.0 });
     assert_eq!(sim.robot(still).drive.mode, Mode::Go { velocity: 0.0 });
-    assert!((sim.robot(still).pose.heading - 30.0).abs() < 0.2);
+    assert!((sim.robot(still).pose.heading.deg() - 30.0).abs() < 0.2);
 }
 
 #[test]
@@ -580,11 +582,11 @@ fn a_continuous_turn_follows_its_arc_then_goes_on() {
     let closest = robot
         .trail
         .iter()
-        .map(|p| (p.x - 4_000.0).hypot(p.y - 2_500.0))
+        .map(|p| (p.at.x - 4_000.0).hypot(p.at.y - 2_500.0))
         .fold(f64::INFINITY, f64::min);
     assert!(closest < 60.0, "{closest}");
     assert!(
-        (robot.pose.y - 2_500.0).abs() < 60.0 && robot.pose.x > 4_000.0,
+        (robot.pose.at.y - 2_500.0).abs() < 60.0 && robot.pose.at.x > 4_000.0,
         "{:?}",
         robot.pose
     );

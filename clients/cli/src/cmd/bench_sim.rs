@@ -61,7 +61,7 @@ fn populate(sim: &mut Sim, n: usize, rng: &mut Rng) -> anyhow::Result<()> {
         .values()
         .map(|p| {
             let c = p.in_corridor();
-            (c.0, c.1, p.wall_heading_deg, p.lateral_mm)
+            (c.x, c.y, p.wall_heading_deg, p.lateral_mm)
         })
         .collect();
     let mut placed = 0;
@@ -78,11 +78,8 @@ fn populate(sim: &mut Sim, n: usize, rng: &mut Rng) -> anyhow::Result<()> {
         let u = (rng.uniform() - 0.5) * 12_000.0;
         let v = (rng.uniform() - 0.5) * (lateral - 500.0).max(0.0);
         let heading = if rng.chance(0.5) { h } else { h + 180.0 };
-        let pose = Pose {
-            x: x + along.0 * u + across.0 * v,
-            y: y + along.1 * u + across.1 * v,
-            heading,
-        };
+        let at = rome_maps::geometry::pt(x, y) + along * u + across * v;
+        let pose = Pose::new(at.x, at.y, heading);
         if sim.add_robot(&format!("r{placed}"), pose).is_ok() {
             let r = sim.robot_mut(placed);
             r.bumpers.watch = true;

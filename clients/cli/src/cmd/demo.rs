@@ -275,8 +275,8 @@ fn status(robot: &str, time_s: f64, t: &RobotTick, total_m: f64, mode: &str) -> 
         mode,
         t.travelled_mm / 1_000.0,
         total_m,
-        t.pose.x / 1_000.0,
-        t.pose.y / 1_000.0,
+        t.pose.at.x / 1_000.0,
+        t.pose.at.y / 1_000.0,
         t.pose.heading,
         t.odometry_error_mm / 1_000.0
     )

@@ -225,7 +225,7 @@ pub async fn planner(common: &CommonArgs, args: PlannerArgs) -> anyhow::Result<u
         },
     };
     let p = robot.pose().await?;
-    let odometry = (f64::from(p.x_mm), f64::from(p.y_mm));
+    let odometry = rome_maps::geometry::Pose::from(&p).at;
     let (_, goal) = plan.ends();
     let by_odometry = rome_maps::geometry::distance(odometry, goal);
     let end = match start {

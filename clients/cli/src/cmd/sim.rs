@@ -178,7 +178,7 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
         for r in sim.robots() {
             eprintln!(
                 "{}: at ({:.0}, {:.0}) mm heading {:.0}°",
-                r.name, r.pose.x, r.pose.y, r.pose.heading
+                r.name, r.pose.at.x, r.pose.at.y, r.pose.heading
             );
         }
     }
