@@ -9,7 +9,7 @@
 
 #![allow(clippy::unwrap_used)]
 
-use rome_client::net::{free_loopback_port, NetOptions, Secrets};
+use rome_client::net::{NetOptions, Secrets};
 use rome_client::{DataClient, DataOptions, RobotClient, RobotOptions};
 use rome_tests::ChildGuard;
 use std::path::{Path, PathBuf};
@@ -87,8 +87,14 @@ struct Deployment {
 }
 
 async fn deploy() -> Deployment {
-    let port = free_loopback_port().unwrap();
-    let dir = std::env::temp_dir().join(format!("rome-access-{port}"));
+    let dir = std::env::temp_dir().join(format!(
+        "rome-access-{}-{}",
+        std::process::id(),
+        std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .unwrap_or_default()
+            .as_nanos()
+    ));
     let _ = std::fs::remove_dir_all(&dir);
     let secrets = dir.join("secrets");
     let secrets_s = secrets.display().to_string();
@@ -101,9 +107,9 @@ async fn deploy() -> Deployment {
         .output()
         .unwrap();
     assert!(made.status.success(), "rome certs: {made:?}");
-    let ep = format!("tls/127.0.0.1:{port}");
     let config = router_config();
-    let router = rome(
+    let (router, port, _) = rome_tests::spawn_listening(
+        ROME,
         &[
             "-c",
             &config,
@@ -112,13 +118,12 @@ async fn deploy() -> Deployment {
             "--secrets",
             &secrets_s,
             "-l",
-            &ep,
+            "tls/127.0.0.1:0",
             "router",
             "--in-memory",
         ],
-        &log,
     );
-    rome_tests::await_port(port, Duration::from_secs(60));
+    let ep = format!("tls/127.0.0.1:{port}");
     let via = |who: &'static str| {
         [
             "--no-multicast",

@@ -495,26 +495,20 @@ fn bench_robot_reports_round_trips_and_the_scan_stream() {
 
 #[test]
 fn robot_commands_from_the_shell_against_rome_sim() {
-    let port = rome_client::net::free_loopback_port().unwrap();
-    let listen = format!("tcp/127.0.0.1:{port}");
-    let connect = listen.clone();
-    let mut sim = rome_tests::ChildGuard(Some(
-        Command::new(ROME)
-            .args([
-                "sim",
-                "--map",
-                "fig5_3",
-                "--robots",
-                "2",
-                "--no-multicast",
-                "-l",
-                &listen,
-            ])
-            .stdout(std::process::Stdio::null())
-            .stderr(std::process::Stdio::piped())
-            .spawn()
-            .unwrap(),
-    ));
+    let (mut sim, port, _) = rome_tests::spawn_listening(
+        ROME,
+        &[
+            "sim",
+            "--map",
+            "fig5_3",
+            "--robots",
+            "2",
+            "--no-multicast",
+            "-l",
+            "tcp/127.0.0.1:0",
+        ],
+    );
+    let connect = format!("tcp/127.0.0.1:{port}");
     let robot = |args: &[&str]| {
         Command::new(ROME)
             .args(["-e", &connect, "--no-multicast", "robot"])

@@ -10,7 +10,7 @@
 
 #![allow(clippy::unwrap_used)]
 
-use rome_client::net::{free_loopback_port, NetOptions};
+use rome_client::net::NetOptions;
 use rome_tests::ChildGuard;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
@@ -60,23 +60,33 @@ fn metres_from_goal(out: &str) -> f64 {
         .unwrap_or_else(|| panic!("no distance in the planner's last line:\n{out}"))
 }
 
-/// `rome data-server` listening on `port`, once it listens.
-fn data_server(port: u16) -> ChildGuard {
-    let endpoint = format!("tcp/127.0.0.1:{port}");
-    let child = rome(
-        port,
+/// A `rome` server told `--listen tcp/127.0.0.1:0`, and the port it was
+/// given; its log then joins the run's others, in `log_dir(port)`.
+fn server(name: &str, args: &[&str]) -> (ChildGuard, u16) {
+    let first = std::env::temp_dir().join(format!(
+        "rome-navigation-{name}-{}-{:?}.log",
+        std::process::id(),
+        std::thread::current().id()
+    ));
+    let child = rome_tests::spawn_logged(ROME, args, &first);
+    let port = rome_tests::listening_port(&first, Duration::from_secs(60));
+    // The process keeps writing to the moved file.
+    std::fs::rename(&first, log_dir(port).join(format!("{name}.log"))).unwrap();
+    (child, port)
+}
+
+/// `rome data-server` on a port of the system's choosing, and that port.
+fn data_server() -> (ChildGuard, u16) {
+    server(
         "data-server",
         &[
             "--no-multicast",
             "--listen",
-            &endpoint,
+            "tcp/127.0.0.1:0",
             "data-server",
             "--in-memory",
         ],
-        Stdio::null(),
-    );
-    rome_tests::await_port(port, Duration::from_secs(60));
-    child
+    )
 }
 
 /// `rome sim` with a robot at each of `at`, joined to the data server.
@@ -205,8 +215,7 @@ async fn arrived(port: u16, robot: &str, to: &str, mut p: ChildGuard) -> String 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn two_robots_with_every_client_in_its_own_process_both_arrive() {
     let routes = [("r1", "302L", "A340R"), ("r2", "A302R", "A357L")];
-    let port = free_loopback_port().unwrap();
-    let _data = data_server(port);
+    let (_data, port) = data_server();
     let _sim = sim(port, "eb3", &[routes[0].1, routes[1].1]);
     let mut crew = Vec::new();
     for (robot, _, _) in routes {
@@ -287,9 +296,8 @@ async fn a_robot_whose_clients_are_killed_inside_a_narrow_passage_stops_and_free
     // (It then finds the dead robot in its way: a passage too narrow to
     // pass is blocked for real, which is for a person to clear.)
     let routes = [("r1", "303R", "A352L"), ("r2", "A353R", "301L")];
-    let port = free_loopback_port().unwrap();
+    let (_data, port) = data_server();
     let map = eb3_with_passage(port);
-    let _data = data_server(port);
     let _sim = sim(port, &map, &[routes[0].1, routes[1].1]);
     let mut crews: Vec<Vec<ChildGuard>> = routes
         .iter()
@@ -394,23 +402,18 @@ async fn a_robot_whose_clients_are_killed_inside_a_narrow_passage_stops_and_free
 async fn a_run_whose_data_server_is_killed_and_restarted_mid_route_still_arrives() {
     // As deployed: a router in the middle, a durable data server beside it.
     let route = ("r1", "350R", "376L");
-    let port = free_loopback_port().unwrap();
-    let endpoint = format!("tcp/127.0.0.1:{port}");
-    let _router = rome(
-        port,
+    let (_router, port) = server(
         "router",
         &[
             "--no-multicast",
             "-l",
-            &endpoint,
+            "tcp/127.0.0.1:0",
             "router",
             "--rest-port",
             "none",
             "--no-storage",
         ],
-        Stdio::null(),
     );
-    rome_tests::await_port(port, Duration::from_secs(60));
     let state = log_dir(port).join("state");
     let _ = std::fs::remove_dir_all(&state);
     let state = state.display().to_string();

@@ -54,21 +54,22 @@ fn await_http(port: u16, path: &str, want: &str) -> String {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn servers_and_clients_meet_through_the_router_and_rest_answers() {
-    let port = free_loopback_port().unwrap();
+    // The REST plugin must be told its port; Zenoh's is the system's choice.
     let rest = free_loopback_port().unwrap();
-    let router_ep = format!("tcp/127.0.0.1:{port}");
     let rest_s = rest.to_string();
-    let _router = rome(&[
-        "--no-multicast",
-        "-l",
-        &router_ep,
-        "router",
-        "--rest-port",
-        &rest_s,
-        "--in-memory",
-    ]);
-    // The router is up once its port takes connections.
-    rome_tests::await_port(port, Duration::from_secs(60));
+    let (_router, port, _) = rome_tests::spawn_listening(
+        ROME,
+        &[
+            "--no-multicast",
+            "-l",
+            "tcp/127.0.0.1:0",
+            "router",
+            "--rest-port",
+            &rest_s,
+            "--in-memory",
+        ],
+    );
+    let router_ep = format!("tcp/127.0.0.1:{port}");
     // Each names only the router, as on other hosts.
     let via = ["--no-multicast", "-m", "client", "-e", router_ep.as_str()];
     let _data = rome(&[&via[..], &["data-server", "--in-memory"]].concat());
@@ -118,21 +119,30 @@ async fn servers_and_clients_meet_through_the_router_and_rest_answers() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_lock_record_outlives_the_router_and_the_robot_killed_together() {
-    let port = free_loopback_port().unwrap();
-    let router_ep = format!("tcp/127.0.0.1:{port}");
-    let dir = std::env::temp_dir().join(format!("rome-router-store-{port}"));
+    let dir = std::env::temp_dir().join(format!(
+        "rome-router-store-{}-{:?}",
+        std::process::id(),
+        std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .unwrap_or_default()
+            .as_nanos()
+    ));
     let _ = std::fs::remove_dir_all(&dir);
     let dir_s = dir.display().to_string();
-    let router_args = [
+    let mut router_args = [
         "--no-multicast",
         "-l",
-        &router_ep,
+        "tcp/127.0.0.1:0",
         "router",
         "--rest-port",
         "none",
         "--data-dir",
         &dir_s,
     ];
+    // First on a port the system gives it, then always on that one.
+    let (mut router, port, _) = rome_tests::spawn_listening(ROME, &router_args);
+    let router_ep = format!("tcp/127.0.0.1:{port}");
+    router_args[2] = &router_ep;
     let via = ["--no-multicast", "-m", "client", "-e", router_ep.as_str()];
     // The router keeps the records: the robot runs no storage of its own.
     let sim_args = [
@@ -140,8 +150,6 @@ async fn a_lock_record_outlives_the_router_and_the_robot_killed_together() {
         &["sim", "--robots", "1", "--at", "350R", "--no-storage"],
     ]
     .concat();
-    let mut router = rome(&router_args);
-    rome_tests::await_port(port, Duration::from_secs(60));
     let mut sim = rome(&sim_args);
 
     let session = NetOptions::loopback_client(port).open().await.unwrap();

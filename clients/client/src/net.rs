@@ -281,7 +281,8 @@ pub async fn bound_port(session: &Session) -> Option<u16> {
 /// The first 127.0.0.1 port among space-separated endpoints.
 fn loopback_port(endpoints: &str) -> Option<u16> {
     endpoints.split_whitespace().find_map(|l| {
-        l.strip_prefix("tcp/127.0.0.1:")?
+        l.strip_prefix("tcp/127.0.0.1:")
+            .or_else(|| l.strip_prefix("tls/127.0.0.1:"))?
             .split(['?', '#'])
             .next()?
             .parse()
@@ -325,6 +326,10 @@ mod tests {
         assert_eq!(said_port(err), Some(40211));
         assert_eq!(said_port("rome: listening on tcp/10.0.0.1:7447\n"), None);
         assert_eq!(said_port("listening on tcp/127.0.0.1:5\n"), None);
+        assert_eq!(
+            said_port("rome: listening on tls/127.0.0.1:7448\n"),
+            Some(7448)
+        );
     }
 
     #[test]
