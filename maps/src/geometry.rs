@@ -76,9 +76,10 @@ impl Heading {
     }
 }
 
+/// The degrees, with the formatter's width and precision (`{:.0}°`).
 impl std::fmt::Display for Heading {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "{}°", self.0)
+        std::fmt::Display::fmt(&self.0, f)
     }
 }
 
@@ -440,6 +441,7 @@ mod tests {
             -20.0
         );
         assert_eq!(Heading::from_deg(540.0).normalized().deg(), 180.0);
+        assert_eq!(format!("{:.0}°", Heading::from_deg(89.6)), "90°");
     }
 
     #[test]
