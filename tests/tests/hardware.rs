@@ -457,6 +457,24 @@ async fn a_cut_off_holder_loses_the_lock_within_three_seconds() {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 4)]
+async fn unlocking_a_lock_a_restarted_server_forgot_is_not_an_error() {
+    // No storage: the new server starts with the lock free.
+    let rec = Recorder::default();
+    let mut rig = Rig::recorder(&rec, false).await;
+    let a = rig.client("a", 128).await;
+    let lock = a.lock().await.unwrap();
+    rig.servers.pop().unwrap().stop().await.unwrap();
+    rig.start_base(&rec).await;
+    // Commands under the old fence are refused: the lock is gone …
+    let err = a.go(1.0).await.unwrap_err();
+    assert_eq!(err.code(), Some(ErrorCode::StaleFence), "{err}");
+    // … and releasing it has nothing left to do.
+    lock.unlock().await.unwrap();
+    a.go(2.0).await.unwrap();
+    assert_eq!(velocities(&rec), [2.0]);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 4)]
 async fn a_restarted_server_knows_the_holder_and_its_fence_from_the_storage() {
     let rec = Recorder::default();
     let mut rig = Rig::recorder(&rec, true).await;

@@ -202,10 +202,19 @@ impl Lock {
         let (client, device) = (self.client.clone(), self.device.clone());
         async move {
             let params = [(param::FENCE, fence.to_string())];
-            let _: Unlocked = client
-                .json(&device, "unlock", &params, None::<&()>, false)
-                .await?;
-            Ok(())
+            match client
+                .json::<Unlocked>(&device, "unlock", &params, None::<&()>, false)
+                .await
+            {
+                Ok(_) => Ok(()),
+                // The lock is no longer this client's (a server restarted,
+                // or the grant lapsed): there is nothing left to release.
+                Err(e) if e.code() == Some(ErrorCode::StaleFence) => {
+                    tracing::debug!(device = %device.path(), error = %e, "lock already gone");
+                    Ok(())
+                }
+                Err(e) => Err(e),
+            }
         }
     }
 }

@@ -365,10 +365,26 @@ impl PlFinder {
             // The server hands out at most 64 rows a request.
             let mut pixels = Vec::with_capacity(rows.len() * w as usize);
             let mut grabbed_ms = None;
+            let mut lost = false;
             for chunk in rows.chunks(64) {
-                let img = self.robot.camera_rows(&self.cfg.camera, chunk).await?;
-                grabbed_ms = Some(img.time_ms);
-                pixels.extend(img.pixels);
+                match self.robot.camera_rows(&self.cfg.camera, chunk).await {
+                    Ok(img) => {
+                        grabbed_ms = Some(img.time_ms);
+                        pixels.extend(img.pixels);
+                    }
+                    // The camera server restarted under the lock: this
+                    // frame is lost, the next one takes a new lock.
+                    Err(e) if e.code() == Some(rome_schema::ErrorCode::StaleFence) => {
+                        tracing::warn!(error = %e, "plfinder: the camera lock was lost; skipping the frame");
+                        lost = true;
+                        break;
+                    }
+                    Err(e) => return Err(e.into()),
+                }
+            }
+            if lost {
+                lock.unlock().await?;
+                continue;
             }
             // Where the (locked, so frozen) image was grabbed.
             let pose = match grabbed_ms {
