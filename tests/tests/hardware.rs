@@ -19,7 +19,7 @@ use std::collections::VecDeque;
 use std::io::BufRead;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
-use zenoh::Session;
+use zenoh::{Session, Wait};
 
 /// A base that records every command and plays back scripted x registers.
 #[derive(Clone, Default)]
@@ -876,4 +876,69 @@ async fn a_short_scan_published_by_anyone_is_skipped_by_readers() {
     let newest = scans.latest().await.unwrap().unwrap();
     assert_eq!(newest.sonar_mm.len(), 24);
     assert_eq!(scans.skipped(), 3, "each bad scan is counted once");
+}
+
+/// A camera "server" anyone could start: it answers `rows` with the reply
+/// given, whatever was asked.
+async fn hostile_camera(
+    s: &Session,
+    schema: &'static str,
+    bytes: Vec<u8>,
+) -> zenoh::query::Queryable<()> {
+    s.declare_queryable("rome/robot/r9/camera/up/**")
+        .callback(move |q| {
+            let key = q.key_expr().clone();
+            let enc = zenoh::bytes::Encoding::APPLICATION_OCTET_STREAM.with_schema(schema);
+            let _ = q.reply(key, bytes.clone()).encoding(enc).wait();
+        })
+        .await
+        .unwrap()
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_camera_reply_with_other_rows_or_an_absurd_size_is_refused() {
+    let (server, port) = open_loopback_peer(&[]).await.unwrap();
+    let client_session = NetOptions::loopback_client(port).open().await.unwrap();
+    let c = RobotClient::connect(&client_session, "r9", RobotOptions::new("reader"))
+        .await
+        .unwrap();
+    // Asked for rows 1 and 2, sent rows 5 and 6: row(0) is not row 1.
+    let q = hostile_camera(
+        &server,
+        "gray8 width=4 height=10 frame=1 time_ms=1 rows=5,6",
+        vec![7; 8],
+    )
+    .await;
+    let e = c.camera_rows("up", &[1, 2]).await.unwrap_err();
+    assert!(e.to_string().contains("not the rows asked for"), "{e}");
+    drop(q);
+    // Four billion rows of no columns: nothing may be built on that.
+    let q = hostile_camera(
+        &server,
+        "gray8 width=0 height=4000000000 frame=1 time_ms=1",
+        Vec::new(),
+    )
+    .await;
+    let e = c.camera_grab("up").await.unwrap_err();
+    assert!(e.to_string().contains("width and height"), "{e}");
+    drop(q);
+    // A width past 2^32 once read as 1.
+    let q = hostile_camera(
+        &server,
+        "gray8 width=4294967297 height=2 frame=1 time_ms=1",
+        vec![0; 2],
+    )
+    .await;
+    assert!(c.camera_grab("up").await.is_err());
+    drop(q);
+    // A well-formed reply still reads.
+    let _q = hostile_camera(
+        &server,
+        "gray8 width=4 height=10 frame=1 time_ms=1 rows=1,2",
+        vec![7; 8],
+    )
+    .await;
+    let img = c.camera_rows("up", &[1, 2]).await.unwrap();
+    assert_eq!(img.row(1), Some(&[7u8; 4][..]));
+    assert_eq!(img.row(2), None);
 }
