@@ -32,6 +32,7 @@
 //! and its walls) for the local mapper's sideways correction.
 
 use rome_client::{ClientError, DataClient};
+use rome_maps::geometry::{Point, Pose};
 use serde::{Deserialize, Serialize};
 
 /// The semaphores of Table 5.4 (and the trackers' token).
@@ -225,7 +226,42 @@ pub struct Corridor {
     pub right_mm: Option<f64>,
 }
 
+// The blackboard's own messages meet points and poses here only, as the
+// robots' and the simulator's do in `rome_maps::wire`.
+
+impl Status {
+    /// What the Navigator is doing at `pose` (odometry frame).
+    pub fn at(goal: u32, goal_type: GoalType, state: &str, pose: &Pose, safe_mm: f64) -> Status {
+        Status {
+            goal,
+            goal_type,
+            state: state.to_string(),
+            x_mm: pose.at.x.round() as i64,
+            y_mm: pose.at.y.round() as i64,
+            heading_deg: (pose.heading.deg() * 10.0).round() / 10.0,
+            safe_mm: safe_mm.round() as i64,
+        }
+    }
+}
+
+impl PlateReport {
+    /// Where the plate is (odometry frame).
+    pub fn at(&self) -> Point {
+        Point::new(self.x_mm as f64, self.y_mm as f64)
+    }
+
+    /// Sets where the plate is (rounded to the millimetre).
+    pub fn place(&mut self, at: Point) {
+        (self.x_mm, self.y_mm) = (at.x.round() as i64, at.y.round() as i64);
+    }
+}
+
 impl Corridor {
+    /// A point on the line of lights.
+    pub fn at(&self) -> Point {
+        Point::new(self.x_mm, self.y_mm)
+    }
+
     /// The corridor of a plan step.
     pub fn of(step: &crate::plan::Step) -> Corridor {
         Corridor {

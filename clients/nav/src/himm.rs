@@ -387,7 +387,7 @@ pub fn sideways_fix(
     // odometry says.
     let seen = ((left - seen_left) + (seen_right - right)) / 2.0;
     let n = direction(corridor.heading_deg + 90.0);
-    let odometry = (p.x - corridor.x_mm) * n.x + (p.y - corridor.y_mm) * n.y;
+    let odometry = (p - corridor.at()).dot(&n);
     Some(seen - odometry)
 }
 

@@ -584,18 +584,13 @@ impl Navigator {
     }
 
     async fn publish(&self, goal: &Goal, pose: &Pose, corner: bool) -> Result<(), NavError> {
-        let status = Status {
-            goal: self.goals,
-            goal_type: goal.goal_type,
-            state: if corner { "corner" } else { "center-hallway" }.into(),
-            x_mm: pose.at.x.round() as i64,
-            y_mm: pose.at.y.round() as i64,
-            heading_deg: (pose.heading.deg() * 10.0).round() / 10.0,
-            safe_mm: self
-                .hallway
-                .as_ref()
-                .map_or(0, |h| h.safe_mm.round() as i64),
-        };
+        let status = Status::at(
+            self.goals,
+            goal.goal_type,
+            if corner { "corner" } else { "center-hallway" },
+            pose,
+            self.hallway.as_ref().map_or(0.0, |h| h.safe_mm),
+        );
         self.board.set(Var::Status, &status).await?;
         Ok(())
     }

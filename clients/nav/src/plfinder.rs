@@ -445,14 +445,15 @@ impl PlFinder {
                     .map(|(label, p)| (label, distance(*p, at)))
                     .min_by(|a, b| a.1.total_cmp(&b.1))
                     .filter(|(_, e)| *e <= 1_500.0);
-                let report = PlateReport {
+                let mut report = PlateReport {
                     frame: frame.frame,
-                    x_mm: at.x.round() as i64,
-                    y_mm: at.y.round() as i64,
+                    x_mm: 0,
+                    y_mm: 0,
                     bbox: [c.bbox[0], c.bbox[1] + top, c.bbox[2], c.bbox[3] + top],
                     label: near.map(|(l, _)| l.clone()),
                     error_mm: near.map(|(_, e)| e.round() as i64),
                 };
+                report.place(at);
                 tracing::info!(?report, "plfinder: door plate");
                 self.board.set(Var::Plate, &report).await?;
             }

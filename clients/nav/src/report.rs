@@ -22,7 +22,7 @@ use crate::ctracker::SegmentLog;
 use crate::navigator::NavLog;
 use crate::plan::{ModeCount, Plan, Step};
 use crate::planner::Handed;
-use rome_maps::geometry::{direction, distance, normalize_deg, pt, Point, Pose};
+use rome_maps::geometry::{direction, distance, Heading, Point, Pose};
 use rome_maps::render::{self, Rgb, Shape};
 use rome_maps::{Map, World};
 use rome_schema::sim::{ContactCount, Truth};
@@ -59,11 +59,11 @@ pub fn judge_step(
         GoalType::C => {
             let t = truth?;
             let heading = step.goal.direction_deg;
-            let off = normalize_deg(t.heading_deg - heading);
+            let off = Pose::from(t).heading.minus(Heading::from_deg(heading));
             let d = direction(heading);
-            let (dx, dy) = (t.x_mm - step.from.x, t.y_mm - step.from.y);
-            let along = dx * d.x + dy * d.y;
-            let lateral = (dx * d.y - dy * d.x).abs();
+            let off_start = Pose::from(t).at - step.from;
+            let along = off_start.dot(&d);
+            let lateral = off_start.perp(&d).abs();
             if off.abs() > CORNER_HEADING_DEG {
                 Some(format!(
                     "heading {off:+.0}° off the corridor it should enter"
@@ -383,7 +383,7 @@ pub fn fleet_picture(reports: &[Report], map: &Map, world: &World, width_px: u32
         }
         for p in &r.plates {
             overlay.push(Shape::Dot {
-                at: pt(p.x_mm as f64, p.y_mm as f64),
+                at: p.at(),
                 radius: 3.0,
                 color: render::FOUND,
             });
@@ -400,6 +400,7 @@ pub fn fleet_picture(reports: &[Report], map: &Map, world: &World, width_px: u32
 mod tests {
     use super::*;
     use crate::board::Goal;
+    use rome_maps::geometry::pt;
 
     fn step(goal_type: GoalType, from: Point, to: Point, heading: f64) -> Step {
         Step {
