@@ -30,6 +30,9 @@
 //! so the Planner judges each L segment by what happened; the Planner
 //! writes `Corridor` (where the segment's line of lights lies in the map,
 //! and its walls) for the local mapper's sideways correction.
+//! The Navigator keeps `GoalActive` (the goal it is carrying out and where
+//! it measures it from, `null` between goals), so a Navigator started again
+//! after one died takes the goal up while the Planner still waits for it.
 
 use rome_client::{ClientError, DataClient};
 use rome_maps::geometry::{Point, Pose};
@@ -111,6 +114,9 @@ pub enum Var {
     TrackLog,
     /// The L segment's corridor in the map: its line of lights and walls.
     Corridor,
+    /// The goal the Navigator is carrying out, and where it started it,
+    /// so a Navigator started again takes it up; `null` between goals.
+    GoalActive,
 }
 
 impl Var {
@@ -128,6 +134,7 @@ impl Var {
             Var::HeadingFix => "HeadingFix",
             Var::TrackLog => "TrackLog",
             Var::Corridor => "Corridor",
+            Var::GoalActive => "GoalActive",
         }
     }
 }
@@ -226,6 +233,19 @@ pub struct Corridor {
     pub right_mm: Option<f64>,
 }
 
+/// The goal a Navigator is carrying out (`GoalActive`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ActiveGoal {
+    /// The goal as the Planner handed it.
+    pub goal: Goal,
+    /// Where the Navigator measures it from (odometry), x, mm.
+    pub start_x_mm: f64,
+    /// y, mm.
+    pub start_y_mm: f64,
+    /// Heading, degrees.
+    pub start_heading_deg: f64,
+}
+
 // The blackboard's own messages meet points and poses here only, as the
 // robots' and the simulator's do in `rome_maps::wire`.
 
@@ -241,6 +261,23 @@ impl Status {
             heading_deg: (pose.heading.deg() * 10.0).round() / 10.0,
             safe_mm: safe_mm.round() as i64,
         }
+    }
+}
+
+impl ActiveGoal {
+    /// `goal`, measured from `start`.
+    pub fn new(goal: Goal, start: &Pose) -> ActiveGoal {
+        ActiveGoal {
+            goal,
+            start_x_mm: start.at.x,
+            start_y_mm: start.at.y,
+            start_heading_deg: start.heading.deg(),
+        }
+    }
+
+    /// Where the goal is measured from.
+    pub fn start(&self) -> Pose {
+        Pose::new(self.start_x_mm, self.start_y_mm, self.start_heading_deg)
     }
 }
 

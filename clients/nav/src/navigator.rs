@@ -14,7 +14,7 @@
 //! the loop. Goals come from the Planner through `$GoalData`; the Navigator
 //! answers each with `$RobotStatus` (Table 5.4).
 
-use crate::board::{Board, Goal, GoalType, Sem, Status, Var};
+use crate::board::{ActiveGoal, Board, Goal, GoalType, Sem, Status, Var};
 pub use crate::hallway::{
     bearing, corner_step, open_sonar, sonar_add, sonar_towards, Hallway, Walls,
 };
@@ -203,15 +203,51 @@ impl Navigator {
         self.board.declare().await?;
         let scans = self.robot.scans().await?;
         self.track = Some(crate::track::PoseTrack::start(&self.robot).await?);
+        // A Navigator that died in the middle of a goal left it here: take
+        // it up, measured from where it was started (the Planner is still
+        // waiting for its $RobotStatus).
+        let mut resume = match self.board.get::<Option<ActiveGoal>>(Var::GoalActive).await {
+            Ok(active) => active,
+            Err(e) if e.code() == Some(rome_schema::ErrorCode::UnknownVariable) => None,
+            Err(e) => return Err(e.into()),
+        };
+        if resume.is_some() && !self.planner_waits().await? {
+            // Left from a run whose Planner has gone: not to be driven.
+            tracing::info!("navigator: an unfinished goal was left, but no Planner waits for it");
+            self.board.set(Var::GoalActive, &None::<ActiveGoal>).await?;
+            resume = None;
+        }
         loop {
-            let goal = self.next_goal(&scans).await?;
+            let (goal, start) = match resume.take() {
+                Some(active) => {
+                    tracing::info!(goal = ?active.goal, "navigator: taking up the goal left unfinished");
+                    (active.goal, Some(active.start()))
+                }
+                None => (self.next_goal(&scans).await?, None),
+            };
             self.goals += 1;
             tracing::info!(?goal, n = self.goals, "navigator: goal");
-            self.carry_out(&goal, &scans).await?;
+            self.carry_out(&goal, start, &scans).await?;
             self.log.done[slot(goal.goal_type)] += 1;
             let _ = log.send(self.log.clone());
+            // Cleared before the Planner hears the goal is done, so a
+            // Navigator started after this never does it twice.
+            self.board.set(Var::GoalActive, &None::<ActiveGoal>).await?;
             self.board.up(Sem::RobotStatus).await?;
         }
+    }
+
+    /// Whether a Planner waits on `$RobotStatus` (looked at for up to 3 s:
+    /// a Planner's wait is renewed every two seconds).
+    async fn planner_waits(&self) -> Result<bool, NavError> {
+        let sem = self.board.sem_name(Sem::RobotStatus);
+        for _ in 0..30 {
+            if self.board.client().semaphore(&sem).await?.waiters > 0 {
+                return Ok(true);
+            }
+            tokio::time::sleep(Duration::from_millis(100)).await;
+        }
+        Ok(false)
     }
 
     /// Waits for the Planner's next goal. A robot left moving (after an L
@@ -370,14 +406,19 @@ impl Navigator {
     async fn carry_out(
         &mut self,
         goal: &Goal,
+        resumed: Option<Pose>,
         scans: &rome_client::robot::Stream<Scan>,
     ) -> Result<(), NavError> {
         let mut scan = self.next_scan(scans).await?;
         let mut pose = self.pose_of(&scan).await?;
-        let start = match (goal.goal_type, self.carry) {
-            (GoalType::D | GoalType::E, Some(p)) => p,
+        let start = match (resumed, goal.goal_type, self.carry) {
+            (Some(p), _, _) => p,
+            (None, GoalType::D | GoalType::E, Some(p)) => p,
             _ => pose,
         };
+        self.board
+            .set(Var::GoalActive, &Some(ActiveGoal::new(*goal, &start)))
+            .await?;
         let corner = matches!(goal.goal_type, GoalType::C | GoalType::E);
         if goal.goal_type == GoalType::C {
             // Leave the corner: stop, face the outgoing corridor, go.
@@ -401,7 +442,9 @@ impl Navigator {
         let mut next_check = scan.time_ms + self.cfg.check_period_ms;
         let mut checked_at: Option<Pose> = None;
         let mut next_status = scan.time_ms;
-        let mut counted_low = false;
+        // A goal taken up again may already have its count: the count seen
+        // belongs to this segment.
+        let mut counted_low = resumed.is_some();
         let mut walls = Walls::default();
         loop {
             // The goal function: progress along the goal direction, so a

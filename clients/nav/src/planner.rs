@@ -104,6 +104,10 @@ pub async fn run(
     mut progress: impl FnMut(Progress<'_>),
 ) -> Result<Vec<Handed>, NavError> {
     board.declare().await?;
+    // A new run: no goal of an earlier one is to be taken up.
+    board
+        .set(Var::GoalActive, &None::<crate::board::ActiveGoal>)
+        .await?;
     let mut out = Vec::with_capacity(plan.steps.len());
     let mut overshoot = 0i64;
     for (index, step) in plan.steps.iter().enumerate() {

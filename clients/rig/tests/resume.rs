@@ -1,0 +1,89 @@
+//! A Navigator started again after one died in the middle of a goal takes
+//! the goal up where it was measured from, and the Planner hears it done
+//! once: the robot ends where the goal says, not a segment further.
+
+use rome_client::net::NetOptions;
+use rome_client::{DataClient, DataOptions, RobotClient, RobotOptions};
+use rome_maps::{Network, World};
+use rome_nav::board::{Board, Goal, GoalType, Sem};
+use rome_nav::navigator::{NavConfig, Navigator};
+use rome_nav::plan::Plan;
+use rome_rig::{Rig, RunConfig};
+use std::time::{Duration, Instant};
+
+async fn navigator(rig: &Rig) -> tokio::task::JoinHandle<Result<(), rome_nav::NavError>> {
+    let ds = DataClient::connect(&rig.session, DataOptions::new("navigator"))
+        .await
+        .expect("navigator data client");
+    let robot = RobotClient::connect(&rig.session, "r1", RobotOptions::new("navigator"))
+        .await
+        .expect("navigator robot client");
+    let mut nav = Navigator::new(robot, Board::new(ds, "r1"), NavConfig::default());
+    tokio::spawn(async move { nav.run().await })
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_restarted_navigator_finishes_the_goal_its_predecessor_left() {
+    let map = rome_maps::load_named("eb3").expect("eb3 loads");
+    let world_map = World::from_map(&map);
+    let network = Network::new(&map, &world_map);
+    let plan = Plan::new(&world_map, &network, "350R", "372L").expect("a plan");
+    let heading = plan.start_heading_deg;
+    let cfg = RunConfig::new(map, "350R", "372L");
+    let rig = Rig::start(&cfg, &[("r1".to_string(), plan)], NetOptions::isolated())
+        .await
+        .expect("the rig starts");
+    let _stepper = rig.world.start(Some(2.0));
+    let planner = Board::new(
+        DataClient::connect(&rig.session, DataOptions::new("planner"))
+            .await
+            .expect("planner data client"),
+        "r1",
+    );
+    planner.declare().await.expect("semaphores");
+
+    let first = navigator(&rig).await;
+    let start = rig.truth(0);
+    planner
+        .give_goal(&Goal {
+            goal_type: GoalType::D,
+            distance: 5_000,
+            direction_deg: heading,
+        })
+        .await
+        .expect("the goal is handed over");
+    let done = {
+        let planner = planner.clone();
+        tokio::spawn(async move { planner.down(Sem::RobotStatus).await })
+    };
+    // Two metres along, the Navigator dies.
+    let deadline = Instant::now() + Duration::from_secs(60);
+    while rig.truth(0).dist(&start) < 2_000.0 {
+        assert!(Instant::now() < deadline, "the robot never got going");
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+    first.abort();
+    let _ = first.await;
+
+    let second = navigator(&rig).await;
+    tokio::time::timeout(Duration::from_secs(60), done)
+        .await
+        .expect("the goal was never finished: the new Navigator did not take it up")
+        .expect("the Planner's wait does not panic")
+        .expect("the Planner hears the goal done");
+    let end = rig.truth(0);
+    let driven = end.dist(&start);
+    assert!(
+        (driven - 5_000.0).abs() < 500.0,
+        "the robot ended {driven:.0} mm from where the goal began, not 5000"
+    );
+    // Done once: the goal is not taken up again.
+    let status = planner
+        .client()
+        .semaphore(&planner.sem_name(Sem::RobotStatus))
+        .await
+        .expect("semaphore state");
+    assert_eq!(status.value, 0, "the goal was reported done twice");
+    second.abort();
+    rig.stop().await;
+}
