@@ -148,6 +148,11 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
         .iter()
         .any(|p| p.class == "server" && p.role == "data");
     let targets = targets(&root, data, &robots);
+    anyhow::ensure!(
+        !targets.is_empty(),
+        "no data server and no hardware server is alive under '{}': nothing to send to",
+        root.as_str()
+    );
     eprintln!(
         "fuzz: {} servers alive, {} targets ({} robots' devices{}), seed {}",
         servers.len(),
