@@ -157,6 +157,7 @@ pub fn messages(bytes: &[u8]) {
         ErrorReply,
         rome_nav::board::Goal,
         rome_nav::board::Status,
+        rome_nav::board::ActiveGoal,
     );
 }
 

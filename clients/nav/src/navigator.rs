@@ -209,6 +209,11 @@ impl Navigator {
         let mut resume = match self.board.get::<Option<ActiveGoal>>(Var::GoalActive).await {
             Ok(active) => active,
             Err(e) if e.code() == Some(rome_schema::ErrorCode::UnknownVariable) => None,
+            // Anyone may write the blackboard: what does not decode is no goal.
+            Err(rome_client::ClientError::Decode(e)) => {
+                tracing::warn!(error = %e, "navigator: GoalActive does not decode; ignored");
+                None
+            }
             Err(e) => return Err(e.into()),
         };
         if resume.is_some() && !self.planner_waits().await? {

@@ -87,3 +87,52 @@ async fn a_restarted_navigator_finishes_the_goal_its_predecessor_left() {
     second.abort();
     rig.stop().await;
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn garbage_in_goal_active_is_no_goal() {
+    let map = rome_maps::load_named("eb3").expect("eb3 loads");
+    let world_map = World::from_map(&map);
+    let network = Network::new(&map, &world_map);
+    let plan = Plan::new(&world_map, &network, "350R", "372L").expect("a plan");
+    let heading = plan.start_heading_deg;
+    let cfg = RunConfig::new(map, "350R", "372L");
+    let rig = Rig::start(&cfg, &[("r1".to_string(), plan)], NetOptions::isolated())
+        .await
+        .expect("the rig starts");
+    let _stepper = rig.world.start(Some(2.0));
+    let planner = Board::new(
+        DataClient::connect(&rig.session, DataOptions::new("planner"))
+            .await
+            .expect("planner data client"),
+        "r1",
+    );
+    planner.declare().await.expect("semaphores");
+    // Anyone may write the blackboard.
+    planner
+        .client()
+        .set(
+            &planner.var_name(rome_nav::board::Var::GoalActive),
+            &"nonsense",
+        )
+        .await
+        .expect("written");
+    let nav = navigator(&rig).await;
+    planner
+        .give_goal(&Goal {
+            goal_type: GoalType::D,
+            distance: 1_000,
+            direction_deg: heading,
+        })
+        .await
+        .expect("the goal is handed over");
+    tokio::time::timeout(Duration::from_secs(60), planner.down(Sem::RobotStatus))
+        .await
+        .expect("the Navigator carried out the goal")
+        .expect("the Planner hears it done");
+    assert!(
+        !nav.is_finished(),
+        "the Navigator stopped on a bad GoalActive"
+    );
+    nav.abort();
+    rig.stop().await;
+}
