@@ -1,14 +1,12 @@
 //! A Navigator that cannot read what its goal depends on stops the robot
 //! instead of driving on blind.
 
-use rome_client::net::NetOptions;
+mod common;
+
 use rome_client::{DataClient, DataOptions, RobotClient, RobotOptions};
-use rome_maps::{Network, World};
 use rome_nav::board::{Board, Goal, GoalType};
 use rome_nav::navigator::{NavConfig, Navigator};
-use rome_nav::plan::Plan;
 use rome_nav::NavError;
-use rome_rig::{Rig, RunConfig};
 use std::time::{Duration, Instant};
 
 /// Waits, checking every 20 ms, until `ok` holds or `within` passes.
@@ -25,16 +23,7 @@ async fn until(within: Duration, mut ok: impl FnMut() -> bool) -> bool {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn an_l_goal_stops_the_robot_when_the_light_count_goes_unanswered() {
-    let map = rome_maps::load_named("eb3").expect("eb3 loads");
-    let world_map = World::from_map(&map);
-    let network = Network::new(&map, &world_map);
-    let plan = Plan::new(&world_map, &network, "350R", "372L").expect("a plan");
-    let heading = plan.start_heading_deg;
-    let cfg = RunConfig::new(map, "350R", "372L");
-    let mut rig = Rig::start(&cfg, &[("r1".to_string(), plan)], NetOptions::isolated())
-        .await
-        .expect("the rig starts");
-    let _stepper = rig.world.start(Some(1.0));
+    let (mut rig, _stepper, heading, planner) = common::one_robot(1.0).await;
 
     let request_timeout = Duration::from_secs(6);
     let ds = DataClient::connect(
@@ -50,18 +39,11 @@ async fn an_l_goal_stops_the_robot_when_the_light_count_goes_unanswered() {
         .await
         .expect("navigator robot client");
     let board = Board::new(ds, "r1");
-    let planner = Board::new(
-        DataClient::connect(&rig.session, DataOptions::new("planner"))
-            .await
-            .expect("planner data client"),
-        "r1",
-    );
     let mut nav = Navigator::new(robot, board, NavConfig::default());
     let navigating = tokio::spawn(async move { nav.run().await });
 
     // Many more lights than the corridor has: the goal can only end by
     // the count, which is about to become unreadable.
-    planner.declare().await.expect("semaphores");
     planner
         .give_goal(&Goal {
             goal_type: GoalType::L,

@@ -2,13 +2,12 @@
 //! the goal up where it was measured from, and the Planner hears it done
 //! once: the robot ends where the goal says, not a segment further.
 
-use rome_client::net::NetOptions;
+mod common;
+
 use rome_client::{DataClient, DataOptions, RobotClient, RobotOptions};
-use rome_maps::{Network, World};
 use rome_nav::board::{Board, Goal, GoalType, Sem};
 use rome_nav::navigator::{NavConfig, Navigator};
-use rome_nav::plan::Plan;
-use rome_rig::{Rig, RunConfig};
+use rome_rig::Rig;
 use std::time::{Duration, Instant};
 
 async fn navigator(rig: &Rig) -> tokio::task::JoinHandle<Result<(), rome_nav::NavError>> {
@@ -24,23 +23,7 @@ async fn navigator(rig: &Rig) -> tokio::task::JoinHandle<Result<(), rome_nav::Na
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_restarted_navigator_finishes_the_goal_its_predecessor_left() {
-    let map = rome_maps::load_named("eb3").expect("eb3 loads");
-    let world_map = World::from_map(&map);
-    let network = Network::new(&map, &world_map);
-    let plan = Plan::new(&world_map, &network, "350R", "372L").expect("a plan");
-    let heading = plan.start_heading_deg;
-    let cfg = RunConfig::new(map, "350R", "372L");
-    let rig = Rig::start(&cfg, &[("r1".to_string(), plan)], NetOptions::isolated())
-        .await
-        .expect("the rig starts");
-    let _stepper = rig.world.start(Some(2.0));
-    let planner = Board::new(
-        DataClient::connect(&rig.session, DataOptions::new("planner"))
-            .await
-            .expect("planner data client"),
-        "r1",
-    );
-    planner.declare().await.expect("semaphores");
+    let (rig, _stepper, heading, planner) = common::one_robot(2.0).await;
 
     let first = navigator(&rig).await;
     let start = rig.truth(0);
@@ -90,23 +73,7 @@ async fn a_restarted_navigator_finishes_the_goal_its_predecessor_left() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn garbage_in_goal_active_is_no_goal() {
-    let map = rome_maps::load_named("eb3").expect("eb3 loads");
-    let world_map = World::from_map(&map);
-    let network = Network::new(&map, &world_map);
-    let plan = Plan::new(&world_map, &network, "350R", "372L").expect("a plan");
-    let heading = plan.start_heading_deg;
-    let cfg = RunConfig::new(map, "350R", "372L");
-    let rig = Rig::start(&cfg, &[("r1".to_string(), plan)], NetOptions::isolated())
-        .await
-        .expect("the rig starts");
-    let _stepper = rig.world.start(Some(2.0));
-    let planner = Board::new(
-        DataClient::connect(&rig.session, DataOptions::new("planner"))
-            .await
-            .expect("planner data client"),
-        "r1",
-    );
-    planner.declare().await.expect("semaphores");
+    let (rig, _stepper, heading, planner) = common::one_robot(2.0).await;
     // Anyone may write the blackboard.
     planner
         .client()
