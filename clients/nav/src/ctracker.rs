@@ -214,7 +214,7 @@ impl CTracker {
     }
 
     async fn pose(&self) -> Result<Pose, NavError> {
-        Ok(Pose::from(&self.robot.pose().await?))
+        Ok(Pose::from(&crate::track::pose_waiting(&self.robot).await?))
     }
 
     /// One L segment: down($TrackData) … up($EndLMode).

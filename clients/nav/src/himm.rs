@@ -468,7 +468,7 @@ impl Himm {
             if !n.is_multiple_of(4) {
                 continue;
             }
-            let p = self.robot.pose().await?;
+            let p = crate::track::pose_waiting(&self.robot).await?;
             let at = Pose::from(&p).at;
             if let Some(before) = last {
                 let step = distance(before, at);
@@ -519,7 +519,7 @@ impl Himm {
                 // offset alone.
                 let corridor: Option<Corridor> = self.board.get(Var::Corridor).await.ok();
                 let corridor = corridor.as_ref();
-                let p = self.robot.pose().await?;
+                let p = crate::track::pose_waiting(&self.robot).await?;
                 let mut grid = Grid::new(Pose::from(&p).at, self.cfg.half_side_mm);
                 let mut seen = 0i64;
                 let mut in_map = 0i64;
@@ -528,7 +528,7 @@ impl Himm {
                         Some(()) = lights.recv() => {
                             seen += 1;
                             in_map += 1;
-                            let p = self.robot.pose().await?;
+                            let p = crate::track::pose_waiting(&self.robot).await?;
                             let now = Pose::from(&p).at;
                             let mapped = distance(grid.origin, now);
                             // Every three lights as in the thesis, and also at
@@ -540,7 +540,7 @@ impl Himm {
                             let long = self.cfg.light_map_mm > 0.0 && mapped >= self.cfg.light_map_mm;
                             if in_map >= self.cfg.lights_per_map || last || long {
                                 self.correct(&grid, now, goal, corridor, seen).await?;
-                                let p = self.robot.pose().await?;
+                                let p = crate::track::pose_waiting(&self.robot).await?;
                                 grid = Grid::new(Pose::from(&p).at, self.cfg.half_side_mm);
                                 in_map = 0;
                             }
@@ -548,7 +548,7 @@ impl Himm {
                         scan = scans.next() => {
                             // A map that has grown this long without three
                             // lights (lights far apart) is used as it is.
-                            let p0 = self.robot.pose().await?;
+                            let p0 = crate::track::pose_waiting(&self.robot).await?;
                             let now = Pose::from(&p0).at;
                             if distance(grid.origin, now) > self.cfg.max_map_mm {
                                 self.correct(&grid, now, goal, corridor, seen).await?;

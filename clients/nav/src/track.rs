@@ -64,6 +64,20 @@ fn pose_at(states: &VecDeque<(u64, Pose)>, time_ms: u64) -> Option<Pose> {
     })
 }
 
+/// The base's pose. A read kept waiting behind someone else's lock past
+/// its wait is asked again: a client that only reads must not end because
+/// another holds the robot.
+pub async fn pose_waiting(robot: &RobotClient) -> Result<rome_schema::robot::PoseReply, NavError> {
+    loop {
+        match robot.pose().await {
+            Err(e) if e.code() == Some(rome_schema::ErrorCode::TimedOut) => {
+                tracing::warn!(error = %e, "pose read kept waiting behind a lock; asking again");
+            }
+            other => return Ok(other?),
+        }
+    }
+}
+
 impl PoseTrack {
     /// Follows `robot`'s base state stream from now on.
     pub async fn start(robot: &RobotClient) -> Result<PoseTrack, NavError> {
