@@ -934,7 +934,6 @@ fn deepest_overlap(holds: &[Hold]) -> i64 {
 /// A waiter task and what it holds.
 struct Waiter {
     task: tokio::task::JoinHandle<()>,
-    holding: Arc<AtomicBool>,
     session: Arc<Mutex<Option<zenoh::Session>>>,
 }
 
@@ -946,9 +945,8 @@ impl Waiter {
         shared: Arc<Shared>,
         rng: &mut Rng,
     ) -> Waiter {
-        let holding = Arc::new(AtomicBool::new(false));
         let session = Arc::new(Mutex::new(None));
-        let (h, s, sh) = (holding.clone(), session.clone(), shared.clone());
+        let (s, sh) = (session.clone(), shared.clone());
         let seed = rng.next_u64() ^ i as u64;
         let task = tokio::spawn(async move {
             let mut rng = Rng::new(seed);
@@ -971,7 +969,6 @@ impl Waiter {
                     continue;
                 }
                 let start = Instant::now();
-                h.store(true, Ordering::SeqCst);
                 sh.granted.fetch_add(1, Ordering::Relaxed);
                 tokio::time::sleep(Duration::from_millis(50 + rng.next_u64() % 250)).await;
                 // The server takes an undo unit back when its owner seems
@@ -984,7 +981,6 @@ impl Waiter {
                     ds.give_back(pool).await,
                     Err(e) if e.code() == Some(rome_schema::ErrorCode::Conflict)
                 );
-                h.store(false, Ordering::SeqCst);
                 if let Ok(mut holds) = sh.holds.lock() {
                     holds.push(Hold {
                         start,
@@ -994,11 +990,7 @@ impl Waiter {
                 }
             }
         });
-        Waiter {
-            task,
-            holding,
-            session,
-        }
+        Waiter { task, session }
     }
 
     /// The client dies: its task stops and its session closes, so the
@@ -1009,9 +1001,6 @@ impl Waiter {
         if let Some(s) = s {
             let _ = s.close().await;
         }
-        // A crashed holder's hold is not judged: its end is unknown, and
-        // the server gives its unit back when it sees the owner gone.
-        self.holding.store(false, Ordering::SeqCst);
     }
 
     /// Lets the waiter finish its hold, give the unit back and go.
