@@ -45,6 +45,9 @@ pub enum ErrorCode {
     /// The server could not keep the change on disk; the change was not
     /// acknowledged and may or may not survive a restart.
     Storage,
+    /// The key has a wildcard where the operation needs one robot and
+    /// device named: only reads answer a wildcard key.
+    Wildcard,
 }
 
 impl ErrorCode {
@@ -67,6 +70,7 @@ impl ErrorCode {
             ErrorCode::Busy => "busy",
             ErrorCode::Storage => "storage",
             ErrorCode::Quota => "quota",
+            ErrorCode::Wildcard => "wildcard",
         }
     }
 }

@@ -168,6 +168,10 @@ impl<D: BaseDevice> Service for Base<D> {
         true
     }
 
+    fn reads(&self) -> &'static [&'static str] {
+        &["pose", "speed", "wheel-speed", "mode", "bumper"]
+    }
+
     fn parse(
         &self,
         command: &str,

@@ -127,6 +127,10 @@ impl<D: CameraDevice> Service for Camera<D> {
         true
     }
 
+    fn reads(&self) -> &'static [&'static str] {
+        &["size"]
+    }
+
     fn parse(
         &self,
         command: &str,

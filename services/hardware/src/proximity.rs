@@ -105,6 +105,10 @@ impl<D: ProximityDevice> Service for Proximity<D> {
         false
     }
 
+    fn reads(&self) -> &'static [&'static str] {
+        &["sonar", "ir"]
+    }
+
     fn parse(
         &self,
         command: &str,

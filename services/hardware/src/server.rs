@@ -19,7 +19,7 @@ use rome_serve::{reply_err, Handler, Inbox, Periods};
 use std::collections::{HashMap, VecDeque};
 use std::future::Future;
 use std::time::{Duration, Instant, SystemTime};
-use zenoh::bytes::Encoding;
+use zenoh::bytes::{Encoding, ZBytes};
 use zenoh::qos::CongestionControl;
 use zenoh::query::{ConsolidationMode, Query};
 use zenoh::sample::{Sample, SampleKind};
@@ -64,6 +64,13 @@ pub trait Service: Send + Sync + 'static {
 
     /// Whether the device has a lock token (base, cameras).
     fn lockable(&self) -> bool;
+
+    /// The commands that only read the device (a base's pose, a sonar
+    /// scan): they also answer a wildcard key, one reply per device, so
+    /// `z_get 'rome/robot/*/base/pose'` finds every robot.
+    fn reads(&self) -> &'static [&'static str] {
+        &[]
+    }
 
     /// Parses a command from its key chunk, parameters and payload; takes
     /// the parameters it knows and refuses the rest.
@@ -212,6 +219,9 @@ struct Server<S: Service> {
     stats: rome_schema::robot::CommandStats,
     executed_ids: std::collections::HashSet<String>,
     executed_order: VecDeque<String>,
+    /// The last publication of each stream (`state`, `scan`, `frame`),
+    /// answered to a query on its key.
+    last: HashMap<&'static str, (ZBytes, Encoding)>,
 }
 
 /// Runs a hardware server for `service` until `shutdown` completes.
@@ -274,6 +284,7 @@ pub async fn run<S: Service>(
         stats: Default::default(),
         executed_ids: Default::default(),
         executed_order: VecDeque::new(),
+        last: HashMap::new(),
         session,
         config,
         service,
@@ -389,10 +400,8 @@ impl<S: Service> Server<S> {
 
     async fn query(&mut self, query: Query) {
         let key = query.key_expr().as_str().to_string();
-        if key.contains('*') {
-            // A wildcard sweep (`z_get rome/**`) is not a command to this
-            // server; let it finish without an answer from us.
-            return;
+        if key.contains(['*', '$']) {
+            return self.sweep_query(query).await;
         }
         let mut params = Params::new(query.parameters().iter());
         let meta = match Meta::take(&mut params) {
@@ -406,6 +415,14 @@ impl<S: Service> Server<S> {
                 return reply_err(&query, &e).await;
             }
             return reply(&query, &key, Body::json(&self.stats)).await;
+        }
+        if let Some((bytes, encoding)) = self.last.get(command.as_str()) {
+            // A stream's key answers with its last publication.
+            if let Err(e) = params.finish(&command, &[]) {
+                return reply_err(&query, &e).await;
+            }
+            let (bytes, encoding) = (bytes.clone(), encoding.clone());
+            return rome_serve::reply(&query, &key, bytes, encoding).await;
         }
         let payload = query.payload().map(|p| p.to_bytes().into_owned());
         let op = match self.parse(&command, params, meta.fence, payload.as_deref()) {
@@ -452,6 +469,95 @@ impl<S: Service> Server<S> {
                 reply_err(&item.query, &e).await;
             }
         }
+    }
+
+    /// Answers a query whose key has wildcards: every read and every
+    /// JSON stream of this device that the key matches, one reply each,
+    /// at once, since a read changes nothing a lock holder relies on. A
+    /// key that matches only commands that act (or return images) gets an
+    /// error reply: those need one robot and device named.
+    async fn sweep_query(&mut self, query: Query) {
+        let wanted = query.key_expr().clone();
+        let key_of = |chunk: &str| {
+            self.config
+                .root
+                .robot(&self.config.robot, &self.config.device, chunk)
+        };
+        let matches = |chunk: &str| {
+            zenoh::key_expr::KeyExpr::new(key_of(chunk)).is_ok_and(|k| wanted.intersects(&k))
+        };
+        let reads = self.service.reads();
+        let mut answered = 0usize;
+        for &chunk in reads {
+            if !matches(chunk) {
+                continue;
+            }
+            let key = key_of(chunk);
+            let result = match self
+                .service
+                .parse(chunk, Params::new(std::iter::empty()), None)
+            {
+                Ok(cmd) => self.service.apply(cmd, self.lock()).await,
+                Err(e) => Err(e),
+            };
+            match result {
+                Ok(body) => reply(&query, &key, body).await,
+                // One device failing is said, and the others still answer.
+                Err(e) => reply_err(&query, &e).await,
+            }
+            answered += 1;
+        }
+        let streams: Vec<(&'static str, ZBytes)> = self
+            .last
+            .iter()
+            .filter(|(chunk, (_, enc))| *enc == Encoding::APPLICATION_JSON && matches(chunk))
+            .map(|(chunk, (bytes, _))| (*chunk, bytes.clone()))
+            .collect();
+        for (chunk, bytes) in streams {
+            rome_serve::reply(&query, &key_of(chunk), bytes, Encoding::APPLICATION_JSON).await;
+            answered += 1;
+        }
+        if answered > 0 {
+            return;
+        }
+        let mut others: Vec<&str> = self.service.commands().to_vec();
+        if self.service.lockable() {
+            others.extend(["lock", "unlock"]);
+        }
+        others.extend(self.last.keys().copied());
+        let hit: Vec<&str> = others.into_iter().filter(|c| matches(c)).collect();
+        if hit.is_empty() {
+            let last = wanted.as_str().rsplit('/').next().unwrap_or_default();
+            if wanted.as_str().contains("**") || last.contains(['*', '$']) {
+                // A sweep over more than this device (`rome/**/pose` on
+                // a camera): nothing here it meant.
+                return;
+            }
+            let e = ErrorReply::new(
+                ErrorCode::UnknownKey,
+                format!(
+                    "{} has no command '{last}' (asked through '{wanted}'); its reads are {}",
+                    self.config.label(),
+                    if reads.is_empty() {
+                        "none".to_string()
+                    } else {
+                        reads.join(", ")
+                    },
+                ),
+            );
+            return reply_err(&query, &e).await;
+        }
+        let e = ErrorReply::new(
+            ErrorCode::Wildcard,
+            format!(
+                "'{wanted}' names {} on {} through a wildcard; only reads answer a wildcard key ({}); name the robot and device, as in {}",
+                hit.iter().map(|c| format!("'{c}'")).collect::<Vec<_>>().join(", "),
+                self.config.label(),
+                if reads.is_empty() { "this device has none".to_string() } else { reads.join(", ") },
+                key_of(hit[0]),
+            ),
+        );
+        reply_err(&query, &e).await;
     }
 
     /// Serves queued requests while the lock is free.
@@ -627,9 +733,10 @@ impl<S: Service> Server<S> {
                 .root
                 .robot(&self.config.robot, &self.config.device, chunk);
             let (bytes, encoding) = match body {
-                Body::Json(b) => (b, Encoding::APPLICATION_JSON),
-                Body::Binary(b, e) => (b, e),
+                Body::Json(b) => (ZBytes::from(b), Encoding::APPLICATION_JSON),
+                Body::Binary(b, e) => (ZBytes::from(b), e),
             };
+            self.last.insert(chunk, (bytes.clone(), encoding.clone()));
             let sent = self
                 .session
                 .put(&key, bytes)

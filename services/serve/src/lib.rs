@@ -184,7 +184,12 @@ pub fn busy(label: &str, capacity: usize, waiting: &str) -> ErrorReply {
 
 /// Answers `query` with `bytes` on `key`. Zenoh sends a reply in its
 /// query's priority band, so a client's priority rides both ways.
-pub async fn reply(query: &Query, key: &str, bytes: Vec<u8>, encoding: Encoding) {
+pub async fn reply(
+    query: &Query,
+    key: &str,
+    bytes: impl Into<zenoh::bytes::ZBytes>,
+    encoding: Encoding,
+) {
     if let Err(e) = query.reply(key, bytes).encoding(encoding).await {
         tracing::warn!(%key, error = %e, "reply failed");
     }

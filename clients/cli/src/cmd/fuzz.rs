@@ -400,7 +400,9 @@ fn targets(root: &Root, data: bool, robots: &[(String, String)]) -> Vec<Target> 
         {
             out.push(q(format!("{base}/{c}"), true));
         }
-        out.push(q(format!("{base}/*"), false));
+        // Wildcards over a device's commands are answered: its reads, or
+        // an error reply when only commands that act match.
+        out.push(q(format!("{base}/*"), true));
         for stream in ["state", "scan", "frame"] {
             out.push(Target::Publish {
                 key: format!("{base}/{stream}"),
@@ -409,7 +411,8 @@ fn targets(root: &Root, data: bool, robots: &[(String, String)]) -> Vec<Target> 
         out.push(Target::Publish {
             key: format!("{r}/store/robot/{robot}/{device}/lock"),
         });
-        out.push(q(format!("{r}/robot/*/{device}/pose"), false));
+        out.push(q(format!("{r}/robot/*/{device}/pose"), device == "base"));
+        out.push(q(format!("{r}/robot/*/{device}/{}", commands[0]), true));
         out.push(Target::Publish {
             key: format!("{r}/sim/{robot}/truth"),
         });
