@@ -5,7 +5,7 @@
 //!   every command (`--connect`, `--listen`, `--mode`, `--config`,
 //!   `--no-multicast`, `--root`), flattened into [`Cli`].
 //! - [`cmd`]: one module per command group (`data-server`, `data`, `sem`,
-//!   `ls`, `map`, `sim`, `pioneer`, `robot`, `storage`, `demo`, `bench`), each with a `run` taking parsed arguments.
+//!   `ls`, `echo`, `map`, `sim`, `pioneer`, `robot`, `storage`, `demo`, `bench`), each with a `run` taking parsed arguments.
 //! - [`exit`]: the exit codes, documented in `rome --help`.
 //!
 //! `main` only parses flags and calls [`main`]; everything else is here so
@@ -53,8 +53,10 @@ pub enum Command {
     /// Create, signal and wait on semaphores.
     #[command(subcommand)]
     Sem(cmd::sem::SemCmd),
-    /// List the live servers and clients.
+    /// List the live servers and clients, and each robot's devices with their stream rates.
     Ls(cmd::ls::Args),
+    /// Print any key's traffic (puts, deletes, liveliness, replies with --get), or its rates with --hz.
+    Echo(cmd::echo::Args),
     /// Check and draw StickRep maps.
     #[command(subcommand)]
     Map(cmd::map::MapCmd),
@@ -140,6 +142,7 @@ pub async fn run(cli: Cli) -> anyhow::Result<u8> {
         Command::Data(c) => cmd::data::run(&common, c).await,
         Command::Sem(c) => cmd::sem::run(&common, c).await,
         Command::Ls(args) => cmd::ls::run(&common, args).await,
+        Command::Echo(args) => cmd::echo::run(&common, args).await,
         Command::Map(c) => cmd::map::run(c),
         Command::Sim(args) => cmd::sim::run(&common, args).await,
         Command::Pioneer(args) => cmd::pioneer::run(&common, args).await,

@@ -549,3 +549,149 @@ fn robot_commands_from_the_shell_against_rome_sim() {
     );
     sim.kill();
 }
+
+#[test]
+fn echo_and_ls_show_a_fleets_traffic_and_rates() {
+    let (mut sim, port, _) = rome_tests::spawn_listening(
+        ROME,
+        &[
+            "sim",
+            "--map",
+            "fig5_3",
+            "--robots",
+            "2",
+            "--no-multicast",
+            "-l",
+            "tcp/127.0.0.1:0",
+        ],
+    );
+    let connect = format!("tcp/127.0.0.1:{port}");
+    let rome = |args: &[&str]| {
+        let out = Command::new(ROME)
+            .args(["-e", &connect, "--no-multicast"])
+            .args(args)
+            .stdin(Stdio::null())
+            .output()
+            .unwrap();
+        (
+            out.status.code(),
+            String::from_utf8_lossy(&out.stdout).into_owned(),
+            String::from_utf8_lossy(&out.stderr).into_owned(),
+        )
+    };
+    let lines = |out: &str| -> Vec<serde_json::Value> {
+        out.lines()
+            .map(|l| serde_json::from_str(l).unwrap_or_else(|e| panic!("{e}: {l}")))
+            .collect()
+    };
+    // The first state message, pretty and as JSON; it waits for the sim.
+    let (code, out, err) = rome(&["echo", "rome/robot/r2/base/state", "--count", "1"]);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(
+        out.contains("PUT    rome/robot/r2/base/state") && out.contains("  robot: r2"),
+        "{out}"
+    );
+    let (_, out, _) = rome(&[
+        "echo",
+        "rome/robot/*/proximity/scan",
+        "--count",
+        "4",
+        "--json",
+    ]);
+    let scans = lines(&out);
+    assert_eq!(scans.len(), 4);
+    assert!(scans.iter().all(
+        |s| s["kind"] == "put" && s["payload"]["sonar_mm"].as_array().map(Vec::len) == Some(24)
+    ));
+
+    // Liveliness: the servers already up are JOINED.
+    let (_, out, _) = rome(&["echo", "rome/alive/server/robot/r1/**", "--count", "4"]);
+    assert_eq!(out.matches("JOINED").count(), 4, "{out}");
+
+    // A get over the fleet: one reply per robot; an act: errors, rc 1.
+    let (code, out, _) = rome(&["echo", "--get", "rome/robot/*/base/pose", "--json"]);
+    assert_eq!(code, Some(0));
+    let mut keys: Vec<String> = lines(&out)
+        .iter()
+        .map(|r| format!("{} {}", r["kind"], r["key"]))
+        .collect();
+    keys.sort();
+    assert_eq!(
+        keys,
+        [
+            r#""reply" "rome/robot/r1/base/pose""#,
+            r#""reply" "rome/robot/r2/base/pose""#
+        ]
+    );
+    let (code, out, _) = rome(&[
+        "echo",
+        "--get",
+        "rome/robot/*/base/go",
+        "--payload",
+        r#"{"velocity_mm_s":300}"#,
+    ]);
+    assert_eq!(code, Some(1));
+    assert_eq!(out.matches("code: wildcard").count(), 2, "{out}");
+
+    // Rates per key.
+    let (_, out, _) = rome(&[
+        "echo",
+        "rome/robot/r1/**",
+        "--hz",
+        "--window",
+        "2",
+        "--duration",
+        "2.5",
+        "--json",
+    ]);
+    let rates = lines(&out);
+    let mut keys: Vec<&str> = rates.iter().filter_map(|r| r["key"].as_str()).collect();
+    keys.sort();
+    assert_eq!(
+        keys,
+        [
+            "rome/robot/r1/base/state",
+            "rome/robot/r1/camera/side/frame",
+            "rome/robot/r1/camera/up/frame",
+            "rome/robot/r1/proximity/scan"
+        ]
+    );
+    assert!(rates
+        .iter()
+        .all(|r| r["hz"].as_f64().unwrap() > 0.0 && r["count"].as_u64().unwrap() >= 1));
+
+    // rome ls: each device with its stream.
+    let (code, out, err) = rome(&["ls", "--json"]);
+    assert_eq!(code, Some(0), "{err}");
+    let ls: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let mut streams: Vec<String> = ls["streams"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| {
+            format!(
+                "{}/{}/{}",
+                s["robot"].as_str().unwrap(),
+                s["device"].as_str().unwrap(),
+                s["stream"].as_str().unwrap()
+            )
+        })
+        .collect();
+    streams.sort();
+    assert_eq!(
+        streams,
+        [
+            "r1/base/state",
+            "r1/camera/side/frame",
+            "r1/camera/up/frame",
+            "r1/proximity/scan",
+            "r2/base/state",
+            "r2/camera/side/frame",
+            "r2/camera/up/frame",
+            "r2/proximity/scan"
+        ]
+    );
+    let (_, out, _) = rome(&["ls"]);
+    assert!(out.contains("ROBOT") && out.contains("camera/up"), "{out}");
+    sim.kill();
+}

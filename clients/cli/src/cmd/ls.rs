@@ -1,8 +1,22 @@
-//! `rome ls`: the live servers and clients, from liveliness tokens.
+//! `rome ls`: the live servers and clients, from liveliness tokens, and
+//! each robot's devices with the rates of their streams.
+//!
+//! ```text
+//! $ rome ls
+//! CLASS   ROLE              ID
+//! server  robot/r1          base
+//! server  robot/r1/camera   up
+//! …
+//! ROBOT  DEVICE      STREAM  RATE Hz  BYTES
+//! r1     base        state     10.00    291
+//! r1     proximity   scan       9.98    402
+//! r1     camera/up   frame      2.00    104
+//! ```
 
 use crate::args::{CommonArgs, Side};
+use crate::cmd::echo::Rates;
 use crate::exit;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 /// Flags of `rome ls`.
 #[derive(Debug, clap::Args)]
@@ -10,12 +24,22 @@ pub struct Args {
     /// JSON instead of a table.
     #[arg(long)]
     pub json: bool,
-    /// How long to collect answers, in seconds.
+    /// How long to collect answers and count stream messages, in seconds.
     #[arg(long, default_value_t = 2.0)]
     pub timeout: f64,
 }
 
-/// Lists who is alive.
+/// One robot device's stream, as heard during the listing.
+#[derive(Debug, serde::Serialize)]
+struct Stream {
+    robot: String,
+    device: String,
+    stream: String,
+    hz: f64,
+    mean_bytes: f64,
+}
+
+/// Lists who is alive, and how often each robot device publishes.
 pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
     anyhow::ensure!(
         args.timeout.is_finite() && args.timeout > 0.0,
@@ -23,10 +47,53 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
     );
     let session = common.open(Side::Client).await?;
     let root = common.root()?;
+    let window = Duration::from_secs_f64(args.timeout);
+    let rates = std::sync::Arc::new(std::sync::Mutex::new(Rates::default()));
+    let started = Instant::now();
+    let _streams = {
+        let rates = rates.clone();
+        session
+            .declare_subscriber(format!("{}/robot/**", root.as_str()))
+            .callback(move |s| {
+                if let Ok(mut r) = rates.lock() {
+                    r.add(s.key_expr().as_str(), s.payload().len(), Instant::now());
+                }
+            })
+            .await
+            .map_err(|e| anyhow::anyhow!("cannot subscribe to the robots' streams: {e}"))?
+    };
     // Peers learn each other's tokens just after connecting; a liveliness
     // subscriber with history waits for that instead of guessing.
-    let people =
-        rome_client::alive::list(&session, &root, Duration::from_secs_f64(args.timeout)).await?;
+    let people = rome_client::alive::list(&session, &root, window).await?;
+    // The streams are counted over the whole window, however soon the
+    // tokens came.
+    tokio::time::sleep_until((started + window).into()).await;
+    let heard = started.elapsed();
+    let prefix = format!("{}/robot/", root.as_str());
+    let streams: Vec<Stream> = rates
+        .lock()
+        .map(|r| r.rates(Instant::now(), heard))
+        .unwrap_or_default()
+        .into_iter()
+        .filter_map(|r| {
+            let rest = r.key.strip_prefix(&prefix)?;
+            let (robot, rest) = rest.split_once('/')?;
+            let (device, stream) = rest.rsplit_once('/')?;
+            Some(Stream {
+                robot: robot.to_string(),
+                device: device.to_string(),
+                stream: stream.to_string(),
+                // From the intervals when there are some, since the
+                // subscription starts a moment after the window does.
+                hz: if r.count >= 2 {
+                    r.hz
+                } else {
+                    r.count as f64 / heard.as_secs_f64()
+                },
+                mean_bytes: r.mean_bytes,
+            })
+        })
+        .collect();
     if args.json {
         let rows: Vec<_> = people
             .iter()
@@ -34,16 +101,60 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
                 |p| serde_json::json!({"class": p.class, "role": p.role, "id": p.id, "key": p.key}),
             )
             .collect();
-        println!("{}", serde_json::to_string_pretty(&rows)?);
-    } else if people.is_empty() {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&serde_json::json!({"alive": rows, "streams": streams}))?
+        );
+        return Ok(exit::OK);
+    }
+    if people.is_empty() {
         eprintln!(
             "nothing alive under '{}' (is a server running, and --connect right?)",
             root.as_str()
         );
-    } else {
-        println!("{:6}  {:16}  ID", "CLASS", "ROLE");
-        for p in &people {
-            println!("{:6}  {:16}  {}", p.class, p.role, p.id);
+        return Ok(exit::OK);
+    }
+    println!("{:6}  {:16}  ID", "CLASS", "ROLE");
+    for p in &people {
+        println!("{:6}  {:16}  {}", p.class, p.role, p.id);
+    }
+    // Every device with a server, with its streams or none heard.
+    let mut devices: Vec<(String, String)> = people
+        .iter()
+        .filter_map(|p| {
+            // `robot/r1` + `base`, `robot/r1/camera` + `up`.
+            let rest = p.role.strip_prefix("robot/")?;
+            let (robot, kind) = rest.split_once('/').unwrap_or((rest, ""));
+            let device = if kind.is_empty() {
+                p.id.clone()
+            } else {
+                format!("{kind}/{}", p.id)
+            };
+            Some((robot.to_string(), device))
+        })
+        .collect();
+    devices.sort();
+    if devices.is_empty() {
+        return Ok(exit::OK);
+    }
+    println!();
+    println!(
+        "{:8}  {:12}  {:8}  {:>8}  {:>7}",
+        "ROBOT", "DEVICE", "STREAM", "RATE Hz", "BYTES"
+    );
+    for (robot, device) in &devices {
+        let mine: Vec<&Stream> = streams
+            .iter()
+            .filter(|s| &s.robot == robot && &s.device == device)
+            .collect();
+        if mine.is_empty() {
+            println!("{robot:8}  {device:12}  {:8}  {:>8}  {:>7}", "-", "0", "-");
+        }
+        for s in mine {
+            println!(
+                "{robot:8}  {device:12}  {:8}  {:>8.2}  {:>7.0}",
+                s.stream, s.hz, s.mean_bytes
+            );
         }
     }
     Ok(exit::OK)

@@ -7,6 +7,7 @@ pub mod certs;
 pub mod data;
 pub mod data_server;
 pub mod demo;
+pub mod echo;
 pub mod fuzz;
 pub mod ls;
 pub mod map;
