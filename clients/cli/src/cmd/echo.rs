@@ -263,8 +263,8 @@ fn value_of(bytes: &[u8]) -> serde_json::Value {
     }
 }
 
-/// A payload for people: JSON as indented `field: value` lines (arrays of
-/// numbers on one line), a PNG as its size, other bytes as text or a hex
+/// A payload for people: JSON as indented `field: value` lines in name
+/// order (arrays of numbers on one line), a PNG as its size, other bytes as text or a hex
 /// preview.
 pub fn pretty(bytes: &[u8], encoding: &Encoding) -> String {
     if let Some((w, h)) = png_size(bytes) {
