@@ -538,9 +538,10 @@ mod tests {
     fn payloads_are_shown_as_fields_pngs_as_sizes_and_garbage_as_bytes() {
         let j = br#"{"robot":"r1","x_mm":12,"sonar":[1,2,3],"lock":{"fence":4}}"#;
         let p = pretty(j, &Encoding::APPLICATION_JSON);
+        // Fields in name order.
         assert_eq!(
             p,
-            "robot: r1\nx_mm: 12\nsonar: [1, 2, 3]\nlock:\n  fence: 4\n"
+            "lock:\n  fence: 4\nrobot: r1\nsonar: [1, 2, 3]\nx_mm: 12\n"
         );
         let mut png = b"\x89PNG\r\n\x1a\n\0\0\0\x0dIHDR".to_vec();
         png.extend(640u32.to_be_bytes());
