@@ -5,8 +5,9 @@
 //!   every command (`--connect`, `--listen`, `--mode`, `--config`,
 //!   `--no-multicast`, `--root`), flattened into [`Cli`].
 //! - [`cmd`]: one module per command group (`data-server`, `data`, `sem`,
-//!   `ls`, `echo`, `map`, `sim`, `pioneer`, `robot`, `storage`, `demo`, `bench`), each with a `run` taking parsed arguments.
+//!   `ls`, `echo`, `record`, `replay`, `map`, `sim`, `pioneer`, `robot`, `storage`, `demo`, `bench`), each with a `run` taking parsed arguments.
 //! - [`exit`]: the exit codes, documented in `rome --help`.
+//! - [`progress`]: progress bars on a terminal, plain lines elsewhere.
 //!
 //! `main` only parses flags and calls [`main`]; everything else is here so
 //! tests and benchmarks can call commands without a subprocess.
@@ -14,6 +15,7 @@
 pub mod args;
 pub mod cmd;
 pub mod exit;
+pub mod progress;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -55,6 +57,10 @@ pub enum Command {
     Sem(cmd::sem::SemCmd),
     /// List the live servers and clients, and each robot's devices with their stream rates.
     Ls(cmd::ls::Args),
+    /// Record everything heard on some keys to an MCAP file (Ctrl-C to stop).
+    Record(cmd::record::Args),
+    /// Put an MCAP recording back on Zenoh with its original timing.
+    Replay(cmd::replay::Args),
     /// Print any key's traffic (puts, deletes, liveliness, replies with --get), or its rates with --hz.
     Echo(cmd::echo::Args),
     /// Check and draw StickRep maps.
@@ -104,6 +110,8 @@ pub fn main(cli: Cli) -> ExitCode {
             | Command::Router(_)
     );
     cli.common.init_logging(server);
+    // These end on the interrupt themselves, to finish what they write.
+    let own_interrupt = server || matches!(cli.command, Command::Record(_));
     let runtime = match tokio::runtime::Builder::new_multi_thread()
         .enable_all()
         .build()
@@ -115,7 +123,7 @@ pub fn main(cli: Cli) -> ExitCode {
         }
     };
     let code = runtime.block_on(async {
-        let result = if server {
+        let result = if own_interrupt {
             // A server takes the interrupt as its shutdown signal and exits 0.
             run(cli).await
         } else {
@@ -143,6 +151,8 @@ pub async fn run(cli: Cli) -> anyhow::Result<u8> {
         Command::Sem(c) => cmd::sem::run(&common, c).await,
         Command::Ls(args) => cmd::ls::run(&common, args).await,
         Command::Echo(args) => cmd::echo::run(&common, args).await,
+        Command::Record(args) => cmd::record::run(&common, args).await,
+        Command::Replay(args) => cmd::replay::run(&common, args).await,
         Command::Map(c) => cmd::map::run(c),
         Command::Sim(args) => cmd::sim::run(&common, args).await,
         Command::Pioneer(args) => cmd::pioneer::run(&common, args).await,
@@ -150,7 +160,7 @@ pub async fn run(cli: Cli) -> anyhow::Result<u8> {
         Command::Storage(args) => cmd::storage::run(&common, args).await,
         Command::Router(args) => cmd::router::run(&common, args).await,
         Command::Certs(args) => cmd::certs::run(args),
-        Command::Demo(args) => cmd::demo::run(args).await,
+        Command::Demo(args) => cmd::demo::run(&common, args).await,
         Command::Planner(args) => cmd::nav::planner(&common, args).await,
         Command::Navigator(args) => cmd::nav::navigator(&common, args).await,
         Command::Ctracker(args) => cmd::nav::ctracker(&common, args).await,

@@ -194,6 +194,10 @@ pub struct RunConfig {
     pub plfinder: bool,
     /// Robots whose upward camera is covered: they see no light.
     pub covered: Vec<String>,
+    /// The network of the run's session: by default it talks to nobody
+    /// else; with endpoints, `rome view`, `rome echo` or `rome record` in
+    /// other processes can watch.
+    pub net: NetOptions,
 }
 
 impl RunConfig {
@@ -218,6 +222,7 @@ impl RunConfig {
             himm_cfg: HimmConfig::default(),
             plfinder: true,
             covered: Vec::new(),
+            net: NetOptions::isolated(),
         }
     }
 }
@@ -262,6 +267,12 @@ pub enum Event {
         robot: usize,
         /// Its report.
         report: Box<Report>,
+    },
+    /// The servers are up and the world is about to step: the run's
+    /// session, for whoever wants to listen in (a recorder, a viewer).
+    Started {
+        /// The session every server and client of the run shares.
+        session: zenoh::Session,
     },
     /// Once a simulated second or so: where every robot truly is.
     Tick {
@@ -518,7 +529,7 @@ pub async fn run_fleet(
         });
         plans.push((r.robot.clone(), plan));
     }
-    let rig = Rig::start(&cfg, &plans, NetOptions::isolated()).await?;
+    let rig = Rig::start(&cfg, &plans, cfg.net.clone()).await?;
     let session = rig.session.clone();
     let root = Root::default();
 
@@ -587,6 +598,9 @@ pub async fn run_fleet(
         });
     }
     drop(nav_tx);
+    progress(Event::Started {
+        session: session.clone(),
+    });
     let stepper = rig.world.start(Some(cfg.speed));
     let scale = |ms: f64| Duration::from_secs_f64((ms / 1_000.0 / cfg.speed).max(0.002));
 

@@ -11,8 +11,15 @@
 //! rome demo --robots 3                    # the map's first three fleet routes
 //! rome demo --routes routes.txt           # one FROM TO a line, robot k on line k
 //! rome demo --cover-camera r1             # r1 sees no light: its L segment fails
+//! rome demo --record run.mcap             # and keep everything it published
+//! rome -l tcp/127.0.0.1:7447 demo         # others may watch: rome view, rome echo
 //! ```
+//!
+//! With no network flag the run's session talks to nobody else; with
+//! `--listen`, `--connect` or `--config` it joins that network as a peer.
 
+use crate::args::{CommonArgs, Side};
+use crate::cmd::record::Recorder;
 use crate::exit;
 use anyhow::Context;
 use rome_nav::board::GoalType;
@@ -64,6 +71,9 @@ pub struct Args {
     /// Leave out the door-plate finder.
     #[arg(long)]
     pub no_plfinder: bool,
+    /// Record everything the run publishes to this MCAP file (as `rome record` does).
+    #[arg(long, value_name = "FILE")]
+    pub record: Option<PathBuf>,
     /// Cover this robot's upward camera (a fault to inject: it sees no
     /// ceiling light, and its L segments are reported failed). Repeatable.
     #[arg(long, value_name = "ROBOT")]
@@ -107,7 +117,7 @@ fn routes(args: &Args, map: &rome_maps::Map) -> anyhow::Result<Vec<RouteSpec>> {
 }
 
 /// Runs the demo.
-pub async fn run(args: Args) -> anyhow::Result<u8> {
+pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
     let map = rome_maps::load_named(&args.map)?;
     anyhow::ensure!(
         args.limit_min.is_finite() && args.limit_min > 0.0,
@@ -133,11 +143,42 @@ pub async fn run(args: Args) -> anyhow::Result<u8> {
     if args.no_noise {
         cfg.noise = Noise::none();
     }
+    let networked =
+        common.config.is_some() || !common.connect.is_empty() || !common.listen.is_empty();
+    if networked {
+        let mut net = common.net(Side::Server);
+        if net.mode.is_none() {
+            net.mode = Some("peer".into());
+        }
+        cfg.net = net;
+    }
+    let root = common.root()?;
+    anyhow::ensure!(
+        root.as_str() == rome_schema::keys::DEFAULT_ROOT,
+        "rome demo runs under the root '{}'; --root {} is not supported here",
+        rome_schema::keys::DEFAULT_ROOT,
+        root.as_str()
+    );
+    let mut recorder: Option<anyhow::Result<Recorder>> = None;
     let mut lengths = vec![0.0; n];
     let mut screen = Live::new(std::io::stdout().is_terminal());
     let mut next_line_s = 0.0;
     let mut modes: Vec<String> = vec!["-".into(); n];
     let fleet = run::run_fleet(cfg, &mut |event| match event {
+        Event::Started { session } => {
+            // Before the world steps, so the recording has the start.
+            let handle = tokio::runtime::Handle::current();
+            tokio::task::block_in_place(|| {
+                if networked {
+                    let at = handle.block_on(rome_client::net::locators(&session));
+                    eprintln!("{}{}", rome_client::net::LISTENING, at.join(" "));
+                }
+                if let Some(path) = &args.record {
+                    let keys = [format!("{}/**", root.as_str())];
+                    recorder = Some(handle.block_on(Recorder::start(&session, &keys, path)));
+                }
+            });
+        }
         Event::Planned { robot, plan } => {
             lengths[robot] = plan.route.length_mm / 1_000.0;
             let r = &routes[robot];
@@ -236,8 +277,13 @@ pub async fn run(args: Args) -> anyhow::Result<u8> {
             }
         }
     })
-    .await
-    .context("the run failed")?;
+    .await;
+    let recorded = match recorder {
+        Some(Ok(r)) => Some(r.stop().await),
+        Some(Err(e)) => Some(Err(e)),
+        None => None,
+    };
+    let fleet = fleet.context("the run failed")?;
     screen.clear();
     println!();
     println!("{}", fleet.table());
@@ -258,6 +304,17 @@ pub async fn run(args: Args) -> anyhow::Result<u8> {
         fleet.robots.len(),
         fleet.wall_time
     );
+    if let (Some(path), Some(summary)) = (&args.record, recorded) {
+        let s = summary.with_context(|| format!("the recording to {} failed", path.display()))?;
+        println!(
+            "recording: {} ({} message(s) on {} channel(s) over {:.1} s; `rome replay {}` plays it)",
+            path.display(),
+            s.messages,
+            s.channels,
+            s.span_s,
+            path.display()
+        );
+    }
     // A run in which a robot did not reach its goal is a failed run, for
     // scripts too.
     if fleet.robots.len() < n || fleet.robots.iter().any(|r| !r.arrived()) {

@@ -13,6 +13,8 @@ pub mod ls;
 pub mod map;
 pub mod nav;
 pub mod pioneer;
+pub mod record;
+pub mod replay;
 pub mod robot;
 pub mod router;
 pub mod sem;
