@@ -158,6 +158,7 @@ pub fn messages(bytes: &[u8]) {
         rome_nav::board::Goal,
         rome_nav::board::Status,
         rome_nav::board::ActiveGoal,
+        rome_nav::board::RouteInfo,
     );
 }
 

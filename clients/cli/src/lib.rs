@@ -5,7 +5,7 @@
 //!   every command (`--connect`, `--listen`, `--mode`, `--config`,
 //!   `--no-multicast`, `--root`), flattened into [`Cli`].
 //! - [`cmd`]: one module per command group (`data-server`, `data`, `sem`,
-//!   `ls`, `echo`, `record`, `replay`, `map`, `sim`, `pioneer`, `robot`, `storage`, `demo`, `bench`), each with a `run` taking parsed arguments.
+//!   `ls`, `echo`, `view`, `record`, `replay`, `map`, `sim`, `pioneer`, `robot`, `storage`, `demo`, `bench`), each with a `run` taking parsed arguments.
 //! - [`exit`]: the exit codes, documented in `rome --help`.
 //! - [`progress`]: progress bars on a terminal, plain lines elsewhere.
 //!
@@ -61,6 +61,8 @@ pub enum Command {
     Record(cmd::record::Args),
     /// Put an MCAP recording back on Zenoh with its original timing.
     Replay(cmd::replay::Args),
+    /// Serve a live web page of the fleet: map, poses, trails, sonar, routes, blackboards, cameras.
+    View(cmd::view::Args),
     /// Print any key's traffic (puts, deletes, liveliness, replies with --get), or its rates with --hz.
     Echo(cmd::echo::Args),
     /// Check and draw StickRep maps.
@@ -111,7 +113,7 @@ pub fn main(cli: Cli) -> ExitCode {
     );
     cli.common.init_logging(server);
     // These end on the interrupt themselves, to finish what they write.
-    let own_interrupt = server || matches!(cli.command, Command::Record(_));
+    let own_interrupt = server || matches!(cli.command, Command::Record(_) | Command::View(_));
     let runtime = match tokio::runtime::Builder::new_multi_thread()
         .enable_all()
         .build()
@@ -151,6 +153,7 @@ pub async fn run(cli: Cli) -> anyhow::Result<u8> {
         Command::Sem(c) => cmd::sem::run(&common, c).await,
         Command::Ls(args) => cmd::ls::run(&common, args).await,
         Command::Echo(args) => cmd::echo::run(&common, args).await,
+        Command::View(args) => cmd::view::run(&common, args).await,
         Command::Record(args) => cmd::record::run(&common, args).await,
         Command::Replay(args) => cmd::replay::run(&common, args).await,
         Command::Map(c) => cmd::map::run(c),

@@ -117,6 +117,8 @@ pub enum Var {
     /// The goal the Navigator is carrying out, and where it started it,
     /// so a Navigator started again takes it up; `null` between goals.
     GoalActive,
+    /// The route the Planner follows, for people watching (`rome view`).
+    Route,
 }
 
 impl Var {
@@ -135,6 +137,7 @@ impl Var {
             Var::TrackLog => "TrackLog",
             Var::Corridor => "Corridor",
             Var::GoalActive => "GoalActive",
+            Var::Route => "Route",
         }
     }
 }
@@ -231,6 +234,36 @@ pub struct Corridor {
     pub left_mm: Option<f64>,
     /// Distance from the line to the wall on the right, mm.
     pub right_mm: Option<f64>,
+}
+
+/// The route of a run, as the Planner posts it for people watching.
+///
+/// ```text
+/// {"from":"350R","to":"376L","points":[[50050.0,55500.0],[20300.0,55500.0]],"length_mm":29750.0}
+/// ```
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RouteInfo {
+    /// Where the run starts.
+    pub from: String,
+    /// Where it ends.
+    pub to: String,
+    /// The corner points of the path, map frame, mm.
+    pub points: Vec<[f64; 2]>,
+    /// Its length, mm.
+    pub length_mm: f64,
+}
+
+impl RouteInfo {
+    /// The route of `plan`.
+    pub fn of(plan: &crate::plan::Plan) -> RouteInfo {
+        let stops = &plan.route.stops;
+        RouteInfo {
+            from: stops.first().cloned().unwrap_or_default(),
+            to: stops.last().cloned().unwrap_or_default(),
+            points: plan.route.points.iter().map(|p| [p.x, p.y]).collect(),
+            length_mm: plan.route.length_mm,
+        }
+    }
 }
 
 /// The goal a Navigator is carrying out (`GoalActive`).

@@ -108,6 +108,9 @@ pub async fn run(
     board
         .set(Var::GoalActive, &None::<crate::board::ActiveGoal>)
         .await?;
+    board
+        .set(Var::Route, &crate::board::RouteInfo::of(plan))
+        .await?;
     let mut out = Vec::with_capacity(plan.steps.len());
     let mut overshoot = 0i64;
     for (index, step) in plan.steps.iter().enumerate() {

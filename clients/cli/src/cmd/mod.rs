@@ -21,6 +21,7 @@ pub mod sem;
 pub mod sim;
 pub mod soak;
 pub mod storage;
+pub mod view;
 
 use crate::args::{CommonArgs, Side};
 use anyhow::Context;
