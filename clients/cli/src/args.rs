@@ -123,7 +123,10 @@ impl CommonArgs {
         if side == Side::Client && net.mode.is_none() && net.config.is_none() {
             net.mode = Some("client".into());
         }
-        if side == Side::Client && self.connect_timeout.is_finite() && self.connect_timeout > 0.0 {
+        // A server in client mode (behind a router) waits for it as a
+        // client does, so servers and router may start in any order.
+        let client_mode = side == Side::Client || net.mode.as_deref() == Some("client");
+        if client_mode && self.connect_timeout.is_finite() && self.connect_timeout > 0.0 {
             net.connect_timeout = Some(std::time::Duration::from_secs_f64(self.connect_timeout));
         }
         net

@@ -49,6 +49,12 @@ pub struct Args {
     /// Keep the lock records in memory only: gone when the router stops.
     #[arg(long, conflicts_with = "no_storage")]
     pub in_memory: bool,
+    /// REST reads only: GET (and event streams) are served, PUT, PATCH,
+    /// POST and DELETE answer 403. For a gateway logged in as an observer
+    /// (docs/observing.md), whose queries the router's access control
+    /// checks as well.
+    #[arg(long)]
+    pub rest_read_only: bool,
 }
 
 /// The lock-record file inside a data directory.
@@ -61,7 +67,9 @@ pub fn config(common: &CommonArgs, args: &Args) -> anyhow::Result<zenoh::Config>
     if common.mode.is_none() {
         net.mode = Some("router".into());
     }
-    if common.config.is_none() && net.listen.is_empty() {
+    // A router listens where peers meet; a gateway in client mode (REST
+    // for a role, as docs/observing.md shows) listens nowhere.
+    if common.config.is_none() && net.listen.is_empty() && net.mode.as_deref() == Some("router") {
         net.listen = vec![format!("tcp/0.0.0.0:{DEFAULT_PORT}")];
     }
     let mut config = net.to_config()?;
@@ -91,7 +99,22 @@ pub fn config(common: &CommonArgs, args: &Args) -> anyhow::Result<zenoh::Config>
             std::net::TcpListener::bind(("0.0.0.0", port)).with_context(|| {
                 format!("the REST port {port} is not free (--rest-port another, or none)")
             })?;
-            set(&mut config, "plugins/rest/http_port", format!("\"{port}\""))?;
+            let plugin_at = if args.rest_read_only {
+                // The plugin answers on loopback only, behind the
+                // read-only front on the public port.
+                let port = std::net::TcpListener::bind(("127.0.0.1", 0))
+                    .and_then(|l| l.local_addr())
+                    .context("no free loopback port for the REST plugin")?
+                    .port();
+                format!("127.0.0.1:{port}")
+            } else {
+                port.to_string()
+            };
+            set(
+                &mut config,
+                "plugins/rest/http_port",
+                format!("\"{plugin_at}\""),
+            )?;
             set(&mut config, "plugins/rest/__required__", "true".into())?;
         }
     }
@@ -111,9 +134,18 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
     let file = file
         .map(|path| rome_hardware::storage::StorageFile::open(&path))
         .transpose()?;
-    let rest = match config.get_json("plugins/rest/http_port") {
-        Ok(p) => format!("on port {}", p.trim_matches('"')),
-        Err(_) => "off".to_string(),
+    anyhow::ensure!(
+        !args.rest_read_only || args.rest_port.as_deref().is_some_and(|p| p != "none"),
+        "--rest-read-only needs --rest-port PORT: the port its read-only front serves"
+    );
+    let plugin_at = config
+        .get_json("plugins/rest/http_port")
+        .ok()
+        .map(|p| p.trim_matches('"').to_string());
+    let rest = match (&plugin_at, &args.rest_port) {
+        (Some(_), Some(p)) if args.rest_read_only => format!("on port {p}, read only"),
+        (Some(p), _) => format!("on port {p}"),
+        (None, _) => "off".to_string(),
     };
     // A plugin declared without configuration fails to start: declare only
     // those the configuration has.
@@ -140,8 +172,19 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
     let session = zenoh::session::init(runtime.into())
         .await
         .map_err(|e| anyhow::anyhow!("cannot open the router's session: {e}"))?;
+    let _front = match (&plugin_at, &args.rest_port) {
+        (Some(inner), Some(port)) if args.rest_read_only => {
+            let listener = tokio::net::TcpListener::bind(("0.0.0.0", port.parse::<u16>()?))
+                .await
+                .with_context(|| format!("the REST port {port} is not free"))?;
+            Some(tokio::spawn(read_only::serve(listener, inner.clone())))
+        }
+        _ => None,
+    };
     let listen = rome_client::net::locators(&session).await;
-    eprintln!("{}{}", rome_client::net::LISTENING, listen.join(" "));
+    if !listen.is_empty() {
+        eprintln!("{}{}", rome_client::net::LISTENING, listen.join(" "));
+    }
     let records = match (&file, args.no_storage) {
         (_, true) => "not kept".to_string(),
         (None, false) => "in memory".to_string(),
@@ -158,9 +201,13 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
         })
     });
     eprintln!(
-        "rome router: zid {}, listening on {}; REST {}; lock records {}; storage manager {}; Ctrl-C to stop",
+        "rome router: zid {}, {}; REST {}; lock records {}; storage manager {}; Ctrl-C to stop",
         session.zid(),
-        listen.join(", "),
+        if listen.is_empty() {
+            "listening nowhere (a gateway)".to_string()
+        } else {
+            format!("listening on {}", listen.join(", "))
+        },
         rest,
         records,
         if storage { "on" } else { "off" },
@@ -176,4 +223,73 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
     }
     let _ = session.close().await;
     Ok(0)
+}
+
+/// The read-only front of the REST plugin: reads pass through, writes
+/// are refused with a reason.
+mod read_only {
+    use axum::body::Body;
+    use axum::http::{header, Method, Request, Response, StatusCode};
+    use hyper_util::client::legacy::Client;
+    use hyper_util::rt::TokioExecutor;
+
+    /// Serves `listener`, passing reads on to the plugin at `inner`.
+    pub async fn serve(listener: tokio::net::TcpListener, inner: String) {
+        let client: Client<_, Body> = Client::builder(TokioExecutor::new()).build_http();
+        let app = axum::Router::new().fallback(move |req: Request<Body>| {
+            let (client, inner) = (client.clone(), inner.clone());
+            async move { pass(client, &inner, req).await }
+        });
+        if let Err(e) = axum::serve(listener, app).await {
+            tracing::error!(error = %e, "the read-only REST front failed");
+        }
+    }
+
+    async fn pass(
+        client: Client<hyper_util::client::legacy::connect::HttpConnector, Body>,
+        inner: &str,
+        req: Request<Body>,
+    ) -> Response<Body> {
+        let method = req.method().clone();
+        if method != Method::GET && method != Method::HEAD {
+            let body = serde_json::json!({
+                "code": "read_only",
+                "message": format!(
+                    "this REST endpoint only reads (rome router --rest-read-only): {method} {} was not passed on; write through a session with a role that may (operator)",
+                    req.uri().path()
+                ),
+            });
+            return Response::builder()
+                .status(StatusCode::FORBIDDEN)
+                .header(header::CONTENT_TYPE, "application/json")
+                .body(Body::from(body.to_string()))
+                .unwrap_or_default();
+        }
+        let path = req.uri().path_and_query().map_or("/", |p| p.as_str());
+        let uri = format!("http://{inner}{path}");
+        let mut out = Request::builder().method(method).uri(&uri);
+        for name in [header::ACCEPT, header::ACCEPT_ENCODING] {
+            if let Some(v) = req.headers().get(&name) {
+                out = out.header(name, v);
+            }
+        }
+        // A GET's body would be a query payload: a read has none.
+        let Ok(out) = out.body(Body::empty()) else {
+            return status(StatusCode::BAD_REQUEST, format!("cannot pass on {uri}"));
+        };
+        match client.request(out).await {
+            Ok(res) => res.map(Body::new),
+            Err(e) => status(
+                StatusCode::BAD_GATEWAY,
+                format!("the REST plugin did not answer: {e}"),
+            ),
+        }
+    }
+
+    fn status(code: StatusCode, text: String) -> Response<Body> {
+        Response::builder()
+            .status(code)
+            .body(Body::from(text))
+            .unwrap_or_default()
+    }
 }
