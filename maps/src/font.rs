@@ -1,6 +1,7 @@
-//! A 5×7 bitmap font for labels in rendered pictures, so a PNG needs no
-//! font files. Lower-case letters are drawn as capitals; a character
-//! without a glyph is drawn as a small box.
+//! A 5×7 bitmap font: the numbers on the door plates the simulated camera
+//! sees, as plate signs are lettered. Map pictures use a real typeface
+//! instead ([`crate::render::label`]). Lower-case letters are drawn as
+//! capitals; a character without a glyph is drawn as a small box.
 
 /// Glyph width in pixels (one more for the gap between letters).
 pub const WIDTH: u32 = 5;

@@ -15,7 +15,8 @@
 //! - [`route`]: shortest paths between named positions along the
 //!   corridors' centre lines.
 //! - [`render`]: a picture of the map, as SVG or PNG, optionally with a
-//!   route or a trajectory drawn on it.
+//!   route or a trajectory drawn on it; labels in DejaVu Sans.
+//! - [`font`]: the 5×7 lettering of the simulated door plates.
 //!
 //! The format is described in `docs/stickrep.md`; `maps/data/` holds the
 //! maps.

@@ -4,7 +4,6 @@
 //! Both formats draw the same list of primitives ([`scene`]), so they
 //! cannot drift apart.
 
-use crate::font;
 use crate::geometry::{Point, World};
 use crate::model::{EdgeKind, Map};
 use std::fmt::Write as _;
@@ -45,7 +44,7 @@ pub enum Shape {
         text: String,
         /// Colour.
         color: Rgb,
-        /// Font scale (1 = 7 pixels high).
+        /// Font scale (1 = text 11 pixels high).
         size: i64,
     },
 }
@@ -469,28 +468,25 @@ pub fn raster(map: &Map, world: &World, width_px: u32, overlay: &[Shape]) -> ima
                 size,
             } => {
                 let (x, y) = v.px(at);
-                font::draw(&text, x as i64 + 3, y as i64 + 3, size, |px, py| {
-                    put(&mut img, px, py, color)
-                });
+                label(&mut img, &text, x + 3.0, y + 3.0, size, color);
             }
         }
     }
     let (bar, bar_label, title) = v.furniture(&map.name);
-    font::draw(&title, v.margin as i64, 12, 2, |x, y| {
-        put(&mut img, x, y, [0, 0, 0])
-    });
+    label(&mut img, &title, v.margin, 8.0, 2, [0, 0, 0]);
     let by = v.legend_y as i64 - 15;
     for x in v.margin as i64..(v.margin + bar) as i64 {
         for dy in -1..=1 {
             put(&mut img, x, by + dy, [0, 0, 0]);
         }
     }
-    font::draw(
+    label(
+        &mut img,
         &bar_label,
-        (v.margin + bar) as i64 + 6,
-        by - 3,
+        v.margin + bar + 6.0,
+        by as f64 - 6.0,
         1,
-        |x, y| put(&mut img, x, y, [0, 0, 0]),
+        [0, 0, 0],
     );
     for (i, (color, dashed, text)) in legend.into_iter().enumerate() {
         let (x, y) = v.legend_at(i);
@@ -503,9 +499,113 @@ pub fn raster(map: &Map, world: &World, width_px: u32, overlay: &[Shape]) -> ima
                 put(&mut img, x + dx, y + dy, color);
             }
         }
-        font::draw(text, x + 28, y - 3, 1, |px, py| {
-            put(&mut img, px, py, [0, 0, 0])
-        });
+        label(
+            &mut img,
+            text,
+            (x + 28) as f64,
+            (y - 6) as f64,
+            1,
+            [0, 0, 0],
+        );
     }
     img
+}
+
+/// Pixel height of text at font scale 1.
+pub const TEXT_PX: f32 = 11.0;
+
+/// The labels' typeface: DejaVu Sans, built into the binary.
+fn typeface() -> Option<&'static ab_glyph::FontRef<'static>> {
+    static FACE: std::sync::OnceLock<Option<ab_glyph::FontRef<'static>>> =
+        std::sync::OnceLock::new();
+    FACE.get_or_init(|| ab_glyph::FontRef::try_from_slice(dejavu::sans::regular()).ok())
+        .as_ref()
+}
+
+/// Draws `text` with its top left corner at (`x`, `y`), `scale` ×
+/// [`TEXT_PX`] high, blended into the picture by each pixel's coverage so
+/// it stays smooth at any size.
+pub fn label(img: &mut image::RgbImage, text: &str, x: f64, y: f64, scale: i64, color: Rgb) {
+    use ab_glyph::{Font, ScaleFont};
+    let Some(face) = typeface() else { return };
+    let font = face.as_scaled(TEXT_PX * scale.clamp(1, 16) as f32);
+    let baseline = y as f32 + font.ascent();
+    let (w, h) = (img.width() as i64, img.height() as i64);
+    let mut pen = x as f32;
+    let mut last = None;
+    for c in text.chars() {
+        let id = font.glyph_id(c);
+        if let Some(prev) = last {
+            pen += font.kern(prev, id);
+        }
+        let glyph = id.with_scale_and_position(font.scale(), ab_glyph::point(pen, baseline));
+        pen += font.h_advance(id);
+        last = Some(id);
+        let Some(outline) = face.outline_glyph(glyph) else {
+            continue;
+        };
+        let bounds = outline.px_bounds();
+        outline.draw(|gx, gy, coverage| {
+            let px = bounds.min.x as i64 + i64::from(gx);
+            let py = bounds.min.y as i64 + i64::from(gy);
+            if !(0..w).contains(&px) || !(0..h).contains(&py) {
+                return;
+            }
+            let p = img.get_pixel_mut(px as u32, py as u32);
+            let a = coverage.clamp(0.0, 1.0);
+            for (o, c) in p.0.iter_mut().zip(color) {
+                *o = (f32::from(*o) * (1.0 - a) + f32::from(c) * a).round() as u8;
+            }
+        });
+    }
+}
+
+/// Width in pixels of `text` at font `scale`.
+pub fn label_width(text: &str, scale: i64) -> f64 {
+    use ab_glyph::{Font, ScaleFont};
+    let Some(face) = typeface() else { return 0.0 };
+    let font = face.as_scaled(TEXT_PX * scale.clamp(1, 16) as f32);
+    f64::from(
+        text.chars()
+            .map(|c| font.h_advance(font.glyph_id(c)))
+            .sum::<f32>(),
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The rows and columns `text` covers, and whether any pixel is only
+    /// partly covered (smoothed edges, not a bitmap).
+    fn ink(text: &str, scale: i64) -> (u32, u32, bool) {
+        let mut img = image::RgbImage::from_pixel(400, 200, image::Rgb([255, 255, 255]));
+        label(&mut img, text, 10.0, 10.0, scale, [0, 0, 0]);
+        let inked: Vec<(u32, u32, u8)> = img
+            .enumerate_pixels()
+            .filter(|(_, _, p)| p.0[0] < 255)
+            .map(|(x, y, p)| (x, y, p.0[0]))
+            .collect();
+        let rows = inked.iter().map(|p| p.1).max().unwrap_or(0)
+            - inked.iter().map(|p| p.1).min().unwrap_or(0);
+        let cols = inked.iter().map(|p| p.0).max().unwrap_or(0)
+            - inked.iter().map(|p| p.0).min().unwrap_or(0);
+        (rows, cols, inked.iter().any(|p| p.2 > 0 && p.2 < 200))
+    }
+
+    #[test]
+    fn labels_are_drawn_in_a_real_typeface_at_any_scale() {
+        let (r1, c1, smooth) = ink("A392 Hall", 1);
+        assert!(smooth, "edges are blended");
+        assert!((7..=13).contains(&r1), "about 11 px high at scale 1: {r1}");
+        let (r4, c4, _) = ink("A392 Hall", 4);
+        assert!(
+            r4 >= 3 * r1 && c4 >= 3 * c1,
+            "scale 4: {r4}×{c4} against {r1}×{c1}"
+        );
+        // Proportional, unlike the 5×7 bitmap: an i is narrower than an m.
+        assert!(label_width("iiii", 1) < label_width("mmmm", 1) * 0.6);
+        // Lower case is lower case.
+        assert_ne!(ink("abc", 2), ink("ABC", 2));
+    }
 }
