@@ -53,7 +53,10 @@ impl Progress {
             label: label.to_string(),
             unit: unit.to_string(),
             total,
-            last_line: Instant::now(),
+            // The first note is printed at once.
+            last_line: Instant::now()
+                .checked_sub(PLAIN_EVERY)
+                .unwrap_or_else(Instant::now),
             pos: 0,
         }
     }
@@ -71,6 +74,22 @@ impl Progress {
                 eprintln!("{}", self.plain(note));
             }
             None => {}
+        }
+    }
+
+    /// Moves to `pos` as a new step begins (a measurement, a run): said
+    /// on a line of its own when there is no bar.
+    pub fn step(&mut self, pos: u64, note: &str) {
+        self.pos = pos;
+        match &self.bar {
+            Some(bar) => {
+                bar.set_position(pos);
+                bar.set_message(format!("{} {note}", self.unit));
+            }
+            None => {
+                self.last_line = Instant::now();
+                eprintln!("{}", self.plain(note));
+            }
         }
     }
 

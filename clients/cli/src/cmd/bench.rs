@@ -247,9 +247,16 @@ pub async fn data_rows(args: &DataBench, progress: bool) -> anyhow::Result<Vec<R
         ops.extend([Op::DiskSet, Op::DiskSignal]);
     }
     let mut rows = Vec::new();
+    let mut bar = progress.then(|| {
+        crate::progress::Progress::bar(
+            "bench data",
+            "measurements",
+            (args.clients.len() * ops.len()) as u64,
+        )
+    });
     for &n in &args.clients {
-        if progress {
-            eprintln!("opening {n} client session(s) on 127.0.0.1:{port} …");
+        if let Some(b) = &mut bar {
+            b.step(rows.len() as u64, &format!("opening {n} client session(s)"));
         }
         let mut clients = Vec::new();
         for i in 0..n {
@@ -276,11 +283,10 @@ pub async fn data_rows(args: &DataBench, progress: bool) -> anyhow::Result<Vec<R
         clients[0].data.set("bench/x", &0).await?;
         clients[0].data.create_semaphore("bench", 0).await?;
         for &op in &ops {
-            if progress {
-                eprintln!(
-                    "  {:16} {n:>3} client(s), {:.1} s …",
-                    op.name(),
-                    args.seconds
+            if let Some(b) = &mut bar {
+                b.step(
+                    rows.len() as u64,
+                    &format!("{} with {n} client(s), {:.1} s", op.name(), args.seconds),
                 );
             }
             rows.push(measure(&clients, op, span).await?);

@@ -99,10 +99,15 @@ pub async fn figures(args: &RobotBench, progress: bool) -> anyhow::Result<RobotF
         );
         tokio::time::sleep(Duration::from_millis(20)).await;
     }
+    let bar = std::cell::RefCell::new(
+        progress.then(|| crate::progress::Progress::counter("bench robot", "measurements")),
+    );
+    let done = std::cell::Cell::new(0u64);
     let say = |what: &str| {
-        if progress {
-            eprintln!("  {what:16} {:.1} s …", args.seconds);
+        if let Some(b) = bar.borrow_mut().as_mut() {
+            b.step(done.get(), &format!("{what}, {:.1} s", args.seconds));
         }
+        done.set(done.get() + 1);
     };
     let mut rows = Vec::new();
     say("zenoh-queryable");

@@ -161,18 +161,28 @@ fn measure(
 pub fn rows(args: &SimBench) -> anyhow::Result<Vec<SimRow>> {
     let map = rome_maps::load_named(&args.map).map_err(|e| anyhow::anyhow!("{e}"))?;
     let mut out = Vec::new();
+    let passes = if args.no_cameras { 1 } else { 2 };
+    let mut bar = crate::progress::Progress::bar(
+        "bench sim",
+        "measurements",
+        (passes * args.robots.len()) as u64,
+    );
     for cameras in [false, true] {
         if cameras && args.no_cameras {
             continue;
         }
         for &n in &args.robots {
-            eprintln!(
-                "  {n} robot(s), cameras {} ...",
-                if cameras { "on" } else { "off" }
+            bar.step(
+                out.len() as u64,
+                &format!(
+                    "{n} robot(s), cameras {}",
+                    if cameras { "on" } else { "off" }
+                ),
             );
             out.push(measure(args, &map, n, cameras)?);
         }
     }
+    bar.finish();
     Ok(out)
 }
 

@@ -175,7 +175,7 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
                 }
                 if let Some(path) = &args.record {
                     let keys = [format!("{}/**", root.as_str())];
-                    recorder = Some(handle.block_on(Recorder::start(&session, &keys, path)));
+                    recorder = Some(handle.block_on(Recorder::start(&session, &keys, path, false)));
                 }
             });
         }
@@ -261,16 +261,22 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
             ));
         }
         Event::Tick { time_s, robots } => {
-            let lines: Vec<String> = robots
+            let lines: Vec<(u64, String)> = robots
                 .iter()
                 .enumerate()
-                .map(|(k, t)| status(&routes[k].robot, time_s, t, lengths[k], &modes[k]))
+                .map(|(k, t)| {
+                    let share = t.travelled_mm / 1_000.0 / lengths[k].max(0.001);
+                    (
+                        (share * 1000.0).clamp(0.0, 1000.0) as u64,
+                        status(&routes[k].robot, time_s, t, lengths[k], &modes[k]),
+                    )
+                })
                 .collect();
             if screen.tty {
                 screen.draw(&lines);
             } else if time_s >= next_line_s {
                 // Into a file or a pipe: lines every ten simulated seconds.
-                for l in &lines {
+                for (_, l) in &lines {
                     println!("{l}");
                 }
                 next_line_s = time_s + 10.0;
@@ -379,40 +385,54 @@ fn fmt_time(d: Duration) -> String {
     format!("{}:{:02}", d.as_secs() / 60, d.as_secs() % 60)
 }
 
-/// Progress on a terminal: a block of status lines redrawn in place, with
-/// event lines scrolling above it.
+/// Progress on a terminal: one indicatif bar per robot (the share of its
+/// route driven, with its status), event lines scrolling above them.
+/// Elsewhere, plain lines.
 struct Live {
     tty: bool,
-    block: usize,
+    multi: indicatif::MultiProgress,
+    bars: Vec<indicatif::ProgressBar>,
 }
 
 impl Live {
     fn new(tty: bool) -> Live {
-        Live { tty, block: 0 }
+        Live {
+            tty,
+            multi: indicatif::MultiProgress::new(),
+            bars: Vec::new(),
+        }
     }
 
-    /// Rubs out the status block.
+    /// Takes the bars off the screen.
     fn clear(&mut self) {
-        if self.tty && self.block > 0 {
-            print!("\x1b[{}A\x1b[J", self.block);
-            self.block = 0;
-            let _ = std::io::stdout().flush();
+        for b in self.bars.drain(..) {
+            b.finish_and_clear();
         }
+        let _ = self.multi.clear();
     }
 
-    /// An event line, above the status block.
+    /// An event line, above the bars.
     fn line(&mut self, text: &str) {
-        self.clear();
-        println!("{text}");
+        if self.tty && !self.bars.is_empty() {
+            let _ = self.multi.println(text);
+        } else {
+            println!("{text}");
+        }
     }
 
-    /// Redraws the status block.
-    fn draw(&mut self, lines: &[String]) {
-        self.clear();
-        for l in lines {
-            println!("{l}");
+    /// Moves each robot's bar: `done` per mille of its route, and its line.
+    fn draw(&mut self, rows: &[(u64, String)]) {
+        while self.bars.len() < rows.len() {
+            let bar = self.multi.add(indicatif::ProgressBar::new(1000));
+            if let Ok(style) = indicatif::ProgressStyle::with_template("[{bar:24}] {msg}") {
+                bar.set_style(style.progress_chars("=> "));
+            }
+            self.bars.push(bar);
         }
-        self.block = lines.len();
+        for (bar, (done, line)) in self.bars.iter().zip(rows) {
+            bar.set_position(*done);
+            bar.set_message(line.clone());
+        }
         let _ = std::io::stdout().flush();
     }
 }

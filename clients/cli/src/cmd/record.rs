@@ -74,7 +74,7 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
         let at = rome_client::net::locators(&session).await;
         eprintln!("{}{}", rome_client::net::LISTENING, at.join(" "));
     }
-    let recorder = Recorder::start(&session, &keys, &args.output).await?;
+    let recorder = Recorder::start(&session, &keys, &args.output, true).await?;
     eprintln!(
         "rome record: recording {} to {} (Ctrl-C to stop)",
         keys.join(", "),
@@ -109,8 +109,14 @@ pub struct Recorder {
 }
 
 impl Recorder {
-    /// Subscribes to `keys` on `session` and writes what comes to `path`.
-    pub async fn start(session: &Session, keys: &[String], path: &Path) -> anyhow::Result<Self> {
+    /// Subscribes to `keys` on `session` and writes what comes to `path`;
+    /// with `progress`, shows how much on stderr.
+    pub async fn start(
+        session: &Session,
+        keys: &[String],
+        path: &Path,
+        progress: bool,
+    ) -> anyhow::Result<Self> {
         let file = std::fs::File::create(path)
             .with_context(|| format!("cannot create {}", path.display()))?;
         let mut writer = Mcap::new(BufWriter::new(file))
@@ -131,14 +137,17 @@ impl Recorder {
         drop(tx);
         let (stop, mut stopped) = oneshot::channel();
         let task = tokio::spawn(async move {
-            let mut progress = Progress::counter("recording", "messages");
+            let mut progress = progress.then(|| Progress::counter("recording", "messages"));
             loop {
                 tokio::select! {
                     biased;
                     heard = rx.recv() => {
                         let Some((sample, at)) = heard else { break };
                         writer.write(&sample, at)?;
-                        progress.set(writer.summary.messages, &format!("{} channels, {}", writer.summary.channels, bytes(writer.summary.bytes)));
+                        if let Some(p) = &mut progress {
+                            let note = format!("{} channels, {}", writer.summary.channels, bytes(writer.summary.bytes));
+                            p.set(writer.summary.messages, &note);
+                        }
                     }
                     _ = &mut stopped => break,
                 }
@@ -148,7 +157,7 @@ impl Recorder {
             while let Ok((sample, at)) = rx.try_recv() {
                 writer.write(&sample, at)?;
             }
-            progress.finish();
+            drop(progress);
             writer.finish()
         });
         Ok(Recorder { stop, task })
