@@ -31,3 +31,24 @@ pub async fn interrupted() {
         let _ = tokio::signal::ctrl_c().await;
     }
 }
+
+/// Writes one line to standard output; when whoever reads it is gone (`|
+/// head`), the program ends quietly with [`OK`], as Unix tools do, instead
+/// of panicking in `println!`.
+pub fn line(text: std::fmt::Arguments<'_>) {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
+    if let Err(e) = out.write_fmt(text).and_then(|()| out.write_all(b"\n")) {
+        if e.kind() == std::io::ErrorKind::BrokenPipe {
+            std::process::exit(i32::from(OK));
+        }
+    }
+}
+
+/// `println!` for output that may go to a pipe closed early: see [`line`].
+#[macro_export]
+macro_rules! out {
+    ($($arg:tt)*) => {
+        $crate::exit::line(format_args!($($arg)*))
+    };
+}

@@ -660,6 +660,26 @@ fn echo_and_ls_show_a_fleets_traffic_and_rates() {
         .iter()
         .all(|r| r["hz"].as_f64().unwrap() > 0.0 && r["count"].as_u64().unwrap() >= 1));
 
+    // A reader that stops early (`| head -1`) ends it quietly.
+    let mut child = Command::new(ROME)
+        .args(["-e", &connect, "--no-multicast", "echo", "rome/robot/**"])
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut first = String::new();
+    std::io::BufRead::read_line(
+        &mut std::io::BufReader::new(child.stdout.take().unwrap()),
+        &mut first,
+    )
+    .unwrap();
+    assert!(first.contains("rome/robot/"), "{first}");
+    let out = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+
     // rome ls: each device with its stream.
     let (code, out, err) = rome(&["ls", "--json"]);
     assert_eq!(code, Some(0), "{err}");

@@ -58,19 +58,22 @@ pub async fn run(common: &CommonArgs, cmd: DataCmd) -> anyhow::Result<u8> {
                 format!("'{json}' is not JSON; numbers as they are, strings in double quotes ('\"{json}\"')")
             })?;
             let seq = ds.set(&name, &value).await?;
-            println!("{name} = {value} (seq {seq})");
+            crate::out!("{name} = {value} (seq {seq})");
         }
         DataCmd::Get { name, back } => {
-            println!("{}", ds.get_back(&name, back).await?);
+            crate::out!("{}", ds.get_back(&name, back).await?);
         }
         DataCmd::History { name, len } => {
             let info = match len {
                 Some(len) => ds.set_history(&name, len).await?,
                 None => ds.history(&name).await?,
             };
-            println!(
+            crate::out!(
                 "{}: keeps {}, holds {}, last seq {}",
-                info.name, info.len, info.stored, info.seq
+                info.name,
+                info.len,
+                info.stored,
+                info.seq
             );
         }
         DataCmd::Watch { pattern, json } => {
@@ -79,12 +82,12 @@ pub async fn run(common: &CommonArgs, cmd: DataCmd) -> anyhow::Result<u8> {
             while let Some(commit) = watch.next().await {
                 let commit = commit?;
                 if json {
-                    println!("{}", serde_json::to_string(&commit)?);
+                    crate::out!("{}", serde_json::to_string(&commit)?);
                 } else if commit.deleted {
-                    println!("{} #{} deleted", commit.name, commit.seq);
+                    crate::out!("{} #{} deleted", commit.name, commit.seq);
                 } else {
                     let value = commit.value.unwrap_or(Value::Null);
-                    println!("{} #{} = {value}", commit.name, commit.seq);
+                    crate::out!("{} #{} = {value}", commit.name, commit.seq);
                 }
             }
         }
@@ -101,18 +104,18 @@ pub async fn run(common: &CommonArgs, cmd: DataCmd) -> anyhow::Result<u8> {
                         })
                     })
                     .collect();
-                println!("{}", serde_json::to_string_pretty(&rows)?);
+                crate::out!("{}", serde_json::to_string_pretty(&rows)?);
             } else if vars.is_empty() {
                 eprintln!("no variables yet");
             } else {
                 let width = vars.iter().map(|v| v.name.len()).max().unwrap_or(4).max(4);
-                println!("{:width$}  {:>6}  {:>9}  VALUE", "NAME", "SEQ", "KEPT");
+                crate::out!("{:width$}  {:>6}  {:>9}  VALUE", "NAME", "SEQ", "KEPT");
                 for v in &vars {
                     let value = values
                         .get(&v.name)
                         .map_or("-".to_string(), Value::to_string);
                     let kept = format!("{}/{}", v.stored, v.len);
-                    println!("{:width$}  {:>6}  {kept:>9}  {value}", v.name, v.seq);
+                    crate::out!("{:width$}  {:>6}  {kept:>9}  {value}", v.name, v.seq);
                 }
             }
         }

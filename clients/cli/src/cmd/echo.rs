@@ -148,7 +148,8 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
             }
             _ = tick.tick(), if args.hz => {
                 let now = Instant::now();
-                print!("{}", rates.table(now, Duration::from_secs_f64(args.window), args.json));
+                let table = rates.table(now, Duration::from_secs_f64(args.window), args.json);
+                crate::out!("{}", table.strip_suffix('\n').unwrap_or(&table));
                 rates.forget_before(now - Duration::from_secs_f64(args.window));
             }
             _ = &mut deadline => break,
@@ -186,14 +187,15 @@ async fn get(
                 errors += 1;
                 let body = e.payload().to_bytes();
                 if args.json {
-                    println!(
+                    crate::out!(
                         "{}",
                         serde_json::json!({"time": now_ms(), "kind": "error", "key": key.as_str(),
                             "encoding": e.encoding().to_string(), "payload": value_of(&body)})
                     );
                 } else {
-                    println!("{}  ERROR  {key}", clock(SystemTime::now()));
-                    print!("{}", indent(&pretty(&body, e.encoding())));
+                    crate::out!("{}  ERROR  {key}", clock(SystemTime::now()));
+                    let text = indent(&pretty(&body, e.encoding()));
+                    crate::out!("{}", text.strip_suffix('\n').unwrap_or(&text));
                 }
             }
         }
@@ -226,7 +228,7 @@ fn kind_of(s: &Sample) -> &'static str {
 fn print_sample(s: &Sample, kind: &str, json: bool) {
     let bytes = s.payload().to_bytes();
     if json {
-        println!(
+        crate::out!(
             "{}",
             serde_json::json!({
                 "time": now_ms(),
@@ -245,11 +247,12 @@ fn print_sample(s: &Sample, kind: &str, json: bool) {
         s.key_expr().as_str()
     );
     if bytes.is_empty() {
-        println!("{head}");
+        crate::out!("{head}");
         return;
     }
-    println!("{head}  {}  {}", s.encoding(), size(bytes.len()));
-    print!("{}", indent(&pretty(&bytes, s.encoding())));
+    crate::out!("{head}  {}  {}", s.encoding(), size(bytes.len()));
+    let text = indent(&pretty(&bytes, s.encoding()));
+    crate::out!("{}", text.strip_suffix('\n').unwrap_or(&text));
 }
 
 /// The payload as JSON if it is JSON, as text if UTF-8, else a summary.
