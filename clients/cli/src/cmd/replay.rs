@@ -7,6 +7,9 @@
 //! rome replay run.mcap --rate 4 --loop # four times as fast, again and again
 //! ```
 //!
+//! It opens its session as the servers it stands in for do: with no
+//! network flags it listens on port 7447, or joins whoever has it.
+//!
 //! Each message goes out on its channel's topic as its key, with the Zenoh
 //! encoding of the channel's `zenoh.encoding` metadata (or JSON for a
 //! `json` channel of another recorder), as a delete where `zenoh.kind` says
@@ -126,7 +129,9 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
         args.file.display(),
         args.rate
     );
-    let session = common.open(Side::Client).await?;
+    // It stands in for the servers that published the run: with no flags it
+    // listens on port 7447 (or joins whoever has it) for viewers to reach.
+    let session = common.open(Side::Server).await?;
     if args.wait_subscriber > 0.0 {
         wait_subscriber(
             &session,
