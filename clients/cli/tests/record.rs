@@ -119,7 +119,52 @@ fn a_replayed_recording_is_the_same_messages_in_order_at_the_same_pace() {
         "a message {worst:.3} s off its time in a {span:.1} s run"
     );
     assert!((b.last().unwrap() / span - 1.0).abs() <= 0.05);
+
+    // Foxglove's own reader (TypeScript, as the Foxglove app uses) opens
+    // the file: every channel, and every message.
+    let foxglove = foxglove_read(&original);
+    assert!(
+        foxglove.contains(&format!("{} messages, every json one parsed", first.len())),
+        "{foxglove}"
+    );
+    assert!(
+        foxglove.contains("rome/robot/r1/base/state json rome.BaseState/jsonschema"),
+        "{foxglove}"
+    );
     let _ = std::fs::remove_dir_all(&d);
+}
+
+/// What `tests/node/read_mcap.mjs` prints of `file`, with `@mcap/core`
+/// and `@mcap/nodejs` installed from npm under the target directory the
+/// first time.
+fn foxglove_read(file: &std::path::Path) -> String {
+    let here = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/node");
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("node-mcap");
+    std::fs::create_dir_all(&dir).unwrap();
+    for f in ["package.json", "read_mcap.mjs"] {
+        std::fs::copy(here.join(f), dir.join(f)).unwrap();
+    }
+    if !dir.join("node_modules/@mcap/core").exists() {
+        let npm = Command::new("npm")
+            .args(["install", "--no-audit", "--no-fund", "--silent"])
+            .current_dir(&dir)
+            .status()
+            .expect("npm (Node.js) is needed to check files with Foxglove's MCAP reader");
+        assert!(npm.success(), "npm install of @mcap/core failed");
+    }
+    let out = Command::new("node")
+        .arg("read_mcap.mjs")
+        .arg(file)
+        .current_dir(&dir)
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(
+        out.status.success(),
+        "{text}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    text
 }
 
 #[test]

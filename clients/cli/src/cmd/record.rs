@@ -337,6 +337,55 @@ pub fn json_schema(v: &serde_json::Value) -> serde_json::Value {
 mod tests {
     use super::*;
 
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn images_are_kept_as_they_came_and_deletes_as_deletes() {
+        let session = zenoh::open(
+            rome_client::net::NetOptions::isolated()
+                .to_config()
+                .unwrap(),
+        )
+        .await
+        .unwrap();
+        let dir = std::env::temp_dir().join(format!("rome-rec-unit-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("x.mcap");
+        let rec = Recorder::start(&session, &["t/**".to_string()], &path, false)
+            .await
+            .unwrap();
+        let png = b"\x89PNG\r\n\x1a\nnot really".to_vec();
+        session
+            .put("t/cam", png.clone())
+            .encoding(Encoding::IMAGE_PNG)
+            .await
+            .unwrap();
+        session
+            .put("t/v", r#"{"a":1}"#)
+            .encoding(Encoding::APPLICATION_JSON)
+            .await
+            .unwrap();
+        session.delete("t/v").await.unwrap();
+        // Local puts reach the subscriber before `put` returns; stop()
+        // writes out what it heard.
+        let summary = rec.stop().await.unwrap();
+        assert_eq!(summary.messages, 3);
+        let m = crate::cmd::replay::load(&path).unwrap();
+        assert_eq!(m[0].key, "t/cam");
+        assert_eq!(m[0].data, png);
+        assert_eq!(m[0].encoding, Encoding::IMAGE_PNG);
+        assert!(!m[1].delete && m[2].delete);
+        let buf = std::fs::read(&path).unwrap();
+        let encodings: Vec<(String, String)> = mcap::MessageStream::new(&buf)
+            .unwrap()
+            .map(|m| {
+                let m = m.unwrap();
+                (m.channel.topic.clone(), m.channel.message_encoding.clone())
+            })
+            .collect();
+        assert_eq!(encodings[0], ("t/cam".into(), "image/png".into()));
+        assert_eq!(encodings[1], ("t/v".into(), "json".into()));
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
     #[test]
     fn a_schema_describes_the_message_it_came_from() {
         let v: serde_json::Value =
