@@ -45,7 +45,7 @@ pub fn line(text: std::fmt::Arguments<'_>) {
     }
 }
 
-/// `println!` for output that may go to a pipe closed early: see [`line`].
+/// `println!` for output that may go to a pipe closed early: see [`line()`](crate::exit::line).
 #[macro_export]
 macro_rules! out {
     ($($arg:tt)*) => {
