@@ -285,3 +285,46 @@ pub fn spawn_peer(exe: &str, port: u16, args: &[&str]) -> ChildGuard {
         .expect("rome-test-peer starts");
     ChildGuard(Some(child))
 }
+
+/// A Python virtual environment at `dir` with `packages` installed from
+/// PyPI, made the first time (kept for later runs): returns its
+/// directory once `import_check` (a Python statement) runs in it.
+pub fn python_venv(
+    dir: &std::path::Path,
+    packages: &[&str],
+    import_check: &str,
+) -> std::path::PathBuf {
+    let python = dir.join("bin/python");
+    let ready = |p: &std::path::Path| {
+        Command::new(p)
+            .args(["-c", import_check])
+            .status()
+            .is_ok_and(|s| s.success())
+    };
+    if ready(&python) {
+        return dir.to_path_buf();
+    }
+    let made = Command::new("python3")
+        .args(["-m", "venv"])
+        .arg(dir)
+        .status()
+        .expect("python3 is needed for the tests that use Python");
+    assert!(made.success(), "python3 -m venv {} failed", dir.display());
+    let pip = Command::new(&python)
+        .args([
+            "-m",
+            "pip",
+            "install",
+            "--quiet",
+            "--disable-pip-version-check",
+        ])
+        .args(packages)
+        .status()
+        .expect("pip runs");
+    assert!(pip.success(), "pip install {packages:?} failed");
+    assert!(
+        ready(&python),
+        "{packages:?} installed but `{import_check}` fails"
+    );
+    dir.to_path_buf()
+}

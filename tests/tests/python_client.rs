@@ -23,37 +23,7 @@ fn python_with_zenoh() -> PathBuf {
 
 fn install_python_zenoh() -> PathBuf {
     let venv = Path::new(env!("CARGO_TARGET_TMPDIR")).join("py-zenoh");
-    let python = venv.join("bin/python");
-    let has_zenoh = |py: &Path| {
-        Command::new(py)
-            .args(["-c", "import zenoh"])
-            .status()
-            .map(|s| s.success())
-            .unwrap_or(false)
-    };
-    if has_zenoh(&python) {
-        return python;
-    }
-    let made = Command::new("python3")
-        .args(["-m", "venv"])
-        .arg(&venv)
-        .status()
-        .expect("python3 is needed for the cross-language test");
-    assert!(made.success(), "python3 -m venv failed");
-    let pip = Command::new(&python)
-        .args([
-            "-m",
-            "pip",
-            "install",
-            "--quiet",
-            "--disable-pip-version-check",
-            PY_ZENOH,
-        ])
-        .status()
-        .unwrap();
-    assert!(pip.success(), "pip install {PY_ZENOH} failed");
-    assert!(has_zenoh(&python));
-    python
+    rome_tests::python_venv(&venv, &[PY_ZENOH], "import zenoh").join("bin/python")
 }
 
 /// Runs `tests/python/<script> PORT`; it must pass every check.

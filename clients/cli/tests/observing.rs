@@ -54,36 +54,11 @@ fn sections(doc: &str) -> Vec<(String, Vec<Block>)> {
 }
 
 fn venv() -> PathBuf {
-    let venv = Path::new(env!("CARGO_TARGET_TMPDIR")).join("py-observing");
-    let python = venv.join("bin/python");
-    let ready = |p: &Path| {
-        Command::new(p)
-            .args(["-c", "import zenoh, mcap, zenoh_cli"])
-            .status()
-            .is_ok_and(|s| s.success())
-    };
-    if !ready(&python) {
-        assert!(Command::new("python3")
-            .args(["-m", "venv"])
-            .arg(&venv)
-            .status()
-            .unwrap()
-            .success());
-        let pip = Command::new(&python)
-            .args([
-                "-m",
-                "pip",
-                "install",
-                "--quiet",
-                "--disable-pip-version-check",
-            ])
-            .args(PY_PACKAGES)
-            .status()
-            .unwrap();
-        assert!(pip.success(), "pip install {PY_PACKAGES:?} failed");
-        assert!(ready(&python), "the Python packages do not import");
-    }
-    venv
+    rome_tests::python_venv(
+        &Path::new(env!("CARGO_TARGET_TMPDIR")).join("py-observing"),
+        PY_PACKAGES,
+        "import zenoh, mcap, zenoh_cli",
+    )
 }
 
 /// Runs one section's blocks in a fresh namespace; returns each block's
