@@ -715,3 +715,47 @@ fn echo_and_ls_show_a_fleets_traffic_and_rates() {
     assert!(out.contains("ROBOT") && out.contains("camera/up"), "{out}");
     sim.kill();
 }
+
+#[test]
+fn bench_data_measures_the_tcp_floor_zenoh_and_redis_in_one_run() {
+    let out = offline_ok([
+        "bench",
+        "data",
+        "--clients",
+        "1,2",
+        "--seconds",
+        "0.2",
+        "--json",
+    ]);
+    let rows: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let mut ops: Vec<String> = rows
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| format!("{} {}", r["op"].as_str().unwrap(), r["clients"]))
+        .collect();
+    ops.sort();
+    let redis = std::process::Command::new("redis-server")
+        .arg("--version")
+        .output()
+        .is_ok();
+    let mut want: Vec<String> = Vec::new();
+    for n in [1, 2] {
+        let mut names = vec!["tcp ping-pong", "zenoh-queryable", "get", "set", "signal"];
+        if redis {
+            names.extend(["redis GET", "redis SET"]);
+        }
+        want.extend(names.iter().map(|o| format!("{o} {n}")));
+    }
+    want.sort();
+    assert_eq!(ops, want);
+    if !redis {
+        assert!(String::from_utf8_lossy(&out.stderr).contains("redis-server is not installed"));
+    }
+    for r in rows.as_array().unwrap() {
+        assert!(
+            r["samples"].as_u64().unwrap() > 0 && r["p50_us"].as_u64().unwrap() > 0,
+            "{r}"
+        );
+    }
+}

@@ -43,6 +43,9 @@ pub struct DataBench {
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Op {
+    Tcp,
+    RedisGet,
+    RedisSet,
     Raw,
     Get,
     Set,
@@ -54,6 +57,9 @@ enum Op {
 impl Op {
     fn name(self) -> &'static str {
         match self {
+            Op::Tcp => "tcp ping-pong",
+            Op::RedisGet => "redis GET",
+            Op::RedisSet => "redis SET",
             Op::Raw => "zenoh-queryable",
             Op::Get => "get",
             Op::Set => "set",
@@ -88,10 +94,42 @@ struct Client {
     data: DataClient,
     /// A client of the durable server, when measured.
     disk: Option<(zenoh::Session, DataClient)>,
+    /// A connection to the loopback TCP echo.
+    tcp: tokio::sync::Mutex<tokio::net::TcpStream>,
+    /// A connection to redis-server, when it is installed.
+    redis: Option<tokio::sync::Mutex<tokio::net::TcpStream>>,
 }
 
 async fn once(client: &Client, op: Op) -> anyhow::Result<()> {
+    use tokio::io::{AsyncReadExt, AsyncWriteExt};
     match op {
+        Op::Tcp => {
+            let mut c = client.tcp.lock().await;
+            c.write_all(b"x").await?;
+            let mut b = [0u8; 1];
+            c.read_exact(&mut b).await?;
+        }
+        Op::RedisGet | Op::RedisSet => {
+            let redis = client
+                .redis
+                .as_ref()
+                .ok_or_else(|| anyhow::anyhow!("no redis-server to measure"))?;
+            let mut c = redis.lock().await;
+            // The value is always one character, so the reply's length is known.
+            let (cmd, want): (&[u8], &[u8]) = if op == Op::RedisGet {
+                (b"*2\r\n$3\r\nGET\r\n$5\r\nbench\r\n", b"$1\r\n")
+            } else {
+                (b"*3\r\n$3\r\nSET\r\n$5\r\nbench\r\n$1\r\n1\r\n", b"+OK\r\n")
+            };
+            c.write_all(cmd).await?;
+            let mut b = vec![0u8; if op == Op::RedisGet { 7 } else { 5 }];
+            c.read_exact(&mut b).await?;
+            anyhow::ensure!(
+                b.starts_with(want),
+                "redis answered {:?}",
+                String::from_utf8_lossy(&b)
+            );
+        }
         Op::Raw => {
             let replies = client
                 .session
@@ -242,7 +280,16 @@ pub async fn data_rows(args: &DataBench, progress: bool) -> anyhow::Result<Vec<R
         }
         None => (None, 0),
     };
-    let mut ops = vec![Op::Raw, Op::Get, Op::Set, Op::Signal];
+    let tcp_port = echo_server().await?;
+    let redis = Redis::start()?;
+    let mut ops = vec![Op::Tcp, Op::Raw, Op::Get, Op::Set, Op::Signal];
+    match &redis {
+        Some(_) => {
+            ops.insert(1, Op::RedisSet);
+            ops.insert(1, Op::RedisGet);
+        }
+        None => eprintln!("redis-server is not installed: Redis is left out (Debian: apt-get install redis-server)"),
+    }
     if durable.is_some() {
         ops.extend([Op::DiskSet, Op::DiskSignal]);
     }
@@ -274,13 +321,28 @@ pub async fn data_rows(args: &DataBench, progress: bool) -> anyhow::Result<Vec<R
                 }
                 None => None,
             };
+            let tcp = tokio::net::TcpStream::connect(("127.0.0.1", tcp_port)).await?;
+            tcp.set_nodelay(true)?;
+            let redis = match &redis {
+                Some(r) => {
+                    let c = tokio::net::TcpStream::connect(("127.0.0.1", r.port)).await?;
+                    c.set_nodelay(true)?;
+                    Some(tokio::sync::Mutex::new(c))
+                }
+                None => None,
+            };
             clients.push(Client {
                 session,
                 data,
                 disk,
+                tcp: tokio::sync::Mutex::new(tcp),
+                redis,
             });
         }
         clients[0].data.set("bench/x", &0).await?;
+        if redis.is_some() {
+            once(&clients[0], Op::RedisSet).await?;
+        }
         clients[0].data.create_semaphore("bench", 0).await?;
         for &op in &ops {
             if let Some(b) = &mut bar {
@@ -347,24 +409,107 @@ pub async fn run(_common: &CommonArgs, cmd: BenchCmd) -> anyhow::Result<u8> {
     Ok(exit::OK)
 }
 
+/// A loopback TCP server that sends every byte back: the floor under any
+/// request that crosses a TCP link on this host.
+async fn echo_server() -> anyhow::Result<u16> {
+    use tokio::io::{AsyncReadExt, AsyncWriteExt};
+    let listener = tokio::net::TcpListener::bind(("127.0.0.1", 0)).await?;
+    let port = listener.local_addr()?.port();
+    tokio::spawn(async move {
+        while let Ok((mut s, _)) = listener.accept().await {
+            let _ = s.set_nodelay(true);
+            tokio::spawn(async move {
+                let mut b = [0u8; 64];
+                while let Ok(n) = s.read(&mut b).await {
+                    if n == 0 || s.write_all(&b[..n]).await.is_err() {
+                        break;
+                    }
+                }
+            });
+        }
+    });
+    Ok(port)
+}
+
+/// Debian's redis-server on a loopback port of its own, without
+/// persistence, for as long as this lives.
+struct Redis {
+    child: std::process::Child,
+    port: u16,
+}
+
+impl Redis {
+    /// Starts one, or `None` when redis-server is not installed.
+    fn start() -> anyhow::Result<Option<Redis>> {
+        let port = std::net::TcpListener::bind(("127.0.0.1", 0))?
+            .local_addr()?
+            .port();
+        let child = match std::process::Command::new("redis-server")
+            .args(["--bind", "127.0.0.1", "--port", &port.to_string()])
+            .args(["--save", "", "--appendonly", "no", "--protected-mode", "no"])
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::null())
+            .spawn()
+        {
+            Ok(c) => c,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+            Err(e) => anyhow::bail!("cannot start redis-server: {e}"),
+        };
+        let redis = Redis { child, port };
+        let up = Instant::now();
+        loop {
+            if let Ok(mut c) = std::net::TcpStream::connect(("127.0.0.1", port)) {
+                use std::io::{Read, Write};
+                let mut b = [0u8; 7];
+                if c.write_all(b"PING\r\n").is_ok()
+                    && c.read_exact(&mut b).is_ok()
+                    && &b == b"+PONG\r\n"
+                {
+                    return Ok(Some(redis));
+                }
+            }
+            anyhow::ensure!(
+                up.elapsed() < Duration::from_secs(10),
+                "redis-server did not answer on port {port} within 10 s"
+            );
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+}
+
+impl Drop for Redis {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
 fn print_table(rows: &[Row]) {
     println!(
-        "{:16} {:>7} {:>10} {:>9} {:>9} {:>11}",
-        "operation", "clients", "ops/s", "p50 µs", "p99 µs", "p50 vs raw"
+        "{:16} {:>7} {:>10} {:>9} {:>9} {:>11} {:>9} {:>11}",
+        "operation", "clients", "ops/s", "p50 µs", "p99 µs", "p50 vs raw", "vs tcp", "vs redis"
     );
+    let p50 = |op: Op, clients: usize| {
+        rows.iter()
+            .find(|r| r.op == op.name() && r.clients == clients)
+            .map(|r| r.p50_us.max(1) as f64)
+    };
+    let ratio = |row: &Row, base: Option<f64>| {
+        base.map_or("-".to_string(), |b| {
+            format!("{:.2}x", row.p50_us as f64 / b)
+        })
+    };
     for row in rows {
-        let raw = rows
-            .iter()
-            .find(|r| r.op == Op::Raw.name() && r.clients == row.clients)
-            .map_or(1, |r| r.p50_us.max(1));
         println!(
-            "{:16} {:>7} {:>10.0} {:>9} {:>9} {:>10.2}x",
+            "{:16} {:>7} {:>10.0} {:>9} {:>9} {:>11} {:>9} {:>11}",
             row.op,
             row.clients,
             row.ops_per_s,
             row.p50_us,
             row.p99_us,
-            row.p50_us as f64 / raw as f64
+            ratio(row, p50(Op::Raw, row.clients)),
+            ratio(row, p50(Op::Tcp, row.clients)),
+            ratio(row, p50(Op::RedisGet, row.clients)),
         );
     }
 }
