@@ -39,6 +39,7 @@ use rome_maps::render::Shape;
 use rome_schema::robot::{BaseState, Scan};
 use rome_schema::sim::Truth;
 use rome_schema::Root;
+use rome_sim::spec::{sonar_bearing_deg, SONAR_MAX_MM};
 use serde_json::{json, Value};
 use std::collections::{BTreeMap, VecDeque};
 use std::sync::{Arc, Mutex};
@@ -59,14 +60,6 @@ const TRAIL_STEP_MM: f64 = 100.0;
 const MIN_GAP: Duration = Duration::from_millis(50);
 /// Plates and lights kept per robot.
 const MARKS: usize = 500;
-/// Sonar bearing of ring element `i`, degrees counter-clockwise from
-/// forward: element 12 looks ahead, 15° apart (Figure 5.9).
-fn sonar_bearing_deg(i: usize) -> f64 {
-    (i as f64 - 12.0) * 15.0
-}
-/// A sonar range at or beyond this, mm, is no echo.
-const SONAR_NO_ECHO_MM: u32 = 10_000;
-
 /// Flags of `rome view`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
@@ -348,12 +341,13 @@ impl Hub {
                 .enumerate()
                 .map(|(i, &mm)| {
                     let d = pose.heading.turned(sonar_bearing_deg(i)).unit();
-                    let reach = f64::from(mm.min(SONAR_NO_ECHO_MM));
+                    // A range at the ring's maximum is no echo.
+                    let reach = f64::from(mm).min(SONAR_MAX_MM);
                     let end = pose.at + d * reach;
-                    json!([round(end.x), round(end.y), mm < SONAR_NO_ECHO_MM])
+                    json!([end.x.round(), end.y.round(), reach < SONAR_MAX_MM])
                 })
                 .collect();
-            let e = json!({"k": "scan", "robot": robot, "from": [round(pose.at.x), round(pose.at.y)], "rays": rays});
+            let e = json!({"k": "scan", "robot": robot, "from": [pose.at.x.round(), pose.at.y.round()], "rays": rays});
             vec![keep(last, format!("scan/{robot}"), e)]
         })
         .unwrap_or_default()
@@ -377,7 +371,7 @@ impl Hub {
                     let n = v.as_u64().unwrap_or(0);
                     if let (Some(before), Some(p)) = (r.lights, r.odometry) {
                         if n > before {
-                            out.push(mark(r, json!({"k": "light", "robot": robot, "x": round(p.at.x), "y": round(p.at.y), "n": n})));
+                            out.push(mark(r, json!({"k": "light", "robot": robot, "x": p.at.x.round(), "y": p.at.y.round(), "n": n})));
                         }
                     }
                     r.lights = Some(n);
@@ -412,10 +406,6 @@ impl Hub {
     }
 }
 
-fn round(v: f64) -> f64 {
-    v.round()
-}
-
 fn due(r: &mut Robot, kind: &'static str) -> bool {
     let now = Instant::now();
     match r.sent.get(kind) {
@@ -432,7 +422,7 @@ fn push_trail(trail: &mut VecDeque<[f64; 2]>, p: &Pose) {
         .back()
         .is_none_or(|b| (b[0] - p.at.x).hypot(b[1] - p.at.y) >= TRAIL_STEP_MM);
     if far {
-        trail.push_back([round(p.at.x), round(p.at.y)]);
+        trail.push_back([p.at.x.round(), p.at.y.round()]);
         if trail.len() > TRAIL_POINTS {
             trail.pop_front();
         }
@@ -457,7 +447,7 @@ fn pose_event(kind: &str, robot: &str, p: &Pose, extra: Value) -> Value {
     let d = p.heading.unit();
     let mut e = json!({
         "k": kind, "robot": robot,
-        "x": round(p.at.x), "y": round(p.at.y),
+        "x": p.at.x.round(), "y": p.at.y.round(),
         "heading": (p.heading.deg() * 10.0).round() / 10.0,
         "dir": [d.x, d.y],
     });
