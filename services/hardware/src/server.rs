@@ -52,6 +52,14 @@ impl Body {
     pub fn json(message: &impl serde::Serialize) -> Self {
         Body::Json(encode(message))
     }
+
+    /// The payload and its encoding on the wire.
+    pub fn into_parts(self) -> (ZBytes, Encoding) {
+        match self {
+            Body::Json(b) => (ZBytes::from(b), Encoding::APPLICATION_JSON),
+            Body::Binary(b, e) => (ZBytes::from(b), e),
+        }
+    }
 }
 
 /// A device's commands: what a hardware server needs to know of them.
@@ -487,6 +495,11 @@ impl<S: Service> Server<S> {
             zenoh::key_expr::KeyExpr::new(key_of(chunk)).is_ok_and(|k| wanted.intersects(&k))
         };
         let reads = self.service.reads();
+        let reads_said = if reads.is_empty() {
+            "none".to_string()
+        } else {
+            reads.join(", ")
+        };
         let mut answered = 0usize;
         for &chunk in reads {
             if !matches(chunk) {
@@ -536,13 +549,8 @@ impl<S: Service> Server<S> {
             let e = ErrorReply::new(
                 ErrorCode::UnknownKey,
                 format!(
-                    "{} has no command '{last}' (asked through '{wanted}'); its reads are {}",
+                    "{} has no command '{last}' (asked through '{wanted}'); its reads are {reads_said}",
                     self.config.label(),
-                    if reads.is_empty() {
-                        "none".to_string()
-                    } else {
-                        reads.join(", ")
-                    },
                 ),
             );
             return reply_err(&query, &e).await;
@@ -550,10 +558,9 @@ impl<S: Service> Server<S> {
         let e = ErrorReply::new(
             ErrorCode::Wildcard,
             format!(
-                "'{wanted}' names {} on {} through a wildcard; only reads answer a wildcard key ({}); name the robot and device, as in {}",
+                "'{wanted}' names {} on {} through a wildcard; only reads answer a wildcard key ({reads_said}); name the robot and device, as in {}",
                 hit.iter().map(|c| format!("'{c}'")).collect::<Vec<_>>().join(", "),
                 self.config.label(),
-                if reads.is_empty() { "this device has none".to_string() } else { reads.join(", ") },
                 key_of(hit[0]),
             ),
         );
@@ -732,10 +739,7 @@ impl<S: Service> Server<S> {
                 .config
                 .root
                 .robot(&self.config.robot, &self.config.device, chunk);
-            let (bytes, encoding) = match body {
-                Body::Json(b) => (ZBytes::from(b), Encoding::APPLICATION_JSON),
-                Body::Binary(b, e) => (ZBytes::from(b), e),
-            };
+            let (bytes, encoding) = body.into_parts();
             self.last.insert(chunk, (bytes.clone(), encoding.clone()));
             let sent = self
                 .session
@@ -840,10 +844,7 @@ impl<S: Service> Server<S> {
 }
 
 async fn reply(query: &Query, key: &str, body: Body) {
-    let (bytes, encoding) = match body {
-        Body::Json(b) => (b, Encoding::APPLICATION_JSON),
-        Body::Binary(b, e) => (b, e),
-    };
+    let (bytes, encoding) = body.into_parts();
     rome_serve::reply(query, key, bytes, encoding).await
 }
 
