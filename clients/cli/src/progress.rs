@@ -61,35 +61,31 @@ impl Progress {
         }
     }
 
-    /// Moves to `pos`, with a short note (`3 channels, 12 kB`).
+    /// Moves to `pos`, with a short note (`3 channels, 12 kB`); without a
+    /// bar, said at most every ten seconds.
     pub fn set(&mut self, pos: u64, note: &str) {
-        self.pos = pos;
-        match &self.bar {
-            Some(bar) => {
-                bar.set_position(pos);
-                bar.set_message(format!("{} {note}", self.unit));
-            }
-            None if self.last_line.elapsed() >= PLAIN_EVERY => {
-                self.last_line = Instant::now();
-                eprintln!("{}", self.plain(note));
-            }
-            None => {}
-        }
+        let due = self.last_line.elapsed() >= PLAIN_EVERY;
+        self.show(pos, note, due);
     }
 
     /// Moves to `pos` as a new step begins (a measurement, a run): said
     /// on a line of its own when there is no bar.
     pub fn step(&mut self, pos: u64, note: &str) {
+        self.show(pos, note, true);
+    }
+
+    fn show(&mut self, pos: u64, note: &str, plain_line: bool) {
         self.pos = pos;
         match &self.bar {
             Some(bar) => {
                 bar.set_position(pos);
                 bar.set_message(format!("{} {note}", self.unit));
             }
-            None => {
+            None if plain_line => {
                 self.last_line = Instant::now();
                 eprintln!("{}", self.plain(note));
             }
+            None => {}
         }
     }
 
@@ -117,5 +113,16 @@ impl Progress {
 impl Drop for Progress {
     fn drop(&mut self) {
         self.finish();
+    }
+}
+
+/// A byte count for people: `193 B`, `44.5 kB`, `12.3 MB`.
+pub fn size(n: u64) -> String {
+    if n < 10_000 {
+        format!("{n} B")
+    } else if n < 10_000_000 {
+        format!("{:.1} kB", n as f64 / 1e3)
+    } else {
+        format!("{:.1} MB", n as f64 / 1e6)
     }
 }

@@ -250,7 +250,11 @@ fn print_sample(s: &Sample, kind: &str, json: bool) {
         crate::out!("{head}");
         return;
     }
-    crate::out!("{head}  {}  {}", s.encoding(), size(bytes.len()));
+    crate::out!(
+        "{head}  {}  {}",
+        s.encoding(),
+        crate::progress::size(bytes.len() as u64)
+    );
     let text = indent(&pretty(&bytes, s.encoding()));
     crate::out!("{}", text.strip_suffix('\n').unwrap_or(&text));
 }
@@ -350,14 +354,6 @@ fn png_size(bytes: &[u8]) -> Option<(u32, u32)> {
     let w = u32::from_be_bytes(bytes[16..20].try_into().ok()?);
     let h = u32::from_be_bytes(bytes[20..24].try_into().ok()?);
     Some((w, h))
-}
-
-fn size(n: usize) -> String {
-    if n < 10_000 {
-        format!("{n} B")
-    } else {
-        format!("{:.1} kB", n as f64 / 1000.0)
-    }
 }
 
 fn now_ms() -> u64 {

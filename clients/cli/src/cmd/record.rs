@@ -145,7 +145,7 @@ impl Recorder {
                         let Some((sample, at)) = heard else { break };
                         writer.write(&sample, at)?;
                         if let Some(p) = &mut progress {
-                            let note = format!("{} channels, {}", writer.summary.channels, bytes(writer.summary.bytes));
+                            let note = format!("{} channels, {}", writer.summary.channels, crate::progress::size(writer.summary.bytes));
                             p.set(writer.summary.messages, &note);
                         }
                     }
@@ -167,16 +167,6 @@ impl Recorder {
     pub async fn stop(self) -> anyhow::Result<Summary> {
         let _ = self.stop.send(());
         self.task.await.context("the recorder task failed")?
-    }
-}
-
-fn bytes(n: u64) -> String {
-    if n < 10_000 {
-        format!("{n} B")
-    } else if n < 10_000_000 {
-        format!("{:.1} kB", n as f64 / 1e3)
-    } else {
-        format!("{:.1} MB", n as f64 / 1e6)
     }
 }
 
