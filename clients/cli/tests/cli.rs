@@ -493,9 +493,9 @@ fn bench_robot_reports_round_trips_and_the_scan_stream() {
     assert_eq!(f["scans_lost"], 0);
 }
 
-#[test]
-fn robot_commands_from_the_shell_against_rome_sim() {
-    let (mut sim, port, _) = rome_tests::spawn_listening(
+/// `rome sim` with robots r1 and r2 on the Figure 5.3 map, and its port.
+fn two_robots() -> (ChildGuard, u16) {
+    let (sim, port, _) = rome_tests::spawn_listening(
         ROME,
         &[
             "sim",
@@ -508,6 +508,12 @@ fn robot_commands_from_the_shell_against_rome_sim() {
             "tcp/127.0.0.1:0",
         ],
     );
+    (sim, port)
+}
+
+#[test]
+fn robot_commands_from_the_shell_against_rome_sim() {
+    let (mut sim, port) = two_robots();
     let connect = format!("tcp/127.0.0.1:{port}");
     let robot = |args: &[&str]| {
         Command::new(ROME)
@@ -552,19 +558,7 @@ fn robot_commands_from_the_shell_against_rome_sim() {
 
 #[test]
 fn echo_and_ls_show_a_fleets_traffic_and_rates() {
-    let (mut sim, port, _) = rome_tests::spawn_listening(
-        ROME,
-        &[
-            "sim",
-            "--map",
-            "fig5_3",
-            "--robots",
-            "2",
-            "--no-multicast",
-            "-l",
-            "tcp/127.0.0.1:0",
-        ],
-    );
+    let (mut sim, port) = two_robots();
     let connect = format!("tcp/127.0.0.1:{port}");
     let rome = |args: &[&str]| {
         let out = Command::new(ROME)
