@@ -2,6 +2,7 @@
 //!
 //! ```text
 //! rome/sim/<robot>/truth     where a robot truly is (query, and a stream)
+//! rome/sim/clock             simulated time (a stream, like ROS's /clock)
 //! ```
 //!
 //! Like a simulator's ground-truth topic, it is for judging runs, tests and
@@ -11,6 +12,24 @@
 use crate::keys::Name;
 use crate::Root;
 use serde::{Deserialize, Serialize};
+
+/// Simulator → anyone: simulated time, ten times a simulated second.
+///
+/// ```text
+/// rome/sim/clock
+/// {"time_ms":61500,"lockstep":true}
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Clock {
+    /// Simulated time, ms.
+    pub time_ms: u64,
+    /// Whether the world steps only when every participant is done with
+    /// the present instant (else it is paced against the wall clock).
+    pub lockstep: bool,
+}
+
+/// How often the clock is published, in simulated milliseconds.
+pub const CLOCK_EVERY_MS: u64 = 100;
 
 /// Simulator → anyone: a robot's true pose and what it has touched.
 ///
@@ -70,6 +89,11 @@ impl Root {
         format!("{}/sim/{}/truth", self.as_str(), robot.as_str())
     }
 
+    /// `<root>/sim/clock`: simulated time.
+    pub fn sim_clock(&self) -> String {
+        format!("{}/sim/clock", self.as_str())
+    }
+
     /// `<root>/sim/*/truth`: every simulated robot's true pose.
     pub fn sim_truth_all(&self) -> String {
         format!("{}/sim/*/truth", self.as_str())
@@ -86,6 +110,9 @@ mod tests {
         let r1 = Name::new("r1").unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(root.sim_truth(&r1), "rome/sim/r1/truth");
         assert_eq!(root.sim_truth_all(), "rome/sim/*/truth");
+        assert_eq!(root.sim_clock(), "rome/sim/clock");
+        let c: Clock = crate::decode(br#"{"time_ms":61500,"lockstep":true}"#, "clock").unwrap();
+        assert_eq!(c.time_ms, 61_500);
         let a = ContactCount {
             wall: 1,
             robot: 0,

@@ -188,8 +188,16 @@ impl DataClient {
             get = get.payload(p.to_vec()).encoding(Encoding::APPLICATION_JSON);
         }
         let replies = get.await.map_err(ClientError::zenoh)?;
+        // In a lock-step run a held wait waits for another client (idle);
+        // anything else is answered at once (busy: the clock waits).
+        let answer = replies.recv_async();
+        let answer = if params.iter().any(|(k, _)| *k == param::HOLD_MS) {
+            rome_clock::idle(answer).await
+        } else {
+            rome_clock::busy(answer).await
+        };
         // Waits ride on the same receiver: the first reply is the answer.
-        match replies.recv_async().await {
+        match answer {
             Ok(reply) => match reply.result() {
                 Ok(sample) => Ok(Some(Answer::Reply((
                     sample.key_expr().as_str().to_string(),
@@ -645,7 +653,7 @@ impl Watch {
     /// returned once even if the network delivers it twice.
     pub async fn next(&mut self) -> Option<Result<Committed, ClientError>> {
         loop {
-            let sample = self.subscriber.recv_async().await.ok()?;
+            let sample = rome_clock::idle(self.subscriber.recv_async()).await.ok()?;
             let commit: Committed = match decode(&sample.payload().to_bytes(), "watch event") {
                 Ok(c) => c,
                 Err(e) => return Some(Err(e.into())),

@@ -341,7 +341,16 @@ impl RobotClient {
             }
             let tried = std::time::Instant::now();
             let replies = get.await.map_err(ClientError::zenoh)?;
-            if let Ok(reply) = replies.recv_async().await {
+            // In a lock-step run, a command queued behind another client's
+            // lock waits for that client (idle); any other is answered at
+            // once (busy: the clock waits for the answer).
+            let answer = replies.recv_async();
+            let answer = if wait.is_zero() {
+                rome_clock::busy(answer).await
+            } else {
+                rome_clock::idle(answer).await
+            };
+            if let Ok(reply) = answer {
                 match reply.result() {
                     Ok(sample) => {
                         return Ok((
@@ -652,7 +661,7 @@ impl RobotClient {
 async fn renew(client: RobotClient, device: Device, fence: u64, ttl: Duration) {
     let every = ttl / 3;
     loop {
-        tokio::time::sleep(every).await;
+        rome_clock::sleep(every).await;
         let params = [
             (param::OWNER, client.inner.owner.clone()),
             (param::FENCE, fence.to_string()),
@@ -780,7 +789,7 @@ impl<T: DeserializeOwned> Stream<T> {
     /// The next message that decodes; `None` when the session closed.
     pub async fn next(&self) -> Option<Result<T, ClientError>> {
         loop {
-            let sample = self.subscriber.recv_async().await.ok()?;
+            let sample = rome_clock::idle(self.subscriber.recv_async()).await.ok()?;
             if let Some(t) = self.decoded(&sample) {
                 return Some(Ok(t));
             }
@@ -794,7 +803,7 @@ impl<T: DeserializeOwned> Stream<T> {
         let mut newest = None;
         loop {
             if newest.is_none() {
-                let sample = self.subscriber.recv_async().await.ok()?;
+                let sample = rome_clock::idle(self.subscriber.recv_async()).await.ok()?;
                 newest = self.decoded(&sample);
             }
             while let Ok(Some(sample)) = self.subscriber.try_recv() {

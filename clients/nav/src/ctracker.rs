@@ -191,7 +191,9 @@ impl CTracker {
                 edge: self.cfg.edge,
             };
             let tx = tx.clone();
-            children.spawn(async move { child.run(tx).await });
+            children.spawn(rome_clock::wrap("ctracker child", async move {
+                child.run(tx).await
+            }));
         }
         drop(tx);
         loop {
@@ -235,11 +237,11 @@ impl CTracker {
             lights: total,
             ..SegmentLog::default()
         };
-        let mut tick = tokio::time::interval(self.cfg.check_every);
+        let mut tick = rome_clock::interval(self.cfg.check_every);
         while count < total {
             let expected = offsets[count];
             tokio::select! {
-                s = rx.recv() => {
+                s = rome_clock::idle(rx.recv()) => {
                     let Some(s) = s else {
                         return Err(NavError::Gone("every ceiling-light child tracker stopped"));
                     };

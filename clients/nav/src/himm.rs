@@ -501,7 +501,7 @@ impl Himm {
         // could lose a unit.
         let (tx, mut lights) = mpsc::unbounded_channel::<()>();
         let board = self.board.clone();
-        let counter = tokio::spawn(async move {
+        let counter = rome_clock::spawn("himm light counter", async move {
             while board.down(Sem::LightDet).await.is_ok() {
                 if tx.send(()).is_err() {
                     break;
@@ -525,7 +525,7 @@ impl Himm {
                 let mut in_map = 0i64;
                 while seen < total {
                     tokio::select! {
-                        Some(()) = lights.recv() => {
+                        Some(()) = rome_clock::idle(lights.recv()) => {
                             seen += 1;
                             in_map += 1;
                             let p = crate::track::pose_waiting(&self.robot).await?;

@@ -250,7 +250,7 @@ impl Navigator {
             if self.board.client().semaphore(&sem).await?.waiters > 0 {
                 return Ok(true);
             }
-            tokio::time::sleep(Duration::from_millis(100)).await;
+            rome_clock::sleep(Duration::from_millis(100)).await;
         }
         Ok(false)
     }
@@ -296,7 +296,7 @@ impl Navigator {
         tokio::pin!(read);
         let got = tokio::select! {
             got = &mut read => got,
-            _ = tokio::time::sleep(self.cfg.blind_after) => {
+            _ = rome_clock::sleep(self.cfg.blind_after) => {
                 tracing::warn!("navigator: the light count goes unanswered; stopping the robot until it is read");
                 self.send(Drive::Halt).await?;
                 read.await
@@ -381,7 +381,7 @@ impl Navigator {
 
     async fn next_scan(&self, scans: &rome_client::robot::Stream<Scan>) -> Result<Scan, NavError> {
         // The newest scan: steering by a backlog would steer by the past.
-        match tokio::time::timeout(self.cfg.scan_timeout, scans.latest()).await {
+        match rome_clock::timeout(self.cfg.scan_timeout, scans.latest()).await {
             Ok(Some(scan)) => Ok(scan?),
             Ok(None) => Err(NavError::Gone("the proximity server's scan stream closed")),
             Err(_) => Err(NavError::Silent {

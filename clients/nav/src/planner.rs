@@ -88,7 +88,7 @@ pub async fn put_down(
         // Positive turns are clockwise on the base.
         robot.turn(-turn, 45.0, -1.0).await?;
         while robot.mode().await?.mode == "point_turn" {
-            tokio::time::sleep(std::time::Duration::from_millis(50)).await;
+            rome_clock::sleep(std::time::Duration::from_millis(50)).await;
         }
     }
     Ok(())

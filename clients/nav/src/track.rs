@@ -86,7 +86,7 @@ impl PoseTrack {
         let arrived = Arc::new(Notify::new());
         let task = {
             let (shared, arrived) = (shared.clone(), arrived.clone());
-            tokio::spawn(async move {
+            rome_clock::spawn("pose track", async move {
                 while let Some(state) = stream.next().await {
                     let Ok(s) = state else { continue };
                     if let Ok(mut sh) = shared.lock() {
@@ -119,7 +119,8 @@ impl PoseTrack {
     /// reaches that time, or, if it does not within a moment (no stream,
     /// or a reading from before the oldest state kept), the base's pose now.
     pub async fn at(&self, robot: &RobotClient, time_ms: u64) -> Result<Pose, NavError> {
-        let deadline = tokio::time::Instant::now() + WAIT;
+        let wait = rome_clock::sleep(WAIT);
+        tokio::pin!(wait);
         loop {
             // Registered before looking, so a state arriving in between
             // is not missed.
@@ -141,8 +142,9 @@ impl PoseTrack {
                     break;
                 }
             }
-            if tokio::time::timeout_at(deadline, notified).await.is_err() {
-                break;
+            tokio::select! {
+                _ = rome_clock::idle(notified) => {}
+                _ = &mut wait => break,
             }
         }
         Ok(Pose::from(&robot.pose().await?))

@@ -175,8 +175,16 @@ pub struct RunConfig {
     pub seed: u64,
     /// Sensor noise and wheel slip.
     pub noise: Noise,
-    /// Simulated time per real time.
-    pub speed: f64,
+    /// Lock-step (the default): the world takes a step only when every
+    /// server and client of the run has finished with the present instant,
+    /// so a seed gives the same run whatever the machine's load. Otherwise
+    /// the world is paced against the wall clock at `speed` and the
+    /// clients keep up as they can.
+    pub lockstep: bool,
+    /// Simulated time per real time: the pace in a run against the wall
+    /// clock, the most a lock-step run may go (`None`: as fast as the
+    /// clients compute; a run against the wall clock then goes at 4 ×).
+    pub speed: Option<f64>,
     /// Give up after this much simulated time.
     pub limit: Duration,
     /// Give up on a robot that has not moved half a metre in this much
@@ -201,6 +209,21 @@ pub struct RunConfig {
 }
 
 impl RunConfig {
+    /// The wall-clock pace of a run that is not lock-step.
+    pub fn wall_speed(&self) -> f64 {
+        self.speed.unwrap_or(DEFAULT_WALL_SPEED)
+    }
+
+    /// A period of `ms` simulated milliseconds as the servers' and
+    /// monitor's clocks count it.
+    fn period(&self, ms: f64) -> Duration {
+        if self.lockstep {
+            Duration::from_secs_f64(ms / 1_000.0)
+        } else {
+            Duration::from_secs_f64((ms / 1_000.0 / self.wall_speed()).max(0.002))
+        }
+    }
+
     /// One robot, `r1`, on `map` with the defaults: noise on, 4 × real time.
     pub fn new(map: Map, from: &str, to: &str) -> RunConfig {
         RunConfig::fleet(map, vec![RouteSpec::new("r1", from, to)])
@@ -213,7 +236,8 @@ impl RunConfig {
             routes,
             seed: 1,
             noise: Noise::default(),
-            speed: 4.0,
+            lockstep: true,
+            speed: None,
             limit: Duration::from_secs(3_600),
             stuck: Duration::from_secs(180),
             nav: NavConfig::default(),
@@ -226,6 +250,10 @@ impl RunConfig {
         }
     }
 }
+
+/// Simulated time per real time of a run against the wall clock with no
+/// speed given.
+pub const DEFAULT_WALL_SPEED: f64 = 4.0;
 
 /// Something to show while the robots drive; `robot` is the index in the
 /// configuration's routes.
@@ -362,10 +390,9 @@ impl Rig {
         plans: &[(String, Plan)],
         net: NetOptions,
     ) -> Result<Rig, NavError> {
-        if !(cfg.speed.is_finite() && cfg.speed > 0.0) {
+        if let Some(speed) = cfg.speed.filter(|s| !(s.is_finite() && *s > 0.0)) {
             return Err(NavError::Config(format!(
-                "the simulation speed must be a positive number, got {}",
-                cfg.speed
+                "the simulation speed must be a positive number, got {speed}"
             )));
         }
         let mut sim = Sim::new(
@@ -391,8 +418,9 @@ impl Rig {
             sim.cover_camera(i, rome_sim::Camera::Up);
         }
         let world = SimWorld::new(sim);
-        // The servers' clocks follow the simulated one.
-        let scale = |ms: f64| Duration::from_secs_f64((ms / 1_000.0 / cfg.speed).max(0.002));
+        // The servers' clocks follow the simulated one: in lock-step their
+        // periods are simulated time already.
+        let scale = |ms: f64| cfg.period(ms);
         let rates = Rates {
             state: Some(scale(100.0)),
             scan: Some(scale(25.0)),
@@ -410,7 +438,16 @@ impl Rig {
                 ..Default::default()
             },
         );
-        let mut servers = vec![spawn_truth(&session, &root, &world, Some(scale(500.0)))];
+        let mut servers = vec![
+            spawn_truth(&session, &root, &world, Some(scale(500.0))),
+            rome_hardware::robot::spawn_clock(
+                &session,
+                &root,
+                &world,
+                scale(rome_schema::sim::CLOCK_EVERY_MS as f64),
+                cfg.lockstep,
+            ),
+        ];
         for (robot, _) in plans {
             servers.extend(
                 spawn_sim_robot(&session, &root, &world, robot, rates)
@@ -508,6 +545,24 @@ pub async fn run_fleet(
     cfg: RunConfig,
     progress: &mut impl FnMut(Event),
 ) -> Result<FleetReport, NavError> {
+    if cfg.lockstep {
+        // Everything the run starts from here on, servers and clients, is a
+        // participant of the clock the world steps by.
+        let clock = rome_clock::LockStep::new(0);
+        clock
+            .clone()
+            .participate("the run's monitor", run_all(cfg, progress, Some(clock)))
+            .await
+    } else {
+        run_all(cfg, progress, None).await
+    }
+}
+
+async fn run_all(
+    cfg: RunConfig,
+    progress: &mut impl FnMut(Event),
+    clock: Option<rome_clock::LockStep>,
+) -> Result<FleetReport, NavError> {
     let wall = Instant::now();
     if cfg.routes.is_empty() {
         return Err(NavError::Config("no robots to run".into()));
@@ -554,36 +609,36 @@ pub async fn run_fleet(
                     let _ = fwd.send((k, log));
                 }
             });
-            tasks.spawn(async move {
+            tasks.spawn(rome_clock::wrap(&format!("{name} navigator"), async move {
                 let r = Navigator::new(robot, board, nav_cfg)
                     .run_reporting(&ntx)
                     .await;
                 (k, r.map(|_| "navigator"))
-            });
+            }));
         }
         {
             let (board, robot) = connect(&session, name, "ctracker").await?;
             let track = cfg.track.clone();
-            tasks.spawn(async move {
+            tasks.spawn(rome_clock::wrap(&format!("{name} ctracker"), async move {
                 let r = CTracker::new(robot, board, track).run(None).await;
                 (k, r.map(|_| "ctracker"))
-            });
+            }));
         }
         if cfg.himm {
             let (board, robot) = connect(&session, name, "mapper").await?;
             let himm = cfg.himm_cfg.clone();
-            tasks.spawn(async move {
+            tasks.spawn(rome_clock::wrap(&format!("{name} mapper"), async move {
                 let r = Himm::new(robot, board, himm).run().await;
                 (k, r.map(|_| "mapper"))
-            });
+            }));
         }
         if cfg.plfinder {
             let (board, robot) = connect(&session, name, "plfinder").await?;
             let pl = PlConfig::with_map(&world_map);
-            tasks.spawn(async move {
+            tasks.spawn(rome_clock::wrap(&format!("{name} plfinder"), async move {
                 let r = PlFinder::new(robot, board, pl).run().await;
                 (k, r.map(|_| "plfinder"))
-            });
+            }));
         }
         crews.push(Crew {
             k,
@@ -601,8 +656,10 @@ pub async fn run_fleet(
     progress(Event::Started {
         session: session.clone(),
     });
-    let stepper = rig.world.start(Some(cfg.speed));
-    let scale = |ms: f64| Duration::from_secs_f64((ms / 1_000.0 / cfg.speed).max(0.002));
+    let stepper = match clock {
+        Some(clock) => rig.world.start_lockstep(clock, cfg.speed, |_| {}),
+        None => rig.world.start(Some(cfg.wall_speed())),
+    };
 
     // Each robot's Planner runs in a task of its own; a robot whose client
     // fails, or that is stuck or late, ends alone and the others go on.
@@ -613,7 +670,11 @@ pub async fn run_fleet(
         let (cancel, cancelled) = tokio::sync::oneshot::channel::<String>();
         cancels.push(Some(cancel));
         let etx = etx.clone();
-        drivers.spawn(drive(crew, rig.world.clone(), wall, etx, cancelled));
+        let name = format!("{} planner", crew.name);
+        drivers.spawn(rome_clock::wrap(
+            &name,
+            drive(crew, rig.world.clone(), wall, etx, cancelled),
+        ));
     }
     drop(etx);
 
@@ -636,10 +697,10 @@ pub async fn run_fleet(
     for m in moved.iter_mut() {
         m.0 = t0;
     }
-    let mut tick = tokio::time::interval(scale(1_000.0));
+    let mut tick = rome_clock::interval(cfg.period(1_000.0));
     while reports.iter().any(Option::is_none) {
         tokio::select! {
-            Some(event) = erx.recv() => {
+            Some(event) = rome_clock::idle(erx.recv()) => {
                 match &event {
                     Event::Finished { robot, report } => reports[*robot] = Some((**report).clone()),
                     Event::Goal { robot, .. } => registered[*robot] = true,
@@ -668,7 +729,7 @@ pub async fn run_fleet(
                 }
             }
             Some(_) = drivers.join_next() => {}
-            Some((k, log)) = nav_rx.recv() => navs[k] = log,
+            Some((k, log)) = rome_clock::idle(nav_rx.recv()) => navs[k] = log,
             _ = tick.tick() => {
                 let mut robots = Vec::with_capacity(n);
                 let now = rig.world.lock().time_ms();

@@ -130,9 +130,13 @@ impl Running {
 /// Starts [`run`] in a task; it stops on [`Running::stop`] or when dropped.
 pub fn spawn(session: Session, config: ServerConfig) -> Running {
     let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
-    let task = tokio::spawn(run(session, config, async move {
-        let _ = stopped.await;
-    }));
+    // A participant of the run's clock when started in one (lock-step).
+    let task = rome_clock::spawn(
+        "the data server",
+        run(session, config, async move {
+            let _ = stopped.await;
+        }),
+    );
     Running {
         stop: Some(stop),
         task,

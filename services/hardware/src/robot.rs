@@ -71,9 +71,13 @@ impl Running {
 pub fn spawn<S: Service>(session: &Session, config: ServerConfig, service: S) -> Running {
     let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
     let label = config.label();
-    let task = tokio::spawn(server::run(session.clone(), config, service, async move {
-        let _ = stopped.await;
-    }));
+    // A participant of the run's clock when started in one (lock-step).
+    let task = rome_clock::spawn(
+        &label,
+        server::run(session.clone(), config, service, async move {
+            let _ = stopped.await;
+        }),
+    );
     Running {
         label,
         stop: Some(stop),
@@ -90,17 +94,59 @@ pub fn spawn_truth(
     period: Option<Duration>,
 ) -> Running {
     let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
-    let task = tokio::spawn(crate::truth::run(
-        session.clone(),
-        root.clone(),
-        world.clone(),
-        period,
-        async move {
-            let _ = stopped.await;
-        },
-    ));
+    let task = rome_clock::spawn(
+        "sim truth",
+        crate::truth::run(
+            session.clone(),
+            root.clone(),
+            world.clone(),
+            period,
+            async move {
+                let _ = stopped.await;
+            },
+        ),
+    );
     Running {
         label: "sim truth".into(),
+        stop: Some(stop),
+        task,
+    }
+}
+
+/// Publishes `world`'s simulated time on `<root>/sim/clock` every
+/// `period` ([`rome_schema::sim::CLOCK_EVERY_MS`] of simulated time: in a
+/// lock-step run that is the period; otherwise pass it scaled to the
+/// wall-clock pace).
+pub fn spawn_clock(
+    session: &Session,
+    root: &Root,
+    world: &SimWorld,
+    period: Duration,
+    lockstep: bool,
+) -> Running {
+    let (stop, mut stopped) = tokio::sync::oneshot::channel::<()>();
+    let (session, key, world) = (session.clone(), root.sim_clock(), world.clone());
+    let task = rome_clock::spawn("sim clock", async move {
+        let mut tick = rome_clock::interval(period);
+        loop {
+            tokio::select! {
+                _ = rome_clock::idle(&mut stopped) => return Ok(()),
+                _ = tick.tick() => {
+                    let clock = rome_schema::sim::Clock {
+                        time_ms: world.lock().time_ms(),
+                        lockstep,
+                    };
+                    let _ = session
+                        .put(&key, rome_schema::encode(&clock))
+                        .encoding(zenoh::bytes::Encoding::APPLICATION_JSON)
+                        .congestion_control(zenoh::qos::CongestionControl::Drop)
+                        .await;
+                }
+            }
+        }
+    });
+    Running {
+        label: "sim clock".into(),
         stop: Some(stop),
         task,
     }

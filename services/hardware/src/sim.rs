@@ -16,10 +16,11 @@ pub struct SimWorld {
     sim: Arc<Mutex<Sim>>,
 }
 
-/// The stepping thread; stops when dropped.
+/// The stepping thread (or lock-step task); stops when dropped.
 pub struct Stepper {
     stop: Arc<AtomicBool>,
     thread: Option<std::thread::JoinHandle<()>>,
+    task: Option<tokio::task::JoinHandle<()>>,
 }
 
 impl Drop for Stepper {
@@ -28,8 +29,15 @@ impl Drop for Stepper {
         if let Some(t) = self.thread.take() {
             let _ = t.join();
         }
+        if let Some(t) = self.task.take() {
+            t.abort();
+        }
     }
 }
+
+/// How long a lock-step clock waits for its participants before it says
+/// which are still busy (and goes on waiting).
+const STALL: std::time::Duration = std::time::Duration::from_secs(10);
 
 impl SimWorld {
     /// Shares a world.
@@ -72,7 +80,63 @@ impl SimWorld {
                 }
             })
             .ok();
-        Stepper { stop, thread }
+        Stepper {
+            stop,
+            thread,
+            task: None,
+        }
+    }
+
+    /// Steps the world in lock-step with `clock`: a step is taken only
+    /// when every participant of the clock has finished with the present
+    /// instant, and never faster than `speed` × real time (`None`: as fast
+    /// as they go). `on_step` hears each new time. Call within a tokio
+    /// runtime.
+    pub fn start_lockstep(
+        &self,
+        clock: rome_clock::LockStep,
+        speed: Option<f64>,
+        mut on_step: impl FnMut(u64) + Send + 'static,
+    ) -> Stepper {
+        let stop = Arc::new(AtomicBool::new(false));
+        let world = self.clone();
+        let stopping = stop.clone();
+        let task = tokio::spawn(async move {
+            let start = world.lock().time_ms();
+            let pacer = Pacer::new(speed, start);
+            clock.advance(start);
+            let mut steps = 0u64;
+            while !stopping.load(Ordering::Relaxed) {
+                if tokio::time::timeout(STALL, clock.settled()).await.is_err() {
+                    tracing::warn!(
+                        time_ms = clock.now_ms(),
+                        busy = ?clock.busy_names(),
+                        "lock-step clock: still waiting for these participants to finish with the present instant"
+                    );
+                    continue;
+                }
+                let now = {
+                    let mut sim = world.lock();
+                    sim.step();
+                    sim.time_ms()
+                };
+                clock.advance(now);
+                on_step(now);
+                let wait = pacer.wait(now);
+                steps += 1;
+                if !wait.is_zero() {
+                    tokio::time::sleep(wait).await;
+                } else if steps.is_multiple_of(8) {
+                    // Let tasks outside the clock (a recorder, a viewer) run.
+                    tokio::task::yield_now().await;
+                }
+            }
+        });
+        Stepper {
+            stop,
+            thread: None,
+            task: Some(task),
+        }
     }
 
     fn index(&self, robot: &str) -> Result<usize, SimError> {

@@ -148,16 +148,18 @@ impl<T: Send + 'static> Inbox<T> {
         periods: Periods,
         shutdown: impl Future<Output = ()>,
     ) {
-        let mut sweep = tokio::time::interval(periods.sweep);
-        let mut tick = tokio::time::interval(periods.tick.unwrap_or(Duration::from_secs(3_600)));
-        tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+        // In a lock-step run the loop is idle while it waits: the clock
+        // moves on once everyone has been served.
+        let mut sweep = rome_clock::interval(periods.sweep);
+        let mut tick = rome_clock::interval(periods.tick.unwrap_or(Duration::from_secs(3_600)));
+        let shutdown = rome_clock::idle(shutdown);
         tokio::pin!(shutdown);
         loop {
             tokio::select! {
                 biased;
                 _ = &mut shutdown => break,
-                Ok(event) = self.alive_rx.recv_async() => handler.event(event).await,
-                Ok(event) = self.rx.recv_async() => {
+                Ok(event) = rome_clock::idle(self.alive_rx.recv_async()) => handler.event(event).await,
+                Ok(event) = rome_clock::idle(self.rx.recv_async()) => {
                     handler.event(event).await;
                     // Everything that arrived meanwhile is taken in before
                     // the handler chooses what comes next.

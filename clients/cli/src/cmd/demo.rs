@@ -53,9 +53,15 @@ pub struct Args {
     /// Seed of the simulated world (the same seed, the same sensor noise).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Simulated time per real time.
-    #[arg(long, default_value_t = 4.0)]
-    pub speed: f64,
+    /// At most this many times real time (default: as fast as the clients
+    /// compute; the world steps only when every server and client has
+    /// finished with the present instant, so a seed gives the same run).
+    #[arg(long)]
+    pub speed: Option<f64>,
+    /// Pace the world against the wall clock at --speed (default 4) and let
+    /// the clients keep up as they can, instead of in lock-step.
+    #[arg(long)]
+    pub wall_clock: bool,
     /// No sensor noise or wheel slip.
     #[arg(long)]
     pub no_noise: bool,
@@ -136,6 +142,7 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
     let mut cfg = RunConfig::fleet(map.clone(), routes.clone());
     cfg.seed = args.seed;
     cfg.speed = args.speed;
+    cfg.lockstep = !args.wall_clock;
     cfg.himm = !args.no_himm;
     cfg.plfinder = !args.no_plfinder;
     cfg.covered = args.cover_camera.clone();

@@ -164,12 +164,16 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
             .await
         })
     });
-    let mut servers = vec![rome_hardware::robot::spawn_truth(
-        &session,
-        &root,
-        &world,
-        truth_every,
-    )];
+    let mut servers = vec![
+        rome_hardware::robot::spawn_truth(&session, &root, &world, truth_every),
+        rome_hardware::robot::spawn_clock(
+            &session,
+            &root,
+            &world,
+            sim_time(Duration::from_millis(rome_schema::sim::CLOCK_EVERY_MS)),
+            false,
+        ),
+    ];
     for name in &names {
         servers.extend(spawn_sim_robot(&session, &root, &world, name, rates)?);
     }

@@ -16,7 +16,10 @@ pub async fn one_robot(speed: f64) -> (Rig, rome_hardware::sim::Stepper, f64, Bo
     let network = Network::new(&map, &world_map);
     let plan = Plan::new(&world_map, &network, "350R", "372L").expect("a plan");
     let heading = plan.start_heading_deg;
-    let cfg = RunConfig::new(map, "350R", "372L");
+    let mut cfg = RunConfig::new(map, "350R", "372L");
+    // These tests step the world themselves, against the wall clock.
+    cfg.lockstep = false;
+    cfg.speed = Some(speed);
     let rig = Rig::start(&cfg, &[("r1".to_string(), plan)], NetOptions::isolated())
         .await
         .expect("the rig starts");
