@@ -788,10 +788,20 @@ impl<T: DeserializeOwned> Stream<T> {
 
     /// The next message that decodes; `None` when the session closed.
     pub async fn next(&self) -> Option<Result<T, ClientError>> {
+        Some(self.next_stamped().await?.map(|(t, _)| t))
+    }
+
+    /// The next message that decodes, with when its reading was taken: the
+    /// publication's timestamp, which the hardware servers set to the
+    /// moment they read the device (`None` from a publisher that sets none).
+    pub async fn next_stamped(
+        &self,
+    ) -> Option<Result<(T, Option<std::time::SystemTime>), ClientError>> {
         loop {
             let sample = rome_clock::idle(self.subscriber.recv_async()).await.ok()?;
             if let Some(t) = self.decoded(&sample) {
-                return Some(Ok(t));
+                let at = sample.timestamp().map(|ts| ts.get_time().to_system_time());
+                return Some(Ok((t, at)));
             }
         }
     }

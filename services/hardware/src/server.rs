@@ -734,6 +734,9 @@ impl<S: Service> Server<S> {
     async fn tick_now(&mut self) {
         let lock = self.lock();
         let queued = self.gate.queued();
+        // Stamped with when the device was read, not when it was sent: a
+        // subscriber sees the reading's age (`rome bench robot`, recordings).
+        let read_at = self.session.new_timestamp();
         if let Some((chunk, body)) = self.service.tick(lock, queued).await {
             let key = self
                 .config
@@ -745,6 +748,7 @@ impl<S: Service> Server<S> {
                 .session
                 .put(&key, bytes)
                 .encoding(encoding)
+                .timestamp(read_at)
                 .congestion_control(CongestionControl::Drop)
                 .await;
             if let Err(e) = sent {
