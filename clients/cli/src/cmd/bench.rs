@@ -21,6 +21,14 @@ pub enum BenchCmd {
     Sim(crate::cmd::bench_sim::SimBench),
     /// Hardware-server round trips (pose, sonar, camera rows) and scan-stream rate.
     Robot(crate::cmd::bench_robot::RobotBench),
+    /// Resident memory: a data server holding 100 000 variables, `rome sim --robots 100`.
+    Mem(crate::cmd::bench_mem::MemBench),
+    /// Every benchmark in one run: figures, ratios, targets, JSON, and the Markdown section.
+    All(crate::cmd::bench_all::AllBench),
+    /// The far end of `rome bench data`: a data server and a bare queryable
+    /// on one loopback port, printed on stdout; ends when stdin closes.
+    #[command(hide = true)]
+    Serve,
 }
 
 /// Flags of `rome bench data`.
@@ -39,6 +47,10 @@ pub struct DataBench {
     /// state in DIR (on disk, fsync before every answer), side by side.
     #[arg(long, value_name = "DIR")]
     pub data_dir: Option<std::path::PathBuf>,
+    /// Run the data server and the bare queryable in this process, beside
+    /// the clients, instead of in a process of their own.
+    #[arg(long)]
+    pub in_process: bool,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -50,6 +62,7 @@ enum Op {
     Get,
     Set,
     Signal,
+    Wait,
     DiskSet,
     DiskSignal,
 }
@@ -64,6 +77,7 @@ impl Op {
             Op::Get => "get",
             Op::Set => "set",
             Op::Signal => "signal",
+            Op::Wait => "wait",
             Op::DiskSet => "set, on disk",
             Op::DiskSignal => "signal, on disk",
         }
@@ -88,6 +102,9 @@ pub struct Row {
 }
 
 const RAW_KEY: &str = "rome-bench/raw";
+
+/// A semaphore made with more units than any run takes.
+const PLENTY: &str = "bench-plenty";
 
 struct Client {
     session: zenoh::Session,
@@ -150,6 +167,10 @@ async fn once(client: &Client, op: Op) -> anyhow::Result<()> {
         }
         Op::Signal => {
             client.data.signal("bench").await?;
+        }
+        Op::Wait => {
+            // A semaphore that never runs out: the wait's own cost.
+            client.data.wait(PLENTY).await?;
         }
         Op::DiskSet | Op::DiskSignal => {
             let (_, data) = client
@@ -257,15 +278,13 @@ pub async fn data_rows(args: &DataBench, progress: bool) -> anyhow::Result<Vec<R
         "--clients takes counts between 1 and 500"
     );
     let span = Duration::from_secs_f64(args.seconds);
-    let (server_session, port) = open_loopback_peer(&[]).await?;
-    let _raw = server_session
-        .declare_queryable(RAW_KEY)
-        .callback(|q| {
-            let _ = q.reply(RAW_KEY, b"0".to_vec()).wait();
-        })
-        .await
-        .map_err(|e| anyhow::anyhow!("{e}"))?;
-    let server = rome_data::spawn(server_session.clone(), rome_data::ServerConfig::default());
+    let (far, port) = if args.in_process {
+        let (session, port) = open_loopback_peer(&[]).await?;
+        (Far::Here(serve_on(session).await?), port)
+    } else {
+        let (child, port) = Far::start()?;
+        (child, port)
+    };
     let (durable, disk_port) = match &args.data_dir {
         Some(dir) => {
             let (session, disk_port) = open_loopback_peer(&[]).await?;
@@ -282,7 +301,7 @@ pub async fn data_rows(args: &DataBench, progress: bool) -> anyhow::Result<Vec<R
     };
     let tcp_port = echo_server().await?;
     let redis = Redis::start()?;
-    let mut ops = vec![Op::Tcp, Op::Raw, Op::Get, Op::Set, Op::Signal];
+    let mut ops = vec![Op::Tcp, Op::Raw, Op::Get, Op::Set, Op::Signal, Op::Wait];
     match &redis {
         Some(_) => {
             ops.insert(1, Op::RedisSet);
@@ -344,6 +363,10 @@ pub async fn data_rows(args: &DataBench, progress: bool) -> anyhow::Result<Vec<R
             once(&clients[0], Op::RedisSet).await?;
         }
         clients[0].data.create_semaphore("bench", 0).await?;
+        clients[0]
+            .data
+            .create_semaphore(PLENTY, u32::MAX as u64)
+            .await?;
         for &op in &ops {
             if let Some(b) = &mut bar {
                 b.step(
@@ -360,13 +383,91 @@ pub async fn data_rows(args: &DataBench, progress: bool) -> anyhow::Result<Vec<R
             }
         }
     }
-    server.stop().await?;
+    far.stop().await?;
     if let Some((session, server)) = durable {
         server.stop().await?;
         let _ = session.close().await;
     }
-    let _ = server_session.close().await;
     Ok(rows)
+}
+
+/// Where the measured servers run.
+enum Far {
+    /// In this process.
+    Here((zenoh::Session, rome_data::Running)),
+    /// In a child process (`rome bench serve`), which ends when its stdin
+    /// closes: with this process, however that ends.
+    Child(std::process::Child),
+}
+
+impl Far {
+    fn start() -> anyhow::Result<(Far, u16)> {
+        use std::io::BufRead;
+        let mut child = std::process::Command::new(std::env::current_exe()?)
+            .args(["bench", "serve"])
+            .stdin(std::process::Stdio::piped())
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::inherit())
+            .spawn()
+            .map_err(|e| anyhow::anyhow!("cannot start `rome bench serve`: {e}"))?;
+        let mut line = String::new();
+        if let Some(out) = child.stdout.take() {
+            std::io::BufReader::new(out).read_line(&mut line)?;
+        }
+        match line.trim().parse::<u16>() {
+            Ok(port) => Ok((Far::Child(child), port)),
+            Err(_) => {
+                let _ = child.kill();
+                let _ = child.wait();
+                anyhow::bail!("`rome bench serve` did not print its port (it printed {line:?})")
+            }
+        }
+    }
+
+    async fn stop(self) -> anyhow::Result<()> {
+        match self {
+            Far::Here((session, server)) => {
+                server.stop().await?;
+                let _ = session.close().await;
+            }
+            Far::Child(mut child) => {
+                drop(child.stdin.take());
+                let _ = child.wait();
+            }
+        }
+        Ok(())
+    }
+}
+
+/// A bare queryable and a data server on `session`.
+async fn serve_on(session: zenoh::Session) -> anyhow::Result<(zenoh::Session, rome_data::Running)> {
+    session
+        .declare_queryable(RAW_KEY)
+        .callback(|q| {
+            let _ = q.reply(RAW_KEY, b"0".to_vec()).wait();
+        })
+        .background()
+        .await
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    let server = rome_data::spawn(session.clone(), rome_data::ServerConfig::default());
+    Ok((session, server))
+}
+
+/// `rome bench serve`: serves until stdin closes.
+async fn serve() -> anyhow::Result<()> {
+    let (session, port) = open_loopback_peer(&[]).await?;
+    let (session, server) = serve_on(session).await?;
+    println!("{port}");
+    tokio::task::spawn_blocking(|| {
+        use std::io::Read;
+        let mut sink = [0u8; 64];
+        let mut stdin = std::io::stdin();
+        while stdin.read(&mut sink).is_ok_and(|n| n > 0) {}
+    })
+    .await?;
+    server.stop().await?;
+    let _ = session.close().await;
+    Ok(())
 }
 
 /// Runs a `rome bench` command.
@@ -377,7 +478,7 @@ pub async fn run(_common: &CommonArgs, cmd: BenchCmd) -> anyhow::Result<u8> {
             if args.json {
                 println!("{}", serde_json::to_string_pretty(&rows)?);
             } else {
-                print_table(&rows);
+                print!("{}", table(&rows));
             }
         }
         BenchCmd::Robot(args) => {
@@ -385,13 +486,23 @@ pub async fn run(_common: &CommonArgs, cmd: BenchCmd) -> anyhow::Result<u8> {
             if args.json {
                 println!("{}", serde_json::to_string_pretty(&figures)?);
             } else {
-                print_table(&figures.rows);
+                print!("{}", table(&figures.rows));
                 println!(
                     "scan stream (world free-running): {:.0} scans/s, {} lost",
                     figures.scans_per_s, figures.scans_lost
                 );
             }
         }
+        BenchCmd::Mem(args) => {
+            let f = crate::cmd::bench_mem::figures(&args, !args.json).await?;
+            if args.json {
+                println!("{}", serde_json::to_string_pretty(&f)?);
+            } else {
+                print!("{}", crate::cmd::bench_mem::table(&f));
+            }
+        }
+        BenchCmd::All(args) => crate::cmd::bench_all::run(&args).await?,
+        BenchCmd::Serve => serve().await?,
         BenchCmd::Sim(args) => {
             let rows = tokio::task::spawn_blocking(move || {
                 let rows = crate::cmd::bench_sim::rows(&args);
@@ -402,7 +513,7 @@ pub async fn run(_common: &CommonArgs, cmd: BenchCmd) -> anyhow::Result<u8> {
             if args.json {
                 println!("{}", serde_json::to_string_pretty(&rows)?);
             } else {
-                crate::cmd::bench_sim::print(&rows);
+                print!("{}", crate::cmd::bench_sim::table(&rows));
             }
         }
     }
@@ -484,8 +595,13 @@ impl Drop for Redis {
     }
 }
 
-fn print_table(rows: &[Row]) {
-    println!(
+/// The rows as a table, with each p50's ratios to the bare queryable, the
+/// TCP floor and Redis GET.
+pub fn table(rows: &[Row]) -> String {
+    use std::fmt::Write;
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
         "{:16} {:>7} {:>10} {:>9} {:>9} {:>11} {:>9} {:>11}",
         "operation", "clients", "ops/s", "p50 µs", "p99 µs", "p50 vs raw", "vs tcp", "vs redis"
     );
@@ -500,7 +616,8 @@ fn print_table(rows: &[Row]) {
         })
     };
     for row in rows {
-        println!(
+        let _ = writeln!(
+            out,
             "{:16} {:>7} {:>10.0} {:>9} {:>9} {:>11} {:>9} {:>11}",
             row.op,
             row.clients,
@@ -512,4 +629,5 @@ fn print_table(rows: &[Row]) {
             ratio(row, p50(Op::RedisGet, row.clients)),
         );
     }
+    out
 }

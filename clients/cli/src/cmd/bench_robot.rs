@@ -1,6 +1,8 @@
 //! `rome bench robot`: round trips to the hardware servers of a simulated
 //! robot (pose, sonar, three camera rows in one request) beside a bare
-//! Zenoh queryable in the same run, and the sustained scan-stream rate.
+//! Zenoh queryable in the same run, the sustained scan-stream rate, and a
+//! scan's age when it reaches a subscriber (from the sonar ring's reading,
+//! stamped by the server, to the subscriber's hands).
 
 use crate::cmd::bench::Row;
 use rome_client::net::{open_loopback_peer, NetOptions};
@@ -145,15 +147,29 @@ pub async fn figures(args: &RobotBench, progress: bool) -> anyhow::Result<RobotF
     let started = Instant::now();
     let mut last = first.seq;
     let mut got = 0u64;
+    let mut ages = Vec::new();
     while started.elapsed() < span {
-        match tokio::time::timeout(span, scans.next()).await {
-            Ok(Some(Ok(s))) => {
+        match tokio::time::timeout(span, scans.next_stamped()).await {
+            Ok(Some(Ok((s, at)))) => {
                 got += 1;
                 last = s.seq;
+                if let Some(age) = at.and_then(|at| at.elapsed().ok()) {
+                    ages.push(age.as_micros() as u64);
+                }
             }
             _ => break,
         }
     }
+    anyhow::ensure!(
+        !ages.is_empty(),
+        "no scan carried the time its sonar ring was read"
+    );
+    rows.push(Row::from_latencies(
+        "scan read→sub",
+        1,
+        ages,
+        started.elapsed(),
+    )?);
     let elapsed = started.elapsed().as_secs_f64();
     let lost = (last - first.seq).saturating_sub(got);
     for s in servers {

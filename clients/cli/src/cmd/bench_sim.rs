@@ -186,14 +186,18 @@ pub fn rows(args: &SimBench) -> anyhow::Result<Vec<SimRow>> {
     Ok(out)
 }
 
-/// Prints the rows as a table.
-pub fn print(rows: &[SimRow]) {
-    println!(
+/// The rows as a table.
+pub fn table(rows: &[SimRow]) -> String {
+    use std::fmt::Write;
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
         "{:>7} {:>8} {:>9} {:>9} {:>14} {:>14}",
         "robots", "cameras", "sim s", "wall s", "sim s/wall s", "sonar scans/s"
     );
     for r in rows {
-        println!(
+        let _ = writeln!(
+            out,
             "{:>7} {:>8} {:>9.1} {:>9.2} {:>14.1} {:>14.0}",
             r.robots,
             if r.cameras { "on" } else { "off" },
@@ -203,5 +207,9 @@ pub fn print(rows: &[SimRow]) {
             r.scans_per_s
         );
     }
-    println!("(one thread; sonars 10 Hz; cameras 512x482, both every 0.5 s when on)");
+    let _ = writeln!(
+        out,
+        "(one thread; sonars 10 Hz; cameras 512x482, both every 0.5 s when on)"
+    );
+    out
 }

@@ -1,6 +1,8 @@
 //! One module per command group.
 
 pub mod bench;
+pub mod bench_all;
+pub mod bench_mem;
 pub mod bench_robot;
 pub mod bench_sim;
 pub mod certs;
