@@ -483,7 +483,16 @@ fn bench_robot_reports_round_trips_and_the_scan_stream() {
         .iter()
         .map(|r| r["op"].as_str().unwrap())
         .collect();
-    assert_eq!(ops, ["zenoh-queryable", "pose", "sonar", "camera-3-rows"]);
+    assert_eq!(
+        ops,
+        [
+            "zenoh-queryable",
+            "pose",
+            "sonar",
+            "camera-3-rows",
+            "scan read→sub"
+        ]
+    );
     for r in f["rows"].as_array().unwrap() {
         let (p50, p99) = (r["p50_us"].as_u64().unwrap(), r["p99_us"].as_u64().unwrap());
         assert!(p50 > 0 && p50 <= p99, "{r}");
@@ -735,7 +744,14 @@ fn bench_data_measures_the_tcp_floor_zenoh_and_redis_in_one_run() {
         .is_ok();
     let mut want: Vec<String> = Vec::new();
     for n in [1, 2] {
-        let mut names = vec!["tcp ping-pong", "zenoh-queryable", "get", "set", "signal"];
+        let mut names = vec![
+            "tcp ping-pong",
+            "zenoh-queryable",
+            "get",
+            "set",
+            "signal",
+            "wait",
+        ];
         if redis {
             names.extend(["redis GET", "redis SET"]);
         }
@@ -752,4 +768,87 @@ fn bench_data_measures_the_tcp_floor_zenoh_and_redis_in_one_run() {
             "{r}"
         );
     }
+}
+
+#[test]
+fn bench_mem_reads_the_servers_resident_memory() {
+    let out = offline_ok([
+        "bench",
+        "mem",
+        "--variables",
+        "2000",
+        "--history",
+        "3",
+        "--robots",
+        "2",
+        "--json",
+    ]);
+    let f: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let (empty, full) = (
+        f["data_empty_mib"].as_f64().unwrap(),
+        f["data_full_mib"].as_f64().unwrap(),
+    );
+    assert!(empty > 1.0 && full > empty, "{f}");
+    assert!(f["sim_mib"].as_f64().unwrap() > 1.0, "{f}");
+    assert_eq!(f["variables"], 2000);
+    assert_eq!(f["robots"], 2);
+}
+
+#[test]
+fn bench_all_writes_every_figure_and_regenerates_only_the_marked_section() {
+    let dir = std::env::temp_dir().join(format!("rome-bench-all-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let (json, doc) = (dir.join("bench.json"), dir.join("doc.md"));
+    let begin = "<!-- rome bench all: begin -->";
+    let end = "<!-- rome bench all: end -->";
+    std::fs::write(
+        &doc,
+        format!("# Mine\n\nkept\n{begin}\nold\n{end}\nalso kept\n"),
+    )
+    .unwrap();
+    let out = offline_ok([
+        "bench".as_ref(),
+        "all".as_ref(),
+        "--seconds".as_ref(),
+        "0.1".as_ref(),
+        "--clients".as_ref(),
+        "1".as_ref(),
+        "--sim-robots".as_ref(),
+        "1".as_ref(),
+        "--sim-seconds".as_ref(),
+        "0.2".as_ref(),
+        "--variables".as_ref(),
+        "500".as_ref(),
+        "--mem-robots".as_ref(),
+        "1".as_ref(),
+        "--out".as_ref(),
+        json.as_os_str(),
+        "--doc".as_ref(),
+        doc.as_os_str(),
+    ]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("== targets"), "{text}");
+    let report: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    for part in ["data", "sim"] {
+        assert!(
+            !report[part].as_array().unwrap().is_empty(),
+            "{part}: {report}"
+        );
+    }
+    assert!(report["robot"]["rows"].as_array().unwrap().len() >= 4);
+    assert!(report["mem"]["data_full_mib"].as_f64().unwrap() > 0.0);
+    let targets = report["targets"].as_array().unwrap();
+    assert!(
+        targets
+            .iter()
+            .any(|t| t["what"] == "get p50 / bare queryable, 1 client(s)"),
+        "{targets:?}"
+    );
+    let doc = std::fs::read_to_string(&doc).unwrap();
+    assert!(doc.starts_with("# Mine\n\nkept\n"), "{doc}");
+    assert!(doc.ends_with(&format!("{end}\nalso kept\n")), "{doc}");
+    assert!(
+        !doc.contains("\nold\n") && doc.contains("== targets"),
+        "{doc}"
+    );
 }
