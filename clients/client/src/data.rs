@@ -26,6 +26,7 @@ use zenoh::handlers::FifoChannelHandler;
 use zenoh::liveliness::LivelinessToken;
 use zenoh::pubsub::Subscriber;
 use zenoh::qos::Priority;
+use zenoh::query::ConsolidationMode;
 use zenoh::sample::Sample;
 use zenoh::Session;
 
@@ -183,6 +184,10 @@ impl DataClient {
             .session
             .get(selector.as_str())
             .timeout(timeout)
+            // One server answers each key: its reply is handed over as it
+            // arrives, not held until the server has finished with the
+            // query (Zenoh's default, to pick the latest of several).
+            .consolidation(ConsolidationMode::None)
             .priority(self.inner.options.priority);
         if let Some(p) = payload {
             get = get.payload(p.to_vec()).encoding(Encoding::APPLICATION_JSON);

@@ -36,6 +36,7 @@ use zenoh::handlers::{RingChannel, RingChannelHandler};
 use zenoh::liveliness::LivelinessToken;
 use zenoh::pubsub::Subscriber;
 use zenoh::qos::Priority;
+use zenoh::query::ConsolidationMode;
 use zenoh::sample::Sample;
 use zenoh::Session;
 
@@ -335,6 +336,8 @@ impl RobotClient {
                 .session
                 .get(selector.as_str())
                 .timeout(timeout)
+                // One server answers: its reply is handed over at once.
+                .consolidation(ConsolidationMode::None)
                 .priority(zenoh_priority(o.priority));
             if let Some(p) = &payload {
                 get = get.payload(p.clone()).encoding(Encoding::APPLICATION_JSON);
