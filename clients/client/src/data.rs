@@ -533,14 +533,14 @@ impl DataClient {
     /// Blocking down() for at most `timeout`: whether a unit was taken.
     /// On `false` nothing was taken and the place in the queue is given up.
     pub async fn wait_timeout(&self, name: &str, timeout: Duration) -> Result<bool, ClientError> {
-        self.wait_until(name, Some(Instant::now() + timeout), false)
+        self.wait_until(name, Some(rome_clock::Instant::now() + timeout), false)
             .await
     }
 
     async fn wait_until(
         &self,
         name: &str,
-        deadline: Option<Instant>,
+        deadline: Option<rome_clock::Instant>,
         undo: bool,
     ) -> Result<bool, ClientError> {
         let name = Name::semaphore(name)?;
@@ -549,7 +549,7 @@ impl DataClient {
         let o = &self.inner.options;
         let mut backoff = FIRST_BACKOFF;
         loop {
-            let left = deadline.map(|d| d.saturating_duration_since(Instant::now()));
+            let left = deadline.map(|d| d.remaining());
             if left == Some(Duration::ZERO) {
                 return self.give_up(&name, &ticket).await;
             }
@@ -566,9 +566,14 @@ impl DataClient {
                 params.push((param::UNDO, "true".to_string()));
             }
             let tried = Instant::now();
-            match self
-                .attempt(&key, &params, None, hold + o.max_attempt_timeout)
-                .await?
+            // A hold is simulated time in a lock-step run, which may go
+            // slower than the wall clock: the server answers when it ends.
+            let patience = if rome_clock::is_lockstep() {
+                LOCKSTEP_PATIENCE
+            } else {
+                hold + o.max_attempt_timeout
+            };
+            match self.attempt(&key, &params, None, patience).await?
             {
                 Some(Answer::Refused(e)) if e.code == ErrorCode::Busy => {
                     self.busy(&mut backoff, Duration::MAX).await
@@ -628,6 +633,11 @@ impl DataClient {
 
 /// Zenoh's own payload of the error it reports when a query times out.
 const ZENOH_TIMEOUT: &[u8] = b"Timeout";
+
+/// How long a held wait in a lock-step run waits for its answer on the
+/// wall clock: the data server is in the same process and answers when the
+/// (simulated) hold ends, however long that takes.
+const LOCKSTEP_PATIENCE: Duration = Duration::from_secs(3_600);
 
 /// A server's error reply, or `None` for Zenoh's local timeout (silence).
 pub(crate) fn refusal(body: &[u8]) -> Result<Option<ErrorReply>, ClientError> {

@@ -348,7 +348,8 @@ impl Navigator {
         if self.last == Some(d) && !matches!(d, Drive::Turn(_)) {
             return Ok(());
         }
-        let sent = std::time::Instant::now();
+        // Simulated time in a lock-step run, where the link costs nothing.
+        let sent = rome_clock::Instant::now();
         match d {
             Drive::Go(v) => {
                 self.speed = v;

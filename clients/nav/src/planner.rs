@@ -204,7 +204,7 @@ where
 {
     let name = board.sem_name(sem);
     let mut seen = progress().await;
-    let mut since = std::time::Instant::now();
+    let mut since = rome_clock::Instant::now();
     loop {
         let slice = silence.min(std::time::Duration::from_secs(2));
         if board.client().wait_timeout(&name, slice).await? {
@@ -212,7 +212,7 @@ where
         }
         let now = progress().await;
         if now != seen {
-            (seen, since) = (now, std::time::Instant::now());
+            (seen, since) = (now, rome_clock::Instant::now());
         } else if since.elapsed() >= silence {
             return Err(NavError::Silent {
                 what,

@@ -114,6 +114,33 @@ async fn a_multi_corner_route_ends_within_a_metre_of_the_goal() {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn one_seed_gives_the_same_run_to_the_last_bit() {
+    // Two runs of one route and seed at once (each slowing the other, and
+    // the other tests of this file running beside them): the same
+    // trajectory point for point, the same table, the same corrections.
+    let (a, b) = tokio::join!(drive("302L", "A340R", 7), drive("302L", "A340R", 7));
+    assert_eq!(a.table(), b.table());
+    assert_eq!(a.trail.len(), b.trail.len());
+    let first = a
+        .trail
+        .iter()
+        .zip(&b.trail)
+        .position(|(p, q)| p.x.to_bits() != q.x.to_bits() || p.y.to_bits() != q.y.to_bits());
+    assert_eq!(
+        first,
+        None,
+        "the trajectories part at point {first:?} of {}: {:?} against {:?}",
+        a.trail.len(),
+        first.map(|i| a.trail[i]),
+        first.map(|i| b.trail[i])
+    );
+    assert_eq!(a.miss_cm.to_bits(), b.miss_cm.to_bits());
+    assert_eq!(a.run_time, b.run_time);
+    assert_eq!(format!("{:?}", a.fixes), format!("{:?}", b.fixes));
+    assert_eq!(format!("{:?}", a.plates), format!("{:?}", b.plates));
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_robot_that_cannot_move_is_given_up_as_stuck_with_its_position() {
     // The Navigator asks for no speed at all: the robot stays at the start
     // and the run is given up after the stuck time, not after the hour.

@@ -21,9 +21,15 @@
 //!   message, a semaphore) is idle; something a passive server answers at
 //!   once is busy.
 //!
+//! - [`Instant`]: a point in simulated time in a participant, on the wall
+//!   clock elsewhere.
+//!
 //! A run is then the same whatever the machine's load: every reaction to
 //! what happened at simulated time `t` is complete before the world takes
-//! its next step.
+//! its next step. And one participant runs at a time, taking turns in the
+//! order they were created among those woken: what wakes whom is decided
+//! by what ran before, not by threads, so the same start gives the same
+//! run.
 
 use std::cell::RefCell;
 use std::collections::BTreeMap;
@@ -48,6 +54,93 @@ struct Sched {
     timers: Mutex<BTreeMap<(u64, u64), Waker>>,
     next_id: AtomicU64,
     parts: Mutex<Vec<Weak<Part>>>,
+    next_part: AtomicU64,
+    turn: Mutex<Turn>,
+}
+
+/// Whose turn it is, and who is waiting for one.
+#[derive(Default)]
+struct Turn {
+    /// The participant running (or [`STEPPER`] while the clock advances).
+    holder: Option<u64>,
+    /// Woken participants by creation order, with the waker that gets
+    /// each polled (none until its task is first polled).
+    ready: BTreeMap<u64, Option<Waker>>,
+}
+
+/// The turn's holder while the clock wakes its sleepers.
+const STEPPER: u64 = u64::MAX;
+
+impl Sched {
+    /// `id` was woken: it waits for its turn (`waker` gets it polled).
+    fn ready(&self, id: u64, waker: Option<&Waker>) {
+        let next = {
+            let mut t = locked(&self.turn);
+            let slot = t.ready.entry(id).or_insert(None);
+            if let Some(w) = waker {
+                *slot = Some(w.clone());
+            }
+            if t.holder == Some(id) {
+                // Woken in its own turn: polled again at once if it keeps
+                // the turn (see [`compute`]), else when it comes round.
+                drop(t);
+                if let Some(w) = waker {
+                    w.wake_by_ref();
+                }
+                return;
+            }
+            if t.holder.is_some() {
+                return;
+            }
+            grant(&mut t)
+        };
+        if let Some(w) = next {
+            w.wake();
+        }
+    }
+
+    /// Whether `id` holds the turn, or takes it now (nobody holds it and
+    /// `id` is the first woken); else `id` waits, to be woken by `waker`.
+    fn take(&self, id: u64, waker: &Waker) -> bool {
+        let mut t = locked(&self.turn);
+        if t.holder == Some(id) {
+            t.ready.remove(&id);
+            return true;
+        }
+        match t.ready.get_mut(&id) {
+            Some(slot) => *slot = Some(waker.clone()),
+            // Polled without being woken: it waits for its wake.
+            None => return false,
+        }
+        if t.holder.is_none() && t.ready.keys().next() == Some(&id) {
+            t.ready.remove(&id);
+            t.holder = Some(id);
+            return true;
+        }
+        false
+    }
+
+    /// `id` is done with its turn (if it held it); the next woken gets it.
+    fn pass(&self, id: u64) {
+        let next = {
+            let mut t = locked(&self.turn);
+            if t.holder != Some(id) {
+                return;
+            }
+            t.holder = None;
+            grant(&mut t)
+        };
+        if let Some(w) = next {
+            w.wake();
+        }
+    }
+}
+
+/// Gives the free turn to the first woken; the waker to call.
+fn grant(t: &mut Turn) -> Option<Waker> {
+    let (&id, _) = t.ready.iter().next()?;
+    t.holder = Some(id);
+    t.ready.get(&id).cloned().flatten()
 }
 
 fn locked<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
@@ -57,6 +150,7 @@ fn locked<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
 /// One participant: busy or parked.
 struct Part {
     sched: Arc<Sched>,
+    id: u64,
     name: String,
     state: Mutex<PartState>,
 }
@@ -72,8 +166,12 @@ struct PartState {
 impl Part {
     fn new(sched: &Arc<Sched>, name: &str) -> Arc<Part> {
         sched.busy.fetch_add(1, Ordering::AcqRel);
+        let id = sched.next_part.fetch_add(1, Ordering::Relaxed);
+        // A new participant waits for its first turn like a woken one.
+        sched.ready(id, None);
         let part = Arc::new(Part {
             sched: sched.clone(),
+            id,
             name: name.to_string(),
             state: Mutex::new(PartState::default()),
         });
@@ -108,13 +206,18 @@ impl Part {
 
     /// Gone for good.
     fn finish(&self) {
-        let mut s = locked(&self.state);
-        if !s.done {
+        {
+            let mut s = locked(&self.state);
+            if s.done {
+                return;
+            }
             s.done = true;
             if !s.parked {
                 self.sched.release();
             }
         }
+        locked(&self.sched.turn).ready.remove(&self.id);
+        self.sched.pass(self.id);
     }
 }
 
@@ -143,6 +246,8 @@ impl LockStep {
                 timers: Mutex::new(BTreeMap::new()),
                 next_id: AtomicU64::new(0),
                 parts: Mutex::new(Vec::new()),
+                next_part: AtomicU64::new(0),
+                turn: Mutex::new(Turn::default()),
             }),
         }
     }
@@ -199,7 +304,29 @@ impl LockStep {
 
     /// Moves time on to `now_ms` (never back) and wakes every sleeper due
     /// by then; each is busy before this returns.
-    pub fn advance(&self, now_ms: u64) {
+    pub async fn advance(&self, now_ms: u64) {
+        // Everyone woken here waits until all are: then the first created
+        // goes first, whichever timer fired first.
+        loop {
+            let taken = {
+                let mut t = locked(&self.sched.turn);
+                t.holder.is_none() && {
+                    t.holder = Some(STEPPER);
+                    true
+                }
+            };
+            if taken {
+                break;
+            }
+            // The last participant to park is passing it on; a blocking
+            // wait here could keep it from this thread.
+            tokio::task::yield_now().await;
+        }
+        self.wake_due(now_ms);
+        self.sched.pass(STEPPER);
+    }
+
+    fn wake_due(&self, now_ms: u64) {
         self.sched.now_ms.fetch_max(now_ms, Ordering::AcqRel);
         let now = self.now_ms();
         let due: Vec<Waker> = {
@@ -225,22 +352,48 @@ struct Frame {
     part: Arc<Part>,
     idle: bool,
     busy: bool,
+    /// Waiting for its own work (see [`compute`]): keeps the turn.
+    hold: bool,
 }
 
 fn current() -> Option<Arc<Part>> {
     CURRENT.with(|c| c.borrow().as_ref().map(|f| f.part.clone()))
 }
 
-fn mark(idle: bool) {
+/// A marked wait finished: what the participant waits on next (in this
+/// same poll, a `select!` branch's body, say) decides, not the waits
+/// polled before it.
+fn unmark() {
     CURRENT.with(|c| {
         if let Some(f) = c.borrow_mut().as_mut() {
-            if idle {
-                f.idle = true;
-            } else {
-                f.busy = true;
+            f.idle = false;
+            f.busy = false;
+            f.hold = false;
+        }
+    });
+}
+
+fn mark(kind: Kind) {
+    CURRENT.with(|c| {
+        if let Some(f) = c.borrow_mut().as_mut() {
+            match kind {
+                Kind::Idle => f.idle = true,
+                Kind::Busy => f.busy = true,
+                Kind::Compute => {
+                    f.busy = true;
+                    f.hold = true;
+                }
             }
         }
     });
+}
+
+/// What a marked wait waits for.
+#[derive(Debug, Clone, Copy)]
+enum Kind {
+    Idle,
+    Busy,
+    Compute,
 }
 
 /// A future run as a participant of a [`LockStep`] clock (or as itself,
@@ -262,7 +415,8 @@ impl Wake for ParkWaker {
 
     fn wake_by_ref(self: &Arc<Self>) {
         self.part.wake();
-        self.inner.wake_by_ref();
+        // Polled when its turn comes.
+        self.part.sched.ready(self.part.id, Some(&self.inner));
     }
 }
 
@@ -273,6 +427,10 @@ impl<F: Future> Future for Participant<F> {
         let Some(part) = self.part.clone() else {
             return self.inner.as_mut().poll(cx);
         };
+        if !part.sched.take(part.id, cx.waker()) {
+            // Not its turn: it stays busy and is woken when it is.
+            return Poll::Pending;
+        }
         part.wake();
         let seen = part.wakes();
         let waker = Waker::from(Arc::new(ParkWaker {
@@ -285,6 +443,7 @@ impl<F: Future> Future for Participant<F> {
                 part: part.clone(),
                 idle: false,
                 busy: false,
+                hold: false,
             })
         });
         let polled = self.inner.as_mut().poll(&mut inner_cx);
@@ -296,8 +455,11 @@ impl<F: Future> Future for Participant<F> {
                 Poll::Ready(v)
             }
             Poll::Pending => {
-                if frame.is_some_and(|f| f.idle && !f.busy) {
+                if frame.as_ref().is_some_and(|f| f.idle && !f.busy) {
                     part.park(seen);
+                }
+                if !frame.is_some_and(|f| f.hold) {
+                    part.sched.pass(part.id);
                 }
                 Poll::Pending
             }
@@ -344,7 +506,7 @@ pub fn now_ms() -> Option<u64> {
 
 /// A wait marked as one the participant is [idle](crate) in or busy in.
 pub struct Marked<F: Future> {
-    idle: bool,
+    kind: Kind,
     inner: Pin<Box<F>>,
 }
 
@@ -354,7 +516,9 @@ impl<F: Future> Future for Marked<F> {
     fn poll(mut self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<F::Output> {
         let polled = self.inner.as_mut().poll(cx);
         if polled.is_pending() {
-            mark(self.idle);
+            mark(self.kind);
+        } else {
+            unmark();
         }
         polled
     }
@@ -364,7 +528,7 @@ impl<F: Future> Future for Marked<F> {
 /// from the clock (a stream's next message, a semaphore, a sleep).
 pub fn idle<F: Future>(fut: F) -> Marked<F> {
     Marked {
-        idle: true,
+        kind: Kind::Idle,
         inner: Box::pin(fut),
     }
 }
@@ -373,7 +537,18 @@ pub fn idle<F: Future>(fut: F) -> Marked<F> {
 /// answered without the clock moving (a query to a server).
 pub fn busy<F: Future>(fut: F) -> Marked<F> {
     Marked {
-        idle: false,
+        kind: Kind::Busy,
+        inner: Box::pin(fut),
+    }
+}
+
+/// Awaits `fut`, the participant's own work done elsewhere (on a blocking
+/// thread, say), keeping its turn: nobody else runs meanwhile, so what
+/// that work reads and changes is the same in every run. Never for a wait
+/// on another participant.
+pub fn compute<F: Future>(fut: F) -> Marked<F> {
+    Marked {
+        kind: Kind::Compute,
         inner: Box::pin(fut),
     }
 }
@@ -433,13 +608,15 @@ impl Future for Sleep {
                     if let Some(k) = key.take() {
                         timers.remove(&k);
                     }
+                    drop(timers);
+                    unmark();
                     return Poll::Ready(());
                 }
                 let k = *key
                     .get_or_insert_with(|| (*due, sched.next_id.fetch_add(1, Ordering::Relaxed)));
                 timers.insert(k, cx.waker().clone());
                 drop(timers);
-                mark(true);
+                mark(Kind::Idle);
                 Poll::Pending
             }
         }
@@ -521,6 +698,56 @@ impl Interval {
     }
 }
 
+/// A point in time: simulated in a participant of a lock-step clock, the
+/// wall clock's elsewhere (for deadlines and round trips that must not
+/// depend on how fast the machine computes).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Instant {
+    /// Simulated milliseconds.
+    Sim(u64),
+    /// The wall clock.
+    Wall(std::time::Instant),
+}
+
+impl Instant {
+    /// Now.
+    pub fn now() -> Instant {
+        match now_ms() {
+            Some(ms) => Instant::Sim(ms),
+            None => Instant::Wall(std::time::Instant::now()),
+        }
+    }
+
+    /// Time since `self` (zero if `self` is later, or of the other kind).
+    pub fn elapsed(&self) -> Duration {
+        match (self, Instant::now()) {
+            (Instant::Sim(t), Instant::Sim(now)) => Duration::from_millis(now.saturating_sub(*t)),
+            (Instant::Wall(t), Instant::Wall(now)) => now.saturating_duration_since(*t),
+            _ => Duration::ZERO,
+        }
+    }
+
+    /// Time left until `self` (zero once it has passed).
+    pub fn remaining(&self) -> Duration {
+        match (self, Instant::now()) {
+            (Instant::Sim(t), Instant::Sim(now)) => Duration::from_millis(t.saturating_sub(now)),
+            (Instant::Wall(t), Instant::Wall(now)) => t.saturating_duration_since(now),
+            _ => Duration::ZERO,
+        }
+    }
+}
+
+impl std::ops::Add<Duration> for Instant {
+    type Output = Instant;
+
+    fn add(self, d: Duration) -> Instant {
+        match self {
+            Instant::Sim(t) => Instant::Sim(t.saturating_add(ms(d))),
+            Instant::Wall(t) => Instant::Wall(t + d),
+        }
+    }
+}
+
 /// `fut` had not finished after the time given to [`timeout`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Elapsed;
@@ -559,7 +786,7 @@ mod tests {
     async fn stepper(clock: LockStep, until_ms: u64) {
         while clock.now_ms() < until_ms {
             clock.settled().await;
-            clock.advance(clock.now_ms() + 10);
+            clock.advance(clock.now_ms() + 10).await;
             tokio::task::yield_now().await;
         }
     }
@@ -648,6 +875,94 @@ mod tests {
             .await;
         stepping.abort();
         assert_eq!(r, (Err(Elapsed), Some(3_000)));
+    }
+
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn participants_woken_at_one_instant_run_in_the_order_they_were_made() {
+        let clock = LockStep::new(0);
+        let stepping = tokio::spawn(stepper(clock.clone(), 10_000));
+        let log = Arc::new(Mutex::new(Vec::new()));
+        let l = log.clone();
+        clock
+            .participate("main", async move {
+                let mut handles = Vec::new();
+                for k in 0..6u64 {
+                    let l = l.clone();
+                    handles.push(spawn(&format!("p{k}"), async move {
+                        for round in 0..10u64 {
+                            sleep(Duration::from_millis(20)).await;
+                            // Uneven real work: without turns, the order
+                            // of a round is whoever finishes first.
+                            let spin = std::time::Instant::now();
+                            while spin.elapsed()
+                                < Duration::from_micros(100 * ((k * 7 + round * 3) % 5))
+                            {
+                                std::hint::spin_loop();
+                            }
+                            locked(&l).push((now_ms().unwrap_or(0), k));
+                            tokio::task::yield_now().await;
+                        }
+                    }));
+                }
+                for h in handles {
+                    idle(h).await.expect("participant ends");
+                }
+            })
+            .await;
+        stepping.abort();
+        let log = locked(&log).clone();
+        assert_eq!(log.len(), 60);
+        for round in log.chunks(6) {
+            let order: Vec<u64> = round.iter().map(|(_, k)| *k).collect();
+            assert_eq!(order, vec![0, 1, 2, 3, 4, 5], "{log:?}");
+            assert!(round.iter().all(|(t, _)| *t == round[0].0), "{log:?}");
+        }
+    }
+
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn a_deadline_in_a_participant_is_simulated_time() {
+        let clock = LockStep::new(0);
+        let stepping = tokio::spawn(stepper(clock.clone(), 10_000));
+        let (left, gone) = clock
+            .participate("main", async {
+                let deadline = Instant::now() + Duration::from_millis(500);
+                tokio::time::sleep(Duration::from_millis(30)).await;
+                let left = deadline.remaining();
+                sleep(Duration::from_millis(200)).await;
+                (left, deadline.remaining())
+            })
+            .await;
+        stepping.abort();
+        assert_eq!(left, Duration::from_millis(500));
+        assert_eq!(gone, Duration::from_millis(300));
+    }
+
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn work_after_an_idle_wait_in_the_same_poll_holds_the_clock() {
+        // A select! whose idle branch has been polled pending, and whose
+        // other branch is ready and then waits for real work: the work
+        // holds the clock (the idle branch no longer counts).
+        let clock = LockStep::new(0);
+        let stepping = tokio::spawn(stepper(clock.clone(), 60_000));
+        let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel::<()>();
+        tx.send(()).expect("open");
+        let t = clock
+            .participate("server", async move {
+                let never = std::future::pending::<()>();
+                tokio::select! {
+                    biased;
+                    _ = idle(never) => unreachable!(),
+                    _ = idle(rx.recv()) => {
+                        tokio::task::spawn_blocking(|| std::thread::sleep(Duration::from_millis(30)))
+                            .await
+                            .expect("blocking work");
+                    }
+                }
+                now_ms()
+            })
+            .await;
+        stepping.abort();
+        assert_eq!(t, Some(0));
     }
 
     #[tokio::test]

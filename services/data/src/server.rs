@@ -425,8 +425,10 @@ impl Server {
         // already moved on to the new one).
         self.held.insert(ticket.clone(), Held { query, generation });
         let events = self.events.clone();
-        tokio::spawn(async move {
-            tokio::time::sleep(hold).await;
+        // Simulated time when the server is a participant of a lock-step
+        // clock.
+        rome_clock::spawn("the data server's hold timer", async move {
+            rome_clock::sleep(hold).await;
             let _ = events
                 .send_async(Event::Own(HoldOver { ticket, generation }))
                 .await;

@@ -104,7 +104,7 @@ impl SimWorld {
         let task = tokio::spawn(async move {
             let start = world.lock().time_ms();
             let pacer = Pacer::new(speed, start);
-            clock.advance(start);
+            clock.advance(start).await;
             let mut steps = 0u64;
             while !stopping.load(Ordering::Relaxed) {
                 if tokio::time::timeout(STALL, clock.settled()).await.is_err() {
@@ -120,7 +120,7 @@ impl SimWorld {
                     sim.step();
                     sim.time_ms()
                 };
-                clock.advance(now);
+                clock.advance(now).await;
                 on_step(now);
                 let wait = pacer.wait(now);
                 steps += 1;
@@ -262,8 +262,9 @@ impl CameraDevice for SimCamera {
     async fn grab(&mut self) -> Result<Frame, DeviceError> {
         let world = self.world.clone();
         let (i, which) = (self.i, self.which);
-        // Rendering takes milliseconds: off the async workers.
-        tokio::task::spawn_blocking(move || {
+        // Rendering takes milliseconds: off the async workers (and, in a
+        // lock-step run, holding the clock until the frame is there).
+        rome_clock::compute(tokio::task::spawn_blocking(move || {
             let mut sim = world.lock();
             let time_ms = sim.time_ms();
             let img = sim.grab_camera(i, which);
@@ -273,7 +274,7 @@ impl CameraDevice for SimCamera {
                 height: img.height(),
                 pixels: img.into_raw(),
             }
-        })
+        }))
         .await
         .map_err(|e| DeviceError::Disconnected {
             device: format!("{} camera", which.name()),
