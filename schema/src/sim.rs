@@ -3,6 +3,8 @@
 //! ```text
 //! rome/sim/<robot>/truth     where a robot truly is (query, and a stream)
 //! rome/sim/clock             simulated time (a stream, like ROS's /clock)
+//! rome/sim/clock/party/<id>  liveliness: a process following a lock-step clock
+//! rome/sim/clock/ack/<id>    that process is done with an instant
 //! ```
 //!
 //! Like a simulator's ground-truth topic, it is for judging runs, tests and
@@ -26,6 +28,19 @@ pub struct Clock {
     /// Whether the world steps only when every participant is done with
     /// the present instant (else it is paced against the wall clock).
     pub lockstep: bool,
+}
+
+/// A process following a lock-step clock → the simulator: it has finished
+/// with the instant `time_ms` (every reaction to it is sent).
+///
+/// ```text
+/// rome/sim/clock/ack/<id>
+/// {"time_ms":61500}
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ClockAck {
+    /// The instant finished with, simulated ms.
+    pub time_ms: u64,
 }
 
 /// How often the clock is published, in simulated milliseconds.
@@ -94,6 +109,28 @@ impl Root {
         format!("{}/sim/clock", self.as_str())
     }
 
+    /// `<root>/sim/clock/party/<id>`: the liveliness token of a process
+    /// following a lock-step clock (it is waited for while it lives).
+    pub fn sim_clock_party(&self, id: &str) -> String {
+        format!("{}/sim/clock/party/{id}", self.as_str())
+    }
+
+    /// `<root>/sim/clock/party/*`: every such token.
+    pub fn sim_clock_parties(&self) -> String {
+        self.sim_clock_party("*")
+    }
+
+    /// `<root>/sim/clock/ack/<id>`: where party `id` says it is done with
+    /// an instant.
+    pub fn sim_clock_ack(&self, id: &str) -> String {
+        format!("{}/sim/clock/ack/{id}", self.as_str())
+    }
+
+    /// `<root>/sim/clock/ack/*`: every party's acknowledgements.
+    pub fn sim_clock_acks(&self) -> String {
+        self.sim_clock_ack("*")
+    }
+
     /// `<root>/sim/*/truth`: every simulated robot's true pose.
     pub fn sim_truth_all(&self) -> String {
         format!("{}/sim/*/truth", self.as_str())
@@ -111,6 +148,10 @@ mod tests {
         assert_eq!(root.sim_truth(&r1), "rome/sim/r1/truth");
         assert_eq!(root.sim_truth_all(), "rome/sim/*/truth");
         assert_eq!(root.sim_clock(), "rome/sim/clock");
+        assert_eq!(root.sim_clock_party("z1"), "rome/sim/clock/party/z1");
+        assert_eq!(root.sim_clock_acks(), "rome/sim/clock/ack/*");
+        let a: ClockAck = crate::decode(br#"{"time_ms":61510}"#, "ack").unwrap();
+        assert_eq!(a.time_ms, 61_510);
         let c: Clock = crate::decode(br#"{"time_ms":61500,"lockstep":true}"#, "clock").unwrap();
         assert_eq!(c.time_ms, 61_500);
         let a = ContactCount {

@@ -69,6 +69,12 @@ pub struct CommonArgs {
     /// The directory `rome certs` filled with the deployment's credentials.
     #[arg(long, global = true, env = "ROME_SECRETS", value_name = "DIR")]
     pub secrets: Option<PathBuf>,
+    /// Take time from the simulator's clock (rome/sim/clock), as ROS's
+    /// use_sim_time: sleeps, periods and timeouts are simulated time, and
+    /// with `rome sim --lockstep` the world waits for this process at
+    /// every instant.
+    #[arg(long, global = true, env = "ROME_SIM_TIME")]
+    pub sim_time: bool,
     /// More log output (-v info, -vv debug); RUST_LOG overrides.
     #[arg(short, long, global = true, action = clap::ArgAction::Count)]
     pub verbose: u8,

@@ -146,6 +146,32 @@ pub fn main(cli: Cli) -> ExitCode {
 
 /// Runs one command; `Ok` carries the exit code.
 pub async fn run(cli: Cli) -> anyhow::Result<u8> {
+    // The data server follows the clock on its own session.
+    if !cli.common.sim_time || matches!(cli.command, Command::DataServer(_)) {
+        return run_command(cli).await;
+    }
+    anyhow::ensure!(
+        !matches!(
+            cli.command,
+            Command::Sim(_)
+                | Command::Demo(_)
+                | Command::Bench(_)
+                | Command::Soak(_)
+                | Command::Storage(_)
+                | Command::Pioneer(_)
+                | Command::Router(_)
+        ),
+        "--sim-time is for the data server and the clients that follow a simulator (`rome sim` keeps the clock itself)"
+    );
+    let session = cli.common.open(args::Side::Client).await?;
+    let root = cli.common.root()?;
+    let name = format!("rome, process {}", std::process::id());
+    let out = rome_client::simtime::follow(&session, &root, &name, run_command(cli)).await;
+    let _ = session.close().await;
+    out?
+}
+
+async fn run_command(cli: Cli) -> anyhow::Result<u8> {
     let common = cli.common;
     match cli.command {
         Command::DataServer(args) => cmd::data_server::run(&common, args).await,

@@ -5,8 +5,10 @@
 //! through Zenoh on loopback. Both robots drive at once and must end within
 //! a metre of their goals by ground truth, as the same run does in one
 //! process; a robot whose clients are all killed inside a narrow
-//! passage stops there and does not close the passage for the other; and a
-//! run whose durable data server is killed mid-route still arrives.
+//! passage stops there and does not close the passage for the other; a
+//! run whose durable data server is killed mid-route still arrives; and a
+//! run in lock-step across processes (`rome sim --lockstep`, every other
+//! process on `--sim-time`) arrives as the same run does in one.
 
 #![allow(clippy::unwrap_used)]
 
@@ -454,4 +456,93 @@ async fn a_run_whose_data_server_is_killed_and_restarted_mid_route_still_arrives
         end.travelled_mm
     );
     let _ = session.close().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_lockstep_run_split_into_processes_arrives() {
+    // Every process takes its time from the simulator's clock, and the
+    // world waits for each of them at every instant: six followers (data
+    // server, four helpers, planner), held at the start until all are in.
+    let (robot, from, to) = ("r1", "302L", "A340R");
+    let (_data, port) = server(
+        "data-server",
+        &[
+            "--no-multicast",
+            "--listen",
+            "tcp/127.0.0.1:0",
+            "--sim-time",
+            "data-server",
+            "--in-memory",
+        ],
+    );
+    let endpoint = format!("tcp/127.0.0.1:{port}");
+    let _sim = rome(
+        port,
+        "sim",
+        &[
+            "--no-multicast",
+            "--listen",
+            "tcp/127.0.0.1:0",
+            "--connect",
+            &endpoint,
+            "sim",
+            "--map",
+            "eb3",
+            "--robots",
+            "1",
+            "--at",
+            from,
+            "--seed",
+            "4",
+            "--lockstep",
+            "--parties",
+            "6",
+        ],
+        Stdio::null(),
+    );
+    let mut crew = Vec::new();
+    for role in ["navigator", "ctracker", "mapper", "plfinder"] {
+        let mut args = vec!["--sim-time", role, "--robot", robot];
+        if role == "plfinder" {
+            args.extend(["--map", "eb3"]);
+        }
+        crew.push(client(
+            port,
+            &format!("{role}-{robot}"),
+            &args,
+            Stdio::null(),
+        ));
+    }
+    let planner = client(
+        port,
+        "planner-r1",
+        &[
+            "--sim-time",
+            "planner",
+            "--robot",
+            robot,
+            "--map",
+            "eb3",
+            "--from",
+            from,
+            "--to",
+            to,
+            "--timeout",
+            "400",
+        ],
+        Stdio::piped(),
+    );
+    let out = arrived(port, robot, to, planner).await;
+    let row = out
+        .lines()
+        .find(|l| l.contains("302L to A340R"))
+        .unwrap_or_else(|| panic!("no table row:\n{out}"));
+    assert_eq!(
+        row.matches("1/1").count(),
+        3,
+        "every light, corner and door found:\n{out}"
+    );
+    for mut c in crew {
+        c.kill();
+    }
 }

@@ -433,6 +433,10 @@ impl DataClient {
             .inner
             .session
             .declare_subscriber(&key)
+            .with(crate::inflight::counted(
+                &key,
+                zenoh::handlers::FifoChannel::default(),
+            ))
             .await
             .map_err(ClientError::zenoh)?;
         Ok(Watch {
@@ -573,8 +577,7 @@ impl DataClient {
             } else {
                 hold + o.max_attempt_timeout
             };
-            match self.attempt(&key, &params, None, patience).await?
-            {
+            match self.attempt(&key, &params, None, patience).await? {
                 Some(Answer::Refused(e)) if e.code == ErrorCode::Busy => {
                     self.busy(&mut backoff, Duration::MAX).await
                 }

@@ -11,6 +11,8 @@
 //!   proximity, cameras: `RobotMove`, `ProxReadSonar`, `CameraGrabRow` …).
 //! - [`sim`]: [`sim::TruthClient`], a simulated robot's ground truth (for
 //!   judging runs, never for navigation).
+//! - [`simtime`]: following the simulator's clock from another process
+//!   (`use_sim_time`), in lock-step with it or not.
 //! - [`alive`]: who is alive (servers and clients), from liveliness tokens.
 //! - [`relay`]: a TCP relay standing for a wireless link (delay, pause,
 //!   cut), for tests and `rome soak`.
@@ -32,10 +34,12 @@
 pub mod alive;
 pub mod data;
 pub mod error;
+mod inflight;
 pub mod net;
 pub mod relay;
 pub mod robot;
 pub mod sim;
+pub mod simtime;
 
 pub use data::{DataClient, DataOptions, Watch};
 pub use error::ClientError;

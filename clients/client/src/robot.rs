@@ -650,7 +650,10 @@ impl RobotClient {
             .inner
             .session
             .declare_subscriber(&key)
-            .with(RingChannel::new(STREAM_BACKLOG))
+            .with(crate::inflight::counted(
+                &key,
+                RingChannel::new(STREAM_BACKLOG),
+            ))
             .await
             .map_err(ClientError::zenoh)?;
         Ok(Stream {

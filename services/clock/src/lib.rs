@@ -23,6 +23,11 @@
 //!
 //! - [`Instant`]: a point in simulated time in a participant, on the wall
 //!   clock elsewhere.
+//! - [`subscribed`] and [`sending`]: a participant's subscription and
+//!   publication, counted so that a message still crossing the network
+//!   keeps the clock busy until it arrives.
+//! - [`External`] ([`LockStep::external`]): a party in another process,
+//!   busy from the moment it is sent an instant until it says it is done.
 //!
 //! A run is then the same whatever the machine's load: every reaction to
 //! what happened at simulated time `t` is complete before the world takes
@@ -56,6 +61,27 @@ struct Sched {
     parts: Mutex<Vec<Weak<Part>>>,
     next_part: AtomicU64,
     turn: Mutex<Turn>,
+    /// Participants' subscriptions, for counting messages in flight.
+    subs: Mutex<BTreeMap<u64, Arc<SubEntry>>>,
+    next_sub: AtomicU64,
+    /// Parties in other processes, busy until they say they are done.
+    externals: Mutex<Vec<Weak<ExternalState>>>,
+}
+
+/// A subscription the clock counts messages for.
+struct SubEntry {
+    matches: Box<dyn Fn(&str) -> bool + Send + Sync>,
+    /// Messages sent to it and not yet received: each keeps the clock busy.
+    pending: AtomicUsize,
+}
+
+impl SubEntry {
+    /// One message fewer in flight, if any was; whether one was.
+    fn take_one(&self) -> bool {
+        self.pending
+            .fetch_update(Ordering::AcqRel, Ordering::Acquire, |n| n.checked_sub(1))
+            .is_ok()
+    }
 }
 
 /// Whose turn it is, and who is waiting for one.
@@ -248,6 +274,9 @@ impl LockStep {
                 parts: Mutex::new(Vec::new()),
                 next_part: AtomicU64::new(0),
                 turn: Mutex::new(Turn::default()),
+                subs: Mutex::new(BTreeMap::new()),
+                next_sub: AtomicU64::new(0),
+                externals: Mutex::new(Vec::new()),
             }),
         }
     }
@@ -271,9 +300,10 @@ impl LockStep {
         self.sched.busy.load(Ordering::Acquire)
     }
 
-    /// The names of the participants that are busy.
+    /// The names of the participants that are busy, those of other
+    /// processes included.
     pub fn busy_names(&self) -> Vec<String> {
-        locked(&self.sched.parts)
+        let mut names: Vec<String> = locked(&self.sched.parts)
             .iter()
             .filter_map(Weak::upgrade)
             .filter(|p| {
@@ -281,7 +311,32 @@ impl LockStep {
                 !s.parked && !s.done
             })
             .map(|p| p.name.clone())
-            .collect()
+            .collect();
+        names.extend(
+            locked(&self.sched.externals)
+                .iter()
+                .filter_map(Weak::upgrade)
+                .filter(|e| *locked(&e.busy))
+                .map(|e| e.name.clone()),
+        );
+        names
+    }
+
+    /// A party in another process (a client following this clock over the
+    /// network): idle until [`External::expect`] makes it busy, busy until
+    /// [`External::done`]; gone when dropped.
+    pub fn external(&self, name: &str) -> External {
+        let state = Arc::new(ExternalState {
+            name: name.to_string(),
+            busy: Mutex::new(false),
+        });
+        let mut all = locked(&self.sched.externals);
+        all.retain(|e| e.strong_count() > 0);
+        all.push(Arc::downgrade(&state));
+        External {
+            sched: self.sched.clone(),
+            state,
+        }
     }
 
     /// Waits until no participant is busy.
@@ -295,6 +350,29 @@ impl LockStep {
             }
             notified.await;
         }
+    }
+
+    /// Messages sent by participants to participants' subscriptions and
+    /// not yet received.
+    pub fn in_flight(&self) -> usize {
+        locked(&self.sched.subs)
+            .values()
+            .map(|e| e.pending.load(Ordering::Acquire))
+            .sum()
+    }
+
+    /// Gives up on every message in flight (a publication dropped on the
+    /// way): the clock no longer waits for them. Returns how many.
+    pub fn forget_in_flight(&self) -> usize {
+        let entries: Vec<Arc<SubEntry>> = locked(&self.sched.subs).values().cloned().collect();
+        let mut n = 0;
+        for e in entries {
+            while e.take_one() {
+                n += 1;
+                self.sched.release();
+            }
+        }
+        n
     }
 
     /// The earliest time a sleeper waits for, if any.
@@ -502,6 +580,108 @@ pub fn is_lockstep() -> bool {
 /// Simulated time in a participant; `None` elsewhere.
 pub fn now_ms() -> Option<u64> {
     current().map(|p| p.sched.now_ms.load(Ordering::Acquire))
+}
+
+/// A party of a [`LockStep`] clock in another process; see
+/// [`LockStep::external`].
+pub struct External {
+    sched: Arc<Sched>,
+    state: Arc<ExternalState>,
+}
+
+struct ExternalState {
+    name: String,
+    busy: Mutex<bool>,
+}
+
+impl External {
+    /// The party has something to do at the present instant (it was sent
+    /// the new time): the clock waits for it.
+    pub fn expect(&self) {
+        let mut busy = locked(&self.state.busy);
+        if !*busy {
+            *busy = true;
+            self.sched.busy.fetch_add(1, Ordering::AcqRel);
+        }
+    }
+
+    /// The party is done with the present instant.
+    pub fn done(&self) {
+        let mut busy = locked(&self.state.busy);
+        if *busy {
+            *busy = false;
+            self.sched.release();
+        }
+    }
+
+    /// Whether the clock waits for it.
+    pub fn is_busy(&self) -> bool {
+        *locked(&self.state.busy)
+    }
+}
+
+impl Drop for External {
+    fn drop(&mut self) {
+        self.done();
+    }
+}
+
+/// A participant's subscription, registered with its clock so that a
+/// message another participant sends to it keeps the clock from moving
+/// until it has arrived: without that, a message still crossing the
+/// network when everyone else is idle would be seen a step early or late,
+/// depending on the machine's load. Call [`Inbound::received`] from the
+/// subscription's callback, after the message is handed on.
+pub struct Inbound {
+    sched: Arc<Sched>,
+    id: u64,
+    entry: Arc<SubEntry>,
+}
+
+/// Registers a subscription whose key expression `matches` a key, when
+/// called in a participant of a lock-step clock; `None` elsewhere.
+pub fn subscribed(matches: impl Fn(&str) -> bool + Send + Sync + 'static) -> Option<Inbound> {
+    let sched = current()?.sched.clone();
+    let id = sched.next_sub.fetch_add(1, Ordering::Relaxed);
+    let entry = Arc::new(SubEntry {
+        matches: Box::new(matches),
+        pending: AtomicUsize::new(0),
+    });
+    locked(&sched.subs).insert(id, entry.clone());
+    Some(Inbound { sched, id, entry })
+}
+
+/// Announces a message about to be published on `key` by a participant:
+/// the clock stays busy until every participant's subscription that
+/// matches it has [received](Inbound::received) it. Call before the
+/// publication (it could arrive before a call made after). Nothing outside
+/// a participant.
+pub fn sending(key: &str) {
+    let Some(part) = current() else { return };
+    let sched = &part.sched;
+    let subs = locked(&sched.subs);
+    for e in subs.values().filter(|e| (e.matches)(key)) {
+        sched.busy.fetch_add(1, Ordering::AcqRel);
+        e.pending.fetch_add(1, Ordering::AcqRel);
+    }
+}
+
+impl Inbound {
+    /// A message arrived (and was handed to whoever reads it).
+    pub fn received(&self) {
+        if self.entry.take_one() {
+            self.sched.release();
+        }
+    }
+}
+
+impl Drop for Inbound {
+    fn drop(&mut self) {
+        locked(&self.sched.subs).remove(&self.id);
+        while self.entry.take_one() {
+            self.sched.release();
+        }
+    }
 }
 
 /// A wait marked as one the participant is [idle](crate) in or busy in.
@@ -963,6 +1143,101 @@ mod tests {
             .await;
         stepping.abort();
         assert_eq!(t, Some(0));
+    }
+
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn a_message_still_on_the_wire_holds_the_clock_until_it_arrives() {
+        // A network in miniature: a thread that takes 20 ms of real time
+        // to deliver each message, outside every participant.
+        let clock = LockStep::new(0);
+        let stepping = tokio::spawn(stepper(clock.clone(), 60_000));
+        let (wire, far_end) = std::sync::mpsc::channel::<u64>();
+        let (tx, rx) = tokio::sync::mpsc::unbounded_channel::<u64>();
+        let got = clock
+            .participate("main", async move {
+                let inbound =
+                    subscribed(|key| key.starts_with("topic/")).expect("in a participant");
+                std::thread::spawn(move || {
+                    for sent in far_end {
+                        std::thread::sleep(Duration::from_millis(20));
+                        let _ = tx.send(sent);
+                        inbound.received();
+                    }
+                });
+                let consumer = spawn("consumer", async move {
+                    let mut rx = rx;
+                    let mut lags = Vec::new();
+                    while let Some(sent) = idle(rx.recv()).await {
+                        lags.push(now_ms().expect("in a participant") - sent);
+                    }
+                    lags
+                });
+                let mut tick = interval(Duration::from_millis(50));
+                for _ in 0..10 {
+                    tick.tick().await;
+                    sending("topic/a");
+                    sending("elsewhere/b"); // nobody's: nothing to wait for
+                    wire.send(now_ms().expect("in a participant"))
+                        .expect("wire open");
+                }
+                drop(wire);
+                idle(consumer).await.expect("consumer ends")
+            })
+            .await;
+        stepping.abort();
+        assert_eq!(got, vec![0; 10]);
+        assert_eq!(clock.in_flight(), 0);
+    }
+
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn a_message_lost_on_the_way_can_be_given_up() {
+        let clock = LockStep::new(0);
+        let c = clock.clone();
+        let inbound = clock
+            .participate("main", async {
+                subscribed(|_| true).expect("in a participant")
+            })
+            .await;
+        clock
+            .participate("sender", async {
+                sending("anything");
+                sending("anything");
+            })
+            .await;
+        assert_eq!(c.in_flight(), 2);
+        assert_eq!(c.busy(), 2, "two messages keep the clock busy");
+        inbound.received();
+        assert_eq!(c.forget_in_flight(), 1);
+        assert_eq!(c.busy(), 0);
+        tokio::time::timeout(Duration::from_secs(5), c.settled())
+            .await
+            .expect("settled once the lost message is given up");
+        drop(inbound);
+    }
+
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn a_party_elsewhere_holds_the_clock_until_done_or_gone() {
+        let clock = LockStep::new(0);
+        let far = clock.external("far");
+        assert_eq!(clock.busy(), 0, "idle until it is sent a time");
+        far.expect();
+        far.expect();
+        assert_eq!(clock.busy(), 1);
+        assert_eq!(clock.busy_names(), vec!["far".to_string()]);
+        let waiting = tokio::spawn({
+            let c = clock.clone();
+            async move { c.settled().await }
+        });
+        tokio::task::yield_now().await;
+        assert!(!waiting.is_finished());
+        far.done();
+        tokio::time::timeout(Duration::from_secs(5), waiting)
+            .await
+            .expect("settled once the party is done")
+            .expect("no panic");
+        far.expect();
+        drop(far);
+        assert_eq!(clock.busy(), 0, "a party that leaves is not waited for");
     }
 
     #[tokio::test]

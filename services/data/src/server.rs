@@ -405,6 +405,7 @@ impl Server {
     }
 
     async fn send(&self, key: &str, message: &impl Serialize) {
+        rome_clock::sending(key);
         // Block rather than drop: a watcher must see every commit.
         let sent = self
             .session

@@ -8,6 +8,8 @@ use crate::server::{self, ServerConfig, ServerError, Service};
 use crate::sim::SimWorld;
 use rome_schema::robot::Device;
 use rome_schema::{Name, Root};
+use std::collections::HashMap;
+use std::sync::Arc;
 use std::time::Duration;
 use zenoh::Session;
 
@@ -140,6 +142,137 @@ pub fn spawn_clock(
                         .put(&key, rome_schema::encode(&clock))
                         .encoding(zenoh::bytes::Encoding::APPLICATION_JSON)
                         .congestion_control(zenoh::qos::CongestionControl::Drop)
+                        .await;
+                }
+            }
+        }
+    });
+    Running {
+        label: "sim clock".into(),
+        stop: Some(stop),
+        task,
+    }
+}
+
+/// The processes following a lock-step clock over the network (clients
+/// started with `--sim-time`): each is a party of `clock`, sent every
+/// instant and waited for until it acknowledges it.
+#[derive(Clone)]
+pub struct Parties {
+    inner: Arc<std::sync::Mutex<PartyMap>>,
+    _subscribers: Arc<(zenoh::pubsub::Subscriber<()>, zenoh::pubsub::Subscriber<()>)>,
+}
+
+impl Parties {
+    /// Follows the parties' liveliness tokens and acknowledgements.
+    pub async fn follow(
+        session: &Session,
+        root: &Root,
+        clock: &rome_clock::LockStep,
+    ) -> Result<Parties, ServerError> {
+        let inner: Arc<std::sync::Mutex<PartyMap>> = Arc::default();
+        let members = {
+            let (inner, clock) = (inner.clone(), clock.clone());
+            session
+                .liveliness()
+                .declare_subscriber(root.sim_clock_parties())
+                .history(true)
+                .callback(move |s| {
+                    let key = s.key_expr().as_str();
+                    let id = key.rsplit('/').next().unwrap_or(key).to_string();
+                    let mut all = lock(&inner);
+                    match s.kind() {
+                        zenoh::sample::SampleKind::Put => {
+                            tracing::info!(party = %id, "a process follows the lock-step clock");
+                            let party = clock.external(&format!("process {id}"));
+                            all.insert(id, (party, u64::MAX));
+                        }
+                        zenoh::sample::SampleKind::Delete => {
+                            tracing::info!(party = %id, "a process no longer follows the lock-step clock");
+                            all.remove(&id);
+                        }
+                    }
+                })
+                .await
+                .map_err(|e| server::declare_err("the clock parties' liveliness subscriber", e))?
+        };
+        let acks = {
+            let inner = inner.clone();
+            session
+                .declare_subscriber(root.sim_clock_acks())
+                .callback(move |s| {
+                    let key = s.key_expr().as_str();
+                    let id = key.rsplit('/').next().unwrap_or(key);
+                    let ack: rome_schema::sim::ClockAck =
+                        match rome_schema::decode(&s.payload().to_bytes(), "clock ack") {
+                            Ok(a) => a,
+                            Err(e) => {
+                                tracing::warn!(%key, error = %e, "clock acknowledgement skipped");
+                                return;
+                            }
+                        };
+                    if let Some((party, expected)) = lock(&inner).get(id) {
+                        if ack.time_ms == *expected {
+                            party.done();
+                        }
+                    }
+                })
+                .await
+                .map_err(|e| server::declare_err("the clock acknowledgement subscriber", e))?
+        };
+        Ok(Parties {
+            inner,
+            _subscribers: Arc::new((members, acks)),
+        })
+    }
+
+    /// Every party is sent instant `time_ms`: the clock waits for each.
+    pub fn expect(&self, time_ms: u64) {
+        let mut all = lock(&self.inner);
+        for (party, expected) in all.values_mut() {
+            *expected = time_ms;
+            party.expect();
+        }
+    }
+
+    /// How many processes follow the clock.
+    pub fn len(&self) -> usize {
+        self.inner.lock().map_or(0, |m| m.len())
+    }
+
+    /// Whether none does.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+}
+
+type PartyMap = HashMap<String, (rome_clock::External, u64)>;
+
+fn lock(m: &std::sync::Mutex<PartyMap>) -> std::sync::MutexGuard<'_, PartyMap> {
+    m.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+/// Publishes each instant a lock-step world steps to (from `steps`) on
+/// `<root>/sim/clock`, none dropped: processes following the clock need
+/// every one.
+pub fn spawn_lockstep_clock(
+    session: &Session,
+    root: &Root,
+    mut steps: tokio::sync::mpsc::UnboundedReceiver<u64>,
+) -> Running {
+    let (stop, mut stopped) = tokio::sync::oneshot::channel::<()>();
+    let (session, key) = (session.clone(), root.sim_clock());
+    let task = tokio::spawn(async move {
+        loop {
+            tokio::select! {
+                _ = &mut stopped => return Ok(()),
+                step = steps.recv() => {
+                    let Some(time_ms) = step else { return Ok(()) };
+                    let clock = rome_schema::sim::Clock { time_ms, lockstep: true };
+                    let _ = session
+                        .put(&key, rome_schema::encode(&clock))
+                        .encoding(zenoh::bytes::Encoding::APPLICATION_JSON)
+                        .congestion_control(zenoh::qos::CongestionControl::Block)
                         .await;
                 }
             }

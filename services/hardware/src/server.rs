@@ -744,6 +744,7 @@ impl<S: Service> Server<S> {
                 .robot(&self.config.robot, &self.config.device, chunk);
             let (bytes, encoding) = body.into_parts();
             self.last.insert(chunk, (bytes.clone(), encoding.clone()));
+            rome_clock::sending(&key);
             let sent = self
                 .session
                 .put(&key, bytes)

@@ -39,6 +39,10 @@ impl Drop for Stepper {
 /// which are still busy (and goes on waiting).
 const STALL: std::time::Duration = std::time::Duration::from_secs(10);
 
+/// How long a lock-step clock waits for a publication still on its way
+/// when nobody else is busy, before taking it as dropped.
+const LOST_AFTER: std::time::Duration = std::time::Duration::from_secs(1);
+
 impl SimWorld {
     /// Shares a world.
     pub fn new(sim: Sim) -> Self {
@@ -106,15 +110,34 @@ impl SimWorld {
             let pacer = Pacer::new(speed, start);
             clock.advance(start).await;
             let mut steps = 0u64;
+            let mut waited = std::time::Duration::ZERO;
             while !stopping.load(Ordering::Relaxed) {
-                if tokio::time::timeout(STALL, clock.settled()).await.is_err() {
-                    tracing::warn!(
-                        time_ms = clock.now_ms(),
-                        busy = ?clock.busy_names(),
-                        "lock-step clock: still waiting for these participants to finish with the present instant"
-                    );
+                if tokio::time::timeout(LOST_AFTER, clock.settled())
+                    .await
+                    .is_err()
+                {
+                    waited += LOST_AFTER;
+                    if clock.busy_names().is_empty() {
+                        // Only messages are awaited, and for longer than
+                        // any crossing takes: a publication was dropped.
+                        let lost = clock.forget_in_flight();
+                        tracing::warn!(
+                            time_ms = clock.now_ms(),
+                            lost,
+                            "lock-step clock: gave up on publications that never arrived"
+                        );
+                    } else if waited >= STALL {
+                        waited = std::time::Duration::ZERO;
+                        tracing::warn!(
+                            time_ms = clock.now_ms(),
+                            busy = ?clock.busy_names(),
+                            in_flight = clock.in_flight(),
+                            "lock-step clock: still waiting for these participants to finish with the present instant"
+                        );
+                    }
                     continue;
                 }
+                waited = std::time::Duration::ZERO;
                 let now = {
                     let mut sim = world.lock();
                     sim.step();

@@ -77,7 +77,13 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
         net.listen,
         net.connect
     );
-    rome_data::run(session.clone(), config, exit::interrupted()).await?;
+    let serving = rome_data::run(session.clone(), config, exit::interrupted());
+    if common.sim_time {
+        let name = "rome data-server";
+        rome_client::simtime::follow(&session, &common.root()?, name, serving).await??;
+    } else {
+        serving.await?;
+    }
     let _ = session.close().await;
     Ok(exit::OK)
 }

@@ -35,6 +35,18 @@ pub struct Args {
     /// Run as fast as the machine allows.
     #[arg(long)]
     pub free: bool,
+    /// Step in lock-step with the servers and with every process started
+    /// with --sim-time: each instant waits until all have finished with
+    /// it, so a run goes as fast as they compute and the same seed gives
+    /// the same run whatever the machine's load. The clock is published
+    /// at every step.
+    #[arg(long, conflicts_with_all = ["free", "speed"])]
+    pub lockstep: bool,
+    /// With --lockstep: hold the clock at its start until N processes
+    /// follow it (clients started with --sim-time), so that a run split
+    /// into processes starts at the same instant for all of them.
+    #[arg(long, value_name = "N", requires = "lockstep", default_value_t = 0)]
+    pub parties: usize,
     /// No sensor noise, slip or drift.
     #[arg(long)]
     pub no_noise: bool,
@@ -141,7 +153,11 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
     );
     // Rates are in simulated time: at 4 × real time the servers run four
     // times as often (free-running: as given, in real time).
-    let pace = if args.free { 1.0 } else { args.speed };
+    let pace = if args.free || args.lockstep {
+        1.0
+    } else {
+        args.speed
+    };
     let sim_time = |d: Duration| Duration::from_secs_f64((d.as_secs_f64() / pace).max(0.001));
     let rates = Rates {
         state: period(args.state_hz, "--state-hz")?.map(sim_time),
@@ -153,7 +169,9 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
     let root = common.root()?;
     let (session, net) = common.open_server().await?;
     let world = SimWorld::new(sim);
-    let _stepper = world.start((!args.free).then_some(args.speed));
+    let clock = args
+        .lockstep
+        .then(|| rome_clock::LockStep::new(world.lock().time_ms()));
     let (storage_stop, storage_stopped) = tokio::sync::oneshot::channel::<()>();
     let storage = (!args.no_storage).then(|| {
         let (session, root) = (session.clone(), root.clone());
@@ -164,19 +182,75 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
             .await
         })
     });
-    let mut servers = vec![
-        rome_hardware::robot::spawn_truth(&session, &root, &world, truth_every),
-        rome_hardware::robot::spawn_clock(
+    let spawn_servers = async {
+        let mut servers = vec![rome_hardware::robot::spawn_truth(
             &session,
             &root,
             &world,
-            sim_time(Duration::from_millis(rome_schema::sim::CLOCK_EVERY_MS)),
-            false,
-        ),
-    ];
-    for name in &names {
-        servers.extend(spawn_sim_robot(&session, &root, &world, name, rates)?);
-    }
+            truth_every,
+        )];
+        for name in &names {
+            servers.extend(spawn_sim_robot(&session, &root, &world, name, rates)?);
+        }
+        anyhow::Ok(servers)
+    };
+    // In lock-step the servers are the clock's participants: spawned in one.
+    let (mut servers, _stepper) = match &clock {
+        Some(clock) => {
+            let mut servers = clock.participate("rome sim", spawn_servers).await?;
+            let parties = rome_hardware::robot::Parties::follow(&session, &root, clock).await?;
+            if args.parties > 0 {
+                eprintln!(
+                    "rome sim: holding the clock until {} process(es) follow it (--sim-time)…",
+                    args.parties
+                );
+                let mut said = parties.len();
+                // The start instant, over and over: a follower declares
+                // itself once it has heard the clock.
+                let start = rome_schema::sim::Clock {
+                    time_ms: clock.now_ms(),
+                    lockstep: true,
+                };
+                while parties.len() < args.parties {
+                    session
+                        .put(root.sim_clock(), rome_schema::encode(&start))
+                        .encoding(zenoh::bytes::Encoding::APPLICATION_JSON)
+                        .await
+                        .map_err(|e| anyhow::anyhow!("cannot publish the clock: {e}"))?;
+                    if parties.len() != said {
+                        said = parties.len();
+                        eprintln!("rome sim: {said} of {} follow the clock", args.parties);
+                    }
+                    tokio::select! {
+                        _ = exit::interrupted() => return Ok(exit::INTERRUPTED),
+                        _ = tokio::time::sleep(Duration::from_millis(100)) => {}
+                    }
+                }
+            }
+            let (steps, stepped) = tokio::sync::mpsc::unbounded_channel();
+            servers.push(rome_hardware::robot::spawn_lockstep_clock(
+                &session, &root, stepped,
+            ));
+            let stepper = world.start_lockstep(clock.clone(), None, move |t| {
+                // Busy before the instant is announced: no reply can come
+                // before the clock knows to wait for it.
+                parties.expect(t);
+                let _ = steps.send(t);
+            });
+            (servers, stepper)
+        }
+        None => {
+            let mut servers = spawn_servers.await?;
+            servers.push(rome_hardware::robot::spawn_clock(
+                &session,
+                &root,
+                &world,
+                sim_time(Duration::from_millis(rome_schema::sim::CLOCK_EVERY_MS)),
+                false,
+            ));
+            (servers, world.start((!args.free).then_some(args.speed)))
+        }
+    };
     {
         let sim = world.lock();
         for r in sim.robots() {
@@ -190,7 +264,13 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
         "rome sim: map '{}', {} robot(s), {} (listen {:?}, connect {:?}); serving '{}/robot/<robot>/{{base,proximity,camera/up,camera/side}}/*' and ground truth on '{}'; Ctrl-C to stop",
         args.map,
         names.len(),
-        if args.free { "free-running".to_string() } else { format!("{}× real time", args.speed) },
+        if args.lockstep {
+            "in lock-step with its clients".to_string()
+        } else if args.free {
+            "free-running".to_string()
+        } else {
+            format!("{}× real time", args.speed)
+        },
         net.listen,
         net.connect,
         root.as_str(),
