@@ -91,8 +91,15 @@ fn data_server() -> (ChildGuard, u16) {
     )
 }
 
-/// `rome sim` with a robot at each of `at`, joined to the data server.
+/// `rome sim` with a robot at each of `at`, joined to the data server,
+/// at 4 × real time.
 fn sim(port: u16, map: &str, at: &[&str]) -> ChildGuard {
+    sim_with(port, map, at, &["--speed", "4"])
+}
+
+/// `rome sim` with a robot at each of `at`, joined to the data server,
+/// seed 4, with `pace` (`--speed 4`, `--lockstep` …).
+fn sim_with(port: u16, map: &str, at: &[&str], pace: &[&str]) -> ChildGuard {
     let endpoint = format!("tcp/127.0.0.1:{port}");
     let robots = at.len().to_string();
     let at = at.join(",");
@@ -114,9 +121,11 @@ fn sim(port: u16, map: &str, at: &[&str]) -> ChildGuard {
             &at,
             "--seed",
             "4",
-            "--speed",
-            "4",
-        ],
+        ]
+        .iter()
+        .chain(pace)
+        .copied()
+        .collect::<Vec<_>>(),
         Stdio::null(),
     )
 }
@@ -475,31 +484,7 @@ async fn a_lockstep_run_split_into_processes_arrives() {
             "--in-memory",
         ],
     );
-    let endpoint = format!("tcp/127.0.0.1:{port}");
-    let _sim = rome(
-        port,
-        "sim",
-        &[
-            "--no-multicast",
-            "--listen",
-            "tcp/127.0.0.1:0",
-            "--connect",
-            &endpoint,
-            "sim",
-            "--map",
-            "eb3",
-            "--robots",
-            "1",
-            "--at",
-            from,
-            "--seed",
-            "4",
-            "--lockstep",
-            "--parties",
-            "6",
-        ],
-        Stdio::null(),
-    );
+    let _sim = sim_with(port, "eb3", &[from], &["--lockstep", "--parties", "6"]);
     let mut crew = Vec::new();
     for role in ["navigator", "ctracker", "mapper", "plfinder"] {
         let mut args = vec!["--sim-time", role, "--robot", robot];

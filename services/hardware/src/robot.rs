@@ -138,11 +138,7 @@ pub fn spawn_clock(
                         time_ms: world.lock().time_ms(),
                         lockstep,
                     };
-                    let _ = session
-                        .put(&key, rome_schema::encode(&clock))
-                        .encoding(zenoh::bytes::Encoding::APPLICATION_JSON)
-                        .congestion_control(zenoh::qos::CongestionControl::Drop)
-                        .await;
+                    let _ = publish_clock(&session, &key, clock).await;
                 }
             }
         }
@@ -252,6 +248,25 @@ fn lock(m: &std::sync::Mutex<PartyMap>) -> std::sync::MutexGuard<'_, PartyMap> {
     m.lock().unwrap_or_else(|p| p.into_inner())
 }
 
+/// Publishes `clock` on `key` (`<root>/sim/clock`). A lock-step clock is
+/// never dropped on the way (its followers need every instant); a paced
+/// one may be, as any stream.
+pub async fn publish_clock(
+    session: &Session,
+    key: &str,
+    clock: rome_schema::sim::Clock,
+) -> zenoh::Result<()> {
+    session
+        .put(key, rome_schema::encode(&clock))
+        .encoding(zenoh::bytes::Encoding::APPLICATION_JSON)
+        .congestion_control(if clock.lockstep {
+            zenoh::qos::CongestionControl::Block
+        } else {
+            zenoh::qos::CongestionControl::Drop
+        })
+        .await
+}
+
 /// Publishes each instant a lock-step world steps to (from `steps`) on
 /// `<root>/sim/clock`, none dropped: processes following the clock need
 /// every one.
@@ -269,11 +284,7 @@ pub fn spawn_lockstep_clock(
                 step = steps.recv() => {
                     let Some(time_ms) = step else { return Ok(()) };
                     let clock = rome_schema::sim::Clock { time_ms, lockstep: true };
-                    let _ = session
-                        .put(&key, rome_schema::encode(&clock))
-                        .encoding(zenoh::bytes::Encoding::APPLICATION_JSON)
-                        .congestion_control(zenoh::qos::CongestionControl::Block)
-                        .await;
+                    let _ = publish_clock(&session, &key, clock).await;
                 }
             }
         }

@@ -212,9 +212,7 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
                     lockstep: true,
                 };
                 while parties.len() < args.parties {
-                    session
-                        .put(root.sim_clock(), rome_schema::encode(&start))
-                        .encoding(zenoh::bytes::Encoding::APPLICATION_JSON)
+                    rome_hardware::robot::publish_clock(&session, &root.sim_clock(), start)
                         .await
                         .map_err(|e| anyhow::anyhow!("cannot publish the clock: {e}"))?;
                     if parties.len() != said {
