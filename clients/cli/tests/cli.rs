@@ -852,3 +852,25 @@ fn bench_all_writes_every_figure_and_regenerates_only_the_marked_section() {
         "{doc}"
     );
 }
+
+#[test]
+fn sim_time_is_refused_where_there_is_no_clock_to_follow() {
+    // The simulator keeps the clock; a demo runs its own.
+    for cmd in [["sim", "--robots", "1"], ["demo", "--robots", "1"]] {
+        let err = offline_err(["--sim-time"].iter().chain(&cmd));
+        assert!(
+            err.contains("--sim-time is for the data server and the clients"),
+            "{err}"
+        );
+    }
+    let out = Command::new(ROME)
+        .args(["sim", "--parties", "2"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "a usage error: {err}");
+    assert!(
+        err.contains("--lockstep"),
+        "--parties needs --lockstep: {err}"
+    );
+}

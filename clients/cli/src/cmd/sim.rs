@@ -211,6 +211,8 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
                     time_ms: clock.now_ms(),
                     lockstep: true,
                 };
+                let interrupted = exit::interrupted();
+                tokio::pin!(interrupted);
                 while parties.len() < args.parties {
                     rome_hardware::robot::publish_clock(&session, &root.sim_clock(), start)
                         .await
@@ -220,7 +222,7 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
                         eprintln!("rome sim: {said} of {} follow the clock", args.parties);
                     }
                     tokio::select! {
-                        _ = exit::interrupted() => return Ok(exit::INTERRUPTED),
+                        _ = &mut interrupted => return Ok(exit::INTERRUPTED),
                         _ = tokio::time::sleep(Duration::from_millis(100)) => {}
                     }
                 }
