@@ -874,3 +874,27 @@ fn sim_time_is_refused_where_there_is_no_clock_to_follow() {
         "--parties needs --lockstep: {err}"
     );
 }
+
+#[test]
+fn bench_data_reaches_its_far_end_over_a_unix_socket() {
+    let out = offline_ok([
+        "bench",
+        "data",
+        "--unix",
+        "--clients",
+        "1",
+        "--seconds",
+        "0.2",
+        "--json",
+    ]);
+    let rows: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    for op in ["zenoh-queryable", "get", "set", "signal", "wait"] {
+        let row = rows
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|r| r["op"] == op)
+            .unwrap_or_else(|| panic!("no {op} row: {rows}"));
+        assert!(row["samples"].as_u64().unwrap() > 0, "{row}");
+    }
+}

@@ -28,7 +28,7 @@ pub enum BenchCmd {
     /// The far end of `rome bench data`: a data server and a bare queryable
     /// on one loopback port, printed on stdout; ends when stdin closes.
     #[command(hide = true)]
-    Serve,
+    Serve(ServeArgs),
 }
 
 /// Flags of `rome bench data`.
@@ -51,6 +51,18 @@ pub struct DataBench {
     /// the clients, instead of in a process of their own.
     #[arg(long)]
     pub in_process: bool,
+    /// Clients reach the data server and the bare queryable over a Unix
+    /// socket (Zenoh's unixsock-stream transport) instead of TCP.
+    #[arg(long, conflicts_with = "in_process")]
+    pub unix: bool,
+}
+
+/// Flags of `rome bench serve`.
+#[derive(Debug, clap::Args)]
+pub struct ServeArgs {
+    /// Also listen on this Unix socket.
+    #[arg(long, value_name = "PATH")]
+    pub unix: Option<std::path::PathBuf>,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -278,12 +290,22 @@ pub async fn data_rows(args: &DataBench, progress: bool) -> anyhow::Result<Vec<R
         "--clients takes counts between 1 and 500"
     );
     let span = Duration::from_secs_f64(args.seconds);
+    let socket = args
+        .unix
+        .then(|| std::env::temp_dir().join(format!("rome-bench-{}.sock", std::process::id())));
     let (far, port) = if args.in_process {
         let (session, port) = open_loopback_peer(&[]).await?;
         (Far::Here(serve_on(session).await?), port)
     } else {
-        let (child, port) = Far::start()?;
+        let (child, port) = Far::start(socket.as_deref())?;
         (child, port)
+    };
+    let far_end = |port: u16| match &socket {
+        Some(path) => NetOptions {
+            connect: vec![format!("unixsock-stream/{}", path.display())],
+            ..NetOptions::loopback_client(port)
+        },
+        None => NetOptions::loopback_client(port),
     };
     let (durable, disk_port) = match &args.data_dir {
         Some(dir) => {
@@ -326,7 +348,7 @@ pub async fn data_rows(args: &DataBench, progress: bool) -> anyhow::Result<Vec<R
         }
         let mut clients = Vec::new();
         for i in 0..n {
-            let session = NetOptions::loopback_client(port).open().await?;
+            let session = far_end(port).open().await?;
             let data =
                 DataClient::connect(&session, DataOptions::new(&format!("bench{i}"))).await?;
             let disk = match &durable {
@@ -384,6 +406,9 @@ pub async fn data_rows(args: &DataBench, progress: bool) -> anyhow::Result<Vec<R
         }
     }
     far.stop().await?;
+    if let Some(path) = &socket {
+        let _ = std::fs::remove_file(path);
+    }
     if let Some((session, server)) = durable {
         server.stop().await?;
         let _ = session.close().await;
@@ -401,10 +426,14 @@ enum Far {
 }
 
 impl Far {
-    fn start() -> anyhow::Result<(Far, u16)> {
+    fn start(unix: Option<&std::path::Path>) -> anyhow::Result<(Far, u16)> {
         use std::io::BufRead;
-        let mut child = std::process::Command::new(std::env::current_exe()?)
-            .args(["bench", "serve"])
+        let mut command = std::process::Command::new(std::env::current_exe()?);
+        command.args(["bench", "serve"]);
+        if let Some(path) = unix {
+            command.arg("--unix").arg(path);
+        }
+        let mut child = command
             .stdin(std::process::Stdio::piped())
             .stdout(std::process::Stdio::piped())
             .stderr(std::process::Stdio::inherit())
@@ -454,8 +483,25 @@ async fn serve_on(session: zenoh::Session) -> anyhow::Result<(zenoh::Session, ro
 }
 
 /// `rome bench serve`: serves until stdin closes.
-async fn serve() -> anyhow::Result<()> {
-    let (session, port) = open_loopback_peer(&[]).await?;
+async fn serve(args: ServeArgs) -> anyhow::Result<()> {
+    let (session, port) = match &args.unix {
+        None => open_loopback_peer(&[]).await?,
+        Some(path) => {
+            let _ = std::fs::remove_file(path);
+            let options = NetOptions {
+                listen: vec![
+                    "tcp/127.0.0.1:0".into(),
+                    format!("unixsock-stream/{}", path.display()),
+                ],
+                ..NetOptions::loopback(None, &[])
+            };
+            let session = options.open().await?;
+            let port = rome_client::net::bound_port(&session)
+                .await
+                .ok_or_else(|| anyhow::anyhow!("the far end listens on no loopback port"))?;
+            (session, port)
+        }
+    };
     let (session, server) = serve_on(session).await?;
     println!("{port}");
     tokio::task::spawn_blocking(|| {
@@ -502,7 +548,7 @@ pub async fn run(_common: &CommonArgs, cmd: BenchCmd) -> anyhow::Result<u8> {
             }
         }
         BenchCmd::All(args) => crate::cmd::bench_all::run(&args).await?,
-        BenchCmd::Serve => serve().await?,
+        BenchCmd::Serve(args) => serve(args).await?,
         BenchCmd::Sim(args) => {
             let rows = tokio::task::spawn_blocking(move || {
                 let rows = crate::cmd::bench_sim::rows(&args);

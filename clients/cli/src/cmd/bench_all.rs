@@ -101,6 +101,7 @@ pub async fn run(args: &AllBench) -> anyhow::Result<()> {
         json: false,
         data_dir: None,
         in_process: false,
+        unix: false,
     };
     eprintln!("== data server (its far end in a process of its own)");
     let data = bench::data_rows(&data_args, true).await?;
