@@ -133,10 +133,16 @@ fn sim_with(port: u16, map: &str, at: &[&str], pace: &[&str]) -> ChildGuard {
 /// A robot's four helper clients, each a process: navigator, ctracker,
 /// mapper and plfinder.
 fn helpers(port: u16, robot: &str, map: &str) -> Vec<ChildGuard> {
+    helpers_with(port, robot, map, &[])
+}
+
+/// [`helpers`], each given the global flags `flags` (`--sim-time`).
+fn helpers_with(port: u16, robot: &str, map: &str, flags: &[&str]) -> Vec<ChildGuard> {
     let mut out = Vec::new();
     for role in ["navigator", "ctracker", "mapper", "plfinder"] {
         let name = format!("{role}-{robot}");
-        let mut args = vec![role, "--robot", robot];
+        let mut args = flags.to_vec();
+        args.extend([role, "--robot", robot]);
         if role == "plfinder" {
             args.extend(["--map", map]);
         }
@@ -180,23 +186,37 @@ async fn await_up(session: &zenoh::Session, port: u16, robots: usize) {
 }
 
 /// `rome planner --robot ROBOT --from FROM --to TO` on `map`.
-fn planner(port: u16, map: &str, (robot, from, to): (&str, &str, &str)) -> ChildGuard {
+fn planner(port: u16, map: &str, route: (&str, &str, &str)) -> ChildGuard {
+    planner_with(port, map, route, &[])
+}
+
+/// [`planner`], given the global flags `flags` (`--sim-time`).
+fn planner_with(
+    port: u16,
+    map: &str,
+    (robot, from, to): (&str, &str, &str),
+    flags: &[&str],
+) -> ChildGuard {
     client(
         port,
         &format!("planner-{robot}"),
-        &[
-            "planner",
-            "--robot",
-            robot,
-            "--map",
-            map,
-            "--from",
-            from,
-            "--to",
-            to,
-            "--timeout",
-            "400",
-        ],
+        &flags
+            .iter()
+            .copied()
+            .chain([
+                "planner",
+                "--robot",
+                robot,
+                "--map",
+                map,
+                "--from",
+                from,
+                "--to",
+                to,
+                "--timeout",
+                "400",
+            ])
+            .collect::<Vec<_>>(),
         Stdio::piped(),
     )
 }
@@ -485,38 +505,8 @@ async fn a_lockstep_run_split_into_processes_arrives() {
         ],
     );
     let _sim = sim_with(port, "eb3", &[from], &["--lockstep", "--parties", "6"]);
-    let mut crew = Vec::new();
-    for role in ["navigator", "ctracker", "mapper", "plfinder"] {
-        let mut args = vec!["--sim-time", role, "--robot", robot];
-        if role == "plfinder" {
-            args.extend(["--map", "eb3"]);
-        }
-        crew.push(client(
-            port,
-            &format!("{role}-{robot}"),
-            &args,
-            Stdio::null(),
-        ));
-    }
-    let planner = client(
-        port,
-        "planner-r1",
-        &[
-            "--sim-time",
-            "planner",
-            "--robot",
-            robot,
-            "--map",
-            "eb3",
-            "--from",
-            from,
-            "--to",
-            to,
-            "--timeout",
-            "400",
-        ],
-        Stdio::piped(),
-    );
+    let crew = helpers_with(port, robot, "eb3", &["--sim-time"]);
+    let planner = planner_with(port, "eb3", (robot, from, to), &["--sim-time"]);
     let out = arrived(port, robot, to, planner).await;
     let row = out
         .lines()

@@ -638,8 +638,9 @@ impl DataClient {
 const ZENOH_TIMEOUT: &[u8] = b"Timeout";
 
 /// How long a held wait in a lock-step run waits for its answer on the
-/// wall clock: the data server is in the same process and answers when the
-/// (simulated) hold ends, however long that takes.
+/// wall clock: the data server answers when the (simulated) hold ends,
+/// however long that takes in wall time (in another process following the
+/// same clock, a vanished data server is then noticed only after this).
 const LOCKSTEP_PATIENCE: Duration = Duration::from_secs(3_600);
 
 /// A server's error reply, or `None` for Zenoh's local timeout (silence).

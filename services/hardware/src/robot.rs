@@ -233,7 +233,7 @@ impl Parties {
 
     /// How many processes follow the clock.
     pub fn len(&self) -> usize {
-        self.inner.lock().map_or(0, |m| m.len())
+        lock(&self.inner).len()
     }
 
     /// Whether none does.

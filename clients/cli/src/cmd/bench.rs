@@ -598,9 +598,7 @@ struct Redis {
 impl Redis {
     /// Starts one, or `None` when redis-server is not installed.
     fn start() -> anyhow::Result<Option<Redis>> {
-        let port = std::net::TcpListener::bind(("127.0.0.1", 0))?
-            .local_addr()?
-            .port();
+        let port = rome_client::net::free_loopback_port()?;
         let child = match std::process::Command::new("redis-server")
             .args(["--bind", "127.0.0.1", "--port", &port.to_string()])
             .args(["--save", "", "--appendonly", "no", "--protected-mode", "no"])

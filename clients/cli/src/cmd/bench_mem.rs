@@ -103,12 +103,6 @@ pub fn rss_mib(pid: u32) -> anyhow::Result<f64> {
     Ok(kib / 1024.0)
 }
 
-fn free_port() -> anyhow::Result<u16> {
-    Ok(std::net::TcpListener::bind(("127.0.0.1", 0))?
-        .local_addr()?
-        .port())
-}
-
 /// Net flags that keep a child on one loopback port and off multicast.
 fn loopback_args(port: u16) -> Vec<String> {
     vec![
@@ -147,7 +141,7 @@ pub async fn figures(args: &MemBench, progress: bool) -> anyhow::Result<MemFigur
         }
     };
     step(0, "starting a data server");
-    let port = free_port()?;
+    let port = rome_client::net::free_loopback_port()?;
     let mut server_args = vec![
         "data-server".to_string(),
         "--in-memory".into(),
@@ -210,7 +204,7 @@ pub async fn figures(args: &MemBench, progress: bool) -> anyhow::Result<MemFigur
     drop(server);
 
     step(2, &format!("starting rome sim --robots {}", args.robots));
-    let port = free_port()?;
+    let port = rome_client::net::free_loopback_port()?;
     let mut sim_args = vec![
         "sim".to_string(),
         "--robots".into(),
