@@ -381,8 +381,35 @@ impl LockStep {
     }
 
     /// Moves time on to `now_ms` (never back) and wakes every sleeper due
-    /// by then; each is busy before this returns.
+    /// by then; each is busy before this returns. Unconditional: for a
+    /// clock that follows another (the simulator's, over the network).
     pub async fn advance(&self, now_ms: u64) {
+        self.take_turn().await;
+        self.wake_due(now_ms);
+        self.sched.pass(STEPPER);
+    }
+
+    /// The step of the clock's owner: if no participant is busy once the
+    /// turn is taken, runs `next` (which moves the world on and returns its
+    /// new time), moves time on to it and wakes the sleepers due; `None`
+    /// when a participant became busy since [`LockStep::settled`] (made,
+    /// or woken from outside), so that it finishes at the present instant.
+    /// Nobody runs meanwhile: a participant made or woken during the step
+    /// starts at the new time.
+    pub async fn try_advance(&self, next: impl FnOnce() -> u64) -> Option<u64> {
+        self.take_turn().await;
+        if self.busy() > 0 {
+            self.sched.pass(STEPPER);
+            return None;
+        }
+        let now_ms = next();
+        self.wake_due(now_ms);
+        self.sched.pass(STEPPER);
+        Some(now_ms)
+    }
+
+    /// Takes the turn for the clock itself.
+    async fn take_turn(&self) {
         // Everyone woken here waits until all are: then the first created
         // goes first, whichever timer fired first.
         loop {
@@ -394,14 +421,12 @@ impl LockStep {
                 }
             };
             if taken {
-                break;
+                return;
             }
             // The last participant to park is passing it on; a blocking
             // wait here could keep it from this thread.
             tokio::task::yield_now().await;
         }
-        self.wake_due(now_ms);
-        self.sched.pass(STEPPER);
     }
 
     fn wake_due(&self, now_ms: u64) {
@@ -612,11 +637,6 @@ impl External {
             *busy = false;
             self.sched.release();
         }
-    }
-
-    /// Whether the clock waits for it.
-    pub fn is_busy(&self) -> bool {
-        *locked(&self.state.busy)
     }
 }
 
@@ -964,9 +984,14 @@ mod tests {
     /// Steps the clock by 10 ms whenever everyone has settled, until
     /// `until_ms`.
     async fn stepper(clock: LockStep, until_ms: u64) {
+        // Time starts with the test's first participant.
+        while locked(&clock.sched.parts).is_empty() {
+            tokio::task::yield_now().await;
+        }
         while clock.now_ms() < until_ms {
             clock.settled().await;
-            clock.advance(clock.now_ms() + 10).await;
+            let next = clock.now_ms() + 10;
+            clock.try_advance(|| next).await;
             tokio::task::yield_now().await;
         }
     }

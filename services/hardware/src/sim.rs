@@ -138,12 +138,15 @@ impl SimWorld {
                     continue;
                 }
                 waited = std::time::Duration::ZERO;
-                let now = {
-                    let mut sim = world.lock();
-                    sim.step();
-                    sim.time_ms()
-                };
-                clock.advance(now).await;
+                let stepped = clock
+                    .try_advance(|| {
+                        let mut sim = world.lock();
+                        sim.step();
+                        sim.time_ms()
+                    })
+                    .await;
+                // Someone became busy after all: it finishes first.
+                let Some(now) = stepped else { continue };
                 on_step(now);
                 let wait = pacer.wait(now);
                 steps += 1;
