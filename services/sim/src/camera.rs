@@ -10,7 +10,7 @@ use crate::spec::{
 };
 use image::GrayImage;
 use rome_maps::font;
-use rome_maps::geometry::{direction, Point};
+use rome_maps::geometry::{direction, Point, Vector};
 use rome_maps::model::EdgeKind;
 
 /// Grey of the ceiling between lights.
@@ -49,16 +49,28 @@ impl PixelNoise {
         PixelNoise { table }
     }
 
-    /// A reader over the table from a random start.
-    fn reader(&self, rng: &mut Rng) -> impl FnMut(u8) -> u8 + '_ {
-        let mut k = rng.next_u64() as usize;
-        let stride = 1 + 2 * (rng.next_u64() as usize % 1000);
-        move |v| {
-            if self.table.is_empty() {
-                return v;
+    /// Adds the table's offsets to `pixels`, read on from a random place
+    /// (contiguous runs of the table, so the loop vectorises).
+    fn apply(&self, pixels: &mut [u8], rng: &mut Rng) {
+        let start = rng.next_u64() as usize;
+        if self.table.is_empty() {
+            return;
+        }
+        let n = self.table.len();
+        let mut k = start % n;
+        for run in pixels.chunks_mut(n) {
+            let mut done = 0;
+            while done < run.len() {
+                let take = (run.len() - done).min(n - k);
+                for (p, &t) in run[done..done + take]
+                    .iter_mut()
+                    .zip(&self.table[k..k + take])
+                {
+                    *p = (i16::from(*p) + t).clamp(0, 255) as u8;
+                }
+                done += take;
+                k = (k + take) % n;
             }
-            k = k.wrapping_add(stride);
-            (i16::from(v) + self.table[k & 0xFFFF]).clamp(0, 255) as u8
         }
     }
 }
@@ -84,7 +96,6 @@ pub fn up_image(
     pixel_noise: &PixelNoise,
     rng: &mut Rng,
 ) -> GrayImage {
-    let mut noisy = pixel_noise.reader(rng);
     let (w, h) = size;
     let f = direction(heading);
     let r = direction(heading - 90.0);
@@ -96,21 +107,61 @@ pub fn up_image(
         .filter(|(_, l)| nalgebra::distance(&l.at, &at) <= reach)
         .map(|(i, _)| i)
         .collect();
-    let mut img = GrayImage::new(w, h);
-    for row in 0..h {
-        let fwd = (0.5 - (f64::from(row) + 0.5) / f64::from(h)) * UP_VIEW_MM.1;
-        for col in 0..w {
-            let lat = ((f64::from(col) + 0.5) / f64::from(w) - 0.5) * UP_VIEW_MM.0;
-            let p = at + f * fwd + r * lat;
-            let v = if !near.is_empty() && lit(scene, &near, p) {
-                LIGHT_GREY
-            } else {
-                CEILING_GREY
-            };
-            img.put_pixel(col, row, image::Luma([noisy(v)]));
+    let mut pixels = vec![0u8; w as usize * h as usize];
+    let lat_of = |col: f64| ((col + 0.5) / f64::from(w) - 0.5) * UP_VIEW_MM.0;
+    for (row, line) in pixels.chunks_exact_mut(w as usize).enumerate() {
+        let fwd = (0.5 - (row as f64 + 0.5) / f64::from(h)) * UP_VIEW_MM.1;
+        let centre = at + f * fwd;
+        // Columns that may be under a light: along this row a light's
+        // rectangle is one span of columns; one more either side is tried
+        // pixel by pixel, so rounding cannot change a pixel.
+        let (mut first, mut last) = (w as usize, 0usize);
+        for &li in &near {
+            if let Some((lo, hi)) = lit_span(&scene.lamps[li], centre, r) {
+                let to_col = |lat: f64| (lat / UP_VIEW_MM.0 + 0.5) * f64::from(w) - 0.5;
+                let c0 = (to_col(lo).floor() - 1.0).max(0.0) as usize;
+                let c1 = (to_col(hi).ceil() + 1.0).min(f64::from(w) - 1.0);
+                if c1 >= 0.0 {
+                    first = first.min(c0);
+                    last = last.max(c1 as usize);
+                }
+            }
+        }
+        line.fill(CEILING_GREY);
+        for col in first..=last.min(line.len().saturating_sub(1)) {
+            if lit(scene, &near, centre + r * lat_of(col as f64)) {
+                line[col] = LIGHT_GREY;
+            }
         }
     }
-    img
+    pixel_noise.apply(&mut pixels, rng);
+    GrayImage::from_raw(w, h, pixels).unwrap_or_else(|| GrayImage::new(w, h))
+}
+
+/// Where along the line `centre + across · lat` a light's rectangle lies:
+/// the range of `lat`, if the line meets it.
+fn lit_span(l: &crate::scene::Lamp, centre: Point, across: Vector) -> Option<(f64, f64)> {
+    let d = centre - l.at;
+    // Both of the rectangle's coordinates are linear in lat.
+    let along = (d.dot(&l.along), across.dot(&l.along));
+    let side = (l.along.perp(&d), l.along.perp(&across));
+    let mut lo = f64::NEG_INFINITY;
+    let mut hi = f64::INFINITY;
+    for ((c0, c1), half) in [
+        (along, LIGHT_SIZE_MM.0 / 2.0),
+        (side, LIGHT_SIZE_MM.1 / 2.0),
+    ] {
+        if c1.abs() < 1e-12 {
+            if c0.abs() > half {
+                return None;
+            }
+        } else {
+            let (a, b) = ((-half - c0) / c1, (half - c0) / c1);
+            lo = lo.max(a.min(b));
+            hi = hi.min(a.max(b));
+        }
+    }
+    (lo <= hi).then_some((lo, hi))
 }
 
 /// The sideways camera's image, looking along sonar 18 from the robot's
@@ -125,38 +176,70 @@ pub fn side_image(
     pixel_noise: &PixelNoise,
     rng: &mut Rng,
 ) -> GrayImage {
-    let mut noisy = pixel_noise.reader(rng);
     let (w, h) = size;
     let axis = heading + sonar_bearing_deg(18);
     let ad = direction(axis);
     let eye = at + ad * ROBOT_RADIUS_MM;
     let focal = f64::from(w) / 2.0 / (SIDE_FOV_DEG / 2.0).to_radians().tan();
-    let mut img = GrayImage::new(w, h);
-    for col in 0..w {
-        let x = f64::from(col) + 0.5 - f64::from(w) / 2.0;
-        let off = (x / focal).atan();
-        let ray = axis - off.to_degrees();
-        let hit = scene.ray(eye, ray, SIDE_RANGE_MM, Sense::Sight, open, None);
-        for row in 0..h {
-            let v = match hit {
-                None => FAR_GREY,
-                Some((t, wi, u)) => {
-                    let depth = t * off.cos();
-                    let y = f64::from(h) / 2.0 - (f64::from(row) + 0.5);
-                    let z = PLATE_HEIGHT_MM + y * depth / focal;
-                    if z < 0.0 {
-                        FLOOR_GREY
-                    } else if z > WALL_HEIGHT_MM {
-                        UPPER_CEILING_GREY
-                    } else {
-                        surface(scene, wi, u, z)
-                    }
+    let (wu, hu) = (w as usize, h as usize);
+    // One ray per column: what it meets, and millimetres of height per row
+    // there.
+    let columns: Vec<Option<(f64, usize, f64, bool)>> = (0..wu)
+        .map(|col| {
+            let x = col as f64 + 0.5 - f64::from(w) / 2.0;
+            let off = (x / focal).atan();
+            let ray = axis - off.to_degrees();
+            let (t, wi, u) = scene.ray(eye, ray, SIDE_RANGE_MM, Sense::Sight, open, None)?;
+            let wall = &scene.walls[wi];
+            // Only plates and posters make a wall's look depend on more
+            // than the height; without them it changes at a few heights.
+            let plain = wall.plates.is_empty() && wall.posters.is_empty();
+            Some((t * off.cos() / focal, wi, u, plain))
+        })
+        .collect();
+    // The last height band each column drew a plain wall in, and its grey.
+    let mut last: Vec<(f64, u8)> = vec![(f64::NAN, 0); wu];
+    let mut pixels = vec![FAR_GREY; wu * hu];
+    for (row, line) in pixels.chunks_exact_mut(wu).enumerate() {
+        let y = f64::from(h) / 2.0 - (row as f64 + 0.5);
+        for ((px, column), last) in line.iter_mut().zip(&columns).zip(&mut last) {
+            let Some((per_row, wi, u, plain)) = *column else {
+                continue;
+            };
+            let z = PLATE_HEIGHT_MM + y * per_row;
+            *px = if z < 0.0 {
+                FLOOR_GREY
+            } else if z > WALL_HEIGHT_MM {
+                UPPER_CEILING_GREY
+            } else {
+                let band = height_band(z);
+                if plain && last.0 == band {
+                    last.1
+                } else {
+                    let v = surface(scene, wi, u, z);
+                    *last = (band, v);
+                    v
                 }
             };
-            img.put_pixel(col, row, image::Luma([noisy(v)]));
         }
     }
-    img
+    pixel_noise.apply(&mut pixels, rng);
+    GrayImage::from_raw(w, h, pixels).unwrap_or_else(|| GrayImage::new(w, h))
+}
+
+/// Which of the heights at which a plain wall's look may change `z` lies
+/// between (see [`surface`]: door frames and glass bricks).
+fn height_band(z: f64) -> f64 {
+    if (2_050.0..2_110.0).contains(&z) {
+        -1.0
+    } else if z >= 2_110.0 {
+        -2.0
+    } else {
+        // Glass bricks change every 20 mm of height (200 mm blocks, 10 %
+        // mortar). z ≥ 0 here, so truncating is flooring (and much cheaper
+        // than `floor` on a baseline x86-64).
+        ((z / 20.0) as i64) as f64
+    }
 }
 
 /// What a wall looks like at offset `u` along it and height `z`.
@@ -208,5 +291,112 @@ fn surface(scene: &Scene, wi: usize, u: f64, z: f64) -> u8 {
         }
         EdgeKind::Window => 120,
         _ => 170,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+
+    use super::*;
+
+    #[test]
+    fn the_upward_image_is_every_pixel_tested_against_every_light() {
+        let map = rome_maps::load_named("eb3").unwrap();
+        let scene = Scene::new(&map);
+        let mut rng = Rng::new(3);
+        let quiet = PixelNoise::new(0.0, &mut rng);
+        let size = (64, 60);
+        let mut lit_pixels = 0;
+        for k in 0..200 {
+            let lamp = &scene.lamps[(k * 7) % scene.lamps.len()];
+            let jitter = |rng: &mut Rng| (rng.uniform() - 0.5) * 2_000.0;
+            let at = lamp.at + Vector::new(jitter(&mut rng), jitter(&mut rng));
+            let heading = rng.uniform() * 360.0;
+            let got = up_image(&scene, at, heading, size, &quiet, &mut rng);
+            let (f, r) = (direction(heading), direction(heading - 90.0));
+            let all: Vec<usize> = (0..scene.lamps.len()).collect();
+            for (col, row, px) in got.enumerate_pixels() {
+                let fwd = (0.5 - (f64::from(row) + 0.5) / f64::from(size.1)) * UP_VIEW_MM.1;
+                let lat = ((f64::from(col) + 0.5) / f64::from(size.0) - 0.5) * UP_VIEW_MM.0;
+                let want = if lit(&scene, &all, at + f * fwd + r * lat) {
+                    LIGHT_GREY
+                } else {
+                    CEILING_GREY
+                };
+                assert_eq!(
+                    px.0[0], want,
+                    "pixel ({col}, {row}) at {at:?} heading {heading}"
+                );
+                lit_pixels += usize::from(want == LIGHT_GREY);
+            }
+        }
+        // Lights were in view, and not always.
+        assert!(lit_pixels > 0);
+        let total = 200 * 64 * 60;
+        assert!(
+            lit_pixels > total / 20 && lit_pixels < total / 2,
+            "{lit_pixels} of {total}"
+        );
+    }
+
+    #[test]
+    fn the_side_image_is_every_pixel_looked_at() {
+        let map = rome_maps::load_named("eb3").unwrap();
+        let scene = Scene::new(&map);
+        let open = vec![false; scene.elevators.len()];
+        let mut rng = Rng::new(5);
+        let quiet = PixelNoise::new(0.0, &mut rng);
+        let (w, h) = (96u32, 90u32);
+        // Beside walls with plates, doors and plain stretches.
+        let spots: Vec<_> = scene
+            .world
+            .positions
+            .values()
+            .map(|p| p.in_corridor())
+            .collect();
+        let mut kinds = std::collections::BTreeSet::new();
+        for k in 0..120 {
+            let at = spots[(k * 13) % spots.len()];
+            let heading = rng.uniform() * 360.0;
+            let got = side_image(&scene, &open, at, heading, (w, h), &quiet, &mut rng);
+            let axis = heading + sonar_bearing_deg(18);
+            let eye = at + direction(axis) * ROBOT_RADIUS_MM;
+            let focal = f64::from(w) / 2.0 / (SIDE_FOV_DEG / 2.0).to_radians().tan();
+            for col in 0..w {
+                let off = ((f64::from(col) + 0.5 - f64::from(w) / 2.0) / focal).atan();
+                let hit = scene.ray(
+                    eye,
+                    axis - off.to_degrees(),
+                    SIDE_RANGE_MM,
+                    Sense::Sight,
+                    &open,
+                    None,
+                );
+                for row in 0..h {
+                    let want = match hit {
+                        None => FAR_GREY,
+                        Some((t, wi, u)) => {
+                            let y = f64::from(h) / 2.0 - (f64::from(row) + 0.5);
+                            let z = PLATE_HEIGHT_MM + y * t * off.cos() / focal;
+                            if z < 0.0 {
+                                FLOOR_GREY
+                            } else if z > WALL_HEIGHT_MM {
+                                UPPER_CEILING_GREY
+                            } else {
+                                kinds.insert(format!("{:?}", scene.walls[wi].kind));
+                                surface(&scene, wi, u, z)
+                            }
+                        }
+                    };
+                    assert_eq!(
+                        got.get_pixel(col, row).0[0],
+                        want,
+                        "({col}, {row}) at {at:?} heading {heading}"
+                    );
+                }
+            }
+        }
+        assert!(kinds.len() >= 3, "walls seen: {kinds:?}");
     }
 }

@@ -229,13 +229,20 @@ impl Scene {
 
     /// The grid cell (column, row) holding `p`, clamped to the grid.
     pub fn cell_xy(&self, p: Point) -> (usize, usize) {
-        let cx = ((p.x - self.lo.x) / CELL_MM)
-            .floor()
-            .clamp(0.0, (self.cols - 1) as f64) as usize;
-        let cy = ((p.y - self.lo.y) / CELL_MM)
-            .floor()
-            .clamp(0.0, (self.rows - 1) as f64) as usize;
-        (cx, cy)
+        // Truncation floors what is not negative (and sends NaN to 0); it
+        // is far cheaper than `floor` on a baseline x86-64, and this is
+        // called for every beam section and robot.
+        let index = |v: f64, n: usize| {
+            if v > 0.0 {
+                (v as usize).min(n - 1)
+            } else {
+                0
+            }
+        };
+        (
+            index((p.x - self.lo.x) / CELL_MM, self.cols),
+            index((p.y - self.lo.y) / CELL_MM, self.rows),
+        )
     }
 
     fn cell_of(&self, p: Point) -> usize {
@@ -274,6 +281,17 @@ impl Scene {
                 out.extend_from_slice(&self.cells[cy * self.cols + cx]);
             }
         }
+    }
+
+    /// Indices of the walls filed under grid cell `c` (row-major; see
+    /// [`Scene::grid`]); none for a cell outside the grid.
+    pub fn walls_in_cell(&self, c: usize) -> &[u32] {
+        self.cells.get(c).map_or(&[], Vec::as_slice)
+    }
+
+    /// Indices of the corner reflectors in grid cell `c`.
+    pub fn reflectors_in_cell(&self, c: usize) -> &[u32] {
+        self.reflector_cells.get(c).map_or(&[], Vec::as_slice)
     }
 
     /// Indices of corner reflectors within the cells around `p` ± `r`.
@@ -389,23 +407,40 @@ impl Scene {
         open: &[bool],
         scratch: &mut Vec<u32>,
     ) -> Option<(f64, Point)> {
-        self.walls_near(p, r, scratch);
-        let mut best: Option<(f64, Point)> = None;
-        for &wi in scratch.iter() {
-            let wi = wi as usize;
-            if !self.blocks(wi, Sense::Touch, open) {
-                continue;
-            }
-            let w = &self.walls[wi];
-            let t = (p - w.a).dot(&w.dir).clamp(0.0, w.len);
-            let q = w.a + w.dir * t;
-            let d = nalgebra::distance(&p, &q);
-            if d <= r && best.is_none_or(|(bd, _)| d < bd) {
-                best = Some((d, q));
-            }
-        }
-        best
+        self.walls_near_unsorted(p, r, scratch);
+        nearest_of(self, scratch, p, r, open)
     }
+}
+
+/// The nearest of `walls` (indices, repeats allowed) that bodies bump into,
+/// within `r` of `p`: (distance, nearest point on it).
+pub fn nearest_of(
+    scene: &Scene,
+    walls: &[u32],
+    p: Point,
+    r: f64,
+    open: &[bool],
+) -> Option<(f64, Point)> {
+    let mut best: Option<(f64, Point)> = None;
+    for &wi in walls {
+        let wi = wi as usize;
+        let w = &scene.walls[wi];
+        // Cheap rejection before the door and glass checks.
+        let side = (p - w.a).dot(&w.normal).abs();
+        if side > r || best.is_some_and(|(bd, _)| side >= bd) {
+            continue;
+        }
+        if !scene.blocks(wi, Sense::Touch, open) {
+            continue;
+        }
+        let t = (p - w.a).dot(&w.dir).clamp(0.0, w.len);
+        let q = w.a + w.dir * t;
+        let d = nalgebra::distance(&p, &q);
+        if d <= r && best.is_none_or(|(bd, _)| d < bd) {
+            best = Some((d, q));
+        }
+    }
+    best
 }
 
 /// Where the ray from + t·d meets the segment a + u·dir (0 ≤ u ≤ len):

@@ -14,9 +14,10 @@ use crate::rng::Rng;
 use crate::scene::{Scene, Sense};
 use crate::spec::{
     ir_bearing_deg, sonar_bearing_deg, Noise, IR_RANGE_MM, IR_SENSORS, ROBOT_RADIUS_MM, SONARS,
-    SONAR_HALF_BEAM_DEG, SONAR_MAX_INCIDENCE_DEG, SONAR_MAX_MM, SONAR_MIN_MM,
+    SONAR_HALF_BEAM_DEG, SONAR_MAX_MM, SONAR_MIN_MM,
 };
 use rome_maps::geometry::{direction, heading_to, normalize_deg, Point, UnitComplex, Vector};
+use std::sync::LazyLock;
 
 /// Where a robot is, for the sensors of others.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -25,14 +26,70 @@ pub struct Body {
     pub at: Point,
 }
 
+/// The other robots a beam may meet.
+#[derive(Debug, Clone, Copy)]
+pub enum Others<'a> {
+    /// All of these are tried.
+    List(&'a [Body]),
+    /// Filed by the scene's grid cells: the robots of cell `c` are
+    /// `bodies[start[c]..start[c + 1]]`; only the cells the beam crosses are
+    /// looked at.
+    Cells {
+        /// Where each cell's robots start in `bodies` (one more than cells).
+        start: &'a [u32],
+        /// The robots, cell by cell.
+        bodies: &'a [Body],
+    },
+}
+
 /// Reusable buffers, so a scan allocates nothing.
 #[derive(Debug, Default, Clone)]
 pub struct Scratch {
     walls: Vec<u32>,
-    corners: Vec<u32>,
-    /// Candidate echoes: (sonar, range, wall or usize::MAX, point).
-    echoes: Vec<(usize, f64, usize, Point)>,
+    /// Per wall, the number of the firing that last looked at it (so a wall
+    /// filed under several cells is tried once per firing).
+    seen: Vec<u32>,
+    /// The same for grid cells.
+    cell_seen: Vec<u32>,
+    firing: u32,
+    /// Candidate echoes: (range, wall or usize::MAX, point).
+    echoes: Vec<(f64, usize, Point)>,
 }
+
+/// The order in which the ring fires its sonars, one after another through
+/// each cycle: consecutive firings point 105° apart, so one sonar's echo is
+/// not heard by the next one to fire (crosstalk).
+pub const FIRING_ORDER: [usize; SONARS] = {
+    let mut order = [0; SONARS];
+    let mut k = 0;
+    while k < SONARS {
+        order[k] = (k * 7) % SONARS;
+        k += 1;
+    }
+    order
+};
+
+/// How far apart the beam is walked, mm: nearer echoes are found before
+/// farther cells are looked at.
+const SECTION_MM: f64 = 2_000.0;
+/// How far the cells looked at reach beyond the beam, mm: walls are filed
+/// under the cells of points every quarter cell along them, so any point of
+/// a wall is within this of a cell it is filed under.
+const FILED_WITHIN_MM: f64 = 260.0;
+/// How far the cells looked at reach beyond the beam, mm: far enough for a
+/// wall's filing and for the centre of a robot whose disc enters the beam.
+const MARGIN_MM: f64 = if FILED_WITHIN_MM > ROBOT_RADIUS_MM + 10.0 {
+    FILED_WITHIN_MM
+} else {
+    ROBOT_RADIUS_MM + 10.0
+};
+
+/// cos and sin of [`SONAR_HALF_BEAM_DEG`] (7.5°), and cos of
+/// [`SONAR_MAX_INCIDENCE_DEG`](crate::spec::SONAR_MAX_INCIDENCE_DEG) (20°):
+/// computed once, not per beam.
+const COS_HALF_BEAM: f64 = 0.991_444_861_373_810_4;
+const SIN_HALF_BEAM: f64 = 0.130_526_192_220_051_6;
+const COS_MAX_INCIDENCE: f64 = 0.939_692_620_785_908_4;
 
 /// Fires all sonars of a robot at `at` heading `heading`: ranges in mm.
 #[allow(clippy::too_many_arguments)]
@@ -47,151 +104,273 @@ pub fn scan(
     rng: &mut Rng,
     scratch: &mut Scratch,
 ) -> [u16; SONARS] {
-    let reach = SONAR_MAX_MM + ROBOT_RADIUS_MM;
-    scene.walls_near(at, reach, &mut scratch.walls);
-    scene.reflectors_near(at, reach, &mut scratch.corners);
-    scratch.echoes.clear();
-    // Each sensor's position on the ring and its axis.
-    let mut sensors = [(at, Vector::zeros()); SONARS];
-    for (i, s) in sensors.iter_mut().enumerate() {
-        let d = direction(heading + sonar_bearing_deg(i));
-        *s = (at + d * ROBOT_RADIUS_MM, d);
-    }
     let forward = direction(heading);
-    let left = Vector::new(-forward.y, forward.x);
-    // The sonar nearest to a direction (a unit vector), by its bearing.
-    let index_near = |v: Vector| {
-        let rel = v.dot(&left).atan2(v.dot(&forward));
-        (rel.to_degrees() / 15.0).round() as i64 + 12
-    };
-    let cos_beam = SONAR_HALF_BEAM_DEG.to_radians().cos();
-    let cos_max = SONAR_MAX_INCIDENCE_DEG.to_radians().cos();
-    // Flat surfaces.
-    for &wi in &scratch.walls {
-        let wi = wi as usize;
-        if !scene.blocks(wi, Sense::Sound, open) {
-            continue;
-        }
-        let w = &scene.walls[wi];
-        // The robot must be on the side the wall faces.
-        let side = (at - w.a).dot(&w.normal);
-        let n = if side >= 0.0 { w.normal } else { -w.normal };
-        if side.abs() > reach {
-            continue;
-        }
-        // Too far along the wall's line to matter.
-        let along = (at - w.a).dot(&w.dir);
-        let beyond = if along < 0.0 {
-            -along
-        } else {
-            (along - w.len).max(0.0)
-        };
-        if beyond * beyond + side * side > reach * reach {
-            continue;
-        }
-        let look = -n;
-        let centre = index_near(look);
-        for k in centre - 2..=centre + 2 {
-            let i = k.rem_euclid(SONARS as i64) as usize;
-            let (s, axis) = sensors[i];
-            let cos_inc = axis.dot(&look);
-            if cos_inc < cos_max {
-                continue;
-            }
-            let dist = (s - w.a).dot(&n);
-            if dist <= 0.0 {
-                continue;
-            }
-            let (range, p) = if cos_inc >= cos_beam {
-                (dist, s - n * dist)
-            } else {
-                // The beam's edge ray, the one closest to the normal:
-                // `look` turned by `off` towards the axis.
-                let off = cos_inc.min(1.0).acos() - SONAR_HALF_BEAM_DEG.to_radians();
-                let range = dist / off.cos();
-                let turn = UnitComplex::new(off * look.perp(&axis).signum());
-                (range, s + (turn * look) * range)
-            };
-            let u = (p - w.a).dot(&w.dir);
-            if (0.0..=w.len).contains(&u) && range <= SONAR_MAX_MM {
-                scratch.echoes.push((i, range, wi, p));
-            }
-        }
-    }
-    // Corners.
-    for &ci in &scratch.corners {
-        let c = scene.reflectors[ci as usize];
-        let to = c - at;
-        let dc = to.norm();
-        if dc > reach || dc < 1.0 {
-            continue;
-        }
-        let centre = index_near(to / dc);
-        for k in centre - 1..=centre + 1 {
-            let i = k.rem_euclid(SONARS as i64) as usize;
-            let (s, axis) = sensors[i];
-            let e = c - s;
-            let range = e.norm();
-            if range <= SONAR_MAX_MM && range > 1.0 && e.dot(&axis) >= cos_beam * range {
-                scratch.echoes.push((i, range, usize::MAX, c));
-            }
-        }
-    }
-    // Other robots: the beam meets a robot's disc when the direction to its
-    // centre is within half the beam plus the disc's angular radius.
-    for other in others {
-        let to = other.at - at;
-        let dc2 = to.norm_squared();
-        if dc2 < 1.0 || dc2 > (reach + ROBOT_RADIUS_MM).powi(2) {
-            continue;
-        }
-        let dc = dc2.sqrt();
-        let rel = to.dot(&left).atan2(to.dot(&forward)).to_degrees();
-        let spread = (ROBOT_RADIUS_MM / dc).min(1.0).asin().to_degrees() + SONAR_HALF_BEAM_DEG;
-        let lo = ((rel - spread) / 15.0).ceil() as i64;
-        let hi = ((rel + spread) / 15.0).floor() as i64;
-        for k in lo..=hi {
-            let i = (k + 12).rem_euclid(SONARS as i64) as usize;
-            let (s, _) = sensors[i];
-            let e = other.at - s;
-            let d = e.norm();
-            let range = d - ROBOT_RADIUS_MM;
-            if range > 0.0 && range <= SONAR_MAX_MM {
-                scratch
-                    .echoes
-                    .push((i, range, usize::MAX - 1, s + e / d * range));
-            }
-        }
-    }
-    scratch
-        .echoes
-        .sort_unstable_by(|a, b| a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)));
     let mut out = [0u16; SONARS];
-    let mut found = [false; SONARS];
-    for &(i, range, wi, p) in &scratch.echoes {
-        if found[i] {
-            continue;
-        }
-        let (s, _) = sensors[i];
-        let len = nalgebra::distance(&p, &s).max(1e-9);
-        let dir = (p - s) / len;
-        let skip = (wi < scene.walls.len()).then_some(wi);
-        // Hidden if another wall is met clearly before the echo point.
-        let hidden = scene
-            .ray_dir(s, dir, (len - 20.0).max(0.0), Sense::Sound, open, skip)
-            .is_some();
-        if hidden {
-            continue;
-        }
-        found[i] = true;
-        out[i] = reading(range, timeouts[i], noise, rng);
-    }
-    for i in 0..SONARS {
-        if !found[i] {
-            out[i] = timeouts[i];
-        }
+    for (i, o) in out.iter_mut().enumerate() {
+        *o = fire(
+            scene,
+            open,
+            at,
+            forward,
+            i,
+            Others::List(others),
+            timeouts[i],
+            noise,
+            rng,
+            scratch,
+        );
     }
     out
+}
+
+/// Fires sonar `i` of a robot at `at` facing `forward` (a unit vector, see
+/// [`direction`]): its range in mm, or `timeout` when nothing echoes within
+/// it.
+///
+/// Only the walls and corners filed under the grid cells the beam crosses
+/// are tried, nearest section of the beam first; the walk stops at the first
+/// section that holds an echo nothing hides (culling).
+#[allow(clippy::too_many_arguments)]
+pub fn fire(
+    scene: &Scene,
+    open: &[bool],
+    at: Point,
+    forward: Vector,
+    i: usize,
+    others: Others<'_>,
+    timeout: u16,
+    noise: &Noise,
+    rng: &mut Rng,
+    scratch: &mut Scratch,
+) -> u16 {
+    let axis = turned(forward, SONAR_TURNS[i % SONARS]);
+    let s = at + axis * ROBOT_RADIUS_MM;
+    let reach = f64::from(timeout).min(SONAR_MAX_MM);
+    let (sin_beam, cos_beam, cos_max) = (SIN_HALF_BEAM, COS_HALF_BEAM, COS_MAX_INCIDENCE);
+    let edges = edges(axis);
+    let (cols, rows) = scene.grid();
+    if scratch.seen.len() != scene.walls.len() || scratch.cell_seen.len() != cols * rows {
+        scratch.seen = vec![0; scene.walls.len()];
+        scratch.cell_seen = vec![0; cols * rows];
+        scratch.firing = 0;
+    }
+    scratch.firing = scratch.firing.wrapping_add(1);
+    if scratch.firing == 0 {
+        scratch.seen.fill(0);
+        scratch.cell_seen.fill(0);
+        scratch.firing = 1;
+    }
+    let firing = scratch.firing;
+    scratch.echoes.clear();
+    if let Others::List(list) = others {
+        for other in list {
+            if let Some(echo) = body_echo(at, s, axis, &edges, other.at, reach) {
+                scratch.echoes.push(echo);
+            }
+        }
+    }
+    let across = Vector::new(-axis.y, axis.x);
+    let mut checked = 0.0;
+    let mut near = 0.0;
+    while near < reach {
+        let far = (near + SECTION_MM).min(reach);
+        // Points of the beam between `near` and `far` from the sensor lie
+        // within this box: along the axis from near·cos to far, across it
+        // within far·sin either side.
+        let half = far * sin_beam + MARGIN_MM;
+        let (a0, a1) = (near * cos_beam - MARGIN_MM, far + MARGIN_MM);
+        let corners = [
+            s + axis * a0 + across * half,
+            s + axis * a0 - across * half,
+            s + axis * a1 + across * half,
+            s + axis * a1 - across * half,
+        ];
+        let lo = corners.iter().fold(corners[0], |m, p| m.inf(p));
+        let hi = corners.iter().fold(corners[0], |m, p| m.sup(p));
+        let (x0, y0) = scene.cell_xy(lo);
+        let (x1, y1) = scene.cell_xy(hi);
+        for cy in y0..=y1 {
+            for cx in x0..=x1 {
+                let c = cy * cols + cx;
+                if scratch.cell_seen[c] == firing {
+                    continue;
+                }
+                scratch.cell_seen[c] = firing;
+                for &wi in scene.walls_in_cell(c) {
+                    let wi = wi as usize;
+                    if scratch.seen[wi] == firing {
+                        continue;
+                    }
+                    scratch.seen[wi] = firing;
+                    if let Some((range, p)) = wall_echo(scene, open, wi, s, axis, cos_beam, cos_max)
+                    {
+                        if range <= reach {
+                            scratch.echoes.push((range, wi, p));
+                        }
+                    }
+                }
+                if let Others::Cells { start, bodies } = others {
+                    let (a, b) = (start.get(c), start.get(c + 1));
+                    if let (Some(&a), Some(&b)) = (a, b) {
+                        for other in bodies.get(a as usize..b as usize).unwrap_or(&[]) {
+                            if let Some(echo) = body_echo(at, s, axis, &edges, other.at, reach) {
+                                scratch.echoes.push(echo);
+                            }
+                        }
+                    }
+                }
+                for &ci in scene.reflectors_in_cell(c) {
+                    let c = scene.reflectors[ci as usize];
+                    let e = c - s;
+                    let range = e.norm();
+                    if range <= reach && range > 1.0 && e.dot(&axis) >= cos_beam * range {
+                        scratch.echoes.push((range, usize::MAX, c));
+                    }
+                }
+            }
+        }
+        // Every echo up to `far` is now known: the nearest one that nothing
+        // hides is the reading.
+        scratch.echoes.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
+        for &(range, wi, p) in &scratch.echoes {
+            if range < checked {
+                continue;
+            }
+            if range > far {
+                break;
+            }
+            let len = nalgebra::distance(&p, &s).max(1e-9);
+            let dir = (p - s) / len;
+            let skip = (wi < scene.walls.len()).then_some(wi);
+            // Hidden if another wall is met clearly before the echo point.
+            let hidden = scene
+                .ray_dir(s, dir, (len - 20.0).max(0.0), Sense::Sound, open, skip)
+                .is_some();
+            if !hidden {
+                return reading(range, timeout, noise, rng);
+            }
+        }
+        checked = far;
+        near = far;
+    }
+    timeout
+}
+
+/// The echo sonar at `s` (on the ring of the robot at `me`) with axis
+/// `axis` hears from the robot whose centre is `other`, if its disc enters
+/// the beam within `reach`: from the disc's nearest point inside the beam.
+fn body_echo(
+    me: Point,
+    s: Point,
+    axis: Vector,
+    edges: &[Vector; 2],
+    other: Point,
+    reach: f64,
+) -> Option<(f64, usize, Point)> {
+    if other == me {
+        return None;
+    }
+    let e = other - s;
+    let d2 = e.norm_squared();
+    let r2 = ROBOT_RADIUS_MM * ROBOT_RADIUS_MM;
+    if d2 <= r2 || d2 > (reach + ROBOT_RADIUS_MM) * (reach + ROBOT_RADIUS_MM) {
+        return None;
+    }
+    let d = d2.sqrt();
+    let (range, p) = if e.dot(&axis) >= COS_HALF_BEAM * d {
+        let range = d - ROBOT_RADIUS_MM;
+        (range, s + e / d * range)
+    } else {
+        // The disc's centre is outside the beam: the disc enters it, if at
+        // all, across the beam's edge nearer to it.
+        let edge = edges[usize::from(axis.perp(&e) < 0.0)];
+        let along = e.dot(&edge);
+        let miss2 = d2 - along * along;
+        if along <= 0.0 || miss2 > r2 {
+            return None;
+        }
+        let range = along - (r2 - miss2).sqrt();
+        (range, s + edge * range)
+    };
+    (range > 0.0 && range <= reach).then_some((range, usize::MAX - 1, p))
+}
+
+/// `v` turned counter-clockwise by the angle of cosine and sine `turn`.
+fn turned(v: Vector, (cos, sin): (f64, f64)) -> Vector {
+    Vector::new(v.x * cos - v.y * sin, v.x * sin + v.y * cos)
+}
+
+/// cos and sin of each sonar's bearing.
+static SONAR_TURNS: LazyLock<[(f64, f64); SONARS]> = LazyLock::new(|| {
+    std::array::from_fn(|i| {
+        let b = sonar_bearing_deg(i).to_radians();
+        (b.cos(), b.sin())
+    })
+});
+
+/// cos and sin of each infrared sensor's bearing, and of the three rays it
+/// looks along (its axis and 10° either side).
+static IR_TURNS: LazyLock<[[(f64, f64); 4]; IR_SENSORS]> = LazyLock::new(|| {
+    std::array::from_fn(|i| {
+        std::array::from_fn(|k| {
+            let spread = [0.0, -10.0, 0.0, 10.0][k];
+            let b = (ir_bearing_deg(i) + spread).to_radians();
+            (b.cos(), b.sin())
+        })
+    })
+});
+
+/// The beam's two edges: `axis` turned by half the beam counter-clockwise,
+/// then clockwise.
+fn edges(axis: Vector) -> [Vector; 2] {
+    let turn = |sin: f64| {
+        Vector::new(
+            axis.x * COS_HALF_BEAM - axis.y * sin,
+            axis.x * sin + axis.y * COS_HALF_BEAM,
+        )
+    };
+    [turn(SIN_HALF_BEAM), turn(-SIN_HALF_BEAM)]
+}
+
+/// The echo sonar at `s` with axis `axis` hears from wall `wi`, if any:
+/// (range, point of reflection).
+fn wall_echo(
+    scene: &Scene,
+    open: &[bool],
+    wi: usize,
+    s: Point,
+    axis: Vector,
+    cos_beam: f64,
+    cos_max: f64,
+) -> Option<(f64, Point)> {
+    if !scene.blocks(wi, Sense::Sound, open) {
+        return None;
+    }
+    let w = &scene.walls[wi];
+    // The sensor must be on the side the wall faces it with.
+    let side = (s - w.a).dot(&w.normal);
+    let n = if side >= 0.0 { w.normal } else { -w.normal };
+    let dist = side.abs();
+    if dist <= 0.0 {
+        return None;
+    }
+    let look = -n;
+    let cos_inc = axis.dot(&look);
+    if cos_inc < cos_max {
+        return None;
+    }
+    let (range, p) = if cos_inc >= cos_beam {
+        (dist, s - n * dist)
+    } else {
+        // The beam's edge ray, the one closest to the normal: `look` turned
+        // by `off` towards the axis.
+        let off = cos_inc.min(1.0).acos() - SONAR_HALF_BEAM_DEG.to_radians();
+        let range = dist / off.cos();
+        let turn = UnitComplex::new(off * look.perp(&axis).signum());
+        (range, s + (turn * look) * range)
+    };
+    let u = (p - w.a).dot(&w.dir);
+    (0.0..=w.len).contains(&u).then_some((range, p))
 }
 
 fn reading(range: f64, timeout: u16, noise: &Noise, rng: &mut Rng) -> u16 {
@@ -215,31 +394,30 @@ pub fn infrared(
     scratch: &mut Scratch,
 ) -> u32 {
     scene.walls_near(at, ROBOT_RADIUS_MM + IR_RANGE_MM, &mut scratch.walls);
-    let walls: Vec<usize> = scratch
+    scratch
         .walls
-        .iter()
-        .map(|&w| w as usize)
-        .filter(|&w| scene.blocks(w, Sense::Sound, open))
-        .collect();
+        .retain(|&w| scene.blocks(w as usize, Sense::Sound, open));
+    let walls = &scratch.walls;
     let reach2 = (2.0 * ROBOT_RADIUS_MM + IR_RANGE_MM).powi(2);
-    let close: Vec<&Body> = others
-        .iter()
-        .filter(|o| nalgebra::distance_squared(&o.at, &at) <= reach2)
-        .collect();
+    let close = || {
+        others
+            .iter()
+            .filter(move |o| nalgebra::distance_squared(&o.at, &at) <= reach2)
+    };
+    let forward = direction(heading);
     let mut bits = 0u32;
-    for i in 0..IR_SENSORS {
+    for (i, turns) in IR_TURNS.iter().enumerate() {
         let b = heading + ir_bearing_deg(i);
-        let d = direction(b);
-        let s = at + d * ROBOT_RADIUS_MM;
-        let mut seen = [-10.0, 0.0, 10.0].iter().any(|spread| {
-            let r = direction(b + spread);
+        let s = at + turned(forward, turns[0]) * ROBOT_RADIUS_MM;
+        let mut seen = turns[1..].iter().any(|&turn| {
+            let r = turned(forward, turn);
             walls.iter().any(|&w| {
-                let w = &scene.walls[w];
+                let w = &scene.walls[w as usize];
                 crate::scene::hit(s, r, w.a, w.dir, w.len).is_some_and(|(t, _)| t <= IR_RANGE_MM)
             })
         });
         if !seen {
-            seen = close.iter().any(|o| {
+            seen = close().any(|o| {
                 let dist = nalgebra::distance(&o.at, &s) - ROBOT_RADIUS_MM;
                 dist <= IR_RANGE_MM
                     && dist > -ROBOT_RADIUS_MM
@@ -251,4 +429,160 @@ pub fn infrared(
         }
     }
     bits
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+
+    use super::*;
+    use crate::spec::SONAR_MAX_INCIDENCE_DEG;
+
+    /// Every echo in the building tried, nothing culled: what [`fire`] must
+    /// agree with.
+    fn everything(
+        scene: &Scene,
+        at: Point,
+        heading: f64,
+        i: usize,
+        others: &[Body],
+        timeout: u16,
+    ) -> u16 {
+        let open = vec![false; scene.elevators.len()];
+        let axis = turned(direction(heading), SONAR_TURNS[i]);
+        let s = at + axis * ROBOT_RADIUS_MM;
+        let reach = f64::from(timeout).min(SONAR_MAX_MM);
+        let beam = SONAR_HALF_BEAM_DEG.to_radians();
+        let cos_max = SONAR_MAX_INCIDENCE_DEG.to_radians().cos();
+        let edges = [
+            direction(heading + sonar_bearing_deg(i) + SONAR_HALF_BEAM_DEG),
+            direction(heading + sonar_bearing_deg(i) - SONAR_HALF_BEAM_DEG),
+        ];
+        let mut echoes = Vec::new();
+        for wi in 0..scene.walls.len() {
+            if let Some((range, p)) = wall_echo(scene, &open, wi, s, axis, beam.cos(), cos_max) {
+                if range <= reach {
+                    echoes.push((range, wi, p));
+                }
+            }
+        }
+        for &c in &scene.reflectors {
+            let e = c - s;
+            let range = e.norm();
+            if range <= reach && range > 1.0 && e.dot(&axis) >= beam.cos() * range {
+                echoes.push((range, usize::MAX, c));
+            }
+        }
+        for o in others {
+            echoes.extend(body_echo(at, s, axis, &edges, o.at, reach));
+        }
+        echoes.sort_by(|a, b| a.0.total_cmp(&b.0));
+        for (range, wi, p) in echoes {
+            let len = nalgebra::distance(&p, &s);
+            let skip = (wi < scene.walls.len()).then_some(wi);
+            if scene
+                .ray_dir(
+                    s,
+                    (p - s) / len,
+                    (len - 20.0).max(0.0),
+                    Sense::Sound,
+                    &open,
+                    skip,
+                )
+                .is_none()
+            {
+                return range.clamp(SONAR_MIN_MM, f64::from(timeout)).round() as u16;
+            }
+        }
+        timeout
+    }
+
+    #[test]
+    fn the_beam_constants_are_its_angles() {
+        let beam = SONAR_HALF_BEAM_DEG.to_radians();
+        assert!((COS_HALF_BEAM - beam.cos()).abs() < 1e-15);
+        assert!((SIN_HALF_BEAM - beam.sin()).abs() < 1e-15);
+        let max = SONAR_MAX_INCIDENCE_DEG.to_radians();
+        assert!((COS_MAX_INCIDENCE - max.cos()).abs() < 1e-15);
+    }
+
+    #[test]
+    fn culling_never_changes_a_reading() {
+        let map = rome_maps::load_named("eb3").unwrap();
+        let scene = Scene::new(&map);
+        let open = vec![false; scene.elevators.len()];
+        let spots: Vec<Point> = scene
+            .world
+            .positions
+            .values()
+            .map(|p| p.in_corridor())
+            .collect();
+        let mut rng = Rng::new(7);
+        let noise = Noise::none();
+        let mut scratch = Scratch::default();
+        let (cols, rows) = scene.grid();
+        let mut tried = 0;
+        let mut echoes = 0;
+        for _ in 0..600 {
+            let base = spots[(rng.next_u64() % spots.len() as u64) as usize];
+            let jitter = |rng: &mut Rng| (rng.uniform() - 0.5) * 3_000.0;
+            let at = base + Vector::new(jitter(&mut rng), jitter(&mut rng));
+            let heading = rng.uniform() * 360.0;
+            // A few robots around, some within reach of the beams.
+            let mut bodies: Vec<Body> = (0..6)
+                .map(|_| Body {
+                    at: at + Vector::new(jitter(&mut rng), jitter(&mut rng)) * 2.0,
+                })
+                .filter(|b| nalgebra::distance(&b.at, &at) > 2.0 * ROBOT_RADIUS_MM)
+                .collect();
+            // Filed by cell, as the world files them.
+            bodies.sort_by_key(|b| {
+                let (cx, cy) = scene.cell_xy(b.at);
+                cy * cols + cx
+            });
+            let mut start = vec![0u32; cols * rows + 1];
+            for b in &bodies {
+                let (cx, cy) = scene.cell_xy(b.at);
+                start[cy * cols + cx + 1] += 1;
+            }
+            for c in 1..start.len() {
+                start[c] += start[c - 1];
+            }
+            for i in 0..SONARS {
+                let timeout = if i % 5 == 0 { 3_000 } else { 10_000 };
+                let want = everything(&scene, at, heading, i, &bodies, timeout);
+                for (how, others) in [
+                    ("listed", Others::List(&bodies)),
+                    (
+                        "by cell",
+                        Others::Cells {
+                            start: &start,
+                            bodies: &bodies,
+                        },
+                    ),
+                ] {
+                    let got = fire(
+                        &scene,
+                        &open,
+                        at,
+                        direction(heading),
+                        i,
+                        others,
+                        timeout,
+                        &noise,
+                        &mut rng,
+                        &mut scratch,
+                    );
+                    assert_eq!(
+                        got, want,
+                        "sonar {i} at {at:?} heading {heading}, robots {how}"
+                    );
+                }
+                tried += 1;
+                echoes += usize::from(want < timeout);
+            }
+        }
+        // The sample must be worth something: most beams hear an echo.
+        assert!(echoes * 3 > tried, "{echoes} echoes of {tried}");
+    }
 }

@@ -3,9 +3,9 @@
 use crate::camera;
 use crate::drive::{Drive, Odometry, Registers};
 use crate::rng::Rng;
-use crate::scene::Scene;
+use crate::scene::{self, Scene};
 use crate::sonar::{self, Body};
-use crate::spec::{SimConfig, ROBOT_RADIUS_MM, SONARS, SONAR_MAX_MM};
+use crate::spec::{SimConfig, IR_RANGE_MM, ROBOT_RADIUS_MM, SONARS, SONAR_MAX_MM};
 use image::GrayImage;
 use rome_maps::geometry::{pt, Heading, Vector};
 use rome_maps::Map;
@@ -105,9 +105,10 @@ pub struct Robot {
     pub odometry: Odometry,
     /// Its bumpers.
     pub bumpers: Bumpers,
-    /// Last sonar ranges, mm.
+    /// Last sonar ranges, mm: each sonar's latest reading.
     pub sonar: [u16; SONARS],
-    /// When the sonars last fired, ms of simulated time.
+    /// When the ring last finished a cycle (or all sonars last fired at
+    /// once), ms of simulated time.
     pub sonar_at_ms: u64,
     /// Per-sonar timeout (maximum range), mm.
     pub timeouts: [u16; SONARS],
@@ -186,6 +187,8 @@ pub struct Sim {
     /// `cell_robots[cell_start[c]..cell_start[c + 1]]`.
     cell_start: Vec<u32>,
     cell_robots: Vec<u32>,
+    /// Where the robots of `cell_robots` are, in the same order.
+    cell_bodies: Vec<Body>,
     /// Whether the cells match the robots' poses (a caller may have moved
     /// one through [`Sim::robot_mut`]).
     cells_fresh: bool,
@@ -218,6 +221,7 @@ impl Sim {
             walls: Vec::new(),
             cell_start: Vec::new(),
             cell_robots: Vec::new(),
+            cell_bodies: Vec::new(),
             cells_fresh: false,
             near: Vec::new(),
         }
@@ -423,13 +427,12 @@ impl Sim {
         }
         // Once per step, for the sensors now and the motion next step.
         self.rebuild_cells();
-        let sonar_due = self.config.sonar_period_ms > 0
-            && self.time_ms % u64::from(self.config.sonar_period_ms) < dt_ms;
+        let sonar_period = u64::from(self.config.sonar_period_ms);
         let camera_due = self.config.camera_period_ms > 0
             && self.time_ms % u64::from(self.config.camera_period_ms) < dt_ms;
         for i in 0..self.robots.len() {
-            if sonar_due {
-                self.sense(i);
+            if sonar_period > 0 {
+                self.fire_due(i, sonar_period, dt_ms);
             }
             if camera_due {
                 self.grab(i);
@@ -460,7 +463,71 @@ impl Sim {
         }
     }
 
-    /// Fires robot `i`'s sonars and reads its infrared now.
+    /// Fires those of robot `i`'s sonars whose turn in the ring's cycle of
+    /// `period` ms came during the last `dt_ms`: one after another in
+    /// [`sonar::FIRING_ORDER`], evenly spread over the cycle, each from where
+    /// the robot is when it fires. The infrared is read as a cycle begins;
+    /// [`Robot::sonar_at_ms`] moves on when a cycle ends.
+    fn fire_due(&mut self, i: usize, period: u64, dt_ms: u64) {
+        let into = self.time_ms % period;
+        let r = &mut self.robots[i];
+        let (at, heading) = (r.pose.at, r.pose.heading.deg());
+        let forward = r.pose.heading.unit();
+        for (k, &sonar) in sonar::FIRING_ORDER.iter().enumerate() {
+            let fires_at = k as u64 * period / SONARS as u64;
+            if (into + period - fires_at) % period >= dt_ms {
+                continue;
+            }
+            r.sonar[sonar] = sonar::fire(
+                &self.scene,
+                &self.open,
+                at,
+                forward,
+                sonar,
+                sonar::Others::Cells {
+                    start: &self.cell_start,
+                    bodies: &self.cell_bodies,
+                },
+                r.timeouts[sonar],
+                &self.config.noise,
+                &mut r.rng,
+                &mut self.scratch,
+            );
+            if k == 0 {
+                let mut near = std::mem::take(&mut self.near);
+                near.clear();
+                let (start, bodies) = (&self.cell_start, &self.cell_bodies);
+                let (cols, _) = self.scene.grid();
+                let reach = ROBOT_RADIUS_MM * 2.0 + IR_RANGE_MM;
+                let (x0, y0) = self.scene.cell_xy(at - Vector::repeat(reach));
+                let (x1, y1) = self.scene.cell_xy(at + Vector::repeat(reach));
+                for cy in y0..=y1 {
+                    for cx in x0..=x1 {
+                        let c = cy * cols + cx;
+                        near.extend(
+                            bodies[start[c] as usize..start[c + 1] as usize]
+                                .iter()
+                                .filter(|b| b.at != at),
+                        );
+                    }
+                }
+                r.infrared = sonar::infrared(
+                    &self.scene,
+                    &self.open,
+                    at,
+                    heading,
+                    &near,
+                    &mut self.scratch,
+                );
+                self.near = near;
+            }
+            if k == SONARS - 1 {
+                r.sonar_at_ms = self.time_ms;
+            }
+        }
+    }
+
+    /// Fires all of robot `i`'s sonars at once and reads its infrared now.
     pub fn sense(&mut self, i: usize) {
         if !self.cells_fresh {
             self.rebuild_cells();
@@ -569,6 +636,11 @@ impl Sim {
         self.cell_start.rotate_left(1);
         let n = self.cell_start.len();
         self.cell_start[n - 1] = self.robots.len() as u32;
+        self.cell_bodies.clear();
+        self.cell_bodies
+            .extend(self.cell_robots.iter().map(|&i| Body {
+                at: self.robots[i as usize].pose.at,
+            }));
         self.cells_fresh = true;
     }
 
@@ -601,12 +673,13 @@ impl Sim {
             let r = &self.robots[i];
             !self.scene.metal.is_empty() && self.scene.on_metal(r.pose.at)
         };
-        let noise = self.config.noise.clone();
+        let noise = &self.config.noise;
         let r = &mut self.robots[i];
         let (vl, vr) = r.drive.step(dt, r.odometry.heading);
         let (dl, dr) = (vl * dt, vr * dt);
         r.odometry.advance(dl, dr);
         let mut blocked = false;
+        let mut walls_fresh = false;
         if dl != 0.0 || dr != 0.0 {
             let slip = noise.slip * if on_metal { noise.metal_factor } else { 1.0 };
             let tl = dl * (1.0 + r.wheel_bias + r.rng.normal(slip));
@@ -618,11 +691,17 @@ impl Sim {
             };
             truth.advance(tl, tr);
             let to = pt(truth.x, truth.y);
+            // Walls near enough for this move and for the bumpers after it.
+            let moved = nalgebra::distance(&to, &r.pose.at);
+            self.scene.walls_near_unsorted(
+                to,
+                ROBOT_RADIUS_MM + CONTACT_MM + moved,
+                &mut self.walls,
+            );
+            walls_fresh = true;
             // A body stops where it would touch a wall or another robot;
             // the wheels may go on turning (and the encoders counting).
-            blocked = self
-                .scene
-                .nearest_solid(to, ROBOT_RADIUS_MM, &self.open, &mut self.walls)
+            blocked = scene::nearest_of(&self.scene, &self.walls, to, ROBOT_RADIUS_MM, &self.open)
                 .is_some()
                 || others.iter().any(|o| {
                     nalgebra::distance_squared(&o.at, &to) < (2.0 * ROBOT_RADIUS_MM).powi(2)
@@ -637,15 +716,18 @@ impl Sim {
             }
         }
         let at = r.pose.at;
-        let wall = self
-            .scene
-            .nearest_solid(
-                at,
-                ROBOT_RADIUS_MM + CONTACT_MM,
-                &self.open,
-                &mut self.walls,
-            )
-            .map(|(_, q)| q);
+        if !walls_fresh {
+            self.scene
+                .walls_near_unsorted(at, ROBOT_RADIUS_MM + CONTACT_MM, &mut self.walls);
+        }
+        let wall = scene::nearest_of(
+            &self.scene,
+            &self.walls,
+            at,
+            ROBOT_RADIUS_MM + CONTACT_MM,
+            &self.open,
+        )
+        .map(|(_, q)| q);
         let robot = others
             .iter()
             .find(|o| {

@@ -635,3 +635,47 @@ fn a_trail_stays_bounded_and_still_covers_the_whole_run() {
     assert_eq!(r.trail[0], start, "the first pose stays");
     assert!(r.trail_every_ms >= 600_000 / 16, "{}", r.trail_every_ms);
 }
+
+#[test]
+fn the_ring_fires_one_sonar_after_another_each_from_where_the_robot_is() {
+    // Driving North towards the North wall at 400 mm/s: in each 100 ms
+    // cycle sonar 12 fires once, 50 ms in (its turn in the firing order),
+    // and reads the range from where the robot is at that moment.
+    let mut sim = room(quiet());
+    let r = sim.add_robot("r", at(5_000.0, 1_500.0, 0.0)).unwrap();
+    sim.robot_mut(r).drive.go(400.0).unwrap();
+    let turn = rome_sim::sonar::FIRING_ORDER
+        .iter()
+        .position(|&s| s == 12)
+        .unwrap() as u64;
+    let fires_at = turn * 100 / 24;
+    let mut last = sim.robot(r).sonar[12];
+    let mut last_cycle = sim.robot(r).sonar_at_ms;
+    let mut fired = 0;
+    for _ in 0..300 {
+        sim.step();
+        let now = sim.time_ms();
+        let robot = sim.robot(r);
+        let reading = robot.sonar[12];
+        let due = (now % 100 + 100 - fires_at) % 100 < 10;
+        if due {
+            let want = 6_000.0 - robot.pose.at.y - ROBOT_RADIUS_MM;
+            assert_eq!(f64::from(reading), want.round(), "at {now} ms");
+            fired += 1;
+        } else {
+            assert_eq!(reading, last, "sonar 12 changed at {now} ms, not its turn");
+        }
+        last = reading;
+        // The cycle's time moves on once per cycle, when the last sonar of
+        // the order has fired.
+        if robot.sonar_at_ms != last_cycle {
+            assert_eq!(robot.sonar_at_ms, now);
+            assert_eq!(now % 100, 0, "a cycle ended at {now} ms");
+            last_cycle = robot.sonar_at_ms;
+        }
+    }
+    assert_eq!(fired, 30);
+    assert_eq!(last_cycle, 3_000);
+    // It moved: the readings were not all the same.
+    assert!(sim.robot(r).pose.at.y > 2_000.0, "{:?}", sim.robot(r).pose);
+}

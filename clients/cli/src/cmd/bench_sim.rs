@@ -2,9 +2,9 @@
 //! in simulated seconds per wall-clock second, on one thread.
 //!
 //! Every robot wanders the corridors (keeps to the middle with jog, turns
-//! away when something is close, bumpers watched) with all 24 sonars firing
-//! at 10 Hz; with cameras on, both cameras also grab every 0.5 s, as the
-//! camera server does (§4.6.4).
+//! away when something is close, bumpers watched) while its ring fires the 24
+//! sonars one after another, each ten times a second; with cameras on, both
+//! cameras also grab every 0.5 s, as the camera server does (§4.6.4).
 
 use rome_maps::geometry::direction;
 use rome_sim::rng::Rng;
@@ -209,7 +209,7 @@ pub fn table(rows: &[SimRow]) -> String {
     }
     let _ = writeln!(
         out,
-        "(one thread; sonars 10 Hz; cameras 512x482, both every 0.5 s when on)"
+        "(one thread; each sonar 10 Hz, fired in turn; cameras 512x482, both every 0.5 s when on)"
     );
     out
 }
