@@ -182,44 +182,94 @@ pub fn side_image(
     let eye = at + ad * ROBOT_RADIUS_MM;
     let focal = f64::from(w) / 2.0 / (SIDE_FOV_DEG / 2.0).to_radians().tan();
     let (wu, hu) = (w as usize, h as usize);
-    // One ray per column: what it meets, and millimetres of height per row
-    // there.
-    let columns: Vec<Option<(f64, usize, f64, bool)>> = (0..wu)
+    let z_at = |row: usize, per_row: f64| {
+        PLATE_HEIGHT_MM + (f64::from(h) / 2.0 - (row as f64 + 0.5)) * per_row
+    };
+    // The first row at or after `from` whose height is not above `limit`
+    // (heights fall row by row).
+    let first_below = |limit: f64, per_row: f64, strict: bool| {
+        let guess = f64::from(h) / 2.0 - 0.5 - (limit - PLATE_HEIGHT_MM) / per_row;
+        let mut row = if guess > 2.0 {
+            ((guess as usize) - 2).min(hu)
+        } else {
+            0
+        };
+        while row < hu
+            && (if strict {
+                z_at(row, per_row) >= limit
+            } else {
+                z_at(row, per_row) > limit
+            })
+        {
+            row += 1;
+        }
+        row
+    };
+    // One ray per column: what it meets, millimetres of height per row
+    // there, and the rows where the wall starts (above it the ceiling) and
+    // the floor starts.
+    let columns: Vec<Option<Column>> = (0..wu)
         .map(|col| {
             let x = col as f64 + 0.5 - f64::from(w) / 2.0;
             let off = (x / focal).atan();
             let ray = axis - off.to_degrees();
             let (t, wi, u) = scene.ray(eye, ray, SIDE_RANGE_MM, Sense::Sight, open, None)?;
             let wall = &scene.walls[wi];
-            // Only plates and posters make a wall's look depend on more
-            // than the height; without them it changes at a few heights.
-            let plain = wall.plates.is_empty() && wall.posters.is_empty();
-            Some((t * off.cos() / focal, wi, u, plain))
+            let per_row = t * off.cos() / focal;
+            let top = first_below(WALL_HEIGHT_MM, per_row, false);
+            let floor = first_below(0.0, per_row, true).max(top);
+            // A wall without plates, posters or glass bricks changes its
+            // look only at the door frame's heights: three runs of rows.
+            let plain = wall.plates.is_empty()
+                && wall.posters.is_empty()
+                && !(wall.kind == EdgeKind::Window && wall.bricks);
+            let mut runs = None;
+            if plain {
+                let frame_top = first_below(FRAME_MM.1, per_row, false).clamp(top, floor);
+                let frame_bottom = first_below(FRAME_MM.0, per_row, true).clamp(frame_top, floor);
+                // Each run's grey, read at one of its rows; a row exactly
+                // at a frame edge is left to the pixel-by-pixel path.
+                let grey = |from: usize, to: usize| {
+                    (from < to).then(|| surface(scene, wi, u, z_at(from, per_row)))
+                };
+                let exact = [frame_top, frame_bottom]
+                    .iter()
+                    .any(|&r| r < hu && FRAME_MM_EDGES.contains(&z_at(r, per_row)));
+                if !exact {
+                    runs = Some((
+                        [frame_top, frame_bottom],
+                        [
+                            grey(top, frame_top).unwrap_or(0),
+                            grey(frame_top, frame_bottom).unwrap_or(0),
+                            grey(frame_bottom, floor).unwrap_or(0),
+                        ],
+                    ));
+                }
+            }
+            Some(Column {
+                per_row,
+                wi,
+                u,
+                top,
+                floor,
+                runs,
+            })
         })
         .collect();
-    // The last height band each column drew a plain wall in, and its grey.
-    let mut last: Vec<(f64, u8)> = vec![(f64::NAN, 0); wu];
     let mut pixels = vec![FAR_GREY; wu * hu];
     for (row, line) in pixels.chunks_exact_mut(wu).enumerate() {
-        let y = f64::from(h) / 2.0 - (row as f64 + 0.5);
-        for ((px, column), last) in line.iter_mut().zip(&columns).zip(&mut last) {
-            let Some((per_row, wi, u, plain)) = *column else {
+        for (px, column) in line.iter_mut().zip(&columns) {
+            let Some(c) = column else {
                 continue;
             };
-            let z = PLATE_HEIGHT_MM + y * per_row;
-            *px = if z < 0.0 {
-                FLOOR_GREY
-            } else if z > WALL_HEIGHT_MM {
+            *px = if row < c.top {
                 UPPER_CEILING_GREY
+            } else if row >= c.floor {
+                FLOOR_GREY
+            } else if let Some(([a, b], greys)) = c.runs {
+                greys[usize::from(row >= a) + usize::from(row >= b)]
             } else {
-                let band = height_band(z);
-                if plain && last.0 == band {
-                    last.1
-                } else {
-                    let v = surface(scene, wi, u, z);
-                    *last = (band, v);
-                    v
-                }
+                surface(scene, c.wi, c.u, z_at(row, c.per_row))
             };
         }
     }
@@ -227,20 +277,26 @@ pub fn side_image(
     GrayImage::from_raw(w, h, pixels).unwrap_or_else(|| GrayImage::new(w, h))
 }
 
-/// Which of the heights at which a plain wall's look may change `z` lies
-/// between (see [`surface`]: door frames and glass bricks).
-fn height_band(z: f64) -> f64 {
-    if (2_050.0..2_110.0).contains(&z) {
-        -1.0
-    } else if z >= 2_110.0 {
-        -2.0
-    } else {
-        // Glass bricks change every 20 mm of height (200 mm blocks, 10 %
-        // mortar). z ≥ 0 here, so truncating is flooring (and much cheaper
-        // than `floor` on a baseline x86-64).
-        ((z / 20.0) as i64) as f64
-    }
+/// What one column of the sideways image looks at.
+struct Column {
+    /// Millimetres of height per row on the wall it meets.
+    per_row: f64,
+    /// The wall, and where along it.
+    wi: usize,
+    u: f64,
+    /// The first row of wall below the ceiling, and the first of floor.
+    top: usize,
+    floor: usize,
+    /// For a wall whose look changes only at the door frame's heights: the
+    /// rows where the frame starts and ends, and the greys above, in and
+    /// below it.
+    runs: Option<([usize; 2], [u8; 3])>,
 }
+
+/// The heights of a door frame's top bar, mm: [bottom, top) (see
+/// [`surface`]).
+const FRAME_MM: (f64, f64) = (2_050.0, 2_110.0);
+const FRAME_MM_EDGES: [f64; 2] = [FRAME_MM.0, FRAME_MM.1];
 
 /// What a wall looks like at offset `u` along it and height `z`.
 fn surface(scene: &Scene, wi: usize, u: f64, z: f64) -> u8 {
@@ -270,9 +326,9 @@ fn surface(scene: &Scene, wi: usize, u: f64, z: f64) -> u8 {
     match wall.kind {
         EdgeKind::Door => {
             // A darker frame around a wooden door.
-            if u < 60.0 || u > wall.len - 60.0 || (2_050.0..2_110.0).contains(&z) {
+            if u < 60.0 || u > wall.len - 60.0 || (FRAME_MM.0..FRAME_MM.1).contains(&z) {
                 60
-            } else if z > 2_110.0 {
+            } else if z > FRAME_MM.1 {
                 170
             } else {
                 105

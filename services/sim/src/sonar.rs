@@ -271,6 +271,16 @@ fn body_echo(
         return None;
     }
     let e = other - s;
+    // Cheap rejections first: a disc wholly behind the sensor, or wholly
+    // outside the cone (its centre farther from the cone's edge than the
+    // radius).
+    let ahead = e.dot(&axis);
+    let aside = axis.perp(&e).abs();
+    if ahead < -ROBOT_RADIUS_MM
+        || aside * COS_HALF_BEAM - ahead.max(0.0) * SIN_HALF_BEAM > ROBOT_RADIUS_MM
+    {
+        return None;
+    }
     let d2 = e.norm_squared();
     let r2 = ROBOT_RADIUS_MM * ROBOT_RADIUS_MM;
     if d2 <= r2 || d2 > (reach + ROBOT_RADIUS_MM) * (reach + ROBOT_RADIUS_MM) {
@@ -495,6 +505,59 @@ mod tests {
             }
         }
         timeout
+    }
+
+    #[test]
+    fn a_robot_echoes_from_its_nearest_point_inside_the_beam() {
+        // Against rays spread densely across the beam, edges included.
+        let mut rng = Rng::new(11);
+        let me = Point::new(0.0, 0.0);
+        let axis = direction(0.0);
+        let s = me + axis * ROBOT_RADIUS_MM;
+        let edges = edges(axis);
+        let (mut heard, mut missed) = (0, 0);
+        for _ in 0..4_000 {
+            let other = s + Vector::new(
+                (rng.uniform() - 0.5) * 2_500.0,
+                (rng.uniform() - 0.3) * 10_000.0,
+            );
+            let got = body_echo(me, s, axis, &edges, other, SONAR_MAX_MM).map(|(r, _, _)| r);
+            let e = other - s;
+            let r2 = ROBOT_RADIUS_MM * ROBOT_RADIUS_MM;
+            let mut nearest: Option<f64> = None;
+            let mut least_miss = f64::INFINITY;
+            for k in 0..=2_000 {
+                let a = (k as f64 / 1_000.0 - 1.0) * SONAR_HALF_BEAM_DEG;
+                let ray = direction(a);
+                let along = e.dot(&ray);
+                let miss2 = e.norm_squared() - along * along;
+                if along > 0.0 {
+                    least_miss = least_miss.min(miss2.sqrt());
+                }
+                if along > 0.0 && miss2 <= r2 {
+                    let t = along - (r2 - miss2).sqrt();
+                    if t > 0.0 && t <= SONAR_MAX_MM && nearest.is_none_or(|n| t < n) {
+                        nearest = Some(t);
+                    }
+                }
+            }
+            // Discs that barely touch the beam are left to rounding.
+            if (least_miss - ROBOT_RADIUS_MM).abs() < 1.0 || e.norm() <= ROBOT_RADIUS_MM {
+                continue;
+            }
+            match (got, nearest) {
+                (Some(g), Some(n)) => {
+                    assert!((g - n).abs() < 2.0, "{other:?}: {g} vs {n}");
+                    heard += 1;
+                }
+                (None, None) => missed += 1,
+                _ => panic!("{other:?}: {got:?} vs {nearest:?}"),
+            }
+        }
+        assert!(
+            heard > 100 && missed > 100,
+            "{heard} heard, {missed} missed"
+        );
     }
 
     #[test]
