@@ -255,7 +255,7 @@ impl ProximityDevice for SimProximity {
         let r = sim.robot(self.i);
         Ok(RawScan {
             time_ms: r.sonar_at_ms,
-            sonar_mm: r.sonar.map(u32::from),
+            sonar_mm: r.scan.map(u32::from),
             ir: r.infrared,
         })
     }

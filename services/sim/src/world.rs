@@ -107,6 +107,10 @@ pub struct Robot {
     pub bumpers: Bumpers,
     /// Last sonar ranges, mm: each sonar's latest reading.
     pub sonar: [u16; SONARS],
+    /// The ranges of the ring's last complete cycle, mm: what the
+    /// proximity subsystem reports, the same whenever it is read until the
+    /// next cycle ends.
+    pub scan: [u16; SONARS],
     /// When the ring last finished a cycle (or all sonars last fired at
     /// once), ms of simulated time.
     pub sonar_at_ms: u64,
@@ -132,6 +136,9 @@ pub struct Robot {
     covered: u8,
     /// The wheels' systematic difference (heading drift).
     wheel_bias: f64,
+    /// Where its cameras' pixel noise comes from (see
+    /// [`Sim::grab_camera`]).
+    camera_seed: u64,
     rng: Rng,
 }
 
@@ -302,6 +309,7 @@ impl Sim {
         }
         let mut rng = self.rng.fork();
         let wheel_bias = rng.normal(self.config.noise.wheel_mismatch);
+        let camera_seed = rng.next_u64();
         let mut odometry = Odometry {
             x: 0.0,
             y: 0.0,
@@ -318,6 +326,7 @@ impl Sim {
             odometry,
             bumpers: Bumpers::default(),
             sonar: [SONAR_MAX_MM as u16; SONARS],
+            scan: [SONAR_MAX_MM as u16; SONARS],
             sonar_at_ms: 0,
             timeouts: [SONAR_MAX_MM as u16; SONARS],
             infrared: 0,
@@ -329,6 +338,7 @@ impl Sim {
             contacts: Contacts::default(),
             covered: 0,
             wheel_bias,
+            camera_seed,
             rng,
         });
         let i = self.robots.len() - 1;
@@ -522,6 +532,7 @@ impl Sim {
                 self.near = near;
             }
             if k == SONARS - 1 {
+                r.scan = r.sonar;
                 r.sonar_at_ms = self.time_ms;
             }
         }
@@ -555,6 +566,7 @@ impl Sim {
             &others,
             &mut self.scratch,
         );
+        r.scan = r.sonar;
         r.sonar_at_ms = self.time_ms;
         self.near = others;
     }
@@ -580,8 +592,19 @@ impl Sim {
 
     /// Grabs one of robot `i`'s cameras now and returns the image (also
     /// kept in the robot's `up` or `side`).
+    ///
+    /// A frame's pixel noise follows from the robot, the camera and the
+    /// instant alone, not from a generator the motion also draws on: grabs
+    /// asked for in any order, or twice, or not at all, change nothing else
+    /// in the world (a run repeats whatever order two servers' requests
+    /// arrive in).
     pub fn grab_camera(&mut self, i: usize, which: Camera) -> GrayImage {
         let r = &mut self.robots[i];
+        let mut frame = Rng::new(
+            r.camera_seed
+                ^ self.time_ms.wrapping_mul(0x9E37_79B9_7F4A_7C15)
+                ^ (u64::from(Self::camera_bit(which)) << 56),
+        );
         let at = r.pose.at;
         let size = self.config.image_size;
         let px = &self.pixel_noise;
@@ -590,7 +613,7 @@ impl Sim {
         } else {
             match which {
                 Camera::Up => {
-                    camera::up_image(&self.scene, at, r.pose.heading.deg(), size, px, &mut r.rng)
+                    camera::up_image(&self.scene, at, r.pose.heading.deg(), size, px, &mut frame)
                 }
                 Camera::Side => camera::side_image(
                     &self.scene,
@@ -599,7 +622,7 @@ impl Sim {
                     r.pose.heading.deg(),
                     size,
                     px,
-                    &mut r.rng,
+                    &mut frame,
                 ),
             }
         };
