@@ -3,7 +3,7 @@
 //! Sonar follows the usual specular model of Polaroid ranging (Kuc and
 //! Siegel 1987; Leonard and Durrant-Whyte 1992): a flat wall returns an echo
 //! only when its normal lies within the beam (here: within
-//! [`SONAR_MAX_INCIDENCE_DEG`] of the axis, the beam being
+//! [`SONAR_MAX_INCIDENCE_DEG`](crate::spec::SONAR_MAX_INCIDENCE_DEG) of the axis, the beam being
 //! [`SONAR_HALF_BEAM_DEG`] either side), at the range of the nearest point of
 //! the beam on it; corners return from any direction inside the beam; glass
 //! returns nothing; another robot returns from its nearest side. Whatever
