@@ -198,6 +198,7 @@ impl CTracker {
         drop(tx);
         loop {
             tokio::select! {
+                biased;
                 Some(done) = children.join_next() => {
                     return match done {
                         Ok(Err(e)) => Err(e),
@@ -241,6 +242,7 @@ impl CTracker {
         while count < total {
             let expected = offsets[count];
             tokio::select! {
+                biased;
                 s = rome_clock::idle(rx.recv()) => {
                     let Some(s) = s else {
                         return Err(NavError::Gone("every ceiling-light child tracker stopped"));

@@ -525,6 +525,7 @@ impl Himm {
                 let mut in_map = 0i64;
                 while seen < total {
                     tokio::select! {
+                        biased;
                         Some(()) = rome_clock::idle(lights.recv()) => {
                             seen += 1;
                             in_map += 1;
@@ -572,6 +573,7 @@ impl Himm {
         };
         let result = if self.cfg.learn_drift {
             tokio::select! {
+                biased;
                 r = mapping => r,
                 r = self.compensate() => r,
             }

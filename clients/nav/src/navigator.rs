@@ -269,6 +269,7 @@ impl Navigator {
         let mut idle = 0usize;
         loop {
             tokio::select! {
+                biased;
                 goal = &mut take => return Ok(goal?),
                 _ = self.next_scan(scans), if self.is_moving() => {
                     idle += 1;
@@ -295,6 +296,7 @@ impl Navigator {
         let read = board.get::<i64>(Var::CeilingLight);
         tokio::pin!(read);
         let got = tokio::select! {
+            biased;
             got = &mut read => got,
             _ = rome_clock::sleep(self.cfg.blind_after) => {
                 tracing::warn!("navigator: the light count goes unanswered; stopping the robot until it is read");

@@ -143,6 +143,7 @@ impl PoseTrack {
                 }
             }
             tokio::select! {
+                biased;
                 _ = rome_clock::idle(notified) => {}
                 _ = &mut wait => break,
             }

@@ -700,6 +700,7 @@ async fn run_all(
     let mut tick = rome_clock::interval(cfg.period(1_000.0));
     while reports.iter().any(Option::is_none) {
         tokio::select! {
+            biased;
             Some(event) = rome_clock::idle(erx.recv()) => {
                 match &event {
                     Event::Finished { robot, report } => reports[*robot] = Some((**report).clone()),
@@ -855,6 +856,7 @@ async fn drive(
             .await
         };
         tokio::select! {
+            biased;
             r = run => r.err().map(|e| format!("the Planner stopped: {e}")),
             why = cancelled => Some(why.unwrap_or_else(|_| "the run was stopped".into())),
         }

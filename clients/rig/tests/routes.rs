@@ -114,7 +114,6 @@ async fn a_multi_corner_route_ends_within_a_metre_of_the_goal() {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-#[ignore = "not always held: 11 runs of 20 on 2026-11-25 (docs/navigation.md, Simulated time); run with --ignored"]
 async fn one_seed_gives_the_same_run_to_the_last_bit() {
     // Two runs of one route and seed at once (each slowing the other, and
     // the other tests of this file running beside them): the same

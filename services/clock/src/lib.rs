@@ -29,6 +29,12 @@
 //! - [`External`] ([`LockStep::external`]): a party in another process,
 //!   busy from the moment it is sent an instant until it says it is done.
 //!
+//! A participant that waits on several things at once writes
+//! `tokio::select! { biased; … }`: without `biased` tokio polls the
+//! branches in a random order, and two that are ready at one instant
+//! (a scan and a light, say) would be taken in a different order from one
+//! run to the next.
+//!
 //! A run is then the same whatever the machine's load: every reaction to
 //! what happened at simulated time `t` is complete before the world takes
 //! its next step. And one participant runs at a time, taking turns in the
@@ -901,7 +907,11 @@ impl Interval {
 /// A point in time: simulated in a participant of a lock-step clock, the
 /// wall clock's elsewhere (for deadlines and round trips that must not
 /// depend on how fast the machine computes).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+///
+/// Instants of one kind compare by time. The two kinds do not meet in one
+/// process's server (everything it runs is a participant or nothing is);
+/// should they, a simulated instant counts as the earlier.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum Instant {
     /// Simulated milliseconds.
     Sim(u64),
@@ -924,6 +934,24 @@ impl Instant {
             (Instant::Sim(t), Instant::Sim(now)) => Duration::from_millis(now.saturating_sub(*t)),
             (Instant::Wall(t), Instant::Wall(now)) => now.saturating_duration_since(*t),
             _ => Duration::ZERO,
+        }
+    }
+
+    /// Time from `earlier` to `self` (zero if `earlier` is later, or of
+    /// the other kind).
+    pub fn saturating_duration_since(&self, earlier: Instant) -> Duration {
+        match (self, earlier) {
+            (Instant::Sim(t), Instant::Sim(e)) => Duration::from_millis(t.saturating_sub(e)),
+            (Instant::Wall(t), Instant::Wall(e)) => t.saturating_duration_since(e),
+            _ => Duration::ZERO,
+        }
+    }
+
+    /// `d` before `self`, if that can be represented.
+    pub fn checked_sub(&self, d: Duration) -> Option<Instant> {
+        match self {
+            Instant::Sim(t) => t.checked_sub(ms(d)).map(Instant::Sim),
+            Instant::Wall(t) => t.checked_sub(d).map(Instant::Wall),
         }
     }
 
