@@ -14,7 +14,7 @@ use rome_hardware::sim::{SimBase, SimCamera, SimProximity, SimWorld};
 use rome_schema::robot::Device;
 use rome_schema::{Params, Root};
 use std::sync::{Mutex, OnceLock};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 /// A decoder under test.
 pub type Decoder = fn(&[u8]);
@@ -55,7 +55,7 @@ pub fn data_request(bytes: &[u8]) {
         }))
     });
     let mut store = store.lock().unwrap_or_else(|p| p.into_inner());
-    let _ = request.apply(&mut store, Instant::now());
+    let _ = request.apply(&mut store, rome_clock::Instant::now());
 }
 
 struct Servers {

@@ -942,3 +942,85 @@ async fn a_camera_reply_with_other_rows_or_an_absurd_size_is_refused() {
     assert_eq!(img.row(1), Some(&[7u8; 4][..]));
     assert_eq!(img.row(2), None);
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn in_lock_step_a_grant_and_a_queued_request_last_simulated_time() {
+    // A base server that is a participant of a lock-step clock: however
+    // long the world stands still by the wall clock, its lock and its
+    // queue wait for simulated time to pass.
+    let clock = rome_clock::LockStep::new(0);
+    let (session, _) = Rig::session().await;
+    let rec = Recorder::default();
+    let config = ServerConfig::new(&Root::default(), "r1", Device::Base).unwrap();
+    let _server = {
+        let (session, rec) = (session.clone(), rec.clone());
+        clock
+            .participate("the test's server", async move {
+                robot::spawn(&session, config, Base::new("r1", rec, None))
+            })
+            .await
+    };
+    let rig = Rig {
+        port: 0,
+        state: None,
+        session: session.clone(),
+        servers: Vec::new(),
+        _stepper: None,
+    };
+    rig.await_alive("base").await;
+    let step_to = |t: u64| {
+        let clock = clock.clone();
+        async move {
+            while clock.now_ms() < t {
+                clock.settled().await;
+                clock.try_advance(|| clock.now_ms() + 50).await;
+            }
+            clock.settled().await;
+        }
+    };
+
+    let grant = plain(&session, "rome/robot/r1/base/lock?owner=a;ttl_ms=300", "")
+        .await
+        .unwrap();
+    let fence = grant["fence"].as_u64().unwrap();
+    let queued = {
+        let s = session.clone();
+        tokio::spawn(async move { plain(&s, "rome/robot/r1/base/mode?wait_ms=1000", "").await })
+    };
+    let go = |v: u32| {
+        let s = session.clone();
+        async move {
+            plain(
+                &s,
+                &format!("rome/robot/r1/base/go?fence={fence}"),
+                &format!(r#"{{"velocity_mm_s":{v}}}"#),
+            )
+            .await
+        }
+    };
+    // The holder's command comes after the queued request on the same
+    // session, so the request is in the queue once it is answered.
+    go(1).await.unwrap();
+    // Twice the grant's and more than the wait's lifetime by the wall clock.
+    std::thread::sleep(Duration::from_millis(1_200));
+    step_to(200).await;
+    assert!(
+        !queued.is_finished(),
+        "a queued request ended with the clock at 200 ms"
+    );
+    go(2)
+        .await
+        .expect("the grant lives 300 simulated ms from its last use");
+    assert_eq!(velocities(&rec), [1.0, 2.0]);
+
+    // Not renewed from 200 ms on: it lapses at 500 ms, and the request
+    // queued behind it is served.
+    step_to(600).await;
+    assert!(
+        queued.await.unwrap().is_ok(),
+        "the queued request is served"
+    );
+    let err = go(3).await.expect_err("the grant has lapsed");
+    assert_eq!(err["code"], "stale_fence", "{err}");
+    assert_eq!(velocities(&rec), [1.0, 2.0]);
+}

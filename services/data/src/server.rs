@@ -21,6 +21,7 @@
 
 use crate::cmd::{Params, Request};
 use crate::store::{Disk, DiskError, Flush, Grant, Store};
+use rome_clock::Instant;
 use rome_schema::data::{Committed, Rejected, WaitReply, WaitStatus, DEFAULT_HISTORY};
 use rome_schema::keys::DataOp;
 use rome_schema::{encode, ErrorCode, ErrorReply, Root};
@@ -29,7 +30,7 @@ use serde::Serialize;
 use std::collections::hash_map::Entry;
 use std::collections::{HashMap, HashSet};
 use std::future::Future;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 use zenoh::bytes::Encoding;
 use zenoh::key_expr::KeyExpr;
 use zenoh::qos::CongestionControl;

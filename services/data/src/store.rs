@@ -21,6 +21,7 @@
 //!   by itself. A robot's Planner holds a narrow passage this way, so a
 //!   robot whose clients die inside it does not close it for ever.
 
+use rome_clock::Instant;
 use rome_schema::data::{
     Committed, CreateReply, HistoryInfo, SemState, SetReply, SignalReply, TryWaitReply, WaitReply,
     WaitStatus, MAX_HISTORY, MAX_SEMAPHORE_VALUE,
@@ -28,7 +29,7 @@ use rome_schema::data::{
 use rome_schema::{ErrorCode, ErrorReply, Name};
 use serde_json::Value;
 use std::collections::{BTreeMap, BTreeSet, HashMap, VecDeque};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 mod durable;
 pub use durable::{Disk, DiskError, Flush, FILE_NAME};

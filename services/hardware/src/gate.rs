@@ -8,10 +8,11 @@
 //! other fence is refused, so a holder whose grant lapsed cannot act on the
 //! robot after someone else got it.
 
+use rome_clock::Instant;
 use rome_schema::robot::LockInfo;
 use std::cmp::Ordering;
 use std::collections::BinaryHeap;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 /// The current grant.
 #[derive(Debug, Clone, PartialEq, Eq)]

@@ -132,6 +132,7 @@ pub fn spawn_clock(
         let mut tick = rome_clock::interval(period);
         loop {
             tokio::select! {
+                biased;
                 _ = rome_clock::idle(&mut stopped) => return Ok(()),
                 _ = tick.tick() => {
                     let clock = rome_schema::sim::Clock {
@@ -280,6 +281,7 @@ pub fn spawn_lockstep_clock(
     let task = tokio::spawn(async move {
         loop {
             tokio::select! {
+                biased;
                 _ = &mut stopped => return Ok(()),
                 step = steps.recv() => {
                     let Some(time_ms) = step else { return Ok(()) };

@@ -10,6 +10,7 @@
 //! order, decides who goes next.
 
 use crate::gate::{Admit, Gate, Holder};
+use rome_clock::Instant;
 use rome_schema::robot::{
     param, robot_name, Device, LockGrant, LockInfo, LockRecord, Meta, Unlocked,
     DEFAULT_LOCK_TTL_MS, LOCK_TTL_RANGE_MS,
@@ -18,7 +19,7 @@ use rome_schema::{decode, encode, ErrorCode, ErrorReply, Name, Params, Root};
 use rome_serve::{reply_err, Handler, Inbox, Periods};
 use std::collections::{HashMap, VecDeque};
 use std::future::Future;
-use std::time::{Duration, Instant, SystemTime};
+use std::time::{Duration, SystemTime};
 use zenoh::bytes::{Encoding, ZBytes};
 use zenoh::qos::CongestionControl;
 use zenoh::query::{ConsolidationMode, Query};
@@ -618,6 +619,7 @@ impl<S: Service> Server<S> {
                 Err(_) => Err(ErrorReply::new(ErrorCode::Conflict, "the lock is not held")),
             },
             Op::Do(cmd) => {
+                tracing::trace!(server = %self.config.label(), sim_ms = ?rome_clock::now_ms(), client = ?p.client, %key, params = %p.query.parameters(), "carrying out");
                 self.count(p.op_id.as_deref());
                 let lock = self.lock();
                 let moving = self.service.sets_moving(&cmd);

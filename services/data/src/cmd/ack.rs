@@ -1,9 +1,9 @@
 use super::cancel::required_ticket;
 use super::{Applied, Params};
 use crate::store::Store;
+use rome_clock::Instant;
 use rome_schema::data::param;
 use rome_schema::{ErrorReply, Name};
-use std::time::Instant;
 
 /// Confirms a granted wait: the unit is the client's for good.
 ///

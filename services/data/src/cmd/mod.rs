@@ -30,11 +30,12 @@ pub use try_wait::TryWait;
 pub use wait::Wait;
 
 use crate::store::{Grant, Store};
+use rome_clock::Instant;
 use rome_schema::data::Committed;
 use rome_schema::keys::DataOp;
 use rome_schema::{encode, ErrorCode, ErrorReply, KeyError, Root};
 use serde::Serialize;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 /// A request to the data server, parsed from a query on a literal key.
 #[derive(Debug, Clone, PartialEq)]

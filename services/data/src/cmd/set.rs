@@ -1,9 +1,9 @@
 use super::{Applied, Params};
 use crate::store::Store;
+use rome_clock::Instant;
 use rome_schema::data::{param, MAX_VALUE_BYTES};
 use rome_schema::{decode, ErrorCode, ErrorReply, Name};
 use serde_json::Value;
-use std::time::Instant;
 
 /// Acknowledged write: the reply comes after the value is committed, so
 /// the writer's next read sees it (read-your-writes). A plain Zenoh `put`

@@ -1,8 +1,8 @@
 use super::{Applied, Params};
 use crate::store::Store;
+use rome_clock::Instant;
 use rome_schema::data::param;
 use rome_schema::{ErrorReply, Name};
-use std::time::Instant;
 
 /// up(): adds a unit, handing it to the first queued wait if there is one
 /// (the thesis' `DataSignal(DS, "$XYZ")`).

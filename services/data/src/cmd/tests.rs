@@ -1,7 +1,7 @@
 use super::*;
 use crate::store::Store;
+use rome_clock::Instant;
 use rome_schema::ErrorCode;
-use std::time::Instant;
 
 fn parse(key: &str, params: &str, payload: Option<&[u8]>) -> Result<Request, ErrorReply> {
     Request::parse(&Root::default(), key, Params::parse(params), payload)

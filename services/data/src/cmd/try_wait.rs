@@ -1,8 +1,8 @@
 use super::{Applied, Params};
 use crate::store::Store;
+use rome_clock::Instant;
 use rome_schema::data::param;
 use rome_schema::{ErrorReply, Name};
-use std::time::Instant;
 
 /// Non-blocking down() (the thesis' `down_nowait()`): takes a unit if one
 /// is free and no wait is queued before it.

@@ -1,8 +1,9 @@
 use super::{Applied, Params};
 use crate::store::Store;
+use rome_clock::Instant;
 use rome_schema::data::{param, WaitStatus, DEFAULT_HOLD_MS, MAX_HOLD_MS};
 use rome_schema::{encode, ErrorReply, Name};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 /// Blocking down() (the thesis' `DataWait(DS, "$XYZ")`): answered
 /// `granted` as soon as a unit is the ticket's, or `pending` after

@@ -22,10 +22,11 @@
 //! grace period to show they are alive (or to ask again) after a restart.
 
 use super::{Changes, Held, Remembered, Sem, Store, Ticket, TicketState, Var};
+use rome_clock::Instant;
 use rome_schema::Name;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
-use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
 use redb::{Database, Durability, ReadableDatabase, ReadableTable, TableDefinition};
 
