@@ -82,6 +82,8 @@ pub enum Command {
     Certs(cmd::certs::Args),
     /// Run everything in one process: a simulated robot drives from room to room (no router, no configuration).
     Demo(cmd::demo::Args),
+    /// Rerun Chapter 6's runs (Tables 6.1 and 6.2) in simulation, several at a time, and tabulate them beside the thesis'.
+    Experiment(cmd::experiment::Args),
     /// Path Planner (§5.3): plan a route, register the robot at its start, hand goals to the Navigator.
     Planner(cmd::nav::PlannerArgs),
     /// Navigator (§5.4): carry out the Planner's goals with the Center-Hallway and Corner states.
@@ -155,6 +157,7 @@ pub async fn run(cli: Cli) -> anyhow::Result<u8> {
             cli.command,
             Command::Sim(_)
                 | Command::Demo(_)
+                | Command::Experiment(_)
                 | Command::Bench(_)
                 | Command::Soak(_)
                 | Command::Storage(_)
@@ -190,6 +193,7 @@ async fn run_command(cli: Cli) -> anyhow::Result<u8> {
         Command::Router(args) => cmd::router::run(&common, args).await,
         Command::Certs(args) => cmd::certs::run(args),
         Command::Demo(args) => cmd::demo::run(&common, args).await,
+        Command::Experiment(args) => cmd::experiment::run(args).await,
         Command::Planner(args) => cmd::nav::planner(&common, args).await,
         Command::Navigator(args) => cmd::nav::navigator(&common, args).await,
         Command::Ctracker(args) => cmd::nav::ctracker(&common, args).await,

@@ -245,6 +245,61 @@ fn demo_refuses_a_broken_routes_file_by_line() {
 }
 
 #[test]
+fn experiment_tabulates_its_runs_and_the_confidence_automaton() {
+    let dir = std::env::temp_dir().join(format!("rome-experiment-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let routes = dir.join("two.routes");
+    std::fs::write(&routes, "A392L A340R\n302L A340R\n").unwrap();
+    let out_dir = dir.join("out");
+    let out = offline_ok([
+        "experiment",
+        "--routes",
+        routes.to_str().unwrap(),
+        "--seed",
+        "5",
+        "-o",
+        out_dir.to_str().unwrap(),
+    ]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("| 1 | A392L to A340R | 5 | "), "{text}");
+    assert!(text.contains("| 2 | 302L to A340R | 6 | "), "{text}");
+    assert!(text.contains("2 of 2 runs arrived"), "{text}");
+    // §6.3: the counts behind p2 (two L segments) and p3 (one corner),
+    // and Table 6.5's row for each route with its input string.
+    assert!(
+        text.contains("| p2 = p6 | L-mode completed | 2/2 = 1.0000 | 99/101 = 0.9802 |"),
+        "{text}"
+    );
+    assert!(
+        text.contains("| p3 = p4 = p7 | C-mode completed | 1/1 = 1.0000 |"),
+        "{text}"
+    );
+    assert!(
+        text.contains("| 302L to A340R | cld | 1.0000 | 0.8913 |"),
+        "{text}"
+    );
+    let csv = std::fs::read_to_string(out_dir.join("runs.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 3, "{csv}");
+    assert!(
+        csv.lines()
+            .nth(2)
+            .unwrap()
+            .starts_with("2,302L,A340R,6,true,"),
+        "{csv}"
+    );
+    let md = std::fs::read_to_string(out_dir.join("runs.md")).unwrap();
+    assert!(md.contains("## Confidence"), "{md}");
+
+    // Clear errors: a map with no default runs, a broken routes file.
+    let err = offline_err(["experiment", "--map", "fig5_3"]);
+    assert!(err.contains("give --routes"), "{err}");
+    std::fs::write(&routes, "A392L\n").unwrap();
+    let err = offline_err(["experiment", "--routes", routes.to_str().unwrap()]);
+    assert!(err.contains("two.routes:1"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
 fn demo_names_a_room_it_does_not_know() {
     let err = offline_err(["demo", "--from", "350R", "--to", "37GL"]);
     assert!(err.contains("'37GL'"), "{err}");

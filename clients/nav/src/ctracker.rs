@@ -138,6 +138,11 @@ pub struct SegmentLog {
     /// Whether the last light was counted by distance: the segment ended
     /// on odometry alone.
     pub last_missed: bool,
+    /// Whether the segment's first light was counted by distance, not
+    /// seen (§6.3's p5 asks how often the first light after a corner is
+    /// found).
+    #[serde(default)]
+    pub first_missed: bool,
 }
 
 impl SegmentLog {
@@ -268,6 +273,7 @@ impl CTracker {
                         count += 1;
                         log.missed += 1;
                         log.last_missed = true;
+                        log.first_missed |= count == 1;
                         last += expected;
                         tracing::warn!(light = count, "ctracker: light missed; counted by distance");
                         self.counted(count, total, last, &mut log, along).await?;

@@ -467,6 +467,7 @@ mod tests {
             refused: 0,
             overshoot_mm: 0.0,
             last_missed,
+            first_missed: false,
         };
         assert_eq!(judge_step(&s, None, Some(&log(6, 0, false))), None);
         assert_eq!(judge_step(&s, None, Some(&log(4, 2, false))), None);

@@ -5,9 +5,12 @@
 //! and they drive at the same time. The result is a row of Table 6.1 per
 //! robot, judged by ground truth, and one picture of every trajectory.
 //!
-//! How this crate is laid out: this file only. [`Rig`] starts the servers
-//! and the simulated world; [`run`] and [`run_fleet`] add each robot's
-//! clients from `rome-nav` and judge the run with its `report` module. It
+//! How this crate is laid out: [`Rig`] starts the servers and the
+//! simulated world; [`run`] and [`run_fleet`] add each robot's clients
+//! from `rome-nav` and judge the run with its `report` module;
+//! [`experiment`] reruns Chapter 6's runs many at a time and tabulates
+//! them beside the thesis' (`rome experiment`); [`confidence`] is §6.3's
+//! automaton, its probabilities estimated from those runs. It
 //! is kept apart from `rome-nav` so the navigation clients depend on the
 //! data and hardware servers' protocol only, never on the servers or the
 //! simulator.
@@ -32,6 +35,9 @@ use rome_schema::Root;
 use rome_sim::{Noise, Pose, Sim, SimConfig};
 use std::time::{Duration, Instant};
 use tokio::sync::mpsc;
+
+pub mod confidence;
+pub mod experiment;
 
 pub use rome_nav::report::ARRIVED_CM;
 

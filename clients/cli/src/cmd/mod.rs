@@ -10,6 +10,7 @@ pub mod data;
 pub mod data_server;
 pub mod demo;
 pub mod echo;
+pub mod experiment;
 pub mod fuzz;
 pub mod ls;
 pub mod map;

@@ -1,0 +1,161 @@
+//! `rome experiment`: Chapter 6's runs rerun in simulation, several at a
+//! time, and tabulated in the layout of Tables 6.1 and 6.2 beside the
+//! thesis' rows.
+//!
+//! ```text
+//! rome experiment                          # the 40 runs of Tables 6.1 and 6.2 on EB3
+//! rome experiment --routes my.routes       # one FROM TO a line
+//! rome experiment --repeats 3 --seed 100   # each route three times, seeds 100, 101, …
+//! rome experiment --out results/           # where runs.md and runs.csv go
+//! ```
+//!
+//! Every run is lock-step with its own seed, so the tables are the same
+//! however many run at once and however loaded the machine is.
+
+use crate::progress::Progress;
+use anyhow::Context;
+use rome_rig::experiment::{self, Outcome, Setup};
+use rome_sim::Noise;
+use std::path::PathBuf;
+use std::time::Duration;
+
+/// Flags of `rome experiment`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Routes to run, one `FROM TO [SPEED]` a line (default: the 40 runs of
+    /// Tables 6.1 and 6.2, each beside the thesis' row).
+    #[arg(long, value_name = "FILE")]
+    routes: Option<PathBuf>,
+    /// Map: a built-in name (eb3, fig5_3) or a .stk file.
+    #[arg(long, default_value = "eb3")]
+    map: String,
+    /// Seed of the first run; run k has seed SEED + k.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// How many times each route is run.
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=100))]
+    repeats: u32,
+    /// Runs at a time (default: the machine's cores).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=64))]
+    jobs: Option<u32>,
+    /// No sensor noise or wheel slip.
+    #[arg(long)]
+    no_noise: bool,
+    /// Give a run up after this many simulated minutes.
+    #[arg(long, default_value_t = 60.0)]
+    limit_min: f64,
+    /// Directory for runs.md and runs.csv.
+    #[arg(long, short = 'o', default_value = "experiment")]
+    out: PathBuf,
+}
+
+/// Runs the experiment; exit status 1 when a run did not arrive.
+pub async fn run(args: Args) -> anyhow::Result<u8> {
+    anyhow::ensure!(
+        args.limit_min.is_finite() && args.limit_min > 0.0,
+        "--limit-min must be a positive number of minutes, got {}",
+        args.limit_min
+    );
+    let map = rome_maps::load_named(&args.map)?;
+    let routes = match &args.routes {
+        Some(path) => {
+            let text = std::fs::read_to_string(path)
+                .with_context(|| format!("cannot read the routes file {}", path.display()))?;
+            Some(rome_rig::parse_routes(&path.display().to_string(), &text)?)
+        }
+        None => {
+            anyhow::ensure!(
+                args.map == "eb3",
+                "the default runs are Tables 6.1 and 6.2 on EB3; give --routes for the map '{}'",
+                args.map
+            );
+            None
+        }
+    };
+    let trials = experiment::trials(routes, args.repeats as usize, args.seed);
+    let jobs = args.jobs.map_or_else(
+        || std::thread::available_parallelism().map_or(1, |n| n.get()),
+        |j| j as usize,
+    );
+    let setup = Setup {
+        map,
+        noise: if args.no_noise {
+            Noise::none()
+        } else {
+            Noise::default()
+        },
+        jobs,
+        limit: Duration::from_secs_f64(args.limit_min * 60.0),
+    };
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("cannot make the directory {}", args.out.display()))?;
+    let total = trials.len();
+    eprintln!(
+        "{total} run(s) on '{}', {jobs} at a time, seeds {}…{}",
+        setup.map.name,
+        args.seed,
+        args.seed + total as u64 - 1
+    );
+    let mut progress = Progress::bar("experiment", "runs", total as u64);
+    let mut done = 0u64;
+    let mut failed = 0usize;
+    let outcomes = experiment::run_all(&setup, trials, |o: &Outcome| {
+        done += 1;
+        let line = match &o.report {
+            Ok(r) if experiment::arrived(r) => format!(
+                "{:>3} {} to {}: {:.3} m, {:+.0} cm, {}",
+                o.trial.no,
+                o.trial.route.from,
+                o.trial.route.to,
+                r.driven_m,
+                r.to_goal_cm,
+                experiment::mode_cell(r, 'L')
+            ),
+            _ => {
+                failed += 1;
+                format!(
+                    "{:>3} {} to {}: FAILED: {}",
+                    o.trial.no,
+                    o.trial.route.from,
+                    o.trial.route.to,
+                    experiment::reason(o)
+                )
+            }
+        };
+        progress.println(&line);
+        progress.step(done, &format!("({failed} failed)"));
+    })
+    .await;
+    progress.finish();
+    let md = experiment::markdown(&outcomes);
+    let csv = experiment::csv(&outcomes);
+    let reports: Vec<&rome_nav::report::Report> = outcomes
+        .iter()
+        .filter_map(|o| o.report.as_ref().ok())
+        .collect();
+    let summary = format!(
+        "{}\n\n## Confidence (§6.3)\n\n{}",
+        experiment::summary(&outcomes),
+        rome_rig::confidence::markdown(&reports)
+    );
+    println!("{md}\n{summary}");
+    let md_path = args.out.join("runs.md");
+    let csv_path = args.out.join("runs.csv");
+    std::fs::write(&md_path, format!("{md}\n{summary}\n"))
+        .with_context(|| format!("cannot write {}", md_path.display()))?;
+    std::fs::write(&csv_path, csv)
+        .with_context(|| format!("cannot write {}", csv_path.display()))?;
+    let pictures = experiment::pictures(&outcomes, &setup.map, &args.out)
+        .with_context(|| format!("cannot write the pictures into {}", args.out.display()))?;
+    eprintln!(
+        "tables: {} and {}; {} picture(s) in {} (all.png: every run; to-goal.svg, speed.svg)",
+        md_path.display(),
+        csv_path.display(),
+        pictures.len(),
+        args.out.display()
+    );
+    let all_arrived = outcomes
+        .iter()
+        .all(|o| o.report.as_ref().is_ok_and(experiment::arrived));
+    Ok(if all_arrived { 0 } else { 1 })
+}

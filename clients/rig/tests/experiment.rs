@@ -1,0 +1,117 @@
+//! `rome experiment`'s library: the thesis' rows, the runs and their
+//! tables, judged from what happened.
+
+#![allow(clippy::unwrap_used)]
+
+use rome_maps::{Network, World};
+use rome_nav::plan::Plan;
+use rome_rig::experiment::{self, Setup, Trial, CHAPTER6};
+use rome_rig::RouteSpec;
+use rome_sim::Noise;
+use std::time::Duration;
+
+fn setup(limit_s: u64, jobs: usize) -> Setup {
+    Setup {
+        map: rome_maps::load_named("eb3").unwrap(),
+        noise: Noise::default(),
+        jobs,
+        limit: Duration::from_secs(limit_s),
+    }
+}
+
+fn trial(no: usize, from: &str, to: &str, seed: u64) -> Trial {
+    Trial {
+        no,
+        route: RouteSpec::new("r1", from, to),
+        seed,
+        thesis: None,
+    }
+}
+
+#[test]
+fn every_route_of_tables_6_1_and_6_2_is_planned_on_eb3() {
+    let map = rome_maps::load_named("eb3").unwrap();
+    let world = World::from_map(&map);
+    let network = Network::new(&map, &world);
+    assert_eq!(CHAPTER6.iter().filter(|t| t.table == "6.1").count(), 27);
+    assert_eq!(CHAPTER6.iter().filter(|t| t.table == "6.2").count(), 13);
+    for t in CHAPTER6 {
+        let plan = Plan::new(&world, &network, t.from, t.to)
+            .unwrap_or_else(|e| panic!("{} #{} {} to {}: {e}", t.table, t.no, t.from, t.to));
+        let m = plan.route.length_mm / 1_000.0;
+        // The names are the thesis' places: the shortest route is the
+        // distance the thesis' robot drove, within 5 %, except where it
+        // went the long way round (Table 6.2 #6 is a whole cycle of the
+        // building back to the door across the hall).
+        let long_way = t.table == "6.2" && [4, 5, 6, 8].contains(&t.no);
+        let off = (m - t.dist_m).abs() / t.dist_m;
+        assert!(
+            long_way == (off > 0.05),
+            "{} #{} {} to {}: planned {m:.1} m, the thesis drove {} m",
+            t.table,
+            t.no,
+            t.from,
+            t.to,
+            t.dist_m
+        );
+    }
+    // The default trials are the thesis' rows, with consecutive seeds.
+    let trials = experiment::trials(None, 2, 10);
+    assert_eq!(trials.len(), 80);
+    assert_eq!(trials[40].route.from, "350R");
+    assert_eq!((trials[0].seed, trials[79].seed), (10, 89));
+    assert_eq!(trials[45].thesis.unwrap().no, 6);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn runs_are_tabulated_from_what_happened_and_failures_are_starred_with_a_reason() {
+    let outcomes = experiment::run_all(
+        &setup(900, 2),
+        vec![trial(1, "302L", "A340R", 2), trial(2, "302L", "NOPE", 3)],
+        |_| {},
+    )
+    .await;
+    assert_eq!(outcomes.len(), 2);
+    let ok = outcomes[0].report.as_ref().unwrap();
+    assert!(experiment::arrived(ok), "{}", ok.table());
+    assert_eq!(
+        ["L", "C", "D"].map(|c| experiment::mode_cell(ok, c.chars().next().unwrap())),
+        ["1/1", "1/1", "1/1"]
+    );
+    let err = outcomes[1].report.as_ref().unwrap_err();
+    assert!(err.contains("NOPE"), "{err}");
+    let md = experiment::markdown(&outcomes);
+    assert!(md.contains("| 1 | 302L to A340R | 2 | "), "{md}");
+    assert!(md.contains("| 2 | 302L to NOPE | 3 | — | Fail* |"), "{md}");
+    assert!(md.contains("- No. 2: ") && md.contains("NOPE"), "{md}");
+    let csv = experiment::csv(&outcomes);
+    let rows: Vec<&str> = csv.lines().collect();
+    assert_eq!(rows.len(), 3, "{csv}");
+    assert!(rows[1].starts_with("1,302L,A340R,2,true,"), "{csv}");
+    assert!(rows[2].starts_with("2,302L,NOPE,3,false,"), "{csv}");
+
+    // Given up before it can arrive: its unfinished modes are starred, and
+    // the row says why.
+    let late = experiment::run_all(&setup(40, 1), vec![trial(1, "302L", "A340R", 2)], |_| {}).await;
+    let r = late[0].report.as_ref().unwrap();
+    assert!(!experiment::arrived(r));
+    assert!(
+        experiment::mode_cell(r, 'D').starts_with("0*/"),
+        "{}",
+        r.table()
+    );
+    let md = experiment::markdown(&late);
+    assert!(md.contains("Fail ("), "{md}");
+    assert!(!experiment::reason(&late[0]).is_empty());
+    let s = experiment::summary(&late);
+    assert!(s.starts_with("0 of 1 runs arrived"), "{s}");
+
+    // The same trial alone gives the same row as beside another.
+    let alone =
+        experiment::run_all(&setup(900, 1), vec![trial(1, "302L", "A340R", 2)], |_| {}).await;
+    assert_eq!(
+        experiment::csv(&alone).lines().nth(1),
+        Some(rows[1]),
+        "the same seed, another row"
+    );
+}
