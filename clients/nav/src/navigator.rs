@@ -90,7 +90,9 @@ impl Default for NavConfig {
             busy_window_ms: 15_000,
             calm_ms: 20_000,
             safe_min_mm: 350.0,
-            stop_accel_mm_s2: 500.0,
+            // The base's own acceleration setting (Table 4.1), which it
+            // also brakes at: the simulator's 300 mm/s².
+            stop_accel_mm_s2: 300.0,
             scan_timeout: Duration::from_secs(10),
             idle_scans: 20,
             blind_after: Duration::from_secs(1),
