@@ -38,7 +38,8 @@ pub use validate::{validate, Problem};
 
 /// The maps shipped with the project, built into the program so that it
 /// runs from any directory: `eb3` (the MSU Engineering Building's third
-/// floor) and `fig5_3` (Figure 5.3).
+/// floor), `fig5_3` (Figure 5.3) and `annex` (a building of the project's
+/// own making).
 pub mod builtin {
     /// The EB3 reconstruction, `maps/data/eb3.stk`.
     pub const EB3: &str = include_str!("../data/eb3.stk");
@@ -47,12 +48,18 @@ pub mod builtin {
 
     /// Routes for several robots at once on EB3, `maps/data/eb3.routes`.
     pub const EB3_ROUTES: &str = include_str!("../data/eb3.routes");
+    /// The Annex, a building of the project's own making,
+    /// `maps/data/annex.stk` (written by `maps/tools/annex.py`).
+    pub const ANNEX: &str = include_str!("../data/annex.stk");
+    /// Routes on the Annex, `maps/data/annex.routes`.
+    pub const ANNEX_ROUTES: &str = include_str!("../data/annex.routes");
 
     /// The text of a built-in map by name.
     pub fn text(name: &str) -> Option<&'static str> {
         match name {
             "eb3" => Some(EB3),
             "fig5_3" => Some(FIG5_3),
+            "annex" => Some(ANNEX),
             _ => None,
         }
     }
@@ -61,12 +68,13 @@ pub mod builtin {
     pub fn routes(name: &str) -> Option<&'static str> {
         match name {
             "eb3" => Some(EB3_ROUTES),
+            "annex" => Some(ANNEX_ROUTES),
             _ => None,
         }
     }
 }
 
-/// Loads a built-in map by name (`eb3`, `fig5_3`) or else a map file.
+/// Loads a built-in map by name (`eb3`, `fig5_3`, `annex`) or else a map file.
 pub fn load_named(name_or_path: &str) -> Result<Map, LoadError> {
     match builtin::text(name_or_path) {
         Some(text) => from_text(format!("{name_or_path} (built in)"), text),

@@ -160,6 +160,9 @@ pub struct Setup {
     pub jobs: usize,
     /// A run is given up after this much simulated time.
     pub limit: Duration,
+    /// The Navigator's cruising speed, mm/s, for routes that do not give
+    /// their own (`None`: the Navigator's default).
+    pub cruise_mm_s: Option<f64>,
 }
 
 /// A trial and how it ended: its report, or why there is none (a route
@@ -185,7 +188,7 @@ pub async fn run_all(
     for trial in trials {
         let gate = gate.clone();
         let mut cfg = RunConfig::new(setup.map.clone(), &trial.route.from, &trial.route.to);
-        cfg.routes[0].cruise_mm_s = trial.route.cruise_mm_s;
+        cfg.routes[0].cruise_mm_s = trial.route.cruise_mm_s.or(setup.cruise_mm_s);
         cfg.seed = trial.seed;
         cfg.noise = setup.noise.clone();
         cfg.limit = setup.limit;

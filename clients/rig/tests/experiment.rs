@@ -16,6 +16,7 @@ fn setup(limit_s: u64, jobs: usize) -> Setup {
         noise: Noise::default(),
         jobs,
         limit: Duration::from_secs(limit_s),
+        cruise_mm_s: None,
     }
 }
 
@@ -114,4 +115,27 @@ async fn runs_are_tabulated_from_what_happened_and_failures_are_starred_with_a_r
         Some(rows[1]),
         "the same seed, another row"
     );
+}
+
+#[test]
+fn every_annex_route_is_planned_and_the_west_corridor_has_no_light_segment() {
+    let map = rome_maps::load_named("annex").unwrap();
+    let world = World::from_map(&map);
+    let network = Network::new(&map, &world);
+    let routes =
+        rome_rig::parse_routes("annex", rome_maps::builtin::routes("annex").unwrap()).unwrap();
+    assert_eq!(routes.len(), 10);
+    for r in &routes {
+        Plan::new(&world, &network, &r.from, &r.to)
+            .unwrap_or_else(|e| panic!("{} to {}: {e}", r.from, r.to));
+    }
+    // South corridor (lights), then up the lightless west one to 110L: the
+    // leg after the corner is dead reckoning alone.
+    let plan = Plan::new(&world, &network, "221R", "110L").unwrap();
+    let modes: String = plan
+        .steps
+        .iter()
+        .map(|s| format!("{:?}", s.goal.goal_type))
+        .collect();
+    assert_eq!(modes, "LECD", "{modes}");
 }

@@ -22,11 +22,12 @@ use std::time::Duration;
 /// Flags of `rome experiment`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Routes to run, one `FROM TO [SPEED]` a line (default: the 40 runs of
-    /// Tables 6.1 and 6.2, each beside the thesis' row).
+    /// Routes to run, one `FROM TO [SPEED]` a line (default: on eb3 the 40
+    /// runs of Tables 6.1 and 6.2, each beside the thesis' row; on annex its
+    /// built-in routes).
     #[arg(long, value_name = "FILE")]
     routes: Option<PathBuf>,
-    /// Map: a built-in name (eb3, fig5_3) or a .stk file.
+    /// Map: a built-in name (eb3, annex, fig5_3) or a .stk file.
     #[arg(long, default_value = "eb3")]
     map: String,
     /// Seed of the first run; run k has seed SEED + k.
@@ -38,6 +39,10 @@ pub struct Args {
     /// Runs at a time (default: the machine's cores).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=64))]
     jobs: Option<u32>,
+    /// Cruising speed, mm/s, for routes that give none (default: the
+    /// Navigator's, 400).
+    #[arg(long, value_name = "MM_S")]
+    cruise: Option<f64>,
     /// No sensor noise or wheel slip.
     #[arg(long)]
     no_noise: bool,
@@ -56,6 +61,12 @@ pub async fn run(args: Args) -> anyhow::Result<u8> {
         "--limit-min must be a positive number of minutes, got {}",
         args.limit_min
     );
+    if let Some(v) = args.cruise {
+        anyhow::ensure!(
+            v.is_finite() && v > 0.0 && v <= 1_000.0,
+            "--cruise must be a speed in mm/s in 0..=1000, got {v}"
+        );
+    }
     let map = rome_maps::load_named(&args.map)?;
     let routes = match &args.routes {
         Some(path) => {
@@ -63,14 +74,17 @@ pub async fn run(args: Args) -> anyhow::Result<u8> {
                 .with_context(|| format!("cannot read the routes file {}", path.display()))?;
             Some(rome_rig::parse_routes(&path.display().to_string(), &text)?)
         }
-        None => {
-            anyhow::ensure!(
-                args.map == "eb3",
-                "the default runs are Tables 6.1 and 6.2 on EB3; give --routes for the map '{}'",
+        None if args.map == "eb3" => None,
+        None => match rome_maps::builtin::routes(&args.map) {
+            Some(text) => Some(rome_rig::parse_routes(
+                &format!("{} routes (built in)", args.map),
+                text,
+            )?),
+            None => anyhow::bail!(
+                "the default runs are Tables 6.1 and 6.2 on EB3 and the routes built in for annex; give --routes for the map '{}'",
                 args.map
-            );
-            None
-        }
+            ),
+        },
     };
     let trials = experiment::trials(routes, args.repeats as usize, args.seed);
     let jobs = args.jobs.map_or_else(
@@ -86,6 +100,7 @@ pub async fn run(args: Args) -> anyhow::Result<u8> {
         },
         jobs,
         limit: Duration::from_secs_f64(args.limit_min * 60.0),
+        cruise_mm_s: args.cruise,
     };
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot make the directory {}", args.out.display()))?;
