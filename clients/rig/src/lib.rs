@@ -38,6 +38,7 @@ use tokio::sync::mpsc;
 
 pub mod confidence;
 pub mod experiment;
+pub mod plates;
 
 pub use rome_nav::report::ARRIVED_CM;
 

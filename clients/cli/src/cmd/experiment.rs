@@ -4,6 +4,7 @@
 //!
 //! ```text
 //! rome experiment                          # the 40 runs of Tables 6.1 and 6.2 on EB3
+//! rome experiment --plates                 # Table 6.3's routes: door plates
 //! rome experiment --routes my.routes       # one FROM TO a line
 //! rome experiment --repeats 3 --seed 100   # each route three times, seeds 100, 101, …
 //! rome experiment --out results/           # where runs.md and runs.csv go
@@ -39,6 +40,10 @@ pub struct Args {
     /// Runs at a time (default: the machine's cores).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=64))]
     jobs: Option<u32>,
+    /// Run the routes of Table 6.3 (door plates) on EB3 instead of Tables
+    /// 6.1 and 6.2.
+    #[arg(long, conflicts_with = "routes")]
+    plates: bool,
     /// Cruising speed, mm/s, for routes that give none (default: the
     /// Navigator's, 400).
     #[arg(long, value_name = "MM_S")]
@@ -74,6 +79,13 @@ pub async fn run(args: Args) -> anyhow::Result<u8> {
                 .with_context(|| format!("cannot read the routes file {}", path.display()))?;
             Some(rome_rig::parse_routes(&path.display().to_string(), &text)?)
         }
+        None if args.map == "eb3" && args.plates => Some(
+            rome_rig::plates::TABLE_6_3
+                .iter()
+                .map(|(from, to)| rome_rig::RouteSpec::new("r1", from, to))
+                .collect(),
+        ),
+        None if args.plates => anyhow::bail!("--plates runs Table 6.3's routes, which are on eb3"),
         None if args.map == "eb3" => None,
         None => match rome_maps::builtin::routes(&args.map) {
             Some(text) => Some(rome_rig::parse_routes(
@@ -148,10 +160,23 @@ pub async fn run(args: Args) -> anyhow::Result<u8> {
         .iter()
         .filter_map(|o| o.report.as_ref().ok())
         .collect();
+    let world = rome_maps::World::from_map(&setup.map);
+    let plate_rows: Vec<(String, rome_rig::plates::PlateRun)> = outcomes
+        .iter()
+        .filter_map(|o| {
+            let r = o.report.as_ref().ok()?;
+            let name = format!(
+                "{}: {} to {}",
+                o.trial.no, o.trial.route.from, o.trial.route.to
+            );
+            Some((name, rome_rig::plates::judge(r, &world)))
+        })
+        .collect();
     let summary = format!(
-        "{}\n\n## Confidence (§6.3)\n\n{}",
+        "{}\n\n## Confidence (§6.3)\n\n{}\n## Door plates (§6.2, Tables 6.3 and 6.6)\n\n{}",
         experiment::summary(&outcomes),
-        rome_rig::confidence::markdown(&reports)
+        rome_rig::confidence::markdown(&reports),
+        rome_rig::plates::markdown(&plate_rows)
     );
     println!("{md}\n{summary}");
     let md_path = args.out.join("runs.md");
