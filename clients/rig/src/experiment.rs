@@ -163,6 +163,8 @@ pub struct Setup {
     /// The Navigator's cruising speed, mm/s, for routes that do not give
     /// their own (`None`: the Navigator's default).
     pub cruise_mm_s: Option<f64>,
+    /// People walking the corridors in every run.
+    pub people: usize,
 }
 
 /// A trial and how it ended: its report, or why there is none (a route
@@ -192,6 +194,7 @@ pub async fn run_all(
         cfg.seed = trial.seed;
         cfg.noise = setup.noise.clone();
         cfg.limit = setup.limit;
+        cfg.people = setup.people;
         set.spawn(async move {
             let _permit = gate.acquire_owned().await;
             let report = run(cfg, |_| {}).await.map_err(|e: NavError| e.to_string());

@@ -209,6 +209,9 @@ pub struct RunConfig {
     pub plfinder: bool,
     /// Robots whose upward camera is covered: they see no light.
     pub covered: Vec<String>,
+    /// People walking to and fro along the corridors, placed with the seed
+    /// (the thesis' robot met them in the hallways).
+    pub people: usize,
     /// The network of the run's session: by default it talks to nobody
     /// else; with endpoints, `rome view`, `rome echo` or `rome record` in
     /// other processes can watch.
@@ -253,6 +256,7 @@ impl RunConfig {
             himm_cfg: HimmConfig::default(),
             plfinder: true,
             covered: Vec::new(),
+            people: 0,
             net: NetOptions::isolated(),
         }
     }
@@ -418,6 +422,7 @@ impl Rig {
                 .map_err(|e| NavError::Config(e.to_string()))?;
             index.push(i);
         }
+        add_people(&mut sim, &cfg.map, cfg.people, cfg.seed)?;
         for name in &cfg.covered {
             let i = sim
                 .index(name)
@@ -505,6 +510,64 @@ impl Rig {
         self.stop_data_server().await;
         let _ = self.session.close().await;
     }
+}
+
+/// Puts `n` people in the corridors of `map`, chosen with `seed`: each
+/// walks to and fro at 1.0–1.4 m/s between two turning spaces in sight of
+/// each other at least 8 m apart, 0.6 m to the right of the corridor's
+/// centre line (where the robots drive), starting at least 3 m from every
+/// robot.
+fn add_people(sim: &mut Sim, map: &Map, n: usize, seed: u64) -> Result<(), NavError> {
+    if n == 0 {
+        return Ok(());
+    }
+    let world = World::from_map(map);
+    let network = Network::new(map, &world);
+    let points = network.waypoints();
+    let mut legs = Vec::new();
+    for (i, &a) in points.iter().enumerate() {
+        for &b in &points[i + 1..] {
+            if rome_maps::geometry::distance(a, b) >= 8_000.0 && network.clear(a, b) {
+                legs.push((a, b));
+            }
+        }
+    }
+    if legs.is_empty() {
+        return Err(NavError::Config(format!(
+            "the map '{}' has no corridor of 8 m or more for people to walk",
+            map.name
+        )));
+    }
+    let mut rng = rome_sim::rng::Rng::new(seed ^ 0x7065_6f70_6c65);
+    let starts: Vec<Point> = (0..sim.robots().len())
+        .map(|i| sim.robot(i).pose.at)
+        .collect();
+    let mut placed = 0;
+    let mut tries = 0;
+    while placed < n && tries < 1_000 * n {
+        tries += 1;
+        let k = (rng.next_u64() % legs.len() as u64) as usize;
+        let (mut a, mut b) = legs[k];
+        if rng.chance(0.5) {
+            std::mem::swap(&mut a, &mut b);
+        }
+        let along = (b - a).normalize();
+        // Keep right: the right of the direction walked.
+        let right = rome_maps::geometry::Vector::new(along.y, -along.x) * 600.0;
+        let (from, to) = (a + right, b + right);
+        let start = from + (to - from) * rng.uniform();
+        if starts
+            .iter()
+            .any(|s| rome_maps::geometry::distance(*s, start) < 3_000.0)
+        {
+            continue;
+        }
+        let i = sim.add_walker(from, to, 1_000.0 + 400.0 * rng.uniform());
+        let w = &mut sim.walkers_mut()[i];
+        w.at = start;
+        placed += 1;
+    }
+    Ok(())
 }
 
 /// Runs one robot from its start to its goal; `progress` hears what

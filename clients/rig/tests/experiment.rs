@@ -17,6 +17,7 @@ fn setup(limit_s: u64, jobs: usize) -> Setup {
         jobs,
         limit: Duration::from_secs(limit_s),
         cruise_mm_s: None,
+        people: 0,
     }
 }
 

@@ -41,4 +41,4 @@ pub mod world;
 pub use drive::{Drive, Mode, Odometry, Registers};
 pub use pace::Pacer;
 pub use spec::{Noise, SimConfig};
-pub use world::{Bumpers, Camera, Contacts, Pose, Robot, Sim, SimError};
+pub use world::{Bumpers, Camera, Contacts, Pose, Robot, Sim, SimError, Walker};

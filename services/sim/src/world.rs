@@ -7,7 +7,7 @@ use crate::scene::{self, Scene};
 use crate::sonar::{self, Body};
 use crate::spec::{SimConfig, IR_RANGE_MM, ROBOT_RADIUS_MM, SONARS, SONAR_MAX_MM};
 use image::GrayImage;
-use rome_maps::geometry::{pt, Heading, Vector};
+use rome_maps::geometry::{pt, Heading, Point, Vector};
 use rome_maps::Map;
 
 /// Why a world request was refused.
@@ -196,12 +196,35 @@ pub struct Sim {
     cell_robots: Vec<u32>,
     /// Where the robots of `cell_robots` are, in the same order.
     cell_bodies: Vec<Body>,
+    /// People walking the corridors.
+    walkers: Vec<Walker>,
+    /// Every body's centre: the robots', then the walkers'
+    /// (`cell_robots` indexes it).
+    centres: Vec<Point>,
     /// Whether the cells match the robots' poses (a caller may have moved
     /// one through [`Sim::robot_mut`]).
     cells_fresh: bool,
     near: Vec<Body>,
     pixel_noise: camera::PixelNoise,
 }
+
+/// A person walking to and fro between two points of the corridors.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Walker {
+    /// Where the person is, mm.
+    pub at: Point,
+    /// Where the present leg began.
+    pub from: Point,
+    /// Where it ends; then the person turns back.
+    pub to: Point,
+    /// Walking speed, mm/s.
+    pub speed_mm_s: f64,
+    /// How long the person has stood waiting for a robot, ms.
+    waited_ms: u64,
+}
+
+/// How long a person waits for a robot in the way before turning back, ms.
+const WALKER_PATIENCE_MS: u64 = 2_000;
 
 /// How close a wall or robot must be to press a bumper, mm.
 const CONTACT_MM: f64 = 10.0;
@@ -229,6 +252,8 @@ impl Sim {
             cell_start: Vec::new(),
             cell_robots: Vec::new(),
             cell_bodies: Vec::new(),
+            walkers: Vec::new(),
+            centres: Vec::new(),
             cells_fresh: false,
             near: Vec::new(),
         }
@@ -435,6 +460,9 @@ impl Sim {
         for i in 0..self.robots.len() {
             self.move_robot(i, dt);
         }
+        if !self.walkers.is_empty() {
+            self.move_walkers(dt);
+        }
         // Once per step, for the sensors now and the motion next step.
         self.rebuild_cells();
         let sonar_period = u64::from(self.config.sonar_period_ms);
@@ -634,35 +662,41 @@ impl Sim {
     }
 
     fn rebuild_cells(&mut self) {
+        self.centres.clear();
+        self.centres.extend(self.robots.iter().map(|r| r.pose.at));
+        self.centres.extend(self.walkers.iter().map(|w| w.at));
         let (cols, rows) = self.scene.grid();
         self.cell_start.clear();
         self.cell_start.resize(cols * rows + 1, 0);
-        let cell = |r: &Robot| {
-            let (cx, cy) = self.scene.cell_xy(r.pose.at);
+        let scene = &self.scene;
+        let cell = |p: Point| {
+            let (cx, cy) = scene.cell_xy(p);
             cy * cols + cx
         };
-        for r in &self.robots {
-            self.cell_start[cell(r) + 1] += 1;
+        for &p in &self.centres {
+            self.cell_start[cell(p) + 1] += 1;
         }
         for c in 1..self.cell_start.len() {
             self.cell_start[c] += self.cell_start[c - 1];
         }
+        let n_bodies = self.centres.len();
         self.cell_robots.clear();
-        self.cell_robots.resize(self.robots.len(), 0);
+        self.cell_robots.resize(n_bodies, 0);
         // cell_start[c + 1] is where cell c ends; fill each cell from its
         // end backwards, which leaves cell_start[c] where it starts.
-        for (i, r) in self.robots.iter().enumerate().rev() {
-            let c = cell(r);
+        for (i, &p) in self.centres.iter().enumerate().rev() {
+            let c = cell(p);
             self.cell_start[c + 1] -= 1;
             self.cell_robots[self.cell_start[c + 1] as usize] = i as u32;
         }
         self.cell_start.rotate_left(1);
         let n = self.cell_start.len();
-        self.cell_start[n - 1] = self.robots.len() as u32;
+        self.cell_start[n - 1] = n_bodies as u32;
         self.cell_bodies.clear();
+        let centres = &self.centres;
         self.cell_bodies
             .extend(self.cell_robots.iter().map(|&i| Body {
-                at: self.robots[i as usize].pose.at,
+                at: centres[i as usize],
             }));
         self.cells_fresh = true;
     }
@@ -681,10 +715,74 @@ impl Sim {
                 let (a, b) = (self.cell_start[c] as usize, self.cell_start[c + 1] as usize);
                 for &j in &self.cell_robots[a..b] {
                     if j as usize != i {
-                        let o = &self.robots[j as usize];
-                        out.push(Body { at: o.pose.at });
+                        out.push(Body {
+                            at: self.centres[j as usize],
+                        });
                     }
                 }
+            }
+        }
+    }
+
+    /// Adds a person who walks from `from` to `to` and back at `speed_mm_s`,
+    /// for ever, starting at `from`. Robots' sonars, infrared and bumpers
+    /// meet a person as they meet another robot; a person waits while a
+    /// robot stands in the way, and turns back after two seconds of it.
+    pub fn add_walker(&mut self, from: Point, to: Point, speed_mm_s: f64) -> usize {
+        self.walkers.push(Walker {
+            at: from,
+            from,
+            to,
+            speed_mm_s: speed_mm_s.max(0.0),
+            waited_ms: 0,
+        });
+        self.cells_fresh = false;
+        self.walkers.len() - 1
+    }
+
+    /// The people walking the corridors.
+    pub fn walkers(&self) -> &[Walker] {
+        &self.walkers
+    }
+
+    /// The people, to move one by hand (a test, a placement).
+    pub fn walkers_mut(&mut self) -> &mut [Walker] {
+        self.cells_fresh = false;
+        &mut self.walkers
+    }
+
+    fn move_walkers(&mut self, dt: f64) {
+        let n = self.robots.len();
+        let dt_ms = (dt * 1_000.0).round() as u64;
+        for w in &mut self.walkers {
+            let leg = w.to - w.from;
+            let len = leg.norm();
+            if len < 1.0 {
+                continue;
+            }
+            let next = w.at + leg / len * (w.speed_mm_s * dt);
+            let clear = (2.0 * ROBOT_RADIUS_MM + CONTACT_MM).powi(2);
+            // Robots are the first n centres, where they were at the
+            // start of the step.
+            if self.centres[..n.min(self.centres.len())]
+                .iter()
+                .any(|r| nalgebra::distance_squared(r, &next) < clear)
+            {
+                // Nobody stands for ever in front of a robot: after a
+                // while the person turns back the way they came.
+                w.waited_ms += dt_ms;
+                if w.waited_ms >= WALKER_PATIENCE_MS {
+                    w.waited_ms = 0;
+                    std::mem::swap(&mut w.from, &mut w.to);
+                }
+                continue;
+            }
+            w.waited_ms = 0;
+            if (next - w.from).norm() >= len {
+                w.at = w.to;
+                std::mem::swap(&mut w.from, &mut w.to);
+            } else {
+                w.at = next;
             }
         }
     }

@@ -724,3 +724,57 @@ fn grabbing_cameras_changes_nothing_but_the_images() {
     // Noise: frames of different instants differ.
     assert!(frames.windows(2).any(|w| w[0] != w[1]));
 }
+
+#[test]
+fn a_person_walks_to_and_fro_and_is_met_like_a_robot() {
+    let mut sim = room(quiet());
+    let a = sim.add_robot("a", at(5_000.0, 3_000.0, 0.0)).unwrap();
+    let w = sim.add_walker(
+        rome_maps::geometry::pt(3_000.0, 5_000.0),
+        rome_maps::geometry::pt(7_000.0, 5_000.0),
+        1_000.0,
+    );
+    // Two seconds on, straight ahead of the robot: seen as another robot.
+    sim.run_for(2_000);
+    assert!((sim.walkers()[w].at.x - 5_000.0).abs() < 1.0);
+    sim.sense(a);
+    assert_eq!(sim.robot(a).sonar[12], 2_000 - 2 * 380);
+    // At the far end it turns back: six seconds later, at 3 m again.
+    sim.run_for(6_000);
+    assert!(
+        (sim.walkers()[w].at.x - 3_000.0).abs() < 1.0,
+        "{:?}",
+        sim.walkers()[w]
+    );
+    sim.sense(a);
+    assert_ne!(
+        sim.robot(a).sonar[12],
+        2_000 - 2 * 380,
+        "gone from in front"
+    );
+
+    // A robot standing in the way: the person waits in front of it.
+    let mut sim = room(quiet());
+    sim.add_robot("b", at(6_000.0, 5_000.0, 0.0)).unwrap();
+    let w = sim.add_walker(
+        rome_maps::geometry::pt(3_000.0, 5_000.0),
+        rome_maps::geometry::pt(9_000.0, 5_000.0),
+        1_000.0,
+    );
+    sim.run_for(2_300);
+    let x = sim.walkers()[w].at.x;
+    assert!((5_200.0..5_240.0).contains(&x), "{x}");
+    assert_eq!(
+        sim.robot(0).contacts.robot,
+        0,
+        "{:?}",
+        sim.robot(0).contacts
+    );
+    // Two seconds later still there, it turns back the way it came.
+    sim.run_for(1_000);
+    assert!((5_200.0..5_240.0).contains(&sim.walkers()[w].at.x));
+    sim.run_for(1_500);
+    let back = sim.walkers()[w];
+    assert!(back.at.x < 5_000.0, "{back:?}");
+    assert_eq!(back.to.x, 3_000.0);
+}

@@ -11,6 +11,7 @@
 //! rome demo --robots 3                    # the map's first three fleet routes
 //! rome demo --routes routes.txt           # one FROM TO a line, robot k on line k
 //! rome demo --cover-camera r1             # r1 sees no light: its L segment fails
+//! rome demo --people 10                   # ten people walking the corridors
 //! rome demo --record run.mcap             # and keep everything it published
 //! rome -l tcp/127.0.0.1:7447 demo         # others may watch: rome view, rome echo
 //! ```
@@ -62,6 +63,10 @@ pub struct Args {
     /// the clients keep up as they can, instead of in lock-step.
     #[arg(long)]
     pub wall_clock: bool,
+    /// People walking to and fro in the corridors (placed with the seed),
+    /// as the thesis' robot met them in the hallways.
+    #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=200))]
+    people: u32,
     /// No sensor noise or wheel slip.
     #[arg(long)]
     pub no_noise: bool,
@@ -146,6 +151,7 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
     cfg.himm = !args.no_himm;
     cfg.plfinder = !args.no_plfinder;
     cfg.covered = args.cover_camera.clone();
+    cfg.people = args.people as usize;
     cfg.limit = Duration::from_secs_f64(args.limit_min * 60.0);
     if args.no_noise {
         cfg.noise = Noise::none();

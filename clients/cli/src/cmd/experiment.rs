@@ -5,6 +5,7 @@
 //! ```text
 //! rome experiment                          # the 40 runs of Tables 6.1 and 6.2 on EB3
 //! rome experiment --plates                 # Table 6.3's routes: door plates
+//! rome experiment --people 10              # ten people walking the corridors
 //! rome experiment --routes my.routes       # one FROM TO a line
 //! rome experiment --repeats 3 --seed 100   # each route three times, seeds 100, 101, …
 //! rome experiment --out results/           # where runs.md and runs.csv go
@@ -48,6 +49,10 @@ pub struct Args {
     /// Navigator's, 400).
     #[arg(long, value_name = "MM_S")]
     cruise: Option<f64>,
+    /// People walking to and fro in the corridors of every run (placed
+    /// with the run's seed), as the thesis' robot met them.
+    #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=200))]
+    people: u32,
     /// No sensor noise or wheel slip.
     #[arg(long)]
     no_noise: bool,
@@ -113,6 +118,7 @@ pub async fn run(args: Args) -> anyhow::Result<u8> {
         jobs,
         limit: Duration::from_secs_f64(args.limit_min * 60.0),
         cruise_mm_s: args.cruise,
+        people: args.people as usize,
     };
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot make the directory {}", args.out.display()))?;
