@@ -456,12 +456,28 @@ impl Navigator {
         // belongs to this segment.
         let mut counted_low = resumed.is_some();
         let mut walls = Walls::default();
+        // The last pose and its time, to tell how fast the robot goes.
+        let mut moved: Option<(u64, Pose)> = None;
         loop {
             // The goal function: progress along the goal direction, so a
             // robot that swerves round another does not count the swerve.
             let axis = rome_maps::geometry::direction(goal.direction_deg);
             let travelled = (pose.at.x - start.at.x) * axis.x + (pose.at.y - start.at.y) * axis.y;
-            let speed = self.robot_speed();
+            // The speed asked for, or less while the robot is still
+            // speeding up to it (a short leg from a standstill would
+            // otherwise stop at once, braking from a speed never reached):
+            // what it drove since the last scan, and what it can gain
+            // before the next.
+            let asked = self.robot_speed();
+            let speed = match moved {
+                Some((t0, p0)) if scan.time_ms > t0 => {
+                    let dt = (scan.time_ms - t0) as f64 / 1_000.0;
+                    let measured = pose.dist(&p0) / dt;
+                    asked.min(measured + self.cfg.stop_accel_mm_s2 * dt)
+                }
+                _ => asked,
+            };
+            moved = Some((scan.time_ms, pose));
             // Braking distance, and what is driven while the pose and the
             // stop travel the link (a real robot runs at real time, so the
             // round trip in seconds is the robot's seconds).

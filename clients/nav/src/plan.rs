@@ -25,6 +25,11 @@ pub const LIGHT_START_MARGIN_MM: f64 = 700.0;
 /// Lights nearer than this to a turning space's middle are left to the
 /// Enter-Corner segment, mm.
 pub const LIGHT_END_MARGIN_MM: f64 = 600.0;
+/// The last dead-reckoning leg is at least this long, mm: a light nearer
+/// the goal is left to it, so that a robot counting that light at cruising
+/// speed still has room to brake (0.8 m from 0.7 m/s at the base's 300
+/// mm/s²) instead of ending past the goal.
+pub const LAST_LEG_MIN_MM: f64 = 1_000.0;
 /// A light belongs to a subpath if it is this close to its line, mm.
 pub const LIGHT_LATERAL_MM: f64 = 900.0;
 
@@ -122,7 +127,11 @@ impl Plan {
             } else {
                 LEAVE_CORNER_MM.min(len)
             };
-            let end_t = if last { len } else { len - LIGHT_END_MARGIN_MM };
+            let end_t = if last {
+                len - LAST_LEG_MIN_MM
+            } else {
+                len - LIGHT_END_MARGIN_MM
+            };
             let d = direction(heading);
             let at = |t: f64| a + d * t;
             let mut ts: Vec<f64> = lights
