@@ -94,6 +94,9 @@ pub enum Command {
     Mapper(cmd::nav::RobotArg),
     /// Door-plate finder, PlFinder (§5.7): report the door plates the side camera sees.
     Plfinder(cmd::nav::PlFinderArgs),
+    /// Colony-style networks as prioritised clients (§4.8.2): module priorities and the equivalent program.
+    #[command(subcommand)]
+    Colony(cmd::colony::ColonyCmd),
     /// Measure round trips and throughput.
     #[command(subcommand)]
     Bench(cmd::bench::BenchCmd),
@@ -194,6 +197,7 @@ async fn run_command(cli: Cli) -> anyhow::Result<u8> {
         Command::Certs(args) => cmd::certs::run(args),
         Command::Demo(args) => cmd::demo::run(&common, args).await,
         Command::Experiment(args) => cmd::experiment::run(args).await,
+        Command::Colony(cmd) => cmd::colony::run(cmd),
         Command::Planner(args) => cmd::nav::planner(&common, args).await,
         Command::Navigator(args) => cmd::nav::navigator(&common, args).await,
         Command::Ctracker(args) => cmd::nav::ctracker(&common, args).await,

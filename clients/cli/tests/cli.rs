@@ -300,6 +300,35 @@ fn experiment_tabulates_its_runs_and_the_confidence_automaton() {
 }
 
 #[test]
+fn colony_priorities_of_figure_4_14_and_a_malformed_network() {
+    let out = offline_ok(["colony", "priorities", "fig4_14b"]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    let order: Vec<&str> = text
+        .lines()
+        .filter_map(|l| {
+            let w: Vec<&str> = l.split_whitespace().collect();
+            (w.len() == 3 && w[0].parse::<u32>().is_ok()).then(|| w[2])
+        })
+        .collect();
+    assert_eq!(order, ["A", "B", "C", "D"], "{text}");
+    assert!(text.contains("if P_A(x) then"), "{text}");
+    let dir = std::env::temp_dir().join(format!("rome-colony-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("loop.colony");
+    std::fs::write(
+        &file,
+        "module A\nmodule B\nsuppress s1 A over s2\nsuppress s2 B over s1\noutput s1\n",
+    )
+    .unwrap();
+    let err = offline_err(["colony", "priorities", file.to_str().unwrap()]);
+    assert!(
+        err.contains("loop.colony") && err.contains("cycle"),
+        "{err}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
 fn demo_names_a_room_it_does_not_know() {
     let err = offline_err(["demo", "--from", "350R", "--to", "37GL"]);
     assert!(err.contains("'37GL'"), "{err}");

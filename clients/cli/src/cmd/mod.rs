@@ -6,6 +6,7 @@ pub mod bench_mem;
 pub mod bench_robot;
 pub mod bench_sim;
 pub mod certs;
+pub mod colony;
 pub mod data;
 pub mod data_server;
 pub mod demo;
