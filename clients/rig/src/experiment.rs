@@ -165,6 +165,9 @@ pub struct Setup {
     pub cruise_mm_s: Option<f64>,
     /// People walking the corridors in every run.
     pub people: usize,
+    /// A run still going after this much wall-clock time is given up as
+    /// hung, so that one run cannot hold the whole experiment.
+    pub wall_limit: Duration,
 }
 
 /// A trial and how it ended: its report, or why there is none (a route
@@ -195,9 +198,16 @@ pub async fn run_all(
         cfg.noise = setup.noise.clone();
         cfg.limit = setup.limit;
         cfg.people = setup.people;
+        let wall_limit = setup.wall_limit;
         set.spawn(async move {
             let _permit = gate.acquire_owned().await;
-            let report = run(cfg, |_| {}).await.map_err(|e: NavError| e.to_string());
+            let report = match tokio::time::timeout(wall_limit, run(cfg, |_| {})).await {
+                Ok(r) => r.map_err(|e: NavError| e.to_string()),
+                Err(_) => Err(format!(
+                    "hung: still running after {} s of wall time, given up (a run takes seconds; docs/experiments.md)",
+                    wall_limit.as_secs()
+                )),
+            };
             Outcome { trial, report }
         });
     }

@@ -18,6 +18,7 @@ fn setup(limit_s: u64, jobs: usize) -> Setup {
         limit: Duration::from_secs(limit_s),
         cruise_mm_s: None,
         people: 0,
+        wall_limit: Duration::from_secs(600),
     }
 }
 
@@ -157,4 +158,14 @@ async fn a_short_leg_from_a_standstill_at_a_high_cruise_ends_on_its_goal() {
     let out = experiment::run_all(&s, vec![trial(1, "345R", "345L", 1)], |_| {}).await;
     let r = out[0].report.as_ref().unwrap();
     assert!(r.to_goal_cm.abs() < 15.0, "{}", r.table());
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_run_past_its_wall_limit_is_given_up_as_hung() {
+    let mut s = setup(900, 1);
+    s.wall_limit = Duration::from_millis(1);
+    let out = experiment::run_all(&s, vec![trial(1, "302L", "A340R", 2)], |_| {}).await;
+    let err = out[0].report.as_ref().unwrap_err();
+    assert!(err.starts_with("hung: still running after"), "{err}");
+    assert!(experiment::markdown(&out).contains("- No. 1: hung"));
 }

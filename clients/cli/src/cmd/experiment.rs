@@ -59,6 +59,9 @@ pub struct Args {
     /// Give a run up after this many simulated minutes.
     #[arg(long, default_value_t = 60.0)]
     limit_min: f64,
+    /// Give a run up as hung after this many minutes of wall time.
+    #[arg(long, default_value_t = 10.0)]
+    wall_limit_min: f64,
     /// Directory for runs.md and runs.csv.
     #[arg(long, short = 'o', default_value = "experiment")]
     out: PathBuf,
@@ -70,6 +73,11 @@ pub async fn run(args: Args) -> anyhow::Result<u8> {
         args.limit_min.is_finite() && args.limit_min > 0.0,
         "--limit-min must be a positive number of minutes, got {}",
         args.limit_min
+    );
+    anyhow::ensure!(
+        args.wall_limit_min.is_finite() && args.wall_limit_min > 0.0,
+        "--wall-limit-min must be a positive number of minutes, got {}",
+        args.wall_limit_min
     );
     if let Some(v) = args.cruise {
         anyhow::ensure!(
@@ -119,6 +127,7 @@ pub async fn run(args: Args) -> anyhow::Result<u8> {
         limit: Duration::from_secs_f64(args.limit_min * 60.0),
         cruise_mm_s: args.cruise,
         people: args.people as usize,
+        wall_limit: Duration::from_secs_f64(args.wall_limit_min * 60.0),
     };
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot make the directory {}", args.out.display()))?;
