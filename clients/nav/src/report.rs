@@ -38,6 +38,12 @@ pub const CORNER_HEADING_DEG: f64 = 20.0;
 /// a Leave-Corner segment, mm.
 pub const CORNER_LATERAL_MM: f64 = 1_000.0;
 
+/// A duration as the tables print run times, `m:ss`.
+pub fn mmss(d: Duration) -> String {
+    let s = d.as_secs();
+    format!("{}:{:02}", s / 60, s % 60)
+}
+
 /// Why a step failed, judged from what happened; `None` when it did not
 /// (or cannot be judged: no ground truth for a C or D step).
 pub fn judge_step(
@@ -240,18 +246,33 @@ impl Report {
         )
     }
 
+    /// A mode column of Table 6.1 for `column` (L, C or D; an Enter-Corner
+    /// segment counts with C, whose corners it begins): how many were
+    /// carried out successfully, how many the plan needs, and whether it is
+    /// starred (a segment of it failed, or not all were carried out).
+    pub fn mode(&self, column: GoalType) -> (usize, usize, bool) {
+        let of = |t: GoalType| match t {
+            GoalType::E => GoalType::C,
+            t => t,
+        };
+        let (done, need) = match of(column) {
+            GoalType::L => (self.modes_done.l, self.modes_needed.l),
+            GoalType::D => (self.modes_done.d, self.modes_needed.d),
+            _ => (self.modes_done.c, self.modes_needed.c),
+        };
+        let failed = self
+            .steps
+            .iter()
+            .any(|h| of(h.step.goal.goal_type) == of(column) && h.failure.is_some());
+        (done, need, failed || done < need)
+    }
+
     /// The run as row `no` of the table, in the layout of Table 6.1: a mode
     /// column with a failed segment is starred.
     pub fn row(&self, no: usize) -> String {
-        let secs = self.run_time.as_secs();
-        let failed = |t: GoalType| {
-            self.steps
-                .iter()
-                .any(|h| h.step.goal.goal_type == t && h.failure.is_some())
-        };
-        let frac = |done: usize, need: usize, t: GoalType| {
-            let star = if failed(t) || done < need { "*" } else { "" };
-            format!("{done}/{need}{star}")
+        let frac = |t: GoalType| {
+            let (done, need, starred) = self.mode(t);
+            format!("{done}/{need}{}", if starred { "*" } else { "" })
         };
         let c = self.contacts;
         let contacts = if c.total() == 0 && c.bumper == 0 {
@@ -271,10 +292,10 @@ impl Report {
             format!("{} to {}", self.from, self.to),
             self.driven_m,
             self.to_goal_cm,
-            format!("{}:{:02}", secs / 60, secs % 60),
-            frac(self.modes_done.l, self.modes_needed.l, GoalType::L),
-            frac(self.modes_done.c, self.modes_needed.c, GoalType::C),
-            frac(self.modes_done.d, self.modes_needed.d, GoalType::D),
+            mmss(self.run_time),
+            frac(GoalType::L),
+            frac(GoalType::C),
+            frac(GoalType::D),
             contacts
         )
     }

@@ -12,7 +12,7 @@
 use crate::{run, RouteSpec, RunConfig};
 use rome_maps::Map;
 use rome_nav::board::GoalType;
-use rome_nav::report::Report;
+use rome_nav::report::{mmss, Report};
 use rome_nav::NavError;
 use rome_sim::Noise;
 use std::sync::Arc;
@@ -225,29 +225,11 @@ pub async fn run_all(
     out
 }
 
-/// A mode column as the thesis prints it: `m/n`, with a star after `m`
-/// when a segment of that mode failed or was never carried out.
-pub fn mode_cell(r: &Report, column: char) -> String {
-    let (done, need) = match column {
-        'L' => (r.modes_done.l, r.modes_needed.l),
-        'C' => (r.modes_done.c, r.modes_needed.c),
-        _ => (r.modes_done.d, r.modes_needed.d),
-    };
-    let failed = r.steps.iter().any(|h| {
-        h.failure.is_some()
-            && match h.step.goal.goal_type {
-                GoalType::L => column == 'L',
-                GoalType::E | GoalType::C => column == 'C',
-                GoalType::D => column == 'D',
-            }
-    });
-    let star = if failed || done < need { "*" } else { "" };
-    format!("{done}{star}/{need}")
-}
-
-/// Whether a run reached its goal: no failure and within [`crate::ARRIVED_CM`].
-pub fn arrived(r: &Report) -> bool {
-    r.failure.is_none() && r.miss_cm < crate::ARRIVED_CM
+/// A mode column (L, C or D) as the thesis prints it: `m/n`, with a star
+/// after `m` when [`Report::mode`] stars it.
+pub fn mode_cell(r: &Report, column: GoalType) -> String {
+    let (done, need, starred) = r.mode(column);
+    format!("{done}{}/{need}", if starred { "*" } else { "" })
 }
 
 /// Average speed over the run, m/min (the thesis' measure).
@@ -258,11 +240,6 @@ pub fn speed_m_min(r: &Report) -> f64 {
     } else {
         0.0
     }
-}
-
-fn mmss(d: Duration) -> String {
-    let s = d.as_secs();
-    format!("{}:{:02}", s / 60, s % 60)
 }
 
 /// A signed whole number of cm, with no "-0".
@@ -276,7 +253,7 @@ fn signed_cm(cm: f64) -> String {
 }
 
 fn to_goal(r: &Report) -> String {
-    if arrived(r) {
+    if r.arrived() {
         signed_cm(r.to_goal_cm)
     } else {
         format!("Fail ({})*", signed_cm(r.to_goal_cm))
@@ -291,7 +268,7 @@ pub fn reason(o: &Outcome) -> String {
             let mut why: Vec<String> = Vec::new();
             if let Some(f) = &r.failure {
                 why.push(f.clone());
-            } else if !arrived(r) {
+            } else if !r.arrived() {
                 why.push(format!(
                     "ended {:.0} cm from the goal by ground truth",
                     r.miss_cm
@@ -324,9 +301,9 @@ pub fn markdown(outcomes: &[Outcome]) -> String {
                 to_goal(r),
                 mmss(r.run_time),
                 speed_m_min(r),
-                mode_cell(r, 'L'),
-                mode_cell(r, 'C'),
-                mode_cell(r, 'D')
+                mode_cell(r, GoalType::L),
+                mode_cell(r, GoalType::C),
+                mode_cell(r, GoalType::D)
             ),
             Err(_) => "— | Fail* | — | — | — | — | —".to_string(),
         };
@@ -386,15 +363,15 @@ pub fn csv(outcomes: &[Outcome]) -> String {
         ];
         match &o.report {
             Ok(r) => f.extend([
-                arrived(r).to_string(),
+                r.arrived().to_string(),
                 format!("{:.3}", r.driven_m),
                 format!("{:.0}", r.to_goal_cm),
                 format!("{:.0}", r.miss_cm),
                 format!("{:.1}", r.run_time.as_secs_f64()),
                 format!("{:.2}", speed_m_min(r)),
-                mode_cell(r, 'L'),
-                mode_cell(r, 'C'),
-                mode_cell(r, 'D'),
+                mode_cell(r, GoalType::L),
+                mode_cell(r, GoalType::C),
+                mode_cell(r, GoalType::D),
                 r.contacts.total().to_string(),
             ]),
             Err(_) => {
@@ -430,7 +407,7 @@ pub fn summary(outcomes: &[Outcome]) -> String {
         .filter_map(|o| o.report.as_ref().ok())
         .collect();
     let n = outcomes.len();
-    let arrived_n = reports.iter().filter(|r| arrived(r)).count();
+    let arrived_n = reports.iter().filter(|r| r.arrived()).count();
     let within = |cm: f64| {
         reports
             .iter()

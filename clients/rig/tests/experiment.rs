@@ -4,6 +4,7 @@
 #![allow(clippy::unwrap_used)]
 
 use rome_maps::{Network, World};
+use rome_nav::board::GoalType;
 use rome_nav::plan::Plan;
 use rome_rig::experiment::{self, Setup, Trial, CHAPTER6};
 use rome_rig::RouteSpec;
@@ -83,9 +84,9 @@ async fn runs_are_tabulated_from_what_happened_and_failures_are_starred_with_a_r
     .await;
     assert_eq!(outcomes.len(), 2);
     let ok = outcomes[0].report.as_ref().unwrap();
-    assert!(experiment::arrived(ok), "{}", ok.table());
+    assert!(ok.arrived(), "{}", ok.table());
     assert_eq!(
-        ["L", "C", "D"].map(|c| experiment::mode_cell(ok, c.chars().next().unwrap())),
+        [GoalType::L, GoalType::C, GoalType::D].map(|c| experiment::mode_cell(ok, c)),
         ["1/1", "1/1", "1/1"]
     );
     let err = outcomes[1].report.as_ref().unwrap_err();
@@ -104,9 +105,9 @@ async fn runs_are_tabulated_from_what_happened_and_failures_are_starred_with_a_r
     // the row says why.
     let late = experiment::run_all(&setup(40, 1), vec![trial(1, "302L", "A340R", 2)], |_| {}).await;
     let r = late[0].report.as_ref().unwrap();
-    assert!(!experiment::arrived(r));
+    assert!(!r.arrived());
     assert!(
-        experiment::mode_cell(r, 'D').starts_with("0*/"),
+        experiment::mode_cell(r, GoalType::D).starts_with("0*/"),
         "{}",
         r.table()
     );

@@ -136,7 +136,7 @@ pub async fn run(args: Args) -> anyhow::Result<u8> {
         "{total} run(s) on '{}', {jobs} at a time, seeds {}…{}",
         setup.map.name,
         args.seed,
-        args.seed + total as u64 - 1
+        args.seed.wrapping_add(total as u64 - 1)
     );
     let mut progress = Progress::bar("experiment", "runs", total as u64);
     let mut done = 0u64;
@@ -144,14 +144,14 @@ pub async fn run(args: Args) -> anyhow::Result<u8> {
     let outcomes = experiment::run_all(&setup, trials, |o: &Outcome| {
         done += 1;
         let line = match &o.report {
-            Ok(r) if experiment::arrived(r) => format!(
+            Ok(r) if r.arrived() => format!(
                 "{:>3} {} to {}: {:.3} m, {:+.0} cm, {}",
                 o.trial.no,
                 o.trial.route.from,
                 o.trial.route.to,
                 r.driven_m,
                 r.to_goal_cm,
-                experiment::mode_cell(r, 'L')
+                experiment::mode_cell(r, rome_nav::board::GoalType::L)
             ),
             _ => {
                 failed += 1;
@@ -211,6 +211,6 @@ pub async fn run(args: Args) -> anyhow::Result<u8> {
     );
     let all_arrived = outcomes
         .iter()
-        .all(|o| o.report.as_ref().is_ok_and(experiment::arrived));
+        .all(|o| o.report.as_ref().is_ok_and(|r| r.arrived()));
     Ok(if all_arrived { 0 } else { 1 })
 }
