@@ -555,9 +555,22 @@ fn add_people(sim: &mut Sim, map: &Map, n: usize, seed: u64) -> Result<(), NavEr
         // Keep right (of the direction walked), as far as the corridor
         // lets a person of a robot's girth walk clear of its wall.
         let side = rome_maps::geometry::Vector::new(along.y, -along.x);
+        // The simulator's own ray: what a body would touch (walls, doors,
+        // glass; not openings).
         let free = [0.25, 0.5, 0.75]
             .iter()
-            .map(|f| free_along(&world, a + (b - a) * *f, side))
+            .map(|f| {
+                sim.scene()
+                    .ray_dir(
+                        a + (b - a) * *f,
+                        side,
+                        5_000.0,
+                        rome_sim::scene::Sense::Touch,
+                        &[],
+                        None,
+                    )
+                    .map_or(f64::INFINITY, |(d, _, _)| d)
+            })
             .fold(f64::INFINITY, f64::min);
         let offset = (free - rome_sim::spec::ROBOT_RADIUS_MM - 50.0).clamp(0.0, 1_400.0);
         let right = side * offset;
@@ -575,29 +588,6 @@ fn add_people(sim: &mut Sim, map: &Map, n: usize, seed: u64) -> Result<(), NavEr
         placed += 1;
     }
     Ok(())
-}
-
-/// How far from `m` in the direction `dir` (a unit vector) the nearest
-/// wall, door or glass is, mm (infinite if none).
-fn free_along(world: &World, m: Point, dir: rome_maps::geometry::Vector) -> f64 {
-    let cross =
-        |p: rome_maps::geometry::Vector, q: rome_maps::geometry::Vector| p.x * q.y - p.y * q.x;
-    world
-        .segments
-        .iter()
-        .filter(|s| s.kind != rome_maps::model::EdgeKind::Opening)
-        .filter_map(|s| {
-            // m + t·dir = a + u·(b − a), with t ≥ 0 and u in 0..=1.
-            let e = s.b - s.a;
-            let den = cross(dir, e);
-            if den.abs() < 1e-9 {
-                return None;
-            }
-            let w = s.a - m;
-            let (t, u) = (cross(w, e) / den, cross(w, dir) / den);
-            (t >= 0.0 && (0.0..=1.0).contains(&u)).then_some(t)
-        })
-        .fold(f64::INFINITY, f64::min)
 }
 
 /// Runs one robot from its start to its goal; `progress` hears what
