@@ -451,22 +451,23 @@ pub fn summary(outcomes: &[Outcome]) -> String {
     )
 }
 
-/// Writes the pictures of the runs into `dir`: each run's true trajectory
-/// over the map (`run-07.png`), all of them on one map (`all.png`,
-/// labelled by run number), and the distributions of the distance to the
-/// goal and of the speed (`to-goal.svg`, `speed.svg`). Returns the paths.
+/// Writes the pictures of the runs on `map` (whose world is `world`) into
+/// `dir`: each run's true trajectory over the map (`run-07.png`), all of
+/// them on one map (`all.png`, labelled by run number), and the
+/// distributions of the distance to the goal and of the speed
+/// (`to-goal.svg`, `speed.svg`). Returns the paths.
 pub fn pictures(
     outcomes: &[Outcome],
     map: &Map,
+    world: &rome_maps::World,
     dir: &std::path::Path,
 ) -> std::io::Result<Vec<std::path::PathBuf>> {
-    let world = rome_maps::World::from_map(map);
     let mut written = Vec::new();
     let mut all = Vec::new();
     for o in outcomes {
         let Ok(r) = &o.report else { continue };
         let path = dir.join(format!("run-{:02}.png", o.trial.no));
-        let png = rome_nav::report::fleet_picture(std::slice::from_ref(r), map, &world, 1200);
+        let png = rome_nav::report::fleet_picture(std::slice::from_ref(r), map, world, 1200);
         std::fs::write(&path, png)?;
         written.push(path);
         let mut labelled = r.clone();
@@ -477,7 +478,7 @@ pub fn pictures(
         let path = dir.join("all.png");
         std::fs::write(
             &path,
-            rome_nav::report::fleet_picture(&all, map, &world, 2000),
+            rome_nav::report::fleet_picture(&all, map, world, 2000),
         )?;
         written.push(path);
     }

@@ -200,7 +200,7 @@ pub async fn run(args: Args) -> anyhow::Result<u8> {
         .with_context(|| format!("cannot write {}", md_path.display()))?;
     std::fs::write(&csv_path, csv)
         .with_context(|| format!("cannot write {}", csv_path.display()))?;
-    let pictures = experiment::pictures(&outcomes, &setup.map, &args.out)
+    let pictures = experiment::pictures(&outcomes, &setup.map, &world, &args.out)
         .with_context(|| format!("cannot write the pictures into {}", args.out.display()))?;
     eprintln!(
         "tables: {} and {}; {} picture(s) in {} (all.png: every run; to-goal.svg, speed.svg)",
