@@ -48,6 +48,9 @@ pub enum ErrorCode {
     /// The key has a wildcard where the operation needs one robot and
     /// device named: only reads answer a wildcard key.
     Wildcard,
+    /// A command that acts came from a lower priority than one carried out
+    /// less than that one's `suppress_ms` ago: it was not carried out.
+    Suppressed,
 }
 
 impl ErrorCode {
@@ -71,6 +74,7 @@ impl ErrorCode {
             ErrorCode::Storage => "storage",
             ErrorCode::Quota => "quota",
             ErrorCode::Wildcard => "wildcard",
+            ErrorCode::Suppressed => "suppressed",
         }
     }
 }

@@ -254,6 +254,73 @@ async fn stale_fences_are_refused_and_queued_requests_time_out_with_a_reason() {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 4)]
+async fn a_suppressing_command_keeps_lower_priorities_off_until_it_lapses() {
+    let rec = Recorder::default();
+    let rig = Rig::recorder(&rec, false).await;
+    let s = rig.peer_session().await;
+    let go = |v: f64| format!("{{\"velocity_mm_s\":{v}}}");
+    // The dominant module: priority 200, suppressing for 60 s.
+    plain(
+        &s,
+        "rome/robot/r1/base/go?priority=200;suppress_ms=60000;client=escape",
+        &go(1.0),
+    )
+    .await
+    .unwrap();
+    // A lower priority's command that acts is refused, naming who and why.
+    let err = plain_err(&s, "rome/robot/r1/base/go?priority=100", &go(2.0)).await;
+    assert_eq!(err["code"], "suppressed", "{err}");
+    let msg = err["message"].as_str().unwrap();
+    assert!(
+        msg.contains("priority 200") && msg.contains("'escape'") && msg.contains("'go'"),
+        "{msg}"
+    );
+    // Reads pass, as do the same and higher priorities.
+    plain(&s, "rome/robot/r1/base/pose?priority=100", "")
+        .await
+        .unwrap();
+    plain(&s, "rome/robot/r1/base/go?priority=200", &go(3.0))
+        .await
+        .unwrap();
+    plain(&s, "rome/robot/r1/base/go?priority=250", &go(4.0))
+        .await
+        .unwrap();
+    // The lock holder's commands pass whatever its priority.
+    let low = rig.client("holder", 10).await;
+    let lock = low.lock().await.unwrap();
+    low.go(5.0).await.unwrap();
+    lock.unlock().await.unwrap();
+    let stats = plain(&s, "rome/robot/r1/base/stats", "").await.unwrap();
+    assert_eq!(stats["suppressed"], 1, "{stats}");
+    assert_eq!(velocities(&rec), [1.0, 3.0, 4.0, 5.0]);
+    // The same priority's next command renews the claim, here to 1.5 s;
+    // once that lapses, the lower priority gets through again.
+    plain(
+        &s,
+        "rome/robot/r1/base/go?priority=200;suppress_ms=1500",
+        &go(6.0),
+    )
+    .await
+    .unwrap();
+    let err = plain_err(&s, "rome/robot/r1/base/go?priority=100", &go(7.0)).await;
+    assert_eq!(err["code"], "suppressed");
+    eventually(Duration::from_secs(5), "the claim lapses", || async {
+        plain(&s, "rome/robot/r1/base/go?priority=100", &go(8.0))
+            .await
+            .is_ok()
+    })
+    .await;
+    assert_eq!(velocities(&rec), [1.0, 3.0, 4.0, 5.0, 6.0, 8.0]);
+    // Out of range is named.
+    let err = plain_err(&s, "rome/robot/r1/base/go?suppress_ms=70000", &go(9.0)).await;
+    assert_eq!(err["code"], "out_of_range", "{err}");
+    assert!(
+        err["message"].as_str().unwrap().contains("suppress_ms"),
+        "{err}"
+    );
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 4)]
 async fn a_killed_holder_loses_the_lock_within_three_seconds() {
     let rec = Recorder::default();
     let rig = Rig::recorder(&rec, false).await;

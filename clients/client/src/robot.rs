@@ -96,6 +96,10 @@ pub struct RobotOptions {
     /// How long a request keeps being sent again while nobody serves its
     /// key (a server or the router restarting) before it fails.
     pub unreachable_for: Duration,
+    /// Sent with every command that acts as `suppress_ms`: once carried
+    /// out, it keeps lower priorities' commands that act off the device
+    /// for this long (a colony-style module's suppressor, §4.8.2).
+    pub suppress: Option<Duration>,
 }
 
 impl RobotOptions {
@@ -110,6 +114,7 @@ impl RobotOptions {
             lock_ttl: Duration::from_millis(DEFAULT_LOCK_TTL_MS),
             deadman: true,
             unreachable_for: Duration::from_secs(10),
+            suppress: None,
         }
     }
 }
@@ -315,6 +320,9 @@ impl RobotClient {
         if acting {
             let n = NEXT_OP.fetch_add(1, Ordering::Relaxed);
             params.push((param::OP, format!("{}-{n}", self.inner.owner)));
+            if let Some(s) = o.suppress {
+                params.push((param::SUPPRESS_MS, s.as_millis().to_string()));
+            }
         }
         let holds = self.fence(device);
         if let (Some(f), false) = (holds, extra.iter().any(|(k, _)| *k == param::FENCE)) {

@@ -38,7 +38,7 @@ pub struct Unlocked {
 /// a repeat carried out twice shows. Answered at once, never queued.
 ///
 /// ```text
-/// {"executed":1200,"with_id":310,"answered_from_memory":4,"ids_executed_twice":0}
+/// {"executed":1200,"with_id":310,"answered_from_memory":4,"ids_executed_twice":0,"suppressed":0}
 /// ```
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -52,6 +52,10 @@ pub struct CommandStats {
     /// Request ids carried out more than once (kept for the last
     /// 65 536 ids): 0 unless a repeat was acted on.
     pub ids_executed_twice: u64,
+    /// Commands that act refused because a higher priority suppressed
+    /// them (`suppress_ms`).
+    #[serde(default)]
+    pub suppressed: u64,
 }
 
 /// Who holds a device's lock (in the state stream and the storage).

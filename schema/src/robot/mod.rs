@@ -77,6 +77,10 @@ pub mod param {
     pub const ROWS: &str = "rows";
     /// `grab`: `raw` (default) or `png`.
     pub const FORMAT: &str = "format";
+    /// A command that acts: once it is carried out, the device refuses
+    /// commands that act from lower priorities for this many ms (a
+    /// suppressor's time constant, §3.2.1; colony-style modules, §4.8.2).
+    pub const SUPPRESS_MS: &str = "suppress_ms";
 }
 
 /// A request's priority when it names none (Zenoh's default `Data` band).
@@ -85,6 +89,8 @@ pub const DEFAULT_PRIORITY: u8 = 128;
 pub const DEFAULT_WAIT_MS: u64 = 10_000;
 /// The longest a request may ask to wait in a queue, ms.
 pub const MAX_WAIT_MS: u64 = 600_000;
+/// The longest suppression a command may ask for, ms.
+pub const MAX_SUPPRESS_MS: u64 = 60_000;
 /// A lock grant's default life without a renewal, ms: with the servers'
 /// 100 ms sweep, a holder that is cut off loses the lock within 2.6 s.
 pub const DEFAULT_LOCK_TTL_MS: u64 = 2_500;
@@ -218,11 +224,14 @@ pub struct Meta {
     pub client: Option<String>,
     /// The request id, if it gave one (`op`).
     pub op: Option<String>,
+    /// How long lower priorities are suppressed once it is carried out, ms
+    /// (`suppress_ms`).
+    pub suppress_ms: Option<u64>,
 }
 
 impl Meta {
-    /// Takes `priority`, `fence`, `wait_ms`, `client` and `op` from the
-    /// parameters.
+    /// Takes `priority`, `fence`, `wait_ms`, `client`, `op` and
+    /// `suppress_ms` from the parameters.
     pub fn take(params: &mut Params) -> Result<Meta, ErrorReply> {
         let priority = params
             .take_int(param::PRIORITY, 0, 255)?
@@ -235,12 +244,16 @@ impl Meta {
             .map_or(DEFAULT_WAIT_MS, |w| w as u64);
         let client = params.take_id(param::CLIENT)?;
         let op = params.take_id(param::OP)?;
+        let suppress_ms = params
+            .take_int(param::SUPPRESS_MS, 0, i128::from(MAX_SUPPRESS_MS))?
+            .map(|s| s as u64);
         Ok(Meta {
             priority,
             fence,
             wait_ms,
             client,
             op,
+            suppress_ms,
         })
     }
 }
@@ -253,6 +266,7 @@ impl Default for Meta {
             wait_ms: DEFAULT_WAIT_MS,
             client: None,
             op: None,
+            suppress_ms: None,
         }
     }
 }

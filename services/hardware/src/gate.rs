@@ -7,6 +7,13 @@
 //! grant's fencing number and go straight to the device; a request with any
 //! other fence is refused, so a holder whose grant lapsed cannot act on the
 //! robot after someone else got it.
+//!
+//! A command carried out with `suppress_ms` also suppresses lower
+//! priorities for that long: their commands that act are refused
+//! (`suppressed`), not queued, since a colony-style module's output is a
+//! stream and a stale command carried out later would be wrong (§3.2.2,
+//! §4.8.2). The dominant module keeps its claim by sending within the time
+//! constant; when it falls silent, the others' streams get through again.
 
 use rome_clock::Instant;
 use rome_schema::robot::LockInfo;
@@ -35,6 +42,20 @@ impl Holder {
             fence: self.fence,
         }
     }
+}
+
+/// A suppression in force: commands that act from below `priority` are
+/// refused until `until`.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Suppressor {
+    /// The priority of the command that suppresses.
+    pub priority: u8,
+    /// Its sender, if it named itself.
+    pub client: Option<String>,
+    /// When it was carried out.
+    pub since: Instant,
+    /// When the suppression ends unless renewed.
+    pub until: Instant,
 }
 
 /// What to do with a request that just arrived.
@@ -86,6 +107,7 @@ pub struct Gate<T> {
     seq: u64,
     holder: Option<Holder>,
     last_fence: u64,
+    suppressor: Option<Suppressor>,
 }
 
 impl<T> Gate<T> {
@@ -96,6 +118,7 @@ impl<T> Gate<T> {
             seq: 0,
             holder: None,
             last_fence,
+            suppressor: None,
         }
     }
 
@@ -205,6 +228,36 @@ impl<T> Gate<T> {
         }
     }
 
+    /// The suppression a command that acts at `priority` meets now, if any:
+    /// one from a strictly higher priority still in force.
+    pub fn suppressed(&self, priority: u8, now: Instant) -> Option<&Suppressor> {
+        self.suppressor
+            .as_ref()
+            .filter(|s| s.priority > priority && now < s.until)
+    }
+
+    /// Records that a command at `priority` asking `suppress` was carried
+    /// out: it suppresses lower priorities from now for that long. A claim
+    /// of a higher priority still in force is kept; one of the same or a
+    /// lower priority is replaced (each command of the stream renews it).
+    pub fn suppress(
+        &mut self,
+        priority: u8,
+        client: Option<String>,
+        suppress: Duration,
+        now: Instant,
+    ) {
+        if self.suppressed(priority, now).is_some() || suppress.is_zero() {
+            return;
+        }
+        self.suppressor = Some(Suppressor {
+            priority,
+            client,
+            since: now,
+            until: now + suppress,
+        });
+    }
+
     /// Takes out every queued request whose wait ran out.
     pub fn overdue(&mut self, now: Instant) -> Vec<T> {
         if self.heap.iter().all(|q| q.deadline > now) {
@@ -312,6 +365,49 @@ mod tests {
             ["short", "shorter"]
         );
         assert_eq!(g.queued(), 1);
+    }
+
+    #[test]
+    fn a_suppressor_refuses_lower_priorities_until_its_stream_stops() {
+        let t0 = Instant::now();
+        let ms = Duration::from_millis;
+        let mut g: Gate<()> = Gate::new(0);
+        assert!(g.suppressed(0, t0).is_none(), "nothing suppresses at first");
+        g.suppress(200, Some("escape".into()), ms(300), t0);
+        assert_eq!(
+            g.suppressed(100, t0 + ms(299)).map(|s| s.priority),
+            Some(200)
+        );
+        assert!(
+            g.suppressed(200, t0 + ms(10)).is_none(),
+            "its own priority passes"
+        );
+        assert!(
+            g.suppressed(250, t0 + ms(10)).is_none(),
+            "a higher one passes"
+        );
+        // A lower priority's claim does not shorten or replace it.
+        g.suppress(100, None, ms(1000), t0 + ms(100));
+        assert_eq!(
+            g.suppressed(50, t0 + ms(200)).map(|s| s.priority),
+            Some(200)
+        );
+        assert!(g.suppressed(150, t0 + ms(200)).is_some());
+        // The stream goes on: each command renews the claim.
+        g.suppress(200, Some("escape".into()), ms(300), t0 + ms(250));
+        assert!(g.suppressed(100, t0 + ms(500)).is_some());
+        // It falls silent: the lower ones get through again.
+        assert!(g.suppressed(100, t0 + ms(550)).is_none());
+        // Once it lapsed, a lower priority may claim in its turn.
+        g.suppress(100, None, ms(300), t0 + ms(600));
+        assert_eq!(
+            g.suppressed(50, t0 + ms(700)).map(|s| s.priority),
+            Some(100)
+        );
+        // A zero time constant suppresses nothing.
+        let mut g: Gate<()> = Gate::new(0);
+        g.suppress(200, None, Duration::ZERO, t0);
+        assert!(g.suppressed(0, t0).is_none());
     }
 
     #[test]

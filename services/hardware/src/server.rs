@@ -206,6 +206,10 @@ struct Pending<C> {
     client: Option<String>,
     op_id: Option<String>,
     arrived: Instant,
+    priority: u8,
+    /// Whether it carried the lock holder's fence (never suppressed).
+    fenced: bool,
+    suppress: Option<Duration>,
     op: Op<C>,
 }
 
@@ -448,6 +452,9 @@ impl<S: Service> Server<S> {
             client: meta.client,
             op_id: meta.op,
             arrived: now,
+            priority: meta.priority,
+            fenced: meta.fence.is_some(),
+            suppress: meta.suppress_ms.map(Duration::from_millis),
             op,
         };
         let wait = Duration::from_millis(meta.wait_ms);
@@ -618,12 +625,22 @@ impl<S: Service> Server<S> {
                 }
                 Err(_) => Err(ErrorReply::new(ErrorCode::Conflict, "the lock is not held")),
             },
+            Op::Do(_) if self.suppressed(&p, now).is_some() => {
+                let e = self.suppressed(&p, now).expect("checked Some");
+                tracing::debug!(%key, priority = p.priority, "suppressed");
+                self.stats.suppressed += 1;
+                Err(e)
+            }
             Op::Do(cmd) => {
                 tracing::trace!(server = %self.config.label(), sim_ms = ?rome_clock::now_ms(), client = ?p.client, %key, params = %p.query.parameters(), "carrying out");
                 self.count(p.op_id.as_deref());
                 let lock = self.lock();
                 let moving = self.service.sets_moving(&cmd);
                 let result = self.service.apply(cmd, lock).await;
+                if let (Ok(_), Some(suppress)) = (&result, p.suppress) {
+                    self.gate
+                        .suppress(p.priority, p.client.clone(), suppress, now);
+                }
                 if result.is_ok() && (moving || p.command == "stop") {
                     // A command without a client id leaves nobody to watch:
                     // the device is no longer tied to the last one's life.
@@ -642,6 +659,31 @@ impl<S: Service> Server<S> {
                 reply_err(&p.query, &e).await
             }
         }
+    }
+
+    /// The refusal of a command that acts from below a suppression in
+    /// force, if `p` is one.
+    fn suppressed(&self, p: &Pending<S::Cmd>, now: Instant) -> Option<ErrorReply> {
+        if p.fenced || self.service.reads().contains(&p.command.as_str()) {
+            return None;
+        }
+        let s = self.gate.suppressed(p.priority, now)?;
+        let by = s
+            .client
+            .as_deref()
+            .map_or_else(String::new, |c| format!(" (client '{c}')"));
+        Some(ErrorReply::new(
+            ErrorCode::Suppressed,
+            format!(
+                "'{}' at priority {} not carried out on {}: priority {}{by} suppresses lower priorities for {} ms more (its command {} ms ago asked suppress_ms)",
+                p.command,
+                p.priority,
+                self.config.label(),
+                s.priority,
+                s.until.saturating_duration_since(now).as_millis(),
+                now.saturating_duration_since(s.since).as_millis(),
+            ),
+        ))
     }
 
     /// Counts a command carried out, and its id if it was carried out before.
