@@ -197,7 +197,7 @@ async fn run_command(cli: Cli) -> anyhow::Result<u8> {
         Command::Certs(args) => cmd::certs::run(args),
         Command::Demo(args) => cmd::demo::run(&common, args).await,
         Command::Experiment(args) => cmd::experiment::run(args).await,
-        Command::Colony(cmd) => cmd::colony::run(cmd),
+        Command::Colony(cmd) => cmd::colony::run(&common, cmd).await,
         Command::Planner(args) => cmd::nav::planner(&common, args).await,
         Command::Navigator(args) => cmd::nav::navigator(&common, args).await,
         Command::Ctracker(args) => cmd::nav::ctracker(&common, args).await,

@@ -19,6 +19,9 @@
 //!   after the inhibitors are gone; [`Priorities::serve`] picks the
 //!   highest applicable module, as the server's queue does, and
 //!   [`Priorities::program`] prints the equivalent if/else program.
+//! - [`behaviours`]: the running example's modules (wander, avoid,
+//!   escape) as predicate and transfer function over a base's senses, for
+//!   `rome colony behave`.
 //!
 //! Text format, one statement a line, `#` comments:
 //!
@@ -28,6 +31,8 @@
 //! inhibit i1 C over s1     # C, when it produces output, silences s1
 //! output i1                # the node driving the actuators
 //! ```
+
+pub mod behaviours;
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::fmt;
@@ -479,6 +484,9 @@ pub mod builtin {
     pub const FIG4_14B: &str = include_str!("../networks/fig4_14b.colony");
     /// Figure 3.9's shape, with an inhibitor: `networks/fig3_9.colony`.
     pub const FIG3_9: &str = include_str!("../networks/fig3_9.colony");
+    /// The running example's three behaviours of one base:
+    /// `networks/wander_avoid_escape.colony`.
+    pub const WANDER_AVOID_ESCAPE: &str = include_str!("../networks/wander_avoid_escape.colony");
 
     /// A built-in network's text by name.
     pub fn text(name: &str) -> Option<&'static str> {
@@ -486,6 +494,7 @@ pub mod builtin {
             "fig4_14a" => Some(FIG4_14A),
             "fig4_14b" => Some(FIG4_14B),
             "fig3_9" => Some(FIG3_9),
+            "wander_avoid_escape" => Some(WANDER_AVOID_ESCAPE),
             _ => None,
         }
     }

@@ -517,7 +517,7 @@ impl Rig {
 /// each other at least 8 m apart, to the right of the corridor's centre
 /// line (where the robots drive) as far as the corridor allows (at most
 /// 1.4 m), starting at least 3 m from every robot.
-fn add_people(sim: &mut Sim, map: &Map, n: usize, seed: u64) -> Result<(), NavError> {
+pub fn add_people(sim: &mut Sim, map: &Map, n: usize, seed: u64) -> Result<(), NavError> {
     if n == 0 {
         return Ok(());
     }

@@ -67,6 +67,11 @@ pub struct Args {
     /// Do not run a storage for lock state (use a router's storage instead).
     #[arg(long)]
     pub no_storage: bool,
+    /// People walking to and fro in the corridors (met by sonar, infrared
+    /// and bumpers like robots; placed with --seed, 3 m or more from every
+    /// robot).
+    #[arg(long, default_value_t = 0, value_name = "N", value_parser = clap::value_parser!(u32).range(0..=1000))]
+    pub people: u32,
 }
 
 fn period(hz: f64, flag: &str) -> anyhow::Result<Option<Duration>> {
@@ -111,6 +116,7 @@ pub fn world(args: &Args) -> anyhow::Result<(Sim, Vec<String>)> {
                 .with_context(|| format!("cannot place {name} at {pos}"))?;
             names.push(name);
         }
+        rome_rig::add_people(&mut sim, &map, args.people as usize, args.seed)?;
         return Ok((sim, names));
     }
     let mut spots: Vec<(String, f64)> = sim
@@ -141,6 +147,7 @@ pub fn world(args: &Args) -> anyhow::Result<(Sim, Vec<String>)> {
         args.map,
         names.len()
     );
+    rome_rig::add_people(&mut sim, &map, args.people as usize, args.seed)?;
     Ok((sim, names))
 }
 
