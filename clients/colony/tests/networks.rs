@@ -32,6 +32,21 @@ fn both_networks_of_figure_4_14_give_d_c_b_a() {
 }
 
 #[test]
+fn the_running_example_puts_escape_over_avoid_over_wander() {
+    use rome_colony::behaviours::Kind;
+    let net = parse("wander_avoid_escape", builtin::WANDER_AVOID_ESCAPE).unwrap();
+    assert_eq!(order(builtin::WANDER_AVOID_ESCAPE), ["wander", "avoid", "escape"]);
+    let p = net.priorities();
+    let client: Vec<u8> = ["wander", "avoid", "escape"]
+        .iter()
+        .map(|m| rome_colony::Priorities::client_priority(p.of(m).unwrap(), 3))
+        .collect();
+    assert_eq!(client, [100, 175, 250]);
+    // Every module is a behaviour `rome colony behave` knows.
+    assert!(net.modules().iter().all(|m| Kind::from_name(m).is_some()));
+}
+
+#[test]
 fn an_inhibitor_gates_the_other_side_by_lemma_4_1() {
     let net = parse("fig3_9", builtin::FIG3_9).unwrap();
     let p = net.priorities();
