@@ -219,3 +219,119 @@ fn the_higher_behaviour_is_carried_out_while_it_applies_and_the_lower_resume() {
         "without suppress_ms the check found nothing: it could not fail"
     );
 }
+
+/// A `rome` server listening on a port of the system's choosing, and
+/// that port.
+fn server(dir: &Path, name: &str, args: &[&str]) -> (ChildGuard, u16) {
+    let log = dir.join(format!("{name}.log"));
+    let child = rome_tests::spawn_logged(ROME, args, &log);
+    (
+        child,
+        rome_tests::listening_port(&log, Duration::from_secs(60)),
+    )
+}
+
+/// §4.8.1: the upper layer hands legs down and the lower layer drives them,
+/// two processes that share only the data server's variables and
+/// semaphores; the robot goes out and back, judged by ground truth.
+#[test]
+fn two_layers_talking_only_through_the_data_server_drive_out_and_back() {
+    let d = dir().join("layers");
+    std::fs::create_dir_all(&d).unwrap();
+    let (_ds, port) = server(
+        &d,
+        "data-server",
+        &[
+            "--no-multicast",
+            "--listen",
+            "tcp/127.0.0.1:0",
+            "data-server",
+            "--in-memory",
+        ],
+    );
+    let endpoint = format!("tcp/127.0.0.1:{port}");
+    let _sim = rome_tests::spawn_logged(
+        ROME,
+        &[
+            "--no-multicast",
+            "--listen",
+            "tcp/127.0.0.1:0",
+            "--connect",
+            &endpoint,
+            "sim",
+            "--map",
+            "fig5_3",
+            "--speed",
+            "4",
+        ],
+        &d.join("sim.log"),
+    );
+    let layer = |which: &str| {
+        let out = std::fs::File::create(d.join(format!("{which}.out"))).unwrap();
+        let err = std::fs::File::create(d.join(format!("{which}.log"))).unwrap();
+        Command::new(ROME)
+            .args([
+                "--no-multicast",
+                "--mode",
+                "client",
+                "--connect",
+                &endpoint,
+                "colony",
+                "layer",
+                which,
+                "--sides",
+                "2",
+                "--side-mm",
+                "2000",
+            ])
+            .stdin(Stdio::null())
+            .stdout(out)
+            .stderr(err)
+            .spawn()
+            .unwrap()
+    };
+    // The lower layer starts first; the upper one once the robot is up,
+    // so that ground truth has the start.
+    let mut lower = ChildGuard(Some(layer("lower")));
+    let deadline = std::time::Instant::now() + Duration::from_secs(60);
+    while !std::fs::read_to_string(d.join("lower.log"))
+        .unwrap_or_default()
+        .contains("waiting for legs")
+    {
+        assert!(
+            std::time::Instant::now() < deadline,
+            "the lower layer never reached the base\n{}",
+            rome_tests::tail_logs(&d, 8)
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let mut upper = ChildGuard(Some(layer("upper")));
+    for (name, p) in [("upper", &mut upper), ("lower", &mut lower)] {
+        let status = p.0.as_mut().unwrap().wait().unwrap();
+        assert!(
+            status.success(),
+            "{name} failed\n{}",
+            rome_tests::tail_logs(&d, 8)
+        );
+    }
+    let out = std::fs::read_to_string(d.join("upper.out")).unwrap();
+    assert_eq!(
+        out.matches(" done: the lower layer reports").count(),
+        2,
+        "{out}"
+    );
+    let last = out.lines().rfind(|l| l.starts_with("done:")).unwrap();
+    // "done: 2 legs; ground truth puts r1 29 mm from where it started, after 4005 mm driven"
+    let numbers: Vec<f64> = last
+        .split_whitespace()
+        .filter_map(|w| w.parse().ok())
+        .collect();
+    let [_, off, driven] = numbers[..] else {
+        panic!("no figures in {last}")
+    };
+    assert!(off < 300.0, "ended {off} mm from the start: {last}");
+    assert!(
+        (driven - 4_000.0).abs() < 400.0,
+        "drove {driven} mm: {last}"
+    );
+}

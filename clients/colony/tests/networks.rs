@@ -35,7 +35,10 @@ fn both_networks_of_figure_4_14_give_d_c_b_a() {
 fn the_running_example_puts_escape_over_avoid_over_wander() {
     use rome_colony::behaviours::Kind;
     let net = parse("wander_avoid_escape", builtin::WANDER_AVOID_ESCAPE).unwrap();
-    assert_eq!(order(builtin::WANDER_AVOID_ESCAPE), ["wander", "avoid", "escape"]);
+    assert_eq!(
+        order(builtin::WANDER_AVOID_ESCAPE),
+        ["wander", "avoid", "escape"]
+    );
     let p = net.priorities();
     let client: Vec<u8> = ["wander", "avoid", "escape"]
         .iter()

@@ -4,6 +4,8 @@
 //! rome colony priorities fig4_14a          # a built-in network: fig4_14a, fig4_14b, fig3_9
 //! rome colony priorities my.colony         # a network file (format in docs/colony.md)
 //! rome colony behave wander_avoid_escape avoid --robot r1
+//! rome colony layer upper --robot r1     # §4.8.1: plans legs, hands them down
+//! rome colony layer lower --robot r1     # drives them, reports back up
 //! ```
 //!
 //! `priorities` prints each module's priority (1 the lowest, as a forward
@@ -17,6 +19,12 @@
 //! latest sonar scan and bumpers, and while its predicate holds sends its
 //! command with `suppress_ms`, so the base refuses lower modules' commands
 //! meanwhile (docs/colony.md). One JSON line per command sent on stdout.
+//!
+//! `layer` is the hierarchical case (§4.8.1, Figure 4.10): two layers, each
+//! its own process, that exchange information only through the data
+//! server's variables and semaphores. The upper layer plans a polygon's
+//! legs and hands them down one at a time; the lower layer drives each on
+//! the base and reports the pose it reached.
 
 use crate::args::{CommonArgs, Side};
 use anyhow::Context;
@@ -38,6 +46,78 @@ pub enum ColonyCmd {
     /// Run one module of a network as a client of a robot's base, at the
     /// priority the network gives it.
     Behave(BehaveArgs),
+    /// One layer of a two-layer hierarchy that talks only through the data
+    /// server (§4.8.1): upper plans a polygon's legs, lower drives them.
+    Layer(LayerArgs),
+}
+
+/// Which layer `rome colony layer` runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Which {
+    /// Plans the legs, hands each down, reads what the lower layer reports.
+    Upper,
+    /// Drives each leg it is handed on the robot's base, reports the pose.
+    Lower,
+}
+
+/// Flags of `rome colony layer`.
+#[derive(Debug, clap::Args)]
+pub struct LayerArgs {
+    /// Which layer to run.
+    #[arg(value_enum)]
+    pub layer: Which,
+    /// The robot.
+    #[arg(long, default_value = "r1")]
+    pub robot: String,
+    /// Upper: sides of the polygon (2: out and back).
+    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u32).range(2..=12))]
+    pub sides: u32,
+    /// Upper: length of a side, mm.
+    #[arg(long, default_value_t = 2_000.0)]
+    pub side_mm: f64,
+}
+
+/// What the upper layer hands down: `layers/<robot>/Leg`.
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
+struct Leg {
+    /// Which leg, from 0.
+    leg: u32,
+    /// Turn in place first, degrees clockwise.
+    turn_deg: f64,
+    /// Then go this far, mm.
+    distance_mm: f64,
+    /// No more legs: the lower layer ends.
+    last: bool,
+}
+
+/// What the lower layer reports: `layers/<robot>/Report`.
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
+struct Report {
+    /// The leg carried out.
+    leg: u32,
+    /// The base's pose after it, mm and degrees.
+    x_mm: f64,
+    y_mm: f64,
+    heading_deg: f64,
+}
+
+/// The variables and semaphores the two layers share, and nothing else.
+struct Shared {
+    leg: String,
+    report: String,
+    leg_ready: String,
+    leg_done: String,
+}
+
+impl Shared {
+    fn of(robot: &str) -> Self {
+        Shared {
+            leg: format!("layers/{robot}/Leg"),
+            report: format!("layers/{robot}/Report"),
+            leg_ready: format!("$layers/{robot}/LegReady"),
+            leg_done: format!("$layers/{robot}/LegDone"),
+        }
+    }
 }
 
 /// Flags of `rome colony behave`.
@@ -70,6 +150,7 @@ pub async fn run(common: &CommonArgs, cmd: ColonyCmd) -> anyhow::Result<u8> {
     match cmd {
         ColonyCmd::Priorities { network } => priorities(&network),
         ColonyCmd::Behave(args) => behave(common, args).await,
+        ColonyCmd::Layer(args) => layer(common, args).await,
     }
 }
 
@@ -281,4 +362,168 @@ async fn behave(common: &CommonArgs, args: BehaveArgs) -> anyhow::Result<u8> {
     );
     let _ = session.close().await;
     Ok(0)
+}
+
+async fn layer(common: &CommonArgs, args: LayerArgs) -> anyhow::Result<u8> {
+    anyhow::ensure!(
+        args.side_mm.is_finite() && (100.0..=50_000.0).contains(&args.side_mm),
+        "--side-mm must be 100 … 50 000 mm, got {}",
+        args.side_mm
+    );
+    let role = match args.layer {
+        Which::Upper => "layer-upper",
+        Which::Lower => "layer-lower",
+    };
+    let ds = super::connect_data(common, role).await?;
+    let names = Shared::of(&args.robot);
+    // Either layer may start first: both create the semaphores (one that
+    // exists is left as it is).
+    for sem in [&names.leg_ready, &names.leg_done] {
+        ds.create_semaphore(sem, 0)
+            .await
+            .with_context(|| format!("cannot create the semaphore {sem}"))?;
+    }
+    match args.layer {
+        Which::Upper => upper(common, &args, &ds, &names).await,
+        Which::Lower => lower(common, &args, &ds, &names).await,
+    }
+}
+
+async fn upper(
+    common: &CommonArgs,
+    args: &LayerArgs,
+    ds: &rome_client::DataClient,
+    names: &Shared,
+) -> anyhow::Result<u8> {
+    // Ground truth only judges the run at the end, as the planner's does;
+    // the layers never read it.
+    let session = common.open(Side::Client).await?;
+    let truth = rome_client::sim::TruthClient::new(&session, &common.root()?, &args.robot)?;
+    let start = truth.get().await.ok();
+    let turn = 360.0 / f64::from(args.sides);
+    for k in 0..=args.sides {
+        let leg = Leg {
+            leg: k,
+            turn_deg: if k == 0 { 0.0 } else { turn },
+            distance_mm: args.side_mm,
+            last: k == args.sides,
+        };
+        ds.set(&names.leg, &leg).await?;
+        ds.signal(&names.leg_ready).await?;
+        if leg.last {
+            break;
+        }
+        println!(
+            "upper: leg {k}: turn {:.0}°, go {:.0} mm (handed down)",
+            leg.turn_deg, leg.distance_mm
+        );
+        ds.wait(&names.leg_done).await?;
+        let r: Report = ds
+            .get_as(&names.report)
+            .await
+            .with_context(|| format!("the lower layer's report {} is not one", names.report))?;
+        anyhow::ensure!(
+            r.leg == k,
+            "the lower layer reported leg {} where leg {k} was handed down",
+            r.leg
+        );
+        println!(
+            "upper: leg {k} done: the lower layer reports ({:.0}, {:.0}) mm, heading {:.1}°",
+            r.x_mm, r.y_mm, r.heading_deg
+        );
+    }
+    match (start, truth.get().await.ok()) {
+        (Some(a), Some(b)) => println!(
+            "done: {} legs; ground truth puts {} {:.0} mm from where it started, after {:.0} mm driven",
+            args.sides,
+            args.robot,
+            (b.x_mm - a.x_mm).hypot(b.y_mm - a.y_mm),
+            b.travelled_mm - a.travelled_mm
+        ),
+        _ => println!("done: {} legs (no ground truth to judge by)", args.sides),
+    }
+    let _ = session.close().await;
+    Ok(0)
+}
+
+async fn lower(
+    common: &CommonArgs,
+    args: &LayerArgs,
+    ds: &rome_client::DataClient,
+    names: &Shared,
+) -> anyhow::Result<u8> {
+    let session = common.open(Side::Client).await?;
+    let mut options = RobotOptions::new("layer-lower");
+    options.root = common.root()?;
+    rome_client::alive::await_server(
+        &session,
+        &options.root,
+        "robot",
+        &format!("{}/base", args.robot),
+        Duration::from_secs(30),
+    )
+    .await
+    .with_context(|| {
+        format!(
+            "robot {}'s base server is not running (is `rome sim` up?)",
+            args.robot
+        )
+    })?;
+    let rc = RobotClient::connect(&session, &args.robot, options).await?;
+    let states = rc.state().await?;
+    eprintln!(
+        "rome colony layer lower: robot {}'s base reached; waiting for legs on {}",
+        args.robot, names.leg_ready
+    );
+    loop {
+        ds.wait(&names.leg_ready).await?;
+        let leg: Leg = ds
+            .get_as(&names.leg)
+            .await
+            .with_context(|| format!("the upper layer's leg {} is not one", names.leg))?;
+        if leg.last {
+            println!("lower: no more legs");
+            break;
+        }
+        if leg.turn_deg != 0.0 {
+            rc.turn(leg.turn_deg, 60.0, -1.0).await?;
+            still(&states).await?;
+        }
+        rc.move_by(leg.distance_mm, 300.0, -1.0).await?;
+        still(&states).await?;
+        let p = rc.pose().await?;
+        let report = Report {
+            leg: leg.leg,
+            x_mm: f64::from(p.x_mm),
+            y_mm: f64::from(p.y_mm),
+            heading_deg: p.heading_deg,
+        };
+        println!("lower: leg {} driven", leg.leg);
+        ds.set(&names.report, &report).await?;
+        ds.signal(&names.leg_done).await?;
+    }
+    let _ = session.close().await;
+    Ok(0)
+}
+
+/// Waits until the base has carried out its last motion: a state that is
+/// not moving after one that was, or a minute of states that never moved.
+async fn still(
+    states: &rome_client::robot::Stream<rome_schema::robot::BaseState>,
+) -> anyhow::Result<()> {
+    let mut moved = false;
+    for _ in 0..600 {
+        let s = states
+            .next()
+            .await
+            .context("the base's state stream ended")??;
+        // A finished move or turn leaves the base at rest in go mode.
+        let moving = matches!(s.mode.as_str(), "point_go" | "point_turn" | "stopping")
+            || s.wheel_speed_mm_s.abs() > 1.0;
+        if moved && !moving {
+            return Ok(());
+        }
+        moved |= moving;
+    }
+    anyhow::bail!("the base did not finish its motion within 600 states")
 }
