@@ -102,8 +102,37 @@ pub struct ModeCount {
 impl Plan {
     /// Plans the route from `from` to `to` and segments it.
     pub fn new(world: &World, network: &Network, from: &str, to: &str) -> Result<Plan, RouteError> {
-        let route = world.route(network, from, &[], to)?;
+        Plan::through(world, network, from, &[], to)
+    }
+
+    /// Plans the route from `from` to `to` through the `via` positions in
+    /// order (the long way round) and segments it.
+    pub fn through(
+        world: &World,
+        network: &Network,
+        from: &str,
+        via: &[String],
+        to: &str,
+    ) -> Result<Plan, RouteError> {
+        let via: Vec<&str> = via.iter().map(String::as_str).collect();
+        let route = world.route(network, from, &via, to)?;
         Ok(Plan::segment(world, route))
+    }
+
+    /// The route as tables name it: `341R to 381R`, with `via 301.secondL`
+    /// when it goes the long way round.
+    pub fn label(&self) -> String {
+        let stops = &self.route.stops;
+        match stops.len() {
+            0 | 1 => stops.join(""),
+            2 => format!("{} to {}", stops[0], stops[1]),
+            n => format!(
+                "{} to {} via {}",
+                stops[0],
+                stops[n - 1],
+                stops[1..n - 1].join(", ")
+            ),
+        }
     }
 
     /// Segments a route.
@@ -413,6 +442,44 @@ mod tests {
         assert_eq!(
             plan.steps.last().map(|s| s.goal.goal_type),
             Some(GoalType::D)
+        );
+    }
+
+    #[test]
+    fn the_long_way_round_goes_through_its_via_positions() {
+        let (world, net) = eb3();
+        let v = |names: &[&str]| names.iter().map(|n| (*n).to_string()).collect::<Vec<_>>();
+        // Table 6.2 #6: "a complete cycle of the building", 337.007 m.
+        let cycle = Plan::through(&world, &net, "345R", &v(&["359L", "301.secondL"]), "345L")
+            .expect("plan");
+        assert!(
+            (cycle.route.length_mm - 337_900.0).abs() < 500.0,
+            "{}",
+            cycle.route.length_mm
+        );
+        assert_eq!(cycle.route.turns, 4);
+        assert_eq!(cycle.label(), "345R to 345L via 359L, 301.secondL");
+        let m = cycle.modes();
+        assert_eq!((m.c, m.d), (4, 1), "{:?}", cycle.describe());
+        // The shortest way is the next door.
+        let short = Plan::new(&world, &net, "345R", "345L").expect("plan");
+        assert_eq!(short.label(), "345R to 345L");
+        assert!(short.route.length_mm < 1_000.0);
+        // A via position on the way adds no corner and no length.
+        let direct = Plan::new(&world, &net, "350R", "376L").expect("plan");
+        let through = Plan::through(&world, &net, "350R", &v(&["360L"]), "376L").expect("plan");
+        assert_eq!(
+            through.steps.len(),
+            direct.steps.len(),
+            "{:?}",
+            through.describe()
+        );
+        assert!((through.route.length_mm - direct.route.length_mm).abs() < 1.0);
+        // One behind the start makes the route turn back: refused, named.
+        let err = Plan::through(&world, &net, "350R", &v(&["346L"]), "376L").expect_err("U-turn");
+        assert!(
+            matches!(&err, RouteError::TurnsBack { via, .. } if via == "346L"),
+            "{err}"
         );
     }
 

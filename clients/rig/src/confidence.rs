@@ -288,13 +288,13 @@ pub fn markdown(reports: &[&Report]) -> String {
     s.push_str("```\n\nTable 6.5, every route run:\n\n");
     s.push_str("| Path | Input string | Confidence (ours) | With the thesis' p | Thesis' string | Thesis |\n|------|--------------|------------------:|-------------------:|----------------|-------:|\n");
     let (mo, mt) = (Matrices::new(p), Matrices::new(tp));
-    let mut seen: Vec<(String, String)> = Vec::new();
+    let mut seen: Vec<String> = Vec::new();
     for r in reports {
-        let key = (r.from.clone(), r.to.clone());
-        if seen.contains(&key) {
+        let label = r.plan.label();
+        if seen.contains(&label) {
             continue;
         }
-        seen.push(key);
+        seen.push(label.clone());
         let input = input_string(&r.plan);
         let thesis = TABLE_6_5
             .iter()
@@ -303,9 +303,7 @@ pub fn markdown(reports: &[&Report]) -> String {
                 format!("{st} | {c}")
             });
         s.push_str(&format!(
-            "| {} to {} | {input} | {:.4} | {:.4} | {thesis} |\n",
-            r.from,
-            r.to,
+            "| {label} | {input} | {:.4} | {:.4} | {thesis} |\n",
             mo.confidence(&input),
             mt.confidence(&input)
         ));

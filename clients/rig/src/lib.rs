@@ -53,6 +53,8 @@ pub struct RouteSpec {
     pub to: String,
     /// The robot's cruising speed, mm/s, if not the Navigator's default.
     pub cruise_mm_s: Option<f64>,
+    /// Positions the route goes through in order (the long way round).
+    pub via: Vec<String>,
 }
 
 impl RouteSpec {
@@ -63,13 +65,14 @@ impl RouteSpec {
             from: from.into(),
             to: to.into(),
             cruise_mm_s: None,
+            via: Vec::new(),
         }
     }
 }
 
-/// Reads a routes file: one `FROM TO [SPEED]` a line (SPEED the cruising
-/// speed in mm/s; blank lines and `#` comments skipped); robot k is named
-/// `rk`.
+/// Reads a routes file: one `FROM TO [SPEED] [via POS…]` a line (SPEED
+/// the cruising speed in mm/s; the route goes through the `via` positions
+/// in order; blank lines and `#` comments skipped); robot k is named `rk`.
 pub fn parse_routes(file: &str, text: &str) -> Result<Vec<RouteSpec>, NavError> {
     let mut out = Vec::new();
     for (i, line) in text.lines().enumerate() {
@@ -77,13 +80,23 @@ pub fn parse_routes(file: &str, text: &str) -> Result<Vec<RouteSpec>, NavError> 
         if line.is_empty() {
             continue;
         }
-        let words: Vec<&str> = line.split_whitespace().collect();
-        let (from, to, speed) = match words[..] {
+        let all: Vec<&str> = line.split_whitespace().collect();
+        let (words, via) = match all.iter().position(|w| *w == "via") {
+            Some(k) if k + 1 < all.len() => (&all[..k], &all[k + 1..]),
+            Some(_) => {
+                return Err(NavError::Config(format!(
+                    "{file}:{}: 'via' needs one position or more after it, got '{line}'",
+                    i + 1
+                )))
+            }
+            None => (&all[..], &[][..]),
+        };
+        let (from, to, speed) = match *words {
             [from, to] => (from, to, None),
             [from, to, speed] => (from, to, Some(speed)),
             _ => {
                 return Err(NavError::Config(format!(
-                    "{file}:{}: expected 'FROM TO' or 'FROM TO SPEED' (like '350R 376L 300'), got '{line}'",
+                    "{file}:{}: expected 'FROM TO', 'FROM TO SPEED' (like '350R 376L 300') and 'via POS…' after either, got '{line}'",
                     i + 1
                 )))
             }
@@ -105,6 +118,7 @@ pub fn parse_routes(file: &str, text: &str) -> Result<Vec<RouteSpec>, NavError> 
             from: from.into(),
             to: to.into(),
             cruise_mm_s,
+            via: via.iter().map(|v| (*v).to_string()).collect(),
         });
     }
     if out.is_empty() {
@@ -667,7 +681,7 @@ async fn run_all(
                 r.robot
             )));
         }
-        let plan = Plan::new(&world_map, &network, &r.from, &r.to)?;
+        let plan = Plan::through(&world_map, &network, &r.from, &r.via, &r.to)?;
         progress(Event::Planned {
             robot: k,
             plan: plan.clone(),
@@ -1002,4 +1016,35 @@ async fn read_all<T: serde::de::DeserializeOwned>(board: &Board, var: Var) -> Ve
         }
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_routes_file_takes_speeds_and_the_long_way_round() {
+        let routes = parse_routes(
+            "t.routes",
+            "# comment\n350R 376L\n345R 345L 600 via 359L 301.secondL\n341R 381R via 301.secondL\n",
+        )
+        .unwrap();
+        assert_eq!(routes.len(), 3);
+        assert_eq!((routes[0].robot.as_str(), routes[0].via.len()), ("r1", 0));
+        assert_eq!(routes[1].cruise_mm_s, Some(600.0));
+        assert_eq!(routes[1].via, ["359L", "301.secondL"]);
+        assert_eq!(
+            (routes[2].cruise_mm_s, routes[2].via.as_slice()),
+            (None, &["301.secondL".to_string()][..])
+        );
+        for bad in [
+            "350R 376L via",
+            "350R",
+            "350R 376L fast",
+            "350R 376L 300 400 via A",
+        ] {
+            let e = parse_routes("t.routes", bad).unwrap_err().to_string();
+            assert!(e.contains("t.routes:1"), "{bad}: {e}");
+        }
+    }
 }

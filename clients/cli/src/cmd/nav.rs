@@ -46,6 +46,10 @@ pub struct PlannerArgs {
     /// Goal.
     #[arg(long)]
     to: String,
+    /// Positions to go through in order on the way (the long way round),
+    /// comma-separated.
+    #[arg(long, value_delimiter = ',', value_name = "POS")]
+    via: Vec<String>,
     /// Which way the robot faces at the start, degrees (North 0, West 90),
     /// if not already along the route: it is registered so and turned onto
     /// the route before the first goal.
@@ -142,9 +146,14 @@ pub async fn planner(common: &CommonArgs, args: PlannerArgs) -> anyhow::Result<u
     let map = rome_maps::load_named(&args.map)?;
     let world = rome_maps::World::from_map(&map);
     let network = rome_maps::Network::new(&map, &world);
-    let plan = Plan::new(&world, &network, &args.from, &args.to)?;
+    let plan = Plan::through(&world, &network, &args.from, &args.via, &args.to)?;
+    let via = if args.via.is_empty() {
+        String::new()
+    } else {
+        format!(" via {}", args.via.join(", "))
+    };
     println!(
-        "plan {} -> {}: {:.3} m, {} corner(s)",
+        "plan {} -> {}{via}: {:.3} m, {} corner(s)",
         args.from,
         args.to,
         plan.route.length_mm / 1_000.0,
