@@ -381,7 +381,7 @@ fn csv_field(s: &str) -> String {
 /// The results as CSV, one run a line, with the thesis' row beside it.
 pub fn csv(outcomes: &[Outcome]) -> String {
     let mut s = String::from(
-        "no,from,to,seed,arrived,actual_m,to_goal_cm,miss_cm,run_time_s,speed_m_min,l,c,d,contacts,thesis,thesis_dist_m,thesis_to_goal_cm,thesis_time,thesis_l,thesis_c,thesis_d,reason\n",
+        "no,from,to,via,seed,arrived,actual_m,to_goal_cm,miss_cm,run_time_s,speed_m_min,l,c,d,contacts,thesis,thesis_dist_m,thesis_to_goal_cm,thesis_time,thesis_l,thesis_c,thesis_d,reason\n",
     );
     for o in outcomes {
         let tr = &o.trial;
@@ -389,6 +389,8 @@ pub fn csv(outcomes: &[Outcome]) -> String {
             tr.no.to_string(),
             tr.route.from.clone(),
             tr.route.to.clone(),
+            // Space-separated, as a routes file writes them.
+            tr.route.via.join(" "),
             tr.seed.to_string(),
         ];
         match &o.report {
