@@ -45,18 +45,29 @@ fn dir() -> PathBuf {
     d
 }
 
-fn behave(port: u16, dir: &Path, robot: &str, module: &str, suppress: u128) -> ChildGuard {
+/// `rome ARGS…` as a client of the server on `port`, its standard output
+/// into `out` and its standard error into `err`.
+fn client(port: u16, out: &Path, err: &Path, args: &[&str]) -> ChildGuard {
     let endpoint = format!("tcp/127.0.0.1:{port}");
-    let out = std::fs::File::create(dir.join(format!("{robot}-{module}.jsonl"))).unwrap();
-    let err = std::fs::File::create(dir.join(format!("{robot}-{module}.log"))).unwrap();
-    let suppress = suppress.to_string();
+    let mut all = vec!["--no-multicast", "--mode", "client", "--connect", &endpoint];
+    all.extend_from_slice(args);
     let child = Command::new(ROME)
-        .args([
-            "--no-multicast",
-            "--mode",
-            "client",
-            "--connect",
-            &endpoint,
+        .args(all)
+        .stdin(Stdio::null())
+        .stdout(std::fs::File::create(out).unwrap())
+        .stderr(std::fs::File::create(err).unwrap())
+        .spawn()
+        .unwrap();
+    ChildGuard(Some(child))
+}
+
+fn behave(port: u16, dir: &Path, robot: &str, module: &str, suppress: u128) -> ChildGuard {
+    let suppress = suppress.to_string();
+    client(
+        port,
+        &dir.join(format!("{robot}-{module}.jsonl")),
+        &dir.join(format!("{robot}-{module}.log")),
+        &[
             "--sim-time",
             "colony",
             "behave",
@@ -68,13 +79,8 @@ fn behave(port: u16, dir: &Path, robot: &str, module: &str, suppress: u128) -> C
             &suppress,
             "--for-s",
             RUN_S,
-        ])
-        .stdin(Stdio::null())
-        .stdout(out)
-        .stderr(err)
-        .spawn()
-        .unwrap();
-    ChildGuard(Some(child))
+        ],
+    )
 }
 
 fn read(dir: &Path, robot: &str) -> Vec<Sent> {
@@ -267,15 +273,11 @@ fn two_layers_talking_only_through_the_data_server_drive_out_and_back() {
         &d.join("sim.log"),
     );
     let layer = |which: &str| {
-        let out = std::fs::File::create(d.join(format!("{which}.out"))).unwrap();
-        let err = std::fs::File::create(d.join(format!("{which}.log"))).unwrap();
-        Command::new(ROME)
-            .args([
-                "--no-multicast",
-                "--mode",
-                "client",
-                "--connect",
-                &endpoint,
+        client(
+            port,
+            &d.join(format!("{which}.out")),
+            &d.join(format!("{which}.log")),
+            &[
                 "colony",
                 "layer",
                 which,
@@ -283,16 +285,12 @@ fn two_layers_talking_only_through_the_data_server_drive_out_and_back() {
                 "2",
                 "--side-mm",
                 "2000",
-            ])
-            .stdin(Stdio::null())
-            .stdout(out)
-            .stderr(err)
-            .spawn()
-            .unwrap()
+            ],
+        )
     };
     // The lower layer starts first; the upper one once the robot is up,
     // so that ground truth has the start.
-    let mut lower = ChildGuard(Some(layer("lower")));
+    let mut lower = layer("lower");
     let deadline = std::time::Instant::now() + Duration::from_secs(60);
     while !std::fs::read_to_string(d.join("lower.log"))
         .unwrap_or_default()
@@ -305,7 +303,7 @@ fn two_layers_talking_only_through_the_data_server_drive_out_and_back() {
         );
         std::thread::sleep(Duration::from_millis(50));
     }
-    let mut upper = ChildGuard(Some(layer("upper")));
+    let mut upper = layer("upper");
     for (name, p) in [("upper", &mut upper), ("lower", &mut lower)] {
         let status = p.0.as_mut().unwrap().wait().unwrap();
         assert!(

@@ -217,6 +217,25 @@ struct Sent<'a> {
     outcome: String,
 }
 
+/// A client of `robot`'s base once its server is up (waiting up to 30 s,
+/// so a behaviour may start before the simulator).
+async fn base(
+    session: &zenoh::Session,
+    robot: &str,
+    options: RobotOptions,
+) -> anyhow::Result<RobotClient> {
+    rome_client::alive::await_server(
+        session,
+        &options.root,
+        "robot",
+        &format!("{robot}/base"),
+        Duration::from_secs(30),
+    )
+    .await
+    .with_context(|| format!("robot {robot}'s base server is not running (is `rome sim` up?)"))?;
+    Ok(RobotClient::connect(session, robot, options).await?)
+}
+
 async fn behave(common: &CommonArgs, args: BehaveArgs) -> anyhow::Result<u8> {
     let (file, net) = load(&args.network)?;
     let kind = Kind::from_name(&args.module).with_context(|| {
@@ -248,22 +267,7 @@ async fn behave(common: &CommonArgs, args: BehaveArgs) -> anyhow::Result<u8> {
     options.suppress = Some(Duration::from_millis(args.suppress_ms));
     // A refused command is the point here, not worth a wait in the queue.
     options.queue_wait = Duration::from_millis(args.period_ms);
-    let root = options.root.clone();
-    rome_client::alive::await_server(
-        &session,
-        &root,
-        "robot",
-        &format!("{}/base", args.robot),
-        Duration::from_secs(30),
-    )
-    .await
-    .with_context(|| {
-        format!(
-            "robot {}'s base server is not running (is `rome sim` up?)",
-            args.robot
-        )
-    })?;
-    let rc = RobotClient::connect(&session, &args.robot, options).await?;
+    let rc = base(&session, &args.robot, options).await?;
     let scans = rc.scans().await?;
     let states = rc.state().await?;
     eprintln!(
@@ -455,21 +459,7 @@ async fn lower(
     let session = common.open(Side::Client).await?;
     let mut options = RobotOptions::new("layer-lower");
     options.root = common.root()?;
-    rome_client::alive::await_server(
-        &session,
-        &options.root,
-        "robot",
-        &format!("{}/base", args.robot),
-        Duration::from_secs(30),
-    )
-    .await
-    .with_context(|| {
-        format!(
-            "robot {}'s base server is not running (is `rome sim` up?)",
-            args.robot
-        )
-    })?;
-    let rc = RobotClient::connect(&session, &args.robot, options).await?;
+    let rc = base(&session, &args.robot, options).await?;
     let states = rc.state().await?;
     eprintln!(
         "rome colony layer lower: robot {}'s base reached; waiting for legs on {}",
