@@ -284,7 +284,7 @@ fn experiment_tabulates_its_runs_and_the_confidence_automaton() {
         csv.lines()
             .nth(2)
             .unwrap()
-            .starts_with("2,302L,A340R,6,true,"),
+            .starts_with("2,302L,A340R,,6,true,"),
         "{csv}"
     );
     let md = std::fs::read_to_string(out_dir.join("runs.md")).unwrap();
