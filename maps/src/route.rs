@@ -59,8 +59,8 @@ pub enum RouteError {
         /// Goal.
         to: String,
     },
-    /// A via position makes the route turn back on itself, which no plan
-    /// can drive (the Planner's corners are turns of less than 150°).
+    /// A via position makes the route turn back on itself, which the
+    /// Planner cannot drive (its corners are turns of less than 150°).
     #[error("the route turns back on itself at '{via}' (by {turn_deg:.0}°); choose via positions along the way round")]
     TurnsBack {
         /// The via position.
@@ -248,34 +248,6 @@ impl World {
             length_mm += len;
         }
         points.dedup_by(|a, b| distance(*a, *b) < 1.0);
-        if !via.is_empty() {
-            // A via position on a straight stretch is no corner: drop it
-            // from the corner points; one where the way reverses is refused.
-            let mut k = 1;
-            while k + 1 < points.len() {
-                let turn = normalize_deg(
-                    heading(points[k], points[k + 1]) - heading(points[k - 1], points[k]),
-                );
-                if turn.abs() > 150.0 {
-                    let via = stops
-                        .iter()
-                        .zip(&at)
-                        .min_by(|a, b| {
-                            distance(*a.1, points[k]).total_cmp(&distance(*b.1, points[k]))
-                        })
-                        .map_or_else(String::new, |(name, _)| (*name).to_string());
-                    return Err(RouteError::TurnsBack {
-                        via,
-                        turn_deg: turn.abs(),
-                    });
-                }
-                if turn.abs() < 1.0 {
-                    points.remove(k);
-                } else {
-                    k += 1;
-                }
-            }
-        }
         let turns = points
             .windows(3)
             .filter(|w| normalize_deg(heading(w[1], w[2]) - heading(w[0], w[1])).abs() > 30.0)

@@ -397,7 +397,7 @@ async fn a_repeated_request_id_is_answered_again_without_acting_twice() {
     let stats = plain(&s, "rome/robot/r1/base/stats", "").await.unwrap();
     assert_eq!(
         stats,
-        serde_json::json!({"executed": 4, "with_id": 4, "answered_from_memory": 2, "ids_executed_twice": 0})
+        serde_json::json!({"executed": 4, "with_id": 4, "answered_from_memory": 2, "ids_executed_twice": 0, "suppressed": 0})
     );
 }
 

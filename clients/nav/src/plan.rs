@@ -13,7 +13,7 @@
 //! 6.1–6.2 count E and C together as the corner column.
 
 use crate::board::{Goal, GoalType};
-use rome_maps::geometry::{direction, distance, Point};
+use rome_maps::geometry::{direction, distance, heading_to, normalize_deg, Point};
 use rome_maps::{Network, Route, RouteError, World};
 
 /// How far the Leave-Corner segment takes the robot from the middle of the
@@ -99,6 +99,37 @@ pub struct ModeCount {
     pub d: usize,
 }
 
+/// Makes a route through via positions drivable: a via position on a
+/// straight stretch is no corner and leaves the corner points; one where
+/// the way reverses is refused, by the name of the stop nearest to it.
+fn drive_through(world: &World, route: &mut Route) -> Result<(), RouteError> {
+    let points = &mut route.points;
+    let mut k = 1;
+    while k + 1 < points.len() {
+        let turn = normalize_deg(
+            heading_to(points[k], points[k + 1]) - heading_to(points[k - 1], points[k]),
+        );
+        if turn.abs() > 150.0 {
+            let via = route
+                .stops
+                .iter()
+                .filter_map(|name| world.position(name).map(|p| (name, p.in_corridor())))
+                .min_by(|a, b| distance(a.1, points[k]).total_cmp(&distance(b.1, points[k])))
+                .map_or_else(String::new, |(name, _)| name.clone());
+            return Err(RouteError::TurnsBack {
+                via,
+                turn_deg: turn.abs(),
+            });
+        }
+        if turn.abs() < 1.0 {
+            points.remove(k);
+        } else {
+            k += 1;
+        }
+    }
+    Ok(())
+}
+
 impl Plan {
     /// Plans the route from `from` to `to` and segments it.
     pub fn new(world: &World, network: &Network, from: &str, to: &str) -> Result<Plan, RouteError> {
@@ -115,7 +146,10 @@ impl Plan {
         to: &str,
     ) -> Result<Plan, RouteError> {
         let via: Vec<&str> = via.iter().map(String::as_str).collect();
-        let route = world.route(network, from, &via, to)?;
+        let mut route = world.route(network, from, &via, to)?;
+        if !via.is_empty() {
+            drive_through(world, &mut route)?;
+        }
         Ok(Plan::segment(world, route))
     }
 

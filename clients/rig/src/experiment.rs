@@ -113,8 +113,10 @@ pub const CHAPTER6: [ThesisRun; 40] = [
 /// EB3's corridors through these positions give the lengths Table 6.2
 /// prints, on the corridors' centre lines (#4 198.1 m for 197.358, #5
 /// 261.7 for 260.807, #6 "a complete cycle of the building" 337.9 for
-/// 337.007). #8 (203.911 m) is left the shortest way: no way round in our
-/// map without turning back comes nearer than 247 m.
+/// 337.007). #8 (203.911 m) is left the shortest way: the nearest way in
+/// our map (209.8 m, through A305R and A355L) turns back on itself at
+/// A355L, which the Planner cannot drive; without turning back none comes
+/// nearer than 247 m.
 pub const WAY_ROUND: [(&str, u32, &[&str]); 3] = [
     ("6.2", 4, &["301.secondL"]),
     ("6.2", 5, &["301.secondL"]),
