@@ -146,6 +146,19 @@ pub struct Trial {
     pub thesis: Option<ThesisRun>,
 }
 
+impl Trial {
+    /// Its route as the tables name it: `341R to 381R`, with
+    /// `via 301.secondL` when it goes the long way round.
+    pub fn path(&self) -> String {
+        let r = &self.route;
+        if r.via.is_empty() {
+            format!("{} to {}", r.from, r.to)
+        } else {
+            format!("{} to {} via {}", r.from, r.to, r.via.join(", "))
+        }
+    }
+}
+
 /// The trials of `routes` (or of [`CHAPTER6`] when `None`), each `repeats`
 /// times; trial k (from 0) has seed `seed + k`.
 pub fn trials(routes: Option<Vec<RouteSpec>>, repeats: usize, seed: u64) -> Vec<Trial> {
@@ -322,10 +335,7 @@ pub fn markdown(outcomes: &[Outcome]) -> String {
     );
     for o in outcomes {
         let tr = &o.trial;
-        let mut path = format!("{} to {}", tr.route.from, tr.route.to);
-        if !tr.route.via.is_empty() {
-            path += &format!(" via {}", tr.route.via.join(", "));
-        }
+        let path = tr.path();
         let ours = match &o.report {
             Ok(r) => format!(
                 "{:.3} | {} | {} | {:.1} | {} | {} | {}",

@@ -145,10 +145,9 @@ pub async fn run(args: Args) -> anyhow::Result<u8> {
         done += 1;
         let line = match &o.report {
             Ok(r) if r.arrived() => format!(
-                "{:>3} {} to {}: {:.3} m, {:+.0} cm, {}",
+                "{:>3} {}: {:.3} m, {:+.0} cm, {}",
                 o.trial.no,
-                o.trial.route.from,
-                o.trial.route.to,
+                o.trial.path(),
                 r.driven_m,
                 r.to_goal_cm,
                 experiment::mode_cell(r, rome_nav::board::GoalType::L)
@@ -156,10 +155,9 @@ pub async fn run(args: Args) -> anyhow::Result<u8> {
             _ => {
                 failed += 1;
                 format!(
-                    "{:>3} {} to {}: FAILED: {}",
+                    "{:>3} {}: FAILED: {}",
                     o.trial.no,
-                    o.trial.route.from,
-                    o.trial.route.to,
+                    o.trial.path(),
                     experiment::reason(o)
                 )
             }
@@ -180,10 +178,7 @@ pub async fn run(args: Args) -> anyhow::Result<u8> {
         .iter()
         .filter_map(|o| {
             let r = o.report.as_ref().ok()?;
-            let name = format!(
-                "{}: {} to {}",
-                o.trial.no, o.trial.route.from, o.trial.route.to
-            );
+            let name = format!("{}: {}", o.trial.no, o.trial.path());
             Some((name, rome_rig::plates::judge(r, &world)))
         })
         .collect();
