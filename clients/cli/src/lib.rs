@@ -118,7 +118,13 @@ pub fn main(cli: Cli) -> ExitCode {
     );
     cli.common.init_logging(server);
     // These end on the interrupt themselves, to finish what they write.
-    let own_interrupt = server || matches!(cli.command, Command::Record(_) | Command::View(_));
+    let own_interrupt = server
+        || matches!(
+            cli.command,
+            Command::Record(_)
+                | Command::View(_)
+                | Command::Colony(cmd::colony::ColonyCmd::Behave(_))
+        );
     let runtime = match tokio::runtime::Builder::new_multi_thread()
         .enable_all()
         .build()

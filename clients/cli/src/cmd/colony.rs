@@ -280,7 +280,8 @@ async fn behave(common: &CommonArgs, args: BehaveArgs) -> anyhow::Result<u8> {
     let mut tick = rome_clock::interval(Duration::from_millis(args.period_ms));
     let (mut periods, mut applied, mut done, mut suppressed, mut failed) =
         (0u64, 0u64, 0u64, 0u64, 0u64);
-    let stop = tokio::signal::ctrl_c();
+    // Ctrl-C or SIGTERM ends the stream; the counts are still printed.
+    let stop = crate::exit::interrupted();
     tokio::pin!(stop);
     loop {
         tokio::select! {
