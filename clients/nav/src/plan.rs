@@ -99,6 +99,16 @@ pub struct ModeCount {
     pub d: usize,
 }
 
+/// A route as tables name it: `341R to 381R`, with `via 301.secondL, …`
+/// when it goes the long way round.
+pub fn label(from: &str, via: &[String], to: &str) -> String {
+    if via.is_empty() {
+        format!("{from} to {to}")
+    } else {
+        format!("{from} to {to} via {}", via.join(", "))
+    }
+}
+
 /// Makes a route through via positions drivable: a via position on a
 /// straight stretch is no corner and leaves the corner points; one where
 /// the way reverses is refused, by the name of the stop nearest to it.
@@ -153,19 +163,11 @@ impl Plan {
         Ok(Plan::segment(world, route))
     }
 
-    /// The route as tables name it: `341R to 381R`, with `via 301.secondL`
-    /// when it goes the long way round.
+    /// The route as tables name it ([`label`]).
     pub fn label(&self) -> String {
-        let stops = &self.route.stops;
-        match stops.len() {
-            0 | 1 => stops.join(""),
-            2 => format!("{} to {}", stops[0], stops[1]),
-            n => format!(
-                "{} to {} via {}",
-                stops[0],
-                stops[n - 1],
-                stops[1..n - 1].join(", ")
-            ),
+        match &self.route.stops[..] {
+            [from, via @ .., to] => label(from, via, to),
+            other => other.join(""),
         }
     }
 

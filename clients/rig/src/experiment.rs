@@ -147,15 +147,10 @@ pub struct Trial {
 }
 
 impl Trial {
-    /// Its route as the tables name it: `341R to 381R`, with
-    /// `via 301.secondL` when it goes the long way round.
+    /// Its route as the tables name it ([`rome_nav::plan::label`]).
     pub fn path(&self) -> String {
         let r = &self.route;
-        if r.via.is_empty() {
-            format!("{} to {}", r.from, r.to)
-        } else {
-            format!("{} to {} via {}", r.from, r.to, r.via.join(", "))
-        }
+        rome_nav::plan::label(&r.from, &r.via, &r.to)
     }
 }
 
@@ -234,8 +229,13 @@ pub async fn run_all(
     for trial in trials {
         let gate = gate.clone();
         let mut cfg = RunConfig::new(setup.map.clone(), &trial.route.from, &trial.route.to);
-        cfg.routes[0].cruise_mm_s = trial.route.cruise_mm_s.or(setup.cruise_mm_s);
-        cfg.routes[0].via = trial.route.via.clone();
+        // The trial's route whole (way points and all), the setup's cruise
+        // where the route names none.
+        cfg.routes[0] = RouteSpec {
+            robot: cfg.routes[0].robot.clone(),
+            cruise_mm_s: trial.route.cruise_mm_s.or(setup.cruise_mm_s),
+            ..trial.route.clone()
+        };
         cfg.seed = trial.seed;
         cfg.noise = setup.noise.clone();
         cfg.limit = setup.limit;

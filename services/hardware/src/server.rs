@@ -595,6 +595,13 @@ impl<S: Service> Server<S> {
                 Err(e) => reply_err(&p.query, &e).await,
             };
         }
+        if matches!(p.op, Op::Do(_)) {
+            if let Some(e) = self.suppressed(&p, now) {
+                tracing::debug!(%key, priority = p.priority, error = %e, "suppressed");
+                self.stats.suppressed += 1;
+                return reply_err(&p.query, &e).await;
+            }
+        }
         let result = match p.op {
             Op::Lock { owner, ttl } => {
                 // The holder's own lock request renews; anyone else's is
@@ -625,12 +632,6 @@ impl<S: Service> Server<S> {
                 }
                 Err(_) => Err(ErrorReply::new(ErrorCode::Conflict, "the lock is not held")),
             },
-            Op::Do(_) if self.suppressed(&p, now).is_some() => {
-                let e = self.suppressed(&p, now).expect("checked Some");
-                tracing::debug!(%key, priority = p.priority, "suppressed");
-                self.stats.suppressed += 1;
-                Err(e)
-            }
             Op::Do(cmd) => {
                 tracing::trace!(server = %self.config.label(), sim_ms = ?rome_clock::now_ms(), client = ?p.client, %key, params = %p.query.parameters(), "carrying out");
                 self.count(p.op_id.as_deref());
