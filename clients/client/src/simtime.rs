@@ -89,8 +89,13 @@ pub async fn follow<F: Future>(
                         .encoding(Encoding::APPLICATION_JSON)
                         .congestion_control(CongestionControl::Block)
                         .await;
-                    if let Err(e) = sent {
-                        tracing::warn!(key = %ack_key, error = %e, "clock acknowledgement not sent");
+                    match sent {
+                        // The program is ending: nothing is waiting on it.
+                        Err(_) if session.is_closed() => break,
+                        Err(e) => {
+                            tracing::warn!(key = %ack_key, error = %e, "clock acknowledgement not sent")
+                        }
+                        Ok(()) => {}
                     }
                 }
             }
