@@ -241,6 +241,8 @@ fn demo_refuses_a_broken_routes_file_by_line() {
     assert!(err.contains("'999Q'"), "{err}");
     let err = offline_err(["demo", "--cover-camera", "r7"]);
     assert!(err.contains("--cover-camera r7"), "{err}");
+    let err = offline_err(["demo", "--cruise", "0"]);
+    assert!(err.contains("--cruise must be a speed"), "{err}");
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -67,6 +67,10 @@ pub struct Args {
     /// as the thesis' robot met them in the hallways.
     #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=200))]
     people: u32,
+    /// Cruising speed, mm/s, for robots whose route gives none (default:
+    /// the Navigator's, 400; rome experiment runs at 700).
+    #[arg(long, value_name = "MM_S")]
+    pub cruise: Option<f64>,
     /// No sensor noise or wheel slip.
     #[arg(long)]
     pub no_noise: bool,
@@ -135,7 +139,16 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
         "--limit-min must be a positive number of minutes, got {}",
         args.limit_min
     );
-    let routes = routes(&args, &map)?;
+    let mut routes = routes(&args, &map)?;
+    if let Some(v) = args.cruise {
+        anyhow::ensure!(
+            v.is_finite() && v > 0.0 && v <= 1_000.0,
+            "--cruise must be a speed in mm/s in 0..=1000, got {v}"
+        );
+        for r in routes.iter_mut().filter(|r| r.cruise_mm_s.is_none()) {
+            r.cruise_mm_s = Some(v);
+        }
+    }
     for name in &args.cover_camera {
         anyhow::ensure!(
             routes.iter().any(|r| &r.robot == name),
