@@ -255,7 +255,11 @@ pub fn find_plates(img: &[bool], w: usize, h: usize, size_px: (f64, f64)) -> Vec
                     let k = (b.chain.len() / 24).clamp(2, 8);
                     let cs = corners(&b, k, 40.0);
                     if let Some(c) = accept(&cs, size_px) {
-                        if !out.iter().any(|o| overlaps(&o.bbox, &c.bbox)) {
+                        // A region the band's top or bottom row cuts off is
+                        // taller than the band shows (a door, a dark
+                        // opening): a plate hangs wholly inside it.
+                        let cut = c.bbox[1] == 0 || c.bbox[3] as usize + 1 >= h;
+                        if !cut && !out.iter().any(|o| overlaps(&o.bbox, &c.bbox)) {
                             out.push(c);
                         }
                     }
@@ -522,6 +526,20 @@ mod tests {
         // A tall narrow region (a poster's edge, a door frame) is refused.
         let img = plate_image(w, h, (50, 5, 70, 95));
         assert!(find_plates(&img, w, h, (80.0, 60.0)).is_empty());
+    }
+
+    #[test]
+    fn a_region_the_band_cuts_off_is_not_a_plate() {
+        // A plate's size and shape, but running off the band's bottom row
+        // (a dark door or opening seen through the band): refused.
+        let (w, h) = (200, 60);
+        let img = plate_image(w, h, (50, 10, 130, 60));
+        assert!(find_plates(&img, w, h, (80.0, 50.0)).is_empty());
+        let img = plate_image(w, h, (50, 0, 130, 50));
+        assert!(find_plates(&img, w, h, (80.0, 50.0)).is_empty());
+        // The same region one row clear of either edge is a plate.
+        let img = plate_image(w, h, (50, 5, 130, 55));
+        assert_eq!(find_plates(&img, w, h, (80.0, 50.0)).len(), 1);
     }
 
     #[test]
