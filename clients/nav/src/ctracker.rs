@@ -121,6 +121,16 @@ pub fn judge(cfg: &TrackConfig, travelled: f64, expected: f64) -> Verdict {
     }
 }
 
+/// Whether a sighting `since` mm past the place where a light was just
+/// counted by distance is that light, seen late: nearer to it than to the
+/// next one, `next_mm` further on. Odometry that ran ahead of the robot (its
+/// wheels turned while something held it) puts every later light that much
+/// further on; measuring from the late sighting takes the drift out, where
+/// measuring from the place counted would miss every light after it.
+pub fn seen_late(cfg: &TrackConfig, since: f64, next_mm: f64) -> bool {
+    since > -cfg.tolerance_mm && since < next_mm / 2.0
+}
+
 /// What the tracker did in one L segment; written to the board's
 /// `TrackLog` before up($EndLMode), so the Planner can judge the segment.
 #[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -143,6 +153,10 @@ pub struct SegmentLog {
     /// found).
     #[serde(default)]
     pub first_missed: bool,
+    /// Lights counted by distance and then seen late, from which the next
+    /// light was measured (odometry had run ahead of the robot).
+    #[serde(default)]
+    pub found_late: usize,
 }
 
 impl SegmentLog {
@@ -260,6 +274,12 @@ impl CTracker {
                             log.last_missed = false;
                             last = at;
                             self.counted(count, total, last, &mut log, along).await?;
+                        }
+                        Verdict::TooEarly if log.last_missed && seen_late(&self.cfg, at - last, expected) => {
+                            log.last_missed = false;
+                            log.found_late += 1;
+                            tracing::info!(light = count, late_mm = at - last, "ctracker: a light counted by distance was seen late; the next is measured from it");
+                            last = at;
                         }
                         Verdict::TooEarly | Verdict::TooLate => {
                             log.refused += 1;
