@@ -489,6 +489,7 @@ mod tests {
             overshoot_mm: 0.0,
             last_missed,
             first_missed: false,
+            found_late: 0,
         };
         assert_eq!(judge_step(&s, None, Some(&log(6, 0, false))), None);
         assert_eq!(judge_step(&s, None, Some(&log(4, 2, false))), None);
