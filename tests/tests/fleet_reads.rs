@@ -139,7 +139,18 @@ async fn a_wildcard_read_answers_once_per_robot_and_device() {
     assert_eq!(sizes.len(), 6, "{:?}", sizes.keys());
 
     // Everything of one robot: every read and every JSON stream, no
-    // command that acts, no image, no error.
+    // command that acts, no image, no error. A stream is answered from
+    // its last publication: wait until each has published once.
+    for stream in ["base/state", "proximity/scan", "camera/up/frame"] {
+        let sub = s
+            .declare_subscriber(format!("rome/robot/r2/{stream}"))
+            .await
+            .unwrap();
+        tokio::time::timeout(Duration::from_secs(10), sub.recv_async())
+            .await
+            .unwrap_or_else(|_| panic!("r2 never published {stream}"))
+            .unwrap();
+    }
     let (all, errs) = sweep(&s, "rome/robot/r2/**", None).await;
     assert!(errs.is_empty(), "{errs:?}");
     let chunks: Vec<String> = all
