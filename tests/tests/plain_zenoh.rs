@@ -160,3 +160,37 @@ async fn plain_semaphores() {
     );
     server.stop().await;
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_read_right_after_a_plain_put_sees_it() {
+    // A read that finds the server idle is answered from the queryable's
+    // callback; one behind a put still on its way must wait for it. Two
+    // writers and readers at once, so reads often find the other's put in
+    // the queue and sometimes none.
+    let server = TestServer::start().await;
+    let (a, b) = (server.session().await, server.session().await);
+    server_seen(&a).await;
+    server_seen(&b).await;
+    let run = |z: Session, name: &'static str| async move {
+        for k in 0..300u32 {
+            z.put(format!("rome/data/var/{name}"), k.to_string())
+                .await
+                .unwrap();
+            let got = query(&z, &format!("rome/data/var/{name}"), None)
+                .await
+                .unwrap();
+            assert_eq!(
+                String::from_utf8_lossy(&got),
+                k.to_string(),
+                "{name}: read {k} did not see the put before it"
+            );
+        }
+    };
+    let (x, y) = tokio::join!(
+        tokio::spawn(run(a.clone(), "Ryw1")),
+        tokio::spawn(run(b.clone(), "Ryw2"))
+    );
+    x.unwrap();
+    y.unwrap();
+    server.stop().await;
+}

@@ -4,8 +4,11 @@
 //! housekeeping tick) is turned into an event on one channel, in the
 //! order Zenoh delivers it, and one task owns the [`Store`] and handles
 //! events one at a time. So a put followed by a get from the same session
-//! is seen in that order, commits are published in commit order, and no
-//! lock is needed.
+//! is seen in that order and commits are published in commit order. The
+//! one exception is a plain read (`var/<name>`, `sem/<name>`) that finds
+//! nothing queued or being handled: the queryable's callback answers it
+//! itself, under the store's lock, saving the trip through the loop; a
+//! read behind anything else takes its place in the queue.
 //!
 //! The channel is bounded ([`EVENT_QUEUE`]) and a Zenoh callback never
 //! waits on it: a callback runs on the link's receive path (or, for a
@@ -30,13 +33,14 @@ use serde::Serialize;
 use std::collections::hash_map::Entry;
 use std::collections::{HashMap, HashSet};
 use std::future::Future;
+use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
 use std::time::Duration;
 use zenoh::bytes::Encoding;
 use zenoh::key_expr::KeyExpr;
 use zenoh::qos::CongestionControl;
 use zenoh::query::Query;
 use zenoh::sample::{Sample, SampleKind};
-use zenoh::Session;
+use zenoh::{Session, Wait};
 
 /// How many events may wait for the server before queries are answered
 /// `busy` and plain puts dropped.
@@ -160,7 +164,9 @@ struct Held {
 struct Server {
     session: Session,
     config: ServerConfig,
-    store: Store,
+    /// Shared with the queryable's callback, which answers plain reads
+    /// itself when nothing is queued ahead of them (see [`answer_now`]).
+    store: Arc<Mutex<Store>>,
     held: HashMap<String, Held>,
     generation: u64,
     alive: HashSet<String>,
@@ -206,9 +212,13 @@ pub async fn run(
         }
     };
     let inbox = Inbox::<HoldOver>::new("the data server", EVENT_QUEUE);
+    let store = Arc::new(Mutex::new(store));
     let _queryable = session
         .declare_queryable(root.data_all())
-        .callback(inbox.on_query())
+        .callback(inbox.on_query_or({
+            let (store, root) = (store.clone(), root.clone());
+            move |q: &Query| answer_now(&store, &root, q)
+        }))
         .await
         .map_err(|e| declare_err("the data queryable", e))?;
     let mut subscribers = Vec::new();
@@ -280,9 +290,16 @@ impl Server {
         let params = Params::new(query.parameters().iter());
         let payload = query.payload().map(|p| p.to_bytes().into_owned());
         let now = Instant::now();
-        let applied = Request::parse(&self.config.root, &key, params, payload.as_deref())
-            .and_then(|request| request.apply(&mut self.store, now))
-            .and_then(|applied| self.keep(Flush::Sync).map(|()| applied));
+        let applied = Request::parse(&self.config.root, &key, params, payload.as_deref()).and_then(
+            |request| {
+                // Applied and on disk before a read in the queryable's
+                // callback can see it.
+                let store = self.store.clone();
+                let mut store = lock(&store);
+                let applied = request.apply(&mut store, now)?;
+                self.keep_in(&mut store, Flush::Sync).map(|()| applied)
+            },
+        );
         match applied {
             Err(e) => {
                 tracing::debug!(%key, error = %e, "request refused");
@@ -319,19 +336,22 @@ impl Server {
             hit.then_some(key)
         };
         let mut replies: Vec<(String, Vec<u8>)> = Vec::new();
-        for (name, value) in self.store.values() {
-            if let Some(key) = matches(DataOp::Var, name) {
-                replies.push((key, encode(value)));
+        {
+            let store = lock(&self.store);
+            for (name, value) in store.values() {
+                if let Some(key) = matches(DataOp::Var, name) {
+                    replies.push((key, encode(value)));
+                }
             }
-        }
-        for (name, info) in self.store.histories() {
-            if let Some(key) = matches(DataOp::History, name) {
-                replies.push((key, encode(&info)));
+            for (name, info) in store.histories() {
+                if let Some(key) = matches(DataOp::History, name) {
+                    replies.push((key, encode(&info)));
+                }
             }
-        }
-        for (name, state) in self.store.semaphores() {
-            if let Some(key) = matches(DataOp::Sem, name) {
-                replies.push((key, encode(&state)));
+            for (name, state) in store.semaphores() {
+                if let Some(key) = matches(DataOp::Sem, name) {
+                    replies.push((key, encode(&state)));
+                }
             }
         }
         for (key, payload) in replies {
@@ -354,21 +374,23 @@ impl Server {
             (DataOp::Var, SampleKind::Put) => {
                 let bytes = sample.payload().to_bytes();
                 crate::cmd::set_value_from_payload(&data_key.name, Some(&bytes))
-                    .and_then(|value| self.store.put(&data_key.name, value).map(Some))
+                    .and_then(|value| lock(&self.store).put(&data_key.name, value).map(Some))
             }
-            (DataOp::Var, SampleKind::Delete) => Ok(self.store.delete(&data_key.name)),
-            (DataOp::Signal, SampleKind::Put) => match self.store.signal(&data_key.name, None, now)
-            {
-                // Its grants are answered: on disk first.
-                Ok(signalled) => match self.keep(Flush::Sync) {
-                    Ok(()) => {
-                        self.answer_grants(signalled.grants).await;
-                        Ok(None)
-                    }
+            (DataOp::Var, SampleKind::Delete) => Ok(lock(&self.store).delete(&data_key.name)),
+            (DataOp::Signal, SampleKind::Put) => {
+                let signalled = lock(&self.store).signal(&data_key.name, None, now);
+                match signalled {
+                    // Its grants are answered: on disk first.
+                    Ok(signalled) => match self.keep(Flush::Sync) {
+                        Ok(()) => {
+                            self.answer_grants(signalled.grants).await;
+                            Ok(None)
+                        }
+                        Err(e) => Err(e),
+                    },
                     Err(e) => Err(e),
-                },
-                Err(e) => Err(e),
-            },
+                }
+            }
             (DataOp::Signal, SampleKind::Delete) => Err(ErrorReply::new(
                 ErrorCode::BadParameter,
                 "a delete on a signal key means nothing; put to signal a semaphore",
@@ -444,7 +466,7 @@ impl Server {
             _ => return,
         };
         let lapse_at = Instant::now() + self.config.grace;
-        let released = self.store.release_hold(&ticket, lapse_at);
+        let released = lock(&self.store).release_hold(&ticket, lapse_at);
         if let Err(e) = self.keep(Flush::Sync) {
             return reply_err(&held.query, &e).await;
         }
@@ -483,7 +505,7 @@ impl Server {
             }
             SampleKind::Delete => {
                 self.alive.remove(&owner);
-                let grants = self.store.owner_gone(&owner, Instant::now());
+                let grants = lock(&self.store).owner_gone(&owner, Instant::now());
                 tracing::debug!(%owner, passed_on = grants.len(), "client gone; its waits dropped");
                 if self.keep(Flush::Sync).is_ok() {
                     self.answer_grants(grants).await;
@@ -494,9 +516,8 @@ impl Server {
 
     async fn sweep_now(&mut self) {
         let alive = &self.alive;
-        let grants = self
-            .store
-            .sweep(Instant::now(), self.config.grace, |o| alive.contains(o));
+        let grants =
+            lock(&self.store).sweep(Instant::now(), self.config.grace, |o| alive.contains(o));
         // Also makes plain puts since the last answered change durable.
         if self.keep(Flush::Sync).is_ok() {
             self.answer_grants(grants).await;
@@ -507,10 +528,17 @@ impl Server {
     /// or when nothing changed). On failure the changes stay to be written
     /// with the next call and the caller answers `storage`.
     fn keep(&mut self, flush: Flush) -> Result<(), ErrorReply> {
+        let store = self.store.clone();
+        let mut store = lock(&store);
+        self.keep_in(&mut store, flush)
+    }
+
+    /// [`Server::keep`] with the store already locked.
+    fn keep_in(&mut self, store: &mut Store, flush: Flush) -> Result<(), ErrorReply> {
         let Some(disk) = &self.disk else {
             return Ok(());
         };
-        let changes = self.store.take_changes();
+        let changes = store.take_changes();
         if changes.is_empty() {
             if flush == Flush::Sync && self.unsynced {
                 self.unsynced = false;
@@ -518,18 +546,57 @@ impl Server {
             }
             return Ok(());
         }
-        match disk.write(&mut self.store, &changes, flush) {
+        match disk.write(store, &changes, flush) {
             Ok(()) => {
                 self.unsynced = flush == Flush::Later;
                 Ok(())
             }
             Err(e) => {
                 tracing::error!(error = %e, "state not written");
-                self.store.restore_changes(changes);
+                store.restore_changes(changes);
                 Err(storage_error(e))
             }
         }
     }
+}
+
+/// The store, also after a panic elsewhere while it was locked: every
+/// change is applied whole or not at all, so what is there stays usable.
+fn lock(store: &Mutex<Store>) -> MutexGuard<'_, Store> {
+    store.lock().unwrap_or_else(PoisonError::into_inner)
+}
+
+/// Answers a plain read (`var/<name>`, `sem/<name>`) in the queryable's
+/// callback, without the trip through the event loop: called only when no
+/// request or put is queued or being handled, so a client's read still
+/// comes after everything it sent before it. Anything else, and a read that
+/// fails, goes the usual way (false).
+fn answer_now(store: &Mutex<Store>, root: &Root, query: &Query) -> bool {
+    let key = query.key_expr().as_str();
+    if key.contains('*') || query.payload().is_some() {
+        return false;
+    }
+    let params = Params::new(query.parameters().iter());
+    let applied = match Request::parse(root, key, params, None) {
+        Ok(Request::Get(get)) => get.apply(&lock(store)),
+        Ok(Request::Read(read)) => read.apply(&lock(store)),
+        _ => return false,
+    };
+    let Ok(crate::cmd::Applied {
+        reply: Some(payload),
+        ..
+    }) = applied
+    else {
+        return false;
+    };
+    if let Err(e) = query
+        .reply(key, payload)
+        .encoding(Encoding::APPLICATION_JSON)
+        .wait()
+    {
+        tracing::warn!(%key, error = %e, "reply failed");
+    }
+    true
 }
 
 async fn reply_json(query: &Query, key: &str, payload: Vec<u8>) {

@@ -17,7 +17,7 @@
 
 use rome_schema::{encode, ErrorCode, ErrorReply};
 use std::future::Future;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::Arc;
 use std::time::Duration;
 use zenoh::bytes::Encoding;
@@ -46,6 +46,10 @@ pub struct Inbox<T> {
     alive_tx: flume::Sender<Event<T>>,
     alive_rx: flume::Receiver<Event<T>>,
     dropped: Arc<AtomicU64>,
+    /// Queries and puts queued or being handled: a callback may answer a
+    /// request itself only when this is 0, so nothing a client sent before
+    /// it is still on its way.
+    pending: Arc<AtomicUsize>,
 }
 
 /// When the event loop calls [`Handler::sweep`] and [`Handler::tick`].
@@ -88,17 +92,36 @@ impl<T: Send + 'static> Inbox<T> {
             alive_tx,
             alive_rx,
             dropped: Arc::new(AtomicU64::new(0)),
+            pending: Arc::new(AtomicUsize::new(0)),
         }
     }
 
     /// A queryable callback: queues the query, or answers [`busy`] at once
     /// when the queue is full. Call within the server's tokio runtime.
     pub fn on_query(&self) -> impl Fn(Query) + Send + Sync + 'static {
+        self.on_query_or(|_| false)
+    }
+
+    /// As [`Inbox::on_query`], but a query that finds nothing queued or
+    /// being handled is first offered to `answer_now`, which answers it
+    /// from the callback and returns true, or leaves it to the event loop.
+    /// It must not wait, and must only read what the loop changes under a
+    /// lock.
+    pub fn on_query_or(
+        &self,
+        answer_now: impl Fn(&Query) -> bool + Send + Sync + 'static,
+    ) -> impl Fn(Query) + Send + Sync + 'static {
         let tx = self.tx.clone();
+        let pending = self.pending.clone();
         let runtime = tokio::runtime::Handle::current();
         let refusal = busy(&self.label, self.capacity, "waiting");
         move |q| {
+            if pending.load(Ordering::SeqCst) == 0 && answer_now(&q) {
+                return;
+            }
+            pending.fetch_add(1, Ordering::SeqCst);
             if let Err(flume::TrySendError::Full(Event::Query(q))) = tx.try_send(Event::Query(q)) {
+                pending.fetch_sub(1, Ordering::SeqCst);
                 let e = refusal.clone();
                 runtime.spawn(async move { reply_err(&q, &e).await });
             }
@@ -111,9 +134,12 @@ impl<T: Send + 'static> Inbox<T> {
     pub fn on_put(&self) -> impl Fn(Sample) + Send + Sync + 'static {
         let tx = self.tx.clone();
         let dropped = self.dropped.clone();
+        let pending = self.pending.clone();
         let (label, capacity) = (self.label.clone(), self.capacity);
         move |s| {
+            pending.fetch_add(1, Ordering::SeqCst);
             if let Err(flume::TrySendError::Full(_)) = tx.try_send(Event::Put(s)) {
+                pending.fetch_sub(1, Ordering::SeqCst);
                 let n = dropped.fetch_add(1, Ordering::Relaxed) + 1;
                 if n.is_power_of_two() {
                     tracing::warn!(server = %label, dropped = n, queue = capacity, "too busy: plain puts dropped");
@@ -160,17 +186,29 @@ impl<T: Send + 'static> Inbox<T> {
                 _ = &mut shutdown => break,
                 Ok(event) = rome_clock::idle(self.alive_rx.recv_async()) => handler.event(event).await,
                 Ok(event) = rome_clock::idle(self.rx.recv_async()) => {
-                    handler.event(event).await;
+                    self.handle(handler, event).await;
                     // Everything that arrived meanwhile is taken in before
                     // the handler chooses what comes next.
                     while let Ok(event) = self.rx.try_recv() {
-                        handler.event(event).await;
+                        self.handle(handler, event).await;
                     }
                     handler.drained().await;
                 }
                 _ = sweep.tick() => handler.sweep().await,
                 _ = tick.tick(), if periods.tick.is_some() => handler.tick().await,
             }
+        }
+    }
+}
+
+impl<T: Send + 'static> Inbox<T> {
+    /// One event from the bounded queue, counted off [`Inbox::pending`]
+    /// once handled.
+    async fn handle<H: Handler<T>>(&self, handler: &mut H, event: Event<T>) {
+        let counted = matches!(event, Event::Query(_) | Event::Put(_));
+        handler.event(event).await;
+        if counted {
+            self.pending.fetch_sub(1, Ordering::SeqCst);
         }
     }
 }
