@@ -403,10 +403,16 @@ pub fn infrared(
     others: &[Body],
     scratch: &mut Scratch,
 ) -> u32 {
-    scene.walls_near(at, ROBOT_RADIUS_MM + IR_RANGE_MM, &mut scratch.walls);
-    scratch
-        .walls
-        .retain(|&w| scene.blocks(w as usize, Sense::Sound, open));
+    // A ray's hit lies within this of the centre: a wall whose line is
+    // farther cannot be seen (the cells give a superset, in no order, which
+    // a yes-or-no test per ray does not mind).
+    let reach = ROBOT_RADIUS_MM + IR_RANGE_MM;
+    scene.walls_near_unsorted(at, reach, &mut scratch.walls);
+    scratch.walls.retain(|&w| {
+        let wall = &scene.walls[w as usize];
+        (at - wall.a).dot(&wall.normal).abs() <= reach
+            && scene.blocks(w as usize, Sense::Sound, open)
+    });
     let walls = &scratch.walls;
     let reach2 = (2.0 * ROBOT_RADIUS_MM + IR_RANGE_MM).powi(2);
     let close = || {
@@ -414,6 +420,9 @@ pub fn infrared(
             .iter()
             .filter(move |o| nalgebra::distance_squared(&o.at, &at) <= reach2)
     };
+    if walls.is_empty() && close().next().is_none() {
+        return 0;
+    }
     let forward = direction(heading);
     let mut bits = 0u32;
     for (i, turns) in IR_TURNS.iter().enumerate() {
