@@ -163,7 +163,7 @@ async fn plain_semaphores() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_read_right_after_a_plain_put_sees_it() {
-    // A read that finds the server idle is answered from the queryable's
+    // A read that finds nothing queued is answered from the queryable's
     // callback; one behind a put still on its way must wait for it. Two
     // writers and readers at once, so reads often find the other's put in
     // the queue and sometimes none.
@@ -189,6 +189,34 @@ async fn a_read_right_after_a_plain_put_sees_it() {
     let (x, y) = tokio::join!(
         tokio::spawn(run(a.clone(), "Ryw1")),
         tokio::spawn(run(b.clone(), "Ryw2"))
+    );
+    x.unwrap();
+    y.unwrap();
+    // The same across keys of one name: a plain put on `signal/NAME`, then
+    // a read of `sem/NAME`.
+    let signals = |z: Session, name: &'static str| async move {
+        query(&z, &format!("rome/data/create/{name}?value=0"), None)
+            .await
+            .unwrap();
+        for k in 1..=200u32 {
+            z.put(format!("rome/data/signal/{name}"), "").await.unwrap();
+            let state: SemState = decode(
+                &query(&z, &format!("rome/data/sem/{name}"), None)
+                    .await
+                    .unwrap(),
+                "sem",
+            )
+            .unwrap();
+            assert_eq!(
+                state.value,
+                u64::from(k),
+                "{name}: read {k} missed the signal before it"
+            );
+        }
+    };
+    let (x, y) = tokio::join!(
+        tokio::spawn(signals(a.clone(), "RywSem1")),
+        tokio::spawn(signals(b.clone(), "RywSem2"))
     );
     x.unwrap();
     y.unwrap();
