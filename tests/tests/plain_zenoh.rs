@@ -161,6 +161,21 @@ async fn plain_semaphores() {
     server.stop().await;
 }
 
+/// Runs `each` on two sessions at once, each with a name of its own; a
+/// failure in either fails the test.
+async fn both<F, Fut>(a: &Session, b: &Session, names: [&'static str; 2], each: F)
+where
+    F: Fn(Session, &'static str) -> Fut,
+    Fut: std::future::Future<Output = ()> + Send + 'static,
+{
+    let (x, y) = tokio::join!(
+        tokio::spawn(each(a.clone(), names[0])),
+        tokio::spawn(each(b.clone(), names[1]))
+    );
+    x.unwrap();
+    y.unwrap();
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_read_right_after_a_plain_put_sees_it() {
     // A read that finds nothing queued is answered from the queryable's
@@ -186,12 +201,7 @@ async fn a_read_right_after_a_plain_put_sees_it() {
             );
         }
     };
-    let (x, y) = tokio::join!(
-        tokio::spawn(run(a.clone(), "Ryw1")),
-        tokio::spawn(run(b.clone(), "Ryw2"))
-    );
-    x.unwrap();
-    y.unwrap();
+    both(&a, &b, ["Ryw1", "Ryw2"], run).await;
     // The same across keys of one name: a plain put on `signal/NAME`, then
     // a read of `sem/NAME`.
     let signals = |z: Session, name: &'static str| async move {
@@ -214,11 +224,6 @@ async fn a_read_right_after_a_plain_put_sees_it() {
             );
         }
     };
-    let (x, y) = tokio::join!(
-        tokio::spawn(signals(a.clone(), "RywSem1")),
-        tokio::spawn(signals(b.clone(), "RywSem2"))
-    );
-    x.unwrap();
-    y.unwrap();
+    both(&a, &b, ["RywSem1", "RywSem2"], signals).await;
     server.stop().await;
 }

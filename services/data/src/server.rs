@@ -40,7 +40,7 @@ use zenoh::key_expr::KeyExpr;
 use zenoh::qos::CongestionControl;
 use zenoh::query::Query;
 use zenoh::sample::{Sample, SampleKind};
-use zenoh::{Session, Wait};
+use zenoh::Session;
 
 /// How many events may wait for the server before queries are answered
 /// `busy` and plain puts dropped.
@@ -589,13 +589,7 @@ fn answer_now(store: &Mutex<Store>, root: &Root, query: &Query) -> bool {
     else {
         return false;
     };
-    if let Err(e) = query
-        .reply(key, payload)
-        .encoding(Encoding::APPLICATION_JSON)
-        .wait()
-    {
-        tracing::warn!(%key, error = %e, "reply failed");
-    }
+    rome_serve::reply_now(query, key, payload, Encoding::APPLICATION_JSON);
     true
 }
 

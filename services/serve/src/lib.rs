@@ -162,6 +162,16 @@ impl<T: Send + 'static> Inbox<T> {
         self.tx.clone()
     }
 
+    /// One event from the bounded queue, counted off [`Inbox::pending`]
+    /// once handled.
+    async fn handle<H: Handler<T>>(&self, handler: &mut H, event: Event<T>) {
+        let counted = matches!(event, Event::Query(_) | Event::Put(_));
+        handler.event(event).await;
+        if counted {
+            self.pending.fetch_sub(1, Ordering::SeqCst);
+        }
+    }
+
     /// Plain puts dropped so far because the queue was full.
     pub fn dropped(&self) -> u64 {
         self.dropped.load(Ordering::Relaxed)
@@ -201,18 +211,6 @@ impl<T: Send + 'static> Inbox<T> {
     }
 }
 
-impl<T: Send + 'static> Inbox<T> {
-    /// One event from the bounded queue, counted off [`Inbox::pending`]
-    /// once handled.
-    async fn handle<H: Handler<T>>(&self, handler: &mut H, event: Event<T>) {
-        let counted = matches!(event, Event::Query(_) | Event::Put(_));
-        handler.event(event).await;
-        if counted {
-            self.pending.fetch_sub(1, Ordering::SeqCst);
-        }
-    }
-}
-
 /// The answer to a request that found `capacity` others `waiting` (in the
 /// queue) or `queued` (behind a lock) on server `label`: nothing was done.
 pub fn busy(label: &str, capacity: usize, waiting: &str) -> ErrorReply {
@@ -231,6 +229,18 @@ pub async fn reply(
     encoding: Encoding,
 ) {
     if let Err(e) = query.reply(key, bytes).encoding(encoding).await {
+        tracing::warn!(%key, error = %e, "reply failed");
+    }
+}
+
+/// [`reply`] from a Zenoh callback, which cannot await.
+pub fn reply_now(
+    query: &Query,
+    key: &str,
+    bytes: impl Into<zenoh::bytes::ZBytes>,
+    encoding: Encoding,
+) {
+    if let Err(e) = zenoh::Wait::wait(query.reply(key, bytes).encoding(encoding)) {
         tracing::warn!(%key, error = %e, "reply failed");
     }
 }

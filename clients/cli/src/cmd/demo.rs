@@ -141,10 +141,7 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
     );
     let mut routes = routes(&args, &map)?;
     if let Some(v) = args.cruise {
-        anyhow::ensure!(
-            v.is_finite() && v > 0.0 && v <= 1_000.0,
-            "--cruise must be a speed in mm/s in 0..=1000, got {v}"
-        );
+        super::check_cruise(v)?;
         for r in routes.iter_mut().filter(|r| r.cruise_mm_s.is_none()) {
             r.cruise_mm_s = Some(v);
         }

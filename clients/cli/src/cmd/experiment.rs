@@ -86,11 +86,7 @@ pub async fn run(args: Args) -> anyhow::Result<u8> {
         "--wall-limit-min must be a positive number of minutes, got {}",
         args.wall_limit_min
     );
-    anyhow::ensure!(
-        args.cruise.is_finite() && args.cruise > 0.0 && args.cruise <= 1_000.0,
-        "--cruise must be a speed in mm/s in 0..=1000, got {}",
-        args.cruise
-    );
+    super::check_cruise(args.cruise)?;
     let map = rome_maps::load_named(&args.map)?;
     let routes = match &args.routes {
         Some(path) => {

@@ -31,6 +31,15 @@ use crate::args::{CommonArgs, Side};
 use anyhow::Context;
 use rome_client::{DataClient, DataOptions};
 
+/// Checks a `--cruise` speed: mm/s, above 0 and at most 1000.
+pub fn check_cruise(mm_s: f64) -> anyhow::Result<()> {
+    anyhow::ensure!(
+        mm_s.is_finite() && mm_s > 0.0 && mm_s <= 1_000.0,
+        "--cruise must be a speed in mm/s in 0..=1000, got {mm_s}"
+    );
+    Ok(())
+}
+
 /// Opens a client session and connects to the data server.
 pub async fn connect_data(common: &CommonArgs, role: &str) -> anyhow::Result<DataClient> {
     let session = common.open(Side::Client).await?;
