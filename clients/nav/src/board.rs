@@ -119,6 +119,10 @@ pub enum Var {
     GoalActive,
     /// The route the Planner follows, for people watching (`rome view`).
     Route,
+    /// For an E goal: how far the wall ahead stands from the middle of the
+    /// turning space, mm, as the map has it (`null` when none is in reach),
+    /// written by the Planner before it hands the goal over.
+    EndWall,
 }
 
 impl Var {
@@ -138,6 +142,7 @@ impl Var {
             Var::Corridor => "Corridor",
             Var::GoalActive => "GoalActive",
             Var::Route => "Route",
+            Var::EndWall => "EndWall",
         }
     }
 }

@@ -96,7 +96,7 @@ impl Default for HimmConfig {
             max_map_mm: 12_000.0,
             light_map_mm: 5_500.0,
             sideways: true,
-            max_shift_mm: 1_500.0,
+            max_shift_mm: 3_000.0,
             min_shift_mm: 20.0,
             width_tolerance_mm: 400.0,
             near_mm: 5_000.0,

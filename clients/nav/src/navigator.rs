@@ -46,9 +46,11 @@ pub const ONCOMING_CLOSING: f64 = 1.4;
 pub const KEEP_RIGHT_FOR_MM: f64 = 3_000.0;
 /// How far right of the axis a robot bears with no walls to steer by, degrees.
 pub const KEEP_RIGHT_BEAR_DEG: f64 = 8.0;
-/// A robot's radius, mm (a Pioneer-sized disc), with room to spare when
-/// keeping right.
-pub(crate) const ROBOT_CLEARANCE_MM: f64 = 380.0 + 300.0;
+/// A robot's radius, mm (a Pioneer-sized disc): sonar ranges start this
+/// far out from its middle.
+pub(crate) const ROBOT_RADIUS_MM: f64 = 380.0;
+/// A robot's radius with room to spare when keeping right, mm.
+pub(crate) const ROBOT_CLEARANCE_MM: f64 = ROBOT_RADIUS_MM + 300.0;
 
 /// How the Navigator drives.
 #[derive(Debug, Clone, PartialEq)]
@@ -430,6 +432,19 @@ impl Navigator {
             .set(Var::GoalActive, &Some(ActiveGoal::new(*goal, &start)))
             .await?;
         let corner = matches!(goal.goal_type, GoalType::C | GoalType::E);
+        // Where the turning space's end wall stands, if the map has one: a
+        // Planner that does not write it (or a value that does not decode)
+        // leaves the estimate from the corridor's own width.
+        let end_wall_mm = if goal.goal_type == GoalType::E {
+            self.board
+                .get::<Option<i64>>(Var::EndWall)
+                .await
+                .ok()
+                .flatten()
+                .filter(|d| (1..=100_000).contains(d))
+        } else {
+            None
+        };
         if goal.goal_type == GoalType::C {
             // Leave the corner: stop, face the outgoing corridor, go.
             self.send(Drive::Halt).await?;
@@ -494,14 +509,20 @@ impl Navigator {
                 GoalType::D => travelled + stopping >= goal.distance as f64,
                 GoalType::C => travelled >= goal.distance as f64,
                 GoalType::E => {
-                    // The end wall of the turning space stands about half a
-                    // hallway beyond its middle.
-                    let ahead =
-                        scan.sonar_mm[sonar_towards(goal.direction_deg - pose.heading.deg())];
-                    let near = walls.width().map_or(1_200.0, |w| w / 2.0 + 300.0);
+                    let ahead = f64::from(
+                        scan.sonar_mm[sonar_towards(goal.direction_deg - pose.heading.deg())],
+                    );
                     let remaining = goal.distance as f64 - travelled;
-                    travelled + stopping >= goal.distance as f64
-                        || (f64::from(ahead) < near && remaining < 1_200.0)
+                    let near = match end_wall_mm {
+                        // The middle is where the map puts it from the end
+                        // wall: stop so as to come to rest there (sonar
+                        // ranges start at the ring, a radius out).
+                        Some(d) => ahead + ROBOT_RADIUS_MM - stopping <= d as f64,
+                        // Else the end wall stands about half a hallway
+                        // beyond the middle.
+                        None => ahead < walls.width().map_or(1_200.0, |w| w / 2.0 + 300.0),
+                    };
+                    travelled + stopping >= goal.distance as f64 || (near && remaining < 1_200.0)
                 }
             };
             if done {

@@ -30,6 +30,9 @@ pub const LIGHT_END_MARGIN_MM: f64 = 600.0;
 /// speed still has room to brake (0.8 m from 0.7 m/s at the base's 300
 /// mm/s²) instead of ending past the goal.
 pub const LAST_LEG_MIN_MM: f64 = 1_000.0;
+/// How far ahead of a turning space's middle a wall counts as its end wall,
+/// mm: beyond this the robot would see the corridor go on.
+pub const END_WALL_REACH_MM: f64 = 4_000.0;
 /// A light belongs to a subpath if it is this close to its line, mm.
 pub const LIGHT_LATERAL_MM: f64 = 900.0;
 
@@ -51,6 +54,10 @@ pub struct Step {
     /// the route, mm, as the map has them (the median over the segment,
     /// so doors and side corridors do not count), if both are there.
     pub walls_mm: Option<(f64, f64)>,
+    /// For an E step: how far the wall straight ahead is from the middle of
+    /// the turning space, mm, if the map has one within reach (a T or an L
+    /// turn; none at a crossing).
+    pub end_wall_mm: Option<f64>,
 }
 
 /// A narrow passage on the route (edges tagged `passage=NAME`): the
@@ -231,6 +238,7 @@ impl Plan {
                     from: at(t),
                     to: at(prev),
                     walls_mm: walls_beside(world, at(t), at(prev), heading),
+                    end_wall_mm: None,
                 });
                 t = prev;
             }
@@ -245,6 +253,9 @@ impl Plan {
                 from: at(t),
                 to: b,
                 walls_mm: None,
+                end_wall_mm: (!last)
+                    .then(|| ray(world, b, heading, END_WALL_REACH_MM))
+                    .flatten(),
             });
             if !last {
                 let (_, _, next_len, next_heading) = legs[i + 1];
@@ -261,6 +272,7 @@ impl Plan {
                     from: b,
                     to: b + nd * leave,
                     walls_mm: None,
+                    end_wall_mm: None,
                 });
             }
         }

@@ -135,6 +135,10 @@ pub async fn run(
                 // lights; the CTracker says how far past the light that was.
                 step.goal.distance = (step.goal.distance - overshoot).max(0);
                 overshoot = 0;
+                if step.goal.goal_type == GoalType::E {
+                    let end = step.end_wall_mm.map(|d| d.round() as i64);
+                    board.set(Var::EndWall, &end).await?;
+                }
             }
             GoalType::C => {}
         }

@@ -44,7 +44,8 @@ pub struct PlConfig {
     pub camera: String,
     /// Half its horizontal field of view, degrees.
     pub half_fov_deg: f64,
-    /// Rows read around the middle.
+    /// Rows read around the middle, at least (more when the wall is close:
+    /// [`band_rows`]).
     pub band_rows: u32,
     /// Threshold after stretching.
     pub threshold: u8,
@@ -299,6 +300,24 @@ fn accept(corners: &[(i64, i64)], size_px: (f64, f64)) -> Option<Candidate> {
     })
 }
 
+/// How many middle rows to read so that a plate at the distance the
+/// sideways sonar gives fits inside them with room to spare: at least
+/// `min_rows`, more for a wall close by (a plate 0.7 m off is taller than
+/// EB3's 120 rows), at most the image's `height`.
+pub fn band_rows(min_rows: u32, plate_h_mm: f64, focal: f64, reading_mm: f64, height: u32) -> u32 {
+    // What the finder accepts is up to 1.6 times the plate's size, and the
+    // reading is the slant distance, a little more than the perpendicular
+    // one the plate's size follows.
+    let plate_px = plate_h_mm * focal / reading_mm.max(1.0);
+    let want = (2.0 * plate_px + 8.0).ceil();
+    let rows = if want.is_finite() && want < f64::from(height) {
+        want as u32
+    } else {
+        height
+    };
+    rows.max(min_rows).min(height) & !1
+}
+
 /// The view of one grab on the wall (Fig. 5.17): how far behind (l) and
 /// ahead (r) of the camera's foot it reaches, mm, given β and the
 /// perpendicular distance d.
@@ -354,9 +373,6 @@ impl PlFinder {
         let frames = self.robot.frames(&self.cfg.camera).await?;
         let size = self.robot.camera_size(&self.cfg.camera).await?;
         let (w, h) = (size.width, size.height);
-        let band = self.cfg.band_rows.min(h);
-        let top = h / 2 - band / 2;
-        let rows: Vec<u32> = (top..top + band).collect();
         let focal = f64::from(w) / 2.0 / self.cfg.half_fov_deg.to_radians().tan();
         let mut last: Option<Last> = None;
         let mut reported: Vec<Point> = Vec::new();
@@ -366,6 +382,11 @@ impl PlFinder {
                 continue;
             };
             let lock = self.robot.camera_lock(&self.cfg.camera).await?;
+            let sonar = self.robot.sonar().await?;
+            let reading = f64::from(sonar.sonar_mm.get(18).copied().unwrap_or(u32::MAX));
+            let band = band_rows(self.cfg.band_rows, self.cfg.plate_mm.1, focal, reading, h);
+            let top = h / 2 - band / 2;
+            let rows: Vec<u32> = (top..top + band).collect();
             // The server hands out at most 64 rows a request.
             let mut pixels = Vec::with_capacity(rows.len() * w as usize);
             let mut grabbed_ms = None;
@@ -398,10 +419,8 @@ impl PlFinder {
                     continue;
                 }
             };
-            let sonar = self.robot.sonar().await?;
             lock.unlock().await?;
             let beta = normalize_deg(pose.heading.deg() - goal);
-            let reading = f64::from(sonar.sonar_mm.get(18).copied().unwrap_or(u32::MAX));
             if beta.abs() >= BETA_LIMIT_DEG || reading >= 5_000.0 {
                 last = None;
                 continue;
@@ -526,6 +545,20 @@ mod tests {
         // A tall narrow region (a poster's edge, a door frame) is refused.
         let img = plate_image(w, h, (50, 5, 70, 95));
         assert!(find_plates(&img, w, h, (80.0, 60.0)).is_empty());
+    }
+
+    #[test]
+    fn the_band_grows_to_hold_a_plate_on_a_near_wall() {
+        let focal = 256.0 / 25f64.to_radians().tan();
+        // EB3's 120 rows hold a plate 1.5 m off; a plate 0.7 m off is 118
+        // rows tall and needs more; nothing beyond the image.
+        assert_eq!(band_rows(120, 150.0, focal, 1_500.0, 482), 120);
+        let near = band_rows(120, 150.0, focal, 700.0, 482);
+        assert!(near >= 2 * 118 && near.is_multiple_of(2), "{near}");
+        assert_eq!(band_rows(120, 150.0, focal, 50.0, 482), 482);
+        // A reading of nothing (or garbage) keeps the least.
+        assert_eq!(band_rows(120, 150.0, focal, f64::from(u32::MAX), 482), 120);
+        assert_eq!(band_rows(120, 150.0, focal, 0.0, 482), 482);
     }
 
     #[test]

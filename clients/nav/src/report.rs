@@ -435,6 +435,7 @@ mod tests {
             from,
             to,
             walls_mm: None,
+            end_wall_mm: None,
         }
     }
 
