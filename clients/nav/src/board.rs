@@ -222,9 +222,9 @@ pub struct HeadingFix {
     pub shift_mm: f64,
 }
 
-/// Where an L segment's corridor lies in the map, written by the Planner
-/// for the local mapper: the line of lights (the route runs along it) and
-/// how far each wall is from it. The mapper compares the walls it finds
+/// Where an L segment's corridor (or a long stretch without lights) lies
+/// in the map, written by the Planner for the local mapper: the line of
+/// lights (the route runs along it) and how far each wall is from it. The mapper compares the walls it finds
 /// with these to correct the odometry's sideways drift.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Corridor {
@@ -239,6 +239,11 @@ pub struct Corridor {
     pub left_mm: Option<f64>,
     /// Distance from the line to the wall on the right, mm.
     pub right_mm: Option<f64>,
+    /// A long stretch without lights (an E or D goal) rather than an L
+    /// segment: the mapper maps it by the distance in `GoalDistance`, mm,
+    /// instead of counting lights.
+    #[serde(default)]
+    pub no_lights: bool,
 }
 
 /// The route of a run, as the Planner posts it for people watching.
@@ -345,6 +350,7 @@ impl Corridor {
             heading_deg: step.goal.direction_deg,
             left_mm: step.walls_mm.map(|w| w.0),
             right_mm: step.walls_mm.map(|w| w.1),
+            no_lights: step.goal.goal_type != crate::board::GoalType::L,
         }
     }
 }

@@ -34,6 +34,9 @@ pub const CELL_MM: f64 = 100.0;
 pub const SONAR_RING_MM: f64 = 380.0;
 /// A track this long is straight enough to check the walls against, mm.
 const MIN_TRACK_MM: f64 = 6_000.0;
+/// A stretch without lights is mapped until this far short of its end, mm:
+/// past it the robot is in the turning space, where the walls end.
+const STRETCH_END_MM: f64 = 2_000.0;
 /// Readings beyond this are not mapped (glancing and missing echoes), mm.
 pub const MAX_RANGE_MM: u32 = 5_000;
 
@@ -521,6 +524,11 @@ impl Himm {
                 let corridor = corridor.as_ref();
                 let p = crate::track::pose_waiting(&self.robot).await?;
                 let mut grid = Grid::new(Pose::from(&p).at, self.cfg.half_side_mm);
+                if let Some(c) = corridor.filter(|c| c.no_lights) {
+                    self.map_stretch(grid, goal, total as f64, c, &scans, &track)
+                        .await?;
+                    continue;
+                }
                 let mut seen = 0i64;
                 let mut in_map = 0i64;
                 while seen < total {
@@ -559,13 +567,7 @@ impl Himm {
                             let Some(scan) = scan else {
                                 return Err(NavError::Gone("the proximity server's scan stream closed"));
                             };
-                            let scan = scan?;
-                            // Where the ring fired, not where the robot is
-                            // by the time the scan got here.
-                            let p = track.at(&self.robot, scan.time_ms).await?;
-                            for (i, r) in scan.sonar_mm.iter().enumerate() {
-                                grid.add(p.at, p.heading.deg() + crate::navigator::bearing(i), *r);
-                            }
+                            self.add_scan(&mut grid, &scan?, &track).await?;
                         }
                     }
                 }
@@ -582,6 +584,57 @@ impl Himm {
         };
         counter.abort();
         result
+    }
+
+    /// Adds a scan to the map, from where the ring fired rather than where
+    /// the robot is by the time the scan got here.
+    async fn add_scan(
+        &self,
+        grid: &mut Grid,
+        scan: &rome_schema::robot::Scan,
+        track: &crate::track::PoseTrack,
+    ) -> Result<(), NavError> {
+        let p = track.at(&self.robot, scan.time_ms).await?;
+        for (i, r) in scan.sonar_mm.iter().enumerate() {
+            grid.add(p.at, p.heading.deg() + crate::navigator::bearing(i), *r);
+        }
+        Ok(())
+    }
+
+    /// Maps a stretch without lights `total_mm` long along `goal`,
+    /// correcting whenever the map covers `light_map_mm`, as an L segment
+    /// is corrected at a light: a long corridor with no lights would
+    /// otherwise leave the heading to drift all the way.
+    async fn map_stretch(
+        &self,
+        mut grid: Grid,
+        goal: f64,
+        total_mm: f64,
+        corridor: &Corridor,
+        scans: &rome_client::robot::Stream<rome_schema::robot::Scan>,
+        track: &crate::track::PoseTrack,
+    ) -> Result<(), NavError> {
+        let start = grid.origin;
+        let axis = direction(goal);
+        let mut fixes = 0i64;
+        while let Some(scan) = scans.next().await {
+            let p = crate::track::pose_waiting(&self.robot).await?;
+            let now = Pose::from(&p).at;
+            let along = (now - start).dot(&axis);
+            let end = along >= total_mm - STRETCH_END_MM;
+            if distance(grid.origin, now) >= self.cfg.light_map_mm {
+                fixes += 1;
+                self.correct(&grid, now, goal, Some(corridor), fixes)
+                    .await?;
+                let p = crate::track::pose_waiting(&self.robot).await?;
+                grid = Grid::new(Pose::from(&p).at, self.cfg.half_side_mm);
+            }
+            if end {
+                return Ok(());
+            }
+            self.add_scan(&mut grid, &scan?, track).await?;
+        }
+        Err(NavError::Gone("the proximity server's scan stream closed"))
     }
 
     /// Corrects the heading, and the sideways offset when the corridor is
@@ -722,6 +775,7 @@ mod tests {
             heading_deg: 0.0,
             left_mm: Some(1_830.0),
             right_mm: Some(1_830.0),
+            no_lights: false,
         };
         // In the odometry frame the walls stand 2130 mm left and 1530 mm
         // right of where odometry puts the robot.

@@ -30,6 +30,9 @@ pub const LIGHT_END_MARGIN_MM: f64 = 600.0;
 /// speed still has room to brake (0.8 m from 0.7 m/s at the base's 300
 /// mm/s²) instead of ending past the goal.
 pub const LAST_LEG_MIN_MM: f64 = 1_000.0;
+/// A stretch without lights at least this long is mapped by the local
+/// mapper as an L segment is, mm.
+pub const MAP_STRETCH_MM: i64 = 8_000;
 /// How far ahead of a turning space's middle a wall counts as its end wall,
 /// mm: beyond this the robot would see the corridor go on.
 pub const END_WALL_REACH_MM: f64 = 4_000.0;
@@ -50,8 +53,8 @@ pub struct Step {
     pub from: Point,
     /// End of the segment.
     pub to: Point,
-    /// For an L step: how far the corridor's left and right walls are from
-    /// the route, mm, as the map has them (the median over the segment,
+    /// For an L, E or D step: how far the corridor's left and right walls
+    /// are from the route, mm, as the map has them (the median over the segment,
     /// so doors and side corridors do not count), if both are there.
     pub walls_mm: Option<(f64, f64)>,
     /// For an E step: how far the wall straight ahead is from the middle of
@@ -252,7 +255,7 @@ impl Plan {
                 light_offsets_mm: Vec::new(),
                 from: at(t),
                 to: b,
-                walls_mm: None,
+                walls_mm: walls_beside(world, at(t), b, heading),
                 end_wall_mm: (!last)
                     .then(|| ray(world, b, heading, END_WALL_REACH_MM))
                     .flatten(),

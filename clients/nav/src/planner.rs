@@ -142,7 +142,17 @@ pub async fn run(
             }
             GoalType::C => {}
         }
+        let stretch = matches!(step.goal.goal_type, GoalType::D | GoalType::E)
+            && step.goal.distance >= crate::plan::MAP_STRETCH_MM;
+        if stretch {
+            board.set(Var::Corridor, &Corridor::of(&step)).await?;
+        }
         board.give_goal(&step.goal).await?;
+        if stretch {
+            // After the goal, so the mapper reads this stretch's distance
+            // and direction.
+            board.up(Sem::StartMap).await?;
+        }
         let mut handed = Handed {
             index,
             step: step.clone(),
