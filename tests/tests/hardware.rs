@@ -1091,3 +1091,70 @@ async fn in_lock_step_a_grant_and_a_queued_request_last_simulated_time() {
     assert_eq!(err["code"], "stale_fence", "{err}");
     assert_eq!(velocities(&rec), [1.0, 2.0]);
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 4)]
+async fn a_read_sent_right_behind_commands_sees_them_carried_out() {
+    // A plain read is answered from the queryable's callback when nothing
+    // is queued or being handled; one that arrives while set-poses sent
+    // just before it are still in the queue must wait its turn.
+    let rig = Rig::sim(Duration::from_millis(500)).await;
+    let z = rig.peer_session().await;
+    let k = |c: &str| format!("rome/robot/r1/base/{c}");
+    for round in 0..40i64 {
+        let mut sets = Vec::new();
+        let mut x = 0;
+        for j in 0..25 {
+            x = round * 100 + j;
+            let set = z
+                .get(k("set-pose"))
+                .payload(format!(r#"{{"x_mm":{x},"y_mm":{},"heading_deg":0}}"#, -x))
+                .timeout(Duration::from_secs(5))
+                .await
+                .unwrap();
+            sets.push(set);
+        }
+        // Sent before the set-poses' answers are back.
+        let pose = plain(&z, &k("pose"), "").await.unwrap();
+        let (px, py) = (
+            pose["x_mm"].as_i64().unwrap(),
+            pose["y_mm"].as_i64().unwrap(),
+        );
+        assert!(
+            (px - x).abs() <= 1 && (py + x).abs() <= 1,
+            "round {round}: the read overtook set-poses sent before it: {pose}"
+        );
+        for set in sets {
+            let done = set.recv_async().await.unwrap();
+            assert!(done.result().is_ok(), "a set-pose of round {round} failed");
+        }
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 4)]
+async fn a_read_waits_behind_a_held_lock_like_any_request() {
+    // The quick path for reads must not pass another client's lock: the
+    // read waits in the queue until the lock goes, or times out there.
+    let rig = Rig::sim(Duration::from_millis(500)).await;
+    let z = rig.peer_session().await;
+    let pose = "rome/robot/r1/base/pose";
+    // Served at once while nobody holds the lock.
+    plain(&z, pose, "").await.unwrap();
+    let holder = rig.client("holder", 128).await;
+    let lock = holder.lock().await.unwrap();
+    let e = plain_err(&z, &format!("{pose}?wait_ms=300"), "").await;
+    assert_eq!(e["code"], "timed_out", "{e}");
+    assert!(
+        e["message"].as_str().unwrap().contains("behind the lock"),
+        "{e}"
+    );
+    // Queued behind the lock, then served once it is released.
+    let z2 = z.clone();
+    let waiting =
+        tokio::spawn(async move { plain(&z2, "rome/robot/r1/base/pose?wait_ms=5000", "").await });
+    eventually(Duration::from_secs(5), "read queued", || async {
+        rig.queued().await == 1
+    })
+    .await;
+    lock.unlock().await.unwrap();
+    waiting.await.unwrap().unwrap();
+}

@@ -25,7 +25,7 @@
 //! so a robot does not drive on after its controller died.
 
 use crate::device::{BaseDevice, BaseOp, BaseStatus, DeviceError};
-use crate::server::{Body, Service};
+use crate::server::{Body, QuickRead, Service};
 use crate::vxy::{Pose32, Pose32Target, VirtualPose};
 use rome_schema::robot::{
     AdjustPose, BaseState, BumperReply, Done, Go, Jog, LockInfo, ModeReply, Move, PoseReply,
@@ -33,6 +33,7 @@ use rome_schema::robot::{
 };
 use rome_schema::{decode, ErrorCode, ErrorReply, Params};
 use serde::de::DeserializeOwned;
+use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::Duration;
 
 /// The base server's commands (lock and unlock come with every lockable server).
@@ -77,8 +78,67 @@ pub enum BaseCmd {
 pub struct Base<D: BaseDevice> {
     robot: String,
     device: D,
-    frame: VirtualPose,
+    /// Shared with the quick reads answered from the queryable's callback.
+    frame: Arc<Mutex<VirtualPose>>,
     state_period: Option<Duration>,
+}
+
+/// The base's read commands.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Read {
+    Pose,
+    Bumper,
+    Speed,
+    WheelSpeed,
+    Mode,
+}
+
+impl Read {
+    fn of(command: &str) -> Option<Read> {
+        Some(match command {
+            "pose" => Read::Pose,
+            "bumper" => Read::Bumper,
+            "speed" => Read::Speed,
+            "wheel-speed" => Read::WheelSpeed,
+            "mode" => Read::Mode,
+            _ => return None,
+        })
+    }
+}
+
+fn locked(frame: &Mutex<VirtualPose>) -> MutexGuard<'_, VirtualPose> {
+    frame.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+/// A read's answer from the device's status, read through the frame.
+fn read_body(read: Read, s: BaseStatus, frame: &mut VirtualPose) -> Body {
+    match read {
+        Read::Pose => {
+            let p = frame.read(s.raw_x, s.raw_y, s.heading_deg);
+            Body::json(&PoseReply {
+                x_mm: p.x_mm,
+                y_mm: p.y_mm,
+                heading_deg: p.heading_deg,
+                raw_x: s.raw_x,
+                raw_y: s.raw_y,
+                wraps_x: frame.x.wraps(),
+                wraps_y: frame.y.wraps(),
+            })
+        }
+        Read::Bumper => Body::json(&BumperReply {
+            status: s.bumpers,
+            front: s.bumpers & 1 != 0,
+            rear: s.bumpers & 2 != 0,
+            watch: s.watch_bumpers,
+        }),
+        Read::Speed => Body::json(&SpeedReply {
+            speed_mm_s: s.speed_mm_s,
+        }),
+        Read::WheelSpeed => Body::json(&WheelSpeedReply {
+            wheel_speed_mm_s: s.wheel_speed_mm_s,
+        }),
+        Read::Mode => Body::json(&ModeReply { mode: s.mode }),
+    }
 }
 
 impl<D: BaseDevice> Base<D> {
@@ -87,17 +147,24 @@ impl<D: BaseDevice> Base<D> {
         Base {
             robot: robot.to_string(),
             device,
-            frame: VirtualPose::default(),
+            frame: Arc::new(Mutex::new(VirtualPose::default())),
             state_period,
         }
     }
 
     async fn status(&mut self, op: BaseOp) -> Result<(BaseStatus, Pose32), ErrorReply> {
         let status = self.device.command(op).await.map_err(device_error)?;
-        let pose = self
-            .frame
-            .read(status.raw_x, status.raw_y, status.heading_deg);
+        let pose = locked(&self.frame).read(status.raw_x, status.raw_y, status.heading_deg);
         Ok((status, pose))
+    }
+
+    async fn read(&mut self, read: Read) -> Result<Body, ErrorReply> {
+        let status = self
+            .device
+            .command(BaseOp::Status)
+            .await
+            .map_err(device_error)?;
+        Ok(read_body(read, status, &mut locked(&self.frame)))
     }
 
     fn set_frame(&mut self, raw_heading: f64, to: Pose32Target) -> Result<(), ErrorReply> {
@@ -110,7 +177,7 @@ impl<D: BaseDevice> Base<D> {
                 "the position must fit 32-bit millimetres and the heading be finite",
             ));
         }
-        self.frame.set(raw_heading, to);
+        locked(&self.frame).set(raw_heading, to);
         Ok(())
     }
 }
@@ -291,18 +358,7 @@ impl<D: BaseDevice> Service for Base<D> {
                     mode: status.mode,
                 }))
             }
-            BaseCmd::Pose => {
-                let (s, p) = self.status(BaseOp::Status).await?;
-                Ok(Body::json(&PoseReply {
-                    x_mm: p.x_mm,
-                    y_mm: p.y_mm,
-                    heading_deg: p.heading_deg,
-                    raw_x: s.raw_x,
-                    raw_y: s.raw_y,
-                    wraps_x: self.frame.x.wraps(),
-                    wraps_y: self.frame.y.wraps(),
-                }))
-            }
+            BaseCmd::Pose => self.read(Read::Pose).await,
             BaseCmd::SetPose(to) => {
                 let (s, _) = self.status(BaseOp::Status).await?;
                 self.set_frame(
@@ -333,32 +389,22 @@ impl<D: BaseDevice> Service for Base<D> {
                     mode: s.mode,
                 }))
             }
-            BaseCmd::Bumper => {
-                let (s, _) = self.status(BaseOp::Status).await?;
-                Ok(Body::json(&BumperReply {
-                    status: s.bumpers,
-                    front: s.bumpers & 1 != 0,
-                    rear: s.bumpers & 2 != 0,
-                    watch: s.watch_bumpers,
-                }))
-            }
-            BaseCmd::Speed => {
-                let (s, _) = self.status(BaseOp::Status).await?;
-                Ok(Body::json(&SpeedReply {
-                    speed_mm_s: s.speed_mm_s,
-                }))
-            }
-            BaseCmd::WheelSpeed => {
-                let (s, _) = self.status(BaseOp::Status).await?;
-                Ok(Body::json(&WheelSpeedReply {
-                    wheel_speed_mm_s: s.wheel_speed_mm_s,
-                }))
-            }
-            BaseCmd::Mode => {
-                let (s, _) = self.status(BaseOp::Status).await?;
-                Ok(Body::json(&ModeReply { mode: s.mode }))
-            }
+            BaseCmd::Bumper => self.read(Read::Bumper).await,
+            BaseCmd::Speed => self.read(Read::Speed).await,
+            BaseCmd::WheelSpeed => self.read(Read::WheelSpeed).await,
+            BaseCmd::Mode => self.read(Read::Mode).await,
         }
+    }
+
+    fn quick(&self) -> Option<QuickRead> {
+        let peek = self.device.peek()?;
+        let frame = self.frame.clone();
+        Some(Arc::new(move |command: &str, params: Params| {
+            params.finish(command, &[]).ok()?;
+            let read = Read::of(command)?;
+            let status = peek()?;
+            Some(read_body(read, status, &mut locked(&frame)))
+        }))
     }
 
     fn period(&self) -> Option<Duration> {

@@ -13,10 +13,11 @@
 //! ```
 
 use crate::device::{CameraDevice, Frame};
-use crate::server::{Body, Service};
+use crate::server::{Body, QuickRead, Service};
 pub use rome_schema::robot::MAX_ROWS;
 use rome_schema::robot::{format_rows, param, parse_rows, FrameInfo, Gray8, LockInfo, SizeReply};
 use rome_schema::{ErrorCode, ErrorReply, Params};
+use std::sync::{Arc, Mutex};
 use std::time::Duration;
 use zenoh::bytes::Encoding;
 
@@ -42,14 +43,21 @@ pub enum CameraCmd {
     Rows(Vec<u32>),
 }
 
+/// The last frame and its grab number.
+#[derive(Debug, Clone)]
+struct Shot {
+    frame: Arc<Frame>,
+    n: u64,
+}
+
 /// The camera server's state: the device and the last frame.
 pub struct Camera<D: CameraDevice> {
     robot: String,
     name: String,
     device: D,
     period: Duration,
-    frame: Option<Frame>,
-    frames: u64,
+    /// Shared with the quick reads answered from the queryable's callback.
+    last: Arc<Mutex<Option<Shot>>>,
 }
 
 impl<D: CameraDevice> Camera<D> {
@@ -60,9 +68,12 @@ impl<D: CameraDevice> Camera<D> {
             name: name.to_string(),
             device,
             period,
-            frame: None,
-            frames: 0,
+            last: Arc::new(Mutex::new(None)),
         }
+    }
+
+    fn shot(&self) -> Option<Shot> {
+        self.last.lock().unwrap_or_else(|p| p.into_inner()).clone()
     }
 
     async fn grab(&mut self) -> Result<(), ErrorReply> {
@@ -71,23 +82,89 @@ impl<D: CameraDevice> Camera<D> {
             .grab()
             .await
             .map_err(|e| ErrorReply::new(ErrorCode::Device, e.to_string()))?;
-        self.frames += 1;
-        self.frame = Some(frame);
+        let mut last = self.last.lock().unwrap_or_else(|p| p.into_inner());
+        let n = last.as_ref().map_or(0, |s| s.n) + 1;
+        *last = Some(Shot {
+            frame: Arc::new(frame),
+            n,
+        });
         Ok(())
     }
 
     /// The last frame and its grab number, grabbing one first if there is
     /// none yet.
-    async fn current(&mut self) -> Result<(&Frame, u64), ErrorReply> {
-        if self.frame.is_none() {
+    async fn current(&mut self) -> Result<Shot, ErrorReply> {
+        if self.shot().is_none() {
             self.grab().await?;
         }
-        let frames = self.frames;
-        self.frame
-            .as_ref()
-            .map(|f| (f, frames))
+        self.shot()
             .ok_or_else(|| ErrorReply::new(ErrorCode::Device, "no frame grabbed"))
     }
+}
+
+/// The rows asked for (`rows=120,241,360`), checked against the image's
+/// `height` and what a reply can describe.
+fn rows_param(mut params: Params, height: u32) -> Result<Vec<u32>, ErrorReply> {
+    let list = params.take_text(param::ROWS).ok_or_else(|| {
+        ErrorReply::new(
+            ErrorCode::BadParameter,
+            "'rows' needs the parameter 'rows' (e.g. rows=120,241,360)",
+        )
+    })?;
+    params.finish(
+        "rows",
+        &["rows", "priority", "fence", "wait_ms", "client", "op"],
+    )?;
+    let rows = parse_rows(&list, MAX_ROWS)?;
+    if rows.is_empty() || rows.len() > MAX_ROWS {
+        return Err(ErrorReply::new(
+            ErrorCode::OutOfRange,
+            format!("'rows': ask for 1 … {MAX_ROWS} rows, got {}", rows.len()),
+        ));
+    }
+    // The list travels back in the reply's encoding, which Zenoh limits to
+    // 255 bytes.
+    if format_rows(&rows).len() > MAX_ROW_LIST_LEN {
+        return Err(ErrorReply::new(
+            ErrorCode::OutOfRange,
+            format!(
+                "'rows': the list is too long to describe in a reply ({} characters as ranges, at most {MAX_ROW_LIST_LEN}); ask for runs of rows (200-263) or fewer rows",
+                format_rows(&rows).len()
+            ),
+        ));
+    }
+    if let Some(r) = rows.iter().find(|r| **r >= height) {
+        return Err(ErrorReply::new(
+            ErrorCode::OutOfRange,
+            format!(
+                "'rows': row {r} is outside the image (rows 0 … {})",
+                height - 1
+            ),
+        ));
+    }
+    Ok(rows)
+}
+
+/// The bytes of `rows` of a shot, in order.
+fn rows_body(shot: &Shot, rows: Vec<u32>) -> Result<Body, ErrorReply> {
+    let frame = &shot.frame;
+    let w = frame.width as usize;
+    let mut out = Vec::with_capacity(w * rows.len());
+    for r in &rows {
+        let start = *r as usize * w;
+        // The device's frame may be smaller than the size it declared.
+        let row = frame.pixels.get(start..start + w).ok_or_else(|| {
+            ErrorReply::new(
+                ErrorCode::Device,
+                format!(
+                    "row {r} is not in the grabbed frame ({} × {})",
+                    frame.width, frame.height
+                ),
+            )
+        })?;
+        out.extend_from_slice(row);
+    }
+    Ok(Body::Binary(out, encoding(frame, shot.n, Some(rows))))
 }
 
 /// The encoding of a raw reply: gray8 and where it came from.
@@ -158,44 +235,8 @@ impl<D: CameraDevice> Service for Camera<D> {
                 }
             }
             "rows" => {
-                let list = params.take_text(param::ROWS).ok_or_else(|| {
-                    ErrorReply::new(
-                        ErrorCode::BadParameter,
-                        "'rows' needs the parameter 'rows' (e.g. rows=120,241,360)",
-                    )
-                })?;
-                params.finish(
-                    command,
-                    &["rows", "priority", "fence", "wait_ms", "client", "op"],
-                )?;
-                let rows = parse_rows(&list, MAX_ROWS)?;
                 let (_, height) = self.device.size();
-                if rows.is_empty() || rows.len() > MAX_ROWS {
-                    return Err(ErrorReply::new(
-                        ErrorCode::OutOfRange,
-                        format!("'rows': ask for 1 … {MAX_ROWS} rows, got {}", rows.len()),
-                    ));
-                }
-                // The list travels back in the reply's encoding, which Zenoh
-                // limits to 255 bytes.
-                if format_rows(&rows).len() > MAX_ROW_LIST_LEN {
-                    return Err(ErrorReply::new(
-                        ErrorCode::OutOfRange,
-                        format!(
-                            "'rows': the list is too long to describe in a reply ({} characters as ranges, at most {MAX_ROW_LIST_LEN}); ask for runs of rows (200-263) or fewer rows",
-                            format_rows(&rows).len()
-                        ),
-                    ));
-                }
-                if let Some(r) = rows.iter().find(|r| **r >= height) {
-                    return Err(ErrorReply::new(
-                        ErrorCode::OutOfRange,
-                        format!(
-                            "'rows': row {r} is outside the image (rows 0 … {})",
-                            height - 1
-                        ),
-                    ));
-                }
+                let rows = rows_param(params, height)?;
                 Ok(CameraCmd::Rows(rows))
             }
             other => Err(ErrorReply::new(
@@ -212,37 +253,31 @@ impl<D: CameraDevice> Service for Camera<D> {
                 Ok(Body::json(&SizeReply { width, height }))
             }
             CameraCmd::Grab { png: as_png } => {
-                let (frame, frames) = self.current().await?;
+                let shot = self.current().await?;
                 if as_png {
-                    Ok(Body::Binary(png(frame)?, Encoding::IMAGE_PNG))
+                    Ok(Body::Binary(png(&shot.frame)?, Encoding::IMAGE_PNG))
                 } else {
                     Ok(Body::Binary(
-                        frame.pixels.clone(),
-                        encoding(frame, frames, None),
+                        shot.frame.pixels.clone(),
+                        encoding(&shot.frame, shot.n, None),
                     ))
                 }
             }
-            CameraCmd::Rows(rows) => {
-                let (frame, frames) = self.current().await?;
-                let w = frame.width as usize;
-                let mut out = Vec::with_capacity(w * rows.len());
-                for r in &rows {
-                    let start = *r as usize * w;
-                    // The device's frame may be smaller than the size it declared.
-                    let row = frame.pixels.get(start..start + w).ok_or_else(|| {
-                        ErrorReply::new(
-                            ErrorCode::Device,
-                            format!(
-                                "row {r} is not in the grabbed frame ({} × {})",
-                                frame.width, frame.height
-                            ),
-                        )
-                    })?;
-                    out.extend_from_slice(row);
-                }
-                Ok(Body::Binary(out, encoding(frame, frames, Some(rows))))
-            }
+            CameraCmd::Rows(rows) => rows_body(&self.current().await?, rows),
         }
+    }
+
+    fn quick(&self) -> Option<QuickRead> {
+        let (last, (_, height)) = (self.last.clone(), self.device.size());
+        Some(Arc::new(move |command: &str, params: Params| {
+            if command != "rows" {
+                return None;
+            }
+            let rows = rows_param(params, height).ok()?;
+            // Before the first grab the event loop grabs one.
+            let shot = last.lock().unwrap_or_else(|p| p.into_inner()).clone()?;
+            rows_body(&shot, rows).ok()
+        }))
     }
 
     fn period(&self) -> Option<Duration> {
@@ -262,13 +297,14 @@ impl<D: CameraDevice> Service for Camera<D> {
             tracing::warn!(robot = %self.robot, camera = %self.name, error = %e, "grab failed");
             return None;
         }
-        let frame = self.frame.as_ref()?;
+        let shot = self.shot()?;
+        let frame = &shot.frame;
         Some((
             "frame",
             Body::json(&FrameInfo {
                 robot: self.robot.clone(),
                 camera: self.name.clone(),
-                frame: self.frames,
+                frame: shot.n,
                 time_ms: frame.time_ms,
                 width: frame.width,
                 height: frame.height,

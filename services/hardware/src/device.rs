@@ -5,6 +5,12 @@
 
 use rome_schema::robot::{Move, Turn, SONARS};
 use std::future::Future;
+use std::sync::Arc;
+
+/// Reads a device's present state at once, from any thread, without
+/// waiting: `None` when that is not possible right now (the device is busy,
+/// say), and the caller goes the usual way.
+pub type Peek<T> = Arc<dyn Fn() -> Option<T> + Send + Sync>;
 
 /// A device could not carry out a command.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
@@ -82,6 +88,12 @@ pub trait BaseDevice: Send + Sync + 'static {
         &mut self,
         op: BaseOp,
     ) -> impl Future<Output = Result<BaseStatus, DeviceError>> + Send;
+
+    /// The status without a command, at once, if the device can give it so
+    /// (a simulated base can; a serial one must be asked over its line).
+    fn peek(&self) -> Option<Peek<BaseStatus>> {
+        None
+    }
 }
 
 /// One reading of the sonar ring and infrared detectors.
@@ -104,6 +116,11 @@ pub trait ProximityDevice: Send + Sync + 'static {
         &mut self,
         max_mm: [u32; SONARS],
     ) -> impl Future<Output = Result<[u32; SONARS], DeviceError>> + Send;
+
+    /// The latest scan at once, if the device can give it so.
+    fn peek(&self) -> Option<Peek<RawScan>> {
+        None
+    }
 }
 
 /// One grabbed image, 8-bit gray, row-major.

@@ -10,7 +10,7 @@
 
 use crate::base::payload;
 use crate::device::{DeviceError, ProximityDevice, RawScan};
-use crate::server::{Body, Service};
+use crate::server::{Body, QuickRead, Service};
 use rome_schema::robot::{
     IrReply, LockInfo, MaxRange, Scan, SetTimeout, SonarReply, TimeoutReply, SONARS,
 };
@@ -55,6 +55,27 @@ impl<D: ProximityDevice> Proximity<D> {
             last_published: None,
             seq: 0,
         }
+    }
+}
+
+/// The proximity server's read commands.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Read {
+    Sonar,
+    Ir,
+}
+
+/// A read's answer from a scan.
+fn read_body(read: Read, s: RawScan) -> Body {
+    match read {
+        Read::Sonar => Body::json(&SonarReply {
+            sonar_mm: s.sonar_mm.to_vec(),
+            time_ms: s.time_ms,
+        }),
+        Read::Ir => Body::json(&IrReply {
+            ir: ir_array(s.ir),
+            time_ms: s.time_ms,
+        }),
     }
 }
 
@@ -134,17 +155,11 @@ impl<D: ProximityDevice> Service for Proximity<D> {
         match cmd {
             ProxCmd::Sonar => {
                 let s = self.device.scan().await.map_err(device_error)?;
-                Ok(Body::json(&SonarReply {
-                    sonar_mm: s.sonar_mm.to_vec(),
-                    time_ms: s.time_ms,
-                }))
+                Ok(read_body(Read::Sonar, s))
             }
             ProxCmd::Ir => {
                 let s = self.device.scan().await.map_err(device_error)?;
-                Ok(Body::json(&IrReply {
-                    ir: ir_array(s.ir),
-                    time_ms: s.time_ms,
-                }))
+                Ok(read_body(Read::Ir, s))
             }
             ProxCmd::Timeout(max) => {
                 let now = self.device.set_timeout(max).await.map_err(device_error)?;
@@ -153,6 +168,19 @@ impl<D: ProximityDevice> Service for Proximity<D> {
                 }))
             }
         }
+    }
+
+    fn quick(&self) -> Option<QuickRead> {
+        let peek = self.device.peek()?;
+        Some(std::sync::Arc::new(move |command: &str, params: Params| {
+            params.finish(command, &[]).ok()?;
+            let read = match command {
+                "sonar" => Read::Sonar,
+                "ir" => Read::Ir,
+                _ => return None,
+            };
+            Some(read_body(read, peek()?))
+        }))
     }
 
     fn period(&self) -> Option<Duration> {

@@ -19,6 +19,8 @@ use rome_schema::{decode, encode, ErrorCode, ErrorReply, Name, Params, Root};
 use rome_serve::{reply_err, Handler, Inbox, Periods};
 use std::collections::{HashMap, VecDeque};
 use std::future::Future;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::Arc;
 use std::time::{Duration, SystemTime};
 use zenoh::bytes::{Encoding, ZBytes};
 use zenoh::qos::CongestionControl;
@@ -63,6 +65,13 @@ impl Body {
     }
 }
 
+/// Answers a command that changes nothing, named by its key chunk and
+/// given its parameters (those every request may carry taken out), at
+/// once from the device's present state, from any thread and without
+/// waiting; `None` leaves it to the event loop (a command it does not
+/// answer so, parameters it would refuse, a device busy right now).
+pub type QuickRead = Arc<dyn Fn(&str, Params) -> Option<Body> + Send + Sync>;
+
 /// A device's commands: what a hardware server needs to know of them.
 pub trait Service: Send + Sync + 'static {
     /// A parsed command.
@@ -89,6 +98,15 @@ pub trait Service: Send + Sync + 'static {
         params: Params,
         payload: Option<&[u8]>,
     ) -> Result<Self::Cmd, ErrorReply>;
+
+    /// A way to answer commands that only read (a pose, a scan, camera
+    /// rows) from the queryable's callback, if the device can be read
+    /// without waiting (a simulated one). The server uses it only when
+    /// nothing is queued, being handled or holding the lock, so a quick
+    /// read never overtakes a request sent before it.
+    fn quick(&self) -> Option<QuickRead> {
+        None
+    }
 
     /// Carries a command out on the device.
     fn apply(
@@ -235,6 +253,12 @@ struct Server<S: Service> {
     /// The last publication of each stream (`state`, `scan`, `frame`),
     /// answered to a query on its key.
     last: HashMap<&'static str, (ZBytes, Encoding)>,
+    /// Whether a read may be answered from the queryable's callback: no
+    /// request queued and no lock held (kept up to date at the end of every
+    /// event, while the event itself still counts as being handled).
+    quiet: Arc<AtomicBool>,
+    /// Reads answered from the callback, counted into `stats`.
+    quick_reads: Arc<AtomicU64>,
 }
 
 /// Runs a hardware server for `service` until `shutdown` completes.
@@ -269,9 +293,12 @@ pub async fn run<S: Service>(
     // answers `busy` at once. Liveliness changes have a queue of their
     // own that never drops: lock releases and the deadman depend on them.
     let inbox = Inbox::new(&config.label(), EVENT_QUEUE);
+    let quiet = Arc::new(AtomicBool::new(false));
+    let quick_reads = Arc::new(AtomicU64::new(0));
+    let answer_now = quick_answer(service.quick(), quiet.clone(), quick_reads.clone());
     let _queryable = session
         .declare_queryable(config.root.robot_device_all(&config.robot, &config.device))
-        .callback(inbox.on_query())
+        .callback(inbox.on_query_or(answer_now))
         .await
         .map_err(|e| declare_err("the device queryable", e))?;
     let _alive = session
@@ -298,6 +325,8 @@ pub async fn run<S: Service>(
         executed_ids: Default::default(),
         executed_order: VecDeque::new(),
         last: HashMap::new(),
+        quiet,
+        quick_reads,
         session,
         config,
         service,
@@ -305,6 +334,7 @@ pub async fn run<S: Service>(
     if server.service.lockable() {
         server.restore_lock().await;
     }
+    server.settle();
     let _token = server
         .session
         .liveliness()
@@ -337,22 +367,68 @@ impl<S: Service> Handler<std::convert::Infallible> for Server<S> {
             // Nobody subscribes to puts here, and there are no own events.
             Event::Put(_) | Event::Own(_) => {}
         }
+        self.settle();
     }
 
     async fn drained(&mut self) {
-        self.drain().await
+        self.drain().await;
+        self.settle();
     }
 
     async fn sweep(&mut self) {
-        self.sweep_now().await
+        self.sweep_now().await;
+        self.settle();
     }
 
     async fn tick(&mut self) {
-        self.tick_now().await
+        self.tick_now().await;
+        self.settle();
+    }
+}
+
+/// The queryable's quick path: a plain read (no fence, request id,
+/// suppression or payload) answered from the device's present state while
+/// the server is `quiet`.
+fn quick_answer(
+    quick: Option<QuickRead>,
+    quiet: Arc<AtomicBool>,
+    count: Arc<AtomicU64>,
+) -> impl Fn(&Query) -> bool + Send + Sync + 'static {
+    move |q| {
+        let Some(quick) = &quick else {
+            return false;
+        };
+        if !quiet.load(Ordering::SeqCst) || q.payload().is_some() {
+            return false;
+        }
+        let key = q.key_expr().as_str();
+        if key.contains(['*', '$']) {
+            return false;
+        }
+        let command = key.rsplit('/').next().unwrap_or_default();
+        let mut params = Params::new(q.parameters().iter());
+        let plain = Meta::take(&mut params)
+            .is_ok_and(|m| m.fence.is_none() && m.op.is_none() && m.suppress_ms.is_none());
+        if !plain {
+            return false;
+        }
+        let Some(body) = quick(command, params) else {
+            return false;
+        };
+        count.fetch_add(1, Ordering::Relaxed);
+        let (bytes, encoding) = body.into_parts();
+        rome_serve::reply_now(q, key, bytes, encoding);
+        true
     }
 }
 
 impl<S: Service> Server<S> {
+    /// Says whether reads may be answered from the callback now.
+    fn settle(&self) {
+        let quiet = self.gate.queued() == 0 && self.gate.holder().is_none();
+        self.quiet.store(quiet, Ordering::SeqCst);
+    }
+
     fn lock(&self) -> Option<LockInfo> {
         self.gate.holder().map(Holder::info)
     }
@@ -427,7 +503,9 @@ impl<S: Service> Server<S> {
             if let Err(e) = params.finish("stats", &[]) {
                 return reply_err(&query, &e).await;
             }
-            return reply(&query, &key, Body::json(&self.stats)).await;
+            let mut stats = self.stats;
+            stats.executed += self.quick_reads.load(Ordering::Relaxed);
+            return reply(&query, &key, Body::json(&stats)).await;
         }
         if let Some((bytes, encoding)) = self.last.get(command.as_str()) {
             // A stream's key answers with its last publication.

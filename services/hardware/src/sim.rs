@@ -3,7 +3,8 @@
 //! cameras as [`BaseDevice`], [`ProximityDevice`] and [`CameraDevice`].
 
 use crate::device::{
-    BaseDevice, BaseOp, BaseStatus, CameraDevice, DeviceError, Frame, ProximityDevice, RawScan,
+    BaseDevice, BaseOp, BaseStatus, CameraDevice, DeviceError, Frame, Peek, ProximityDevice,
+    RawScan,
 };
 use rome_schema::robot::SONARS;
 use rome_sim::{Camera, Pacer, Sim, SimError};
@@ -56,6 +57,15 @@ impl SimWorld {
         self.sim
             .lock()
             .unwrap_or_else(|poisoned| poisoned.into_inner())
+    }
+
+    /// The world, if nobody else has it right now (a step in progress).
+    pub fn try_lock(&self) -> Option<MutexGuard<'_, Sim>> {
+        match self.sim.try_lock() {
+            Ok(g) => Some(g),
+            Err(std::sync::TryLockError::Poisoned(p)) => Some(p.into_inner()),
+            Err(std::sync::TryLockError::WouldBlock) => None,
+        }
     }
 
     /// Steps the world on its own thread at `speed` × real time (`None`:
@@ -227,19 +237,32 @@ impl BaseDevice for SimBase {
             };
             done.map_err(|e| DeviceError::OutOfRange(e.to_string()))?;
         }
-        let r = sim.robot(self.i);
-        let regs = r.odometry.registers();
-        Ok(BaseStatus {
-            time_ms,
-            raw_x: regs.x,
-            raw_y: regs.y,
-            heading_deg: f64::from(regs.heading_centideg) / 100.0,
-            speed_mm_s: r.drive.speed_setting,
-            wheel_speed_mm_s: r.drive.wheel_speed(),
-            mode: r.drive.mode.name().to_string(),
-            bumpers: r.bumpers.status(),
-            watch_bumpers: r.bumpers.watch,
-        })
+        Ok(base_status(&sim, self.i, time_ms))
+    }
+
+    fn peek(&self) -> Option<Peek<BaseStatus>> {
+        let (world, i) = (self.world.clone(), self.i);
+        Some(Arc::new(move || {
+            let sim = world.try_lock()?;
+            Some(base_status(&sim, i, sim.time_ms()))
+        }))
+    }
+}
+
+/// Robot `i`'s base status at `time_ms`.
+fn base_status(sim: &Sim, i: usize, time_ms: u64) -> BaseStatus {
+    let r = sim.robot(i);
+    let regs = r.odometry.registers();
+    BaseStatus {
+        time_ms,
+        raw_x: regs.x,
+        raw_y: regs.y,
+        heading_deg: f64::from(regs.heading_centideg) / 100.0,
+        speed_mm_s: r.drive.speed_setting,
+        wheel_speed_mm_s: r.drive.wheel_speed(),
+        mode: r.drive.mode.name().to_string(),
+        bumpers: r.bumpers.status(),
+        watch_bumpers: r.bumpers.watch,
     }
 }
 
@@ -251,13 +274,15 @@ pub struct SimProximity {
 
 impl ProximityDevice for SimProximity {
     async fn scan(&mut self) -> Result<RawScan, DeviceError> {
-        let sim = self.world.lock();
-        let r = sim.robot(self.i);
-        Ok(RawScan {
-            time_ms: r.sonar_at_ms,
-            sonar_mm: r.scan.map(u32::from),
-            ir: r.infrared,
-        })
+        Ok(raw_scan(&self.world.lock(), self.i))
+    }
+
+    fn peek(&self) -> Option<Peek<RawScan>> {
+        let (world, i) = (self.world.clone(), self.i);
+        Some(Arc::new(move || {
+            let sim = world.try_lock()?;
+            Some(raw_scan(&sim, i))
+        }))
     }
 
     async fn set_timeout(&mut self, max_mm: [u32; SONARS]) -> Result<[u32; SONARS], DeviceError> {
@@ -269,6 +294,16 @@ impl ProximityDevice for SimProximity {
                 .map_err(|e| DeviceError::OutOfRange(e.to_string()))?;
         }
         Ok(sim.robot(self.i).timeouts.map(u32::from))
+    }
+}
+
+/// Robot `i`'s latest scan.
+fn raw_scan(sim: &Sim, i: usize) -> RawScan {
+    let r = sim.robot(i);
+    RawScan {
+        time_ms: r.sonar_at_ms,
+        sonar_mm: r.scan.map(u32::from),
+        ir: r.infrared,
     }
 }
 

@@ -12,7 +12,6 @@ use rome_hardware::sim::SimWorld;
 use rome_schema::Root;
 use rome_sim::{Sim, SimConfig};
 use serde::Serialize;
-use std::future::Future;
 use std::time::{Duration, Instant};
 use zenoh::Wait;
 
@@ -40,24 +39,58 @@ pub struct RobotFigures {
 
 const RAW_KEY: &str = "rome-bench/raw-robot";
 
-async fn latencies<F, Fut>(name: &'static str, span: Duration, mut f: F) -> anyhow::Result<Row>
-where
-    F: FnMut() -> Fut,
-    Fut: Future<Output = anyhow::Result<()>>,
-{
-    let warm = Instant::now();
-    while warm.elapsed() < span / 5 {
-        f().await?;
-    }
-    let mut lat = Vec::new();
-    let started = Instant::now();
-    while started.elapsed() < span {
-        let t = Instant::now();
-        f().await?;
-        lat.push(t.elapsed().as_micros() as u64);
-    }
-    Row::from_latencies(name, 1, lat, started.elapsed())
+/// The round trips measured, one request at a time.
+#[derive(Debug, Clone, Copy)]
+enum Probe {
+    /// The bare queryable, the reference.
+    Raw,
+    Pose,
+    Sonar,
+    Rows,
 }
+
+impl Probe {
+    const ALL: [Probe; 4] = [Probe::Raw, Probe::Pose, Probe::Sonar, Probe::Rows];
+
+    fn name(self) -> &'static str {
+        match self {
+            Probe::Raw => "zenoh-queryable",
+            Probe::Pose => "pose",
+            Probe::Sonar => "sonar",
+            Probe::Rows => "camera-3-rows",
+        }
+    }
+
+    async fn once(self, session: &zenoh::Session, r: &RobotClient) -> anyhow::Result<()> {
+        match self {
+            Probe::Raw => {
+                let replies = session
+                    .get(RAW_KEY)
+                    .await
+                    .map_err(|e| anyhow::anyhow!("{e}"))?;
+                replies
+                    .recv_async()
+                    .await
+                    .map_err(|e| anyhow::anyhow!("no raw reply: {e}"))?;
+            }
+            Probe::Pose => {
+                r.pose().await?;
+            }
+            Probe::Sonar => {
+                r.sonar().await?;
+            }
+            Probe::Rows => {
+                r.camera_rows("up", &[120, 241, 360]).await?;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Slices each probe's time is cut into, the probes taking turns: a
+/// machine whose load drifts during the run weighs on all of them alike,
+/// so their ratios hold.
+const ROUNDS: u32 = 10;
 
 /// Runs the benchmark.
 pub async fn figures(args: &RobotBench, progress: bool) -> anyhow::Result<RobotFigures> {
@@ -107,37 +140,35 @@ pub async fn figures(args: &RobotBench, progress: bool) -> anyhow::Result<RobotF
     let done = std::cell::Cell::new(0u64);
     let say = |what: &str| {
         if let Some(b) = bar.borrow_mut().as_mut() {
-            b.step(done.get(), &format!("{what}, {:.1} s", args.seconds));
+            b.step(done.get(), what);
         }
         done.set(done.get() + 1);
     };
+    for p in Probe::ALL {
+        let warm = Instant::now();
+        while warm.elapsed() < span / 20 {
+            p.once(&session, &r).await?;
+        }
+    }
+    let mut lat: Vec<Vec<u64>> = vec![Vec::new(); Probe::ALL.len()];
+    let mut spent = vec![Duration::ZERO; Probe::ALL.len()];
+    let slice = span / ROUNDS;
+    for round in 0..ROUNDS {
+        say(&format!("round {} of {ROUNDS}", round + 1));
+        for (k, p) in Probe::ALL.into_iter().enumerate() {
+            let started = Instant::now();
+            while started.elapsed() < slice {
+                let t = Instant::now();
+                p.once(&session, &r).await?;
+                lat[k].push(t.elapsed().as_micros() as u64);
+            }
+            spent[k] += started.elapsed();
+        }
+    }
     let mut rows = Vec::new();
-    say("zenoh-queryable");
-    rows.push(
-        latencies("zenoh-queryable", span, || async {
-            let replies = session
-                .get(RAW_KEY)
-                .await
-                .map_err(|e| anyhow::anyhow!("{e}"))?;
-            replies
-                .recv_async()
-                .await
-                .map_err(|e| anyhow::anyhow!("no raw reply: {e}"))?;
-            Ok(())
-        })
-        .await?,
-    );
-    say("pose");
-    rows.push(latencies("pose", span, || async { Ok(r.pose().await.map(|_| ())?) }).await?);
-    say("sonar");
-    rows.push(latencies("sonar", span, || async { Ok(r.sonar().await.map(|_| ())?) }).await?);
-    say("camera 3 rows");
-    rows.push(
-        latencies("camera-3-rows", span, || async {
-            Ok(r.camera_rows("up", &[120, 241, 360]).await.map(|_| ())?)
-        })
-        .await?,
-    );
+    for ((p, lat), spent) in Probe::ALL.into_iter().zip(lat).zip(spent) {
+        rows.push(Row::from_latencies(p.name(), 1, lat, spent)?);
+    }
     say("scan stream");
     let scans = r.scans().await?;
     let first = scans
