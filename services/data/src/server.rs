@@ -148,13 +148,19 @@ pub fn spawn(session: Session, config: ServerConfig) -> Running {
     }
 }
 
-/// The data server's own event: a held wait whose time is up.
-struct HoldOver {
-    ticket: String,
-    generation: u64,
+/// The data server's own events.
+enum Own {
+    /// A held wait whose time is up.
+    HoldOver { ticket: String, generation: u64 },
+    /// What a change answered from the queryable's callback leaves to do:
+    /// publish its commit to watchers and answer the waits it granted.
+    Follow {
+        commit: Option<Committed>,
+        grants: Vec<Grant>,
+    },
 }
 
-type Event = rome_serve::Event<HoldOver>;
+type Event = rome_serve::Event<Own>;
 
 struct Held {
     query: Query,
@@ -211,14 +217,20 @@ pub async fn run(
             Some(disk)
         }
     };
-    let inbox = Inbox::<HoldOver>::new("the data server", EVENT_QUEUE);
+    let inbox = Inbox::<Own>::new("the data server", EVENT_QUEUE);
     let store = Arc::new(Mutex::new(store));
+    let quick = Quick {
+        store: store.clone(),
+        root: root.clone(),
+        // A write answered at once must already be on disk, and must be
+        // stamped on the clock the event loop uses (in a lock-step run,
+        // the simulated one, which a callback on a link's thread does not
+        // see): otherwise only reads are answered from the callback.
+        writes: (disk.is_none()).then(|| (inbox.first_sender(), rome_clock::now_ms().is_some())),
+    };
     let _queryable = session
         .declare_queryable(root.data_all())
-        .callback(inbox.on_query_or({
-            let (store, root) = (store.clone(), root.clone());
-            move |q: &Query| answer_now(&store, &root, q)
-        }))
+        .callback(inbox.on_query_or(move |q: &Query| quick.answer(q)))
         .await
         .map_err(|e| declare_err("the data queryable", e))?;
     let mut subscribers = Vec::new();
@@ -266,13 +278,21 @@ pub async fn run(
     Ok(())
 }
 
-impl Handler<HoldOver> for Server {
+impl Handler<Own> for Server {
     async fn event(&mut self, event: Event) {
         match event {
             Event::Query(q) => self.query(q).await,
             Event::Put(s) => self.put(s).await,
             Event::Alive(s) => self.alive(s).await,
-            Event::Own(HoldOver { ticket, generation }) => self.hold_over(ticket, generation).await,
+            Event::Own(Own::HoldOver { ticket, generation }) => {
+                self.hold_over(ticket, generation).await
+            }
+            Event::Own(Own::Follow { commit, grants }) => {
+                if let Some(commit) = commit {
+                    self.publish(&commit).await;
+                }
+                self.answer_grants(grants).await;
+            }
         }
     }
 
@@ -454,7 +474,7 @@ impl Server {
         rome_clock::spawn("the data server's hold timer", async move {
             rome_clock::sleep(hold).await;
             let _ = events
-                .send_async(Event::Own(HoldOver { ticket, generation }))
+                .send_async(Event::Own(Own::HoldOver { ticket, generation }))
                 .await;
         });
     }
@@ -566,31 +586,69 @@ fn lock(store: &Mutex<Store>) -> MutexGuard<'_, Store> {
     store.lock().unwrap_or_else(PoisonError::into_inner)
 }
 
-/// Answers a plain read (`var/<name>`, `sem/<name>`) in the queryable's
-/// callback, without the trip through the event loop: called only when no
-/// request or put is queued or being handled, so a client's read still
-/// comes after everything it sent before it. Anything else, and a read that
-/// fails, goes the usual way (false).
-fn answer_now(store: &Mutex<Store>, root: &Root, query: &Query) -> bool {
-    let key = query.key_expr().as_str();
-    if key.contains('*') || query.payload().is_some() {
-        return false;
+/// What the queryable's callback may answer itself, without the trip
+/// through the event loop: it is asked only when no request or put is
+/// queued or being handled, so a client's request still comes after
+/// everything it sent before it. Anything else, and a request that fails,
+/// goes the usual way.
+struct Quick {
+    store: Arc<Mutex<Store>>,
+    root: Root,
+    /// Changes too (`set`, `signal`), when the store is in memory: what is
+    /// left to do (publication, grants) goes to the event loop, ahead of
+    /// anything queued; and whether the loop's clock is a lock-step one.
+    writes: Option<(flume::Sender<Event>, bool)>,
+}
+
+impl Quick {
+    /// Answers a plain read (`var/<name>`, `sem/<name>`), a `set` or a
+    /// `signal`.
+    fn answer(&self, query: &Query) -> bool {
+        let key = query.key_expr().as_str();
+        if key.contains('*') {
+            return false;
+        }
+        let params = Params::new(query.parameters().iter());
+        let payload = query.payload().map(|p| p.to_bytes());
+        let applied = match Request::parse(&self.root, key, params, payload.as_deref()) {
+            Ok(Request::Get(get)) => get.apply(&lock(&self.store)),
+            Ok(Request::Read(read)) => read.apply(&lock(&self.store)),
+            Ok(request @ (Request::Set(_) | Request::Signal(_))) => match &self.writes {
+                Some((first, lockstep)) if rome_clock::now_ms().is_some() == *lockstep => {
+                    let mut store = lock(&self.store);
+                    let mut applied = request.apply(&mut store, Instant::now());
+                    if let Ok(a) = &mut applied {
+                        // Queued under the store's lock, so changes made on
+                        // two threads are followed up in their order; the
+                        // queue is unbounded, so none is lost.
+                        let follow = Own::Follow {
+                            commit: a.commit.take(),
+                            grants: std::mem::take(&mut a.grants),
+                        };
+                        let _ = first.send(Event::Own(follow));
+                    }
+                    applied
+                }
+                _ => return false,
+            },
+            _ => return false,
+        };
+        match applied {
+            Ok(crate::cmd::Applied {
+                reply: Some(payload),
+                ..
+            }) => {
+                rome_serve::reply_now(query, key, payload, Encoding::APPLICATION_JSON);
+                true
+            }
+            // Reads, sets and signals always answer; were one not to, it
+            // is done all the same and must not be done again.
+            Ok(_) => true,
+            // A request that failed changed nothing: the loop answers it
+            // with its error.
+            Err(_) => false,
+        }
     }
-    let params = Params::new(query.parameters().iter());
-    let applied = match Request::parse(root, key, params, None) {
-        Ok(Request::Get(get)) => get.apply(&lock(store)),
-        Ok(Request::Read(read)) => read.apply(&lock(store)),
-        _ => return false,
-    };
-    let Ok(crate::cmd::Applied {
-        reply: Some(payload),
-        ..
-    }) = applied
-    else {
-        return false;
-    };
-    rome_serve::reply_now(query, key, payload, Encoding::APPLICATION_JSON);
-    true
 }
 
 async fn reply_json(query: &Query, key: &str, payload: Vec<u8>) {

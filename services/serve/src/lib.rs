@@ -156,6 +156,14 @@ impl<T: Send + 'static> Inbox<T> {
         }
     }
 
+    /// A sender into the unbounded queue the event loop takes first, with
+    /// the liveliness changes: for an event that must neither be dropped
+    /// nor wait behind queued requests (the publication of a change a
+    /// callback answered at once), sent from anywhere without waiting.
+    pub fn first_sender(&self) -> flume::Sender<Event<T>> {
+        self.alive_tx.clone()
+    }
+
     /// A sender of the server's own events into the bounded queue (send
     /// with `send_async` from a task: they must not be dropped).
     pub fn sender(&self) -> flume::Sender<Event<T>> {
