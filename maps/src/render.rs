@@ -67,6 +67,8 @@ pub const ROUTE: Rgb = [220, 30, 30];
 pub const TRACK: Rgb = [20, 90, 220];
 /// Colour of door plates a robot found, where its odometry put them.
 pub const FOUND: Rgb = [20, 160, 60];
+/// Where people walked to and fro (the simulator's walkers).
+pub const PEOPLE: Rgb = [150, 60, 170];
 const PLATE: Rgb = [0, 0, 0];
 const LINK: Rgb = [40, 160, 60];
 const LABEL: Rgb = [120, 60, 0];
@@ -167,6 +169,9 @@ fn legend(map: &Map, overlay: &[Shape]) -> Vec<(Rgb, bool, &'static str)> {
     }
     if has(TRACK) {
         out.push((TRACK, false, "trajectory"));
+    }
+    if has(PEOPLE) {
+        out.push((PEOPLE, true, "people walking"));
     }
     if overlay
         .iter()

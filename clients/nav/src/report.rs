@@ -130,6 +130,9 @@ pub struct Report {
     pub nav: NavLog,
     /// Door plates reported.
     pub plates: Vec<PlateReport>,
+    /// Where people walked to and fro in the run's world, one leg each
+    /// (drawn dashed on the pictures).
+    pub people: Vec<(Point, Point)>,
     /// Heading and sideways corrections made.
     pub fixes: Vec<HeadingFix>,
     /// Why the run was given up, when it was (the robot did not arrive).
@@ -207,6 +210,7 @@ impl Report {
             trail: Vec::new(),
             nav: NavLog::default(),
             plates: Vec::new(),
+            people: Vec::new(),
             fixes: Vec::new(),
             failure: e.failure,
         }
@@ -373,6 +377,21 @@ pub fn robot_color(i: usize) -> Rgb {
 /// colour and named at its end, as PNG bytes.
 pub fn fleet_picture(reports: &[Report], map: &Map, world: &World, width_px: u32) -> Vec<u8> {
     let mut overlay = Vec::new();
+    // Robots of one world share its people: each leg drawn once, under
+    // everything else.
+    let mut legs: Vec<(Point, Point)> = Vec::new();
+    for leg in reports.iter().flat_map(|r| &r.people) {
+        if !legs.contains(leg) {
+            legs.push(*leg);
+            overlay.push(Shape::Line {
+                a: leg.0,
+                b: leg.1,
+                color: render::PEOPLE,
+                width: 2.0,
+                dashed: true,
+            });
+        }
+    }
     for r in reports {
         overlay.extend(render::route_shapes(&r.plan.route));
     }

@@ -516,6 +516,9 @@ pub fn pictures(
         written.push(path);
         let mut labelled = r.clone();
         labelled.robot = o.trial.no.to_string();
+        // Every run had people of its own: on one map they would be a
+        // tangle, so the overview leaves them out.
+        labelled.people.clear();
         all.push(labelled);
     }
     if !all.is_empty() {

@@ -982,6 +982,12 @@ async fn drive(
         wall_time: wall.elapsed(),
         failure,
     });
+    report.people = world
+        .lock()
+        .walkers()
+        .iter()
+        .map(|w| (w.from, w.to))
+        .collect();
     report.plates = read_all(&crew.board, Var::Plate).await;
     report.fixes = read_all(&crew.board, Var::HeadingFix).await;
     let _ = events.send(Event::Finished {

@@ -210,6 +210,16 @@ async fn a_light_seen_late_after_a_push_puts_the_tracker_back_on_the_lights() {
     assert!(late >= 1, "no light was found late: {}", r.table());
     assert!(missed <= 1, "{missed} lights missed: {}", r.table());
     assert!(r.arrived() && r.to_goal_cm.abs() < 50.0, "{}", r.table());
+    // The people are in the picture, dashed, where they walked.
+    assert_eq!(r.people.len(), 30);
+    let map = rome_maps::load_named("eb3").unwrap();
+    let png = r.picture(&map, &World::from_map(&map), 800);
+    let img = image::load_from_memory(&png).unwrap().to_rgb8();
+    let purple = img
+        .pixels()
+        .filter(|p| p.0 == rome_maps::render::PEOPLE)
+        .count();
+    assert!(purple > 1_000, "{purple} pixels of people's walks");
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
