@@ -123,6 +123,10 @@ pub enum Var {
     /// turning space, mm, as the map has it (`null` when none is in reach),
     /// written by the Planner before it hands the goal over.
     EndWall,
+    /// For a D goal: how far left of the corridor's middle the goal lies,
+    /// mm, when well off it (`null` otherwise), written by the Planner
+    /// before it hands the goal over.
+    GoalLane,
 }
 
 impl Var {
@@ -143,6 +147,7 @@ impl Var {
             Var::GoalActive => "GoalActive",
             Var::Route => "Route",
             Var::EndWall => "EndWall",
+            Var::GoalLane => "GoalLane",
         }
     }
 }

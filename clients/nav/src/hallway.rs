@@ -74,6 +74,10 @@ pub struct Hallway {
     slow_until: u64,
     /// Keep to the right until the robot has driven this far, mm.
     keep_right_until: f64,
+    /// Where across the hallway to keep, mm left of its middle: a goal
+    /// that lies off the middle (a door on a corridor's end wall) is
+    /// approached along its own line, as far as the walls leave room.
+    pub lane_mm: f64,
     /// (distance driven, range on the axis ahead) over the last metre and
     /// a half, while something is there, mm.
     ahead: std::collections::VecDeque<(f64, f64)>,
@@ -90,6 +94,7 @@ impl Hallway {
             calm_since: now_ms,
             slow_until: 0,
             keep_right_until: f64::NEG_INFINITY,
+            lane_mm: 0.0,
             ahead: std::collections::VecDeque::new(),
         }
     }
@@ -134,12 +139,15 @@ impl Hallway {
             self.ahead.clear();
         }
         let keep_right = along_mm < self.keep_right_until;
+        // Keeping off the middle, for another robot or for the goal, the
+        // near wall lies within 60° of ahead: only what is ahead counts.
+        let off_middle = keep_right || self.lane_mm != 0.0;
         // Safety: a reading below the threshold within 60° of ahead. The
         // thesis excepts sonars 6 and 18; their neighbours 5, 7, 17 and 19
         // see the same side walls at nearly the same range, so they are
         // excepted too. Keeping right to pass, a robot passing abeam is
         // expected: then only 15° either side of ahead counts.
-        let cone = if keep_right { 11..=13 } else { 8..=16 };
+        let cone = if off_middle { 11..=13 } else { 8..=16 };
         let (closest, min) = cone
             .map(|i| (i, sonar[i]))
             .min_by_key(|(_, r)| *r)
@@ -160,14 +168,15 @@ impl Hallway {
                 return Drive::Turn(turn);
             }
         }
+        let room = self.walls.keep_right_mm();
         self.walls.lane_mm = if keep_right {
-            -self.walls.keep_right_mm()
+            -room
         } else {
-            0.0
+            self.lane_mm.clamp(-room, room)
         };
         // Safe: steer the open direction onto sonar 12.
         let open = open_sonar(sonar, heading_deg, goal_deg, 2);
-        let delta = if open != sonar_towards(goal_deg - heading_deg) && !keep_right {
+        let delta = if open != sonar_towards(goal_deg - heading_deg) && !off_middle {
             bearing(open)
         } else if let Some(d) = self.walls.steer(sonar, along_mm) {
             // The open direction is the axis itself, which odometry alone

@@ -46,6 +46,9 @@ pub const ONCOMING_CLOSING: f64 = 1.4;
 pub const KEEP_RIGHT_FOR_MM: f64 = 3_000.0;
 /// How far right of the axis a robot bears with no walls to steer by, degrees.
 pub const KEEP_RIGHT_BEAR_DEG: f64 = 8.0;
+/// Over this last stretch of a D goal that lies off the corridor's middle,
+/// the robot moves onto the goal's line, mm.
+pub const LANE_APPROACH_MM: f64 = 5_000.0;
 /// A robot's radius, mm (a Pioneer-sized disc): sonar ranges start this
 /// far out from its middle.
 pub(crate) const ROBOT_RADIUS_MM: f64 = 380.0;
@@ -445,6 +448,17 @@ impl Navigator {
         } else {
             None
         };
+        // Where across the corridor a D goal lies, if well off the middle.
+        let lane_mm = if goal.goal_type == GoalType::D {
+            self.board
+                .get::<Option<i64>>(Var::GoalLane)
+                .await
+                .ok()
+                .flatten()
+                .filter(|d| d.abs() <= 10_000)
+        } else {
+            None
+        };
         if goal.goal_type == GoalType::C {
             // Leave the corner: stop, face the outgoing corridor, go.
             self.send(Drive::Halt).await?;
@@ -545,6 +559,11 @@ impl Navigator {
                 hallway.room_mm = match goal.goal_type {
                     GoalType::L => f64::INFINITY,
                     _ => goal.distance as f64 - travelled,
+                };
+                // The goal's own line, over the last metres to it.
+                hallway.lane_mm = match lane_mm {
+                    Some(l) if hallway.room_mm < LANE_APPROACH_MM => l as f64,
+                    _ => 0.0,
                 };
                 hallway.step(
                     &self.cfg,

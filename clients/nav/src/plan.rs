@@ -30,6 +30,9 @@ pub const LIGHT_END_MARGIN_MM: f64 = 600.0;
 /// speed still has room to brake (0.8 m from 0.7 m/s at the base's 300
 /// mm/s²) instead of ending past the goal.
 pub const LAST_LEG_MIN_MM: f64 = 1_000.0;
+/// A goal this far or farther off its corridor's middle is approached
+/// along its own line, mm.
+pub const LANE_MIN_MM: f64 = 200.0;
 /// A stretch without lights at least this long is mapped by the local
 /// mapper as an L segment is, mm.
 pub const MAP_STRETCH_MM: i64 = 8_000;
@@ -61,6 +64,10 @@ pub struct Step {
     /// the turning space, mm, if the map has one within reach (a T or an L
     /// turn; none at a crossing).
     pub end_wall_mm: Option<f64>,
+    /// For the last D step: how far left of the corridor's middle the
+    /// goal lies, mm, when it lies well off it (a door on a corridor's
+    /// end wall); `None` for a goal on or near the middle.
+    pub lane_mm: Option<f64>,
 }
 
 /// A narrow passage on the route (edges tagged `passage=NAME`): the
@@ -242,6 +249,7 @@ impl Plan {
                     to: at(prev),
                     walls_mm: walls_beside(world, at(t), at(prev), heading),
                     end_wall_mm: None,
+                    lane_mm: None,
                 });
                 t = prev;
             }
@@ -259,6 +267,7 @@ impl Plan {
                 end_wall_mm: (!last)
                     .then(|| ray(world, b, heading, END_WALL_REACH_MM))
                     .flatten(),
+                lane_mm: last.then(|| goal_lane(world, b, heading)).flatten(),
             });
             if !last {
                 let (_, _, next_len, next_heading) = legs[i + 1];
@@ -276,6 +285,7 @@ impl Plan {
                     to: b + nd * leave,
                     walls_mm: None,
                     end_wall_mm: None,
+                    lane_mm: None,
                 });
             }
         }
@@ -325,10 +335,19 @@ impl Plan {
                             .collect::<Vec<_>>()
                             .join("+")
                     ),
-                    GoalType::D => format!(
-                        "S{}^d  dead-reckon {} mm to the goal",
-                        s.subpath, s.goal.distance
-                    ),
+                    GoalType::D => match s.lane_mm {
+                        Some(lane) => format!(
+                            "S{}^d  dead-reckon {} mm to the goal, {:.0} mm {} of the middle",
+                            s.subpath,
+                            s.goal.distance,
+                            lane.abs(),
+                            if lane > 0.0 { "left" } else { "right" }
+                        ),
+                        None => format!(
+                            "S{}^d  dead-reckon {} mm to the goal",
+                            s.subpath, s.goal.distance
+                        ),
+                    },
                     GoalType::E => format!(
                         "S{}^d  enter the corner: {} mm to the turning space",
                         s.subpath, s.goal.distance
@@ -418,6 +437,18 @@ fn ray(world: &World, at: Point, heading_deg: f64, max_mm: f64) -> Option<f64> {
             Some(best.map_or(t, |b| b.min(t)))
         })
         .filter(|t| *t <= max_mm)
+}
+
+/// How far left of the corridor's middle a goal at `goal`, reached along
+/// `heading_deg`, lies, mm: from the walls either side just before it;
+/// `None` when it is within [`LANE_MIN_MM`] of the middle or the walls are
+/// not both there.
+fn goal_lane(world: &World, goal: Point, heading_deg: f64) -> Option<f64> {
+    let p = goal - direction(heading_deg) * 600.0;
+    let left = ray(world, p, heading_deg + 90.0, 5_000.0)?;
+    let right = ray(world, p, heading_deg - 90.0, 5_000.0)?;
+    let off = (right - left) / 2.0;
+    (off.abs() >= LANE_MIN_MM).then_some(off)
 }
 
 /// The walls left and right of the route between `from` and `to`: the

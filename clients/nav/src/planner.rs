@@ -138,6 +138,9 @@ pub async fn run(
                 if step.goal.goal_type == GoalType::E {
                     let end = step.end_wall_mm.map(|d| d.round() as i64);
                     board.set(Var::EndWall, &end).await?;
+                } else {
+                    let lane = step.lane_mm.map(|d| d.round() as i64);
+                    board.set(Var::GoalLane, &lane).await?;
                 }
             }
             GoalType::C => {}

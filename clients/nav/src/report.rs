@@ -455,6 +455,7 @@ mod tests {
             to,
             walls_mm: None,
             end_wall_mm: None,
+            lane_mm: None,
         }
     }
 
