@@ -573,6 +573,7 @@ fn bench_robot_reports_round_trips_and_the_scan_stream() {
         ops,
         [
             "zenoh-queryable",
+            "pose-plain-get",
             "pose",
             "sonar",
             "camera-3-rows",

@@ -38,23 +38,35 @@ pub struct RobotFigures {
 }
 
 const RAW_KEY: &str = "rome-bench/raw-robot";
+/// The pose of the benchmark's robot, under the default root.
+const POSE_KEY: &str = "rome/robot/r1/base/pose";
 
 /// The round trips measured, one request at a time.
 #[derive(Debug, Clone, Copy)]
 enum Probe {
     /// The bare queryable, the reference.
     Raw,
+    /// `base/pose` by a plain Zenoh get, its reply not decoded: the
+    /// server's part of a pose, without the client library's.
+    PlainPose,
     Pose,
     Sonar,
     Rows,
 }
 
 impl Probe {
-    const ALL: [Probe; 4] = [Probe::Raw, Probe::Pose, Probe::Sonar, Probe::Rows];
+    const ALL: [Probe; 5] = [
+        Probe::Raw,
+        Probe::PlainPose,
+        Probe::Pose,
+        Probe::Sonar,
+        Probe::Rows,
+    ];
 
     fn name(self) -> &'static str {
         match self {
             Probe::Raw => "zenoh-queryable",
+            Probe::PlainPose => "pose-plain-get",
             Probe::Pose => "pose",
             Probe::Sonar => "sonar",
             Probe::Rows => "camera-3-rows",
@@ -63,15 +75,18 @@ impl Probe {
 
     async fn once(self, session: &zenoh::Session, r: &RobotClient) -> anyhow::Result<()> {
         match self {
-            Probe::Raw => {
-                let replies = session
-                    .get(RAW_KEY)
-                    .await
-                    .map_err(|e| anyhow::anyhow!("{e}"))?;
+            Probe::Raw | Probe::PlainPose => {
+                let key = match self {
+                    Probe::Raw => RAW_KEY,
+                    _ => POSE_KEY,
+                };
+                let replies = session.get(key).await.map_err(|e| anyhow::anyhow!("{e}"))?;
                 replies
                     .recv_async()
                     .await
-                    .map_err(|e| anyhow::anyhow!("no raw reply: {e}"))?;
+                    .map_err(|e| anyhow::anyhow!("no reply on {key}: {e}"))?
+                    .result()
+                    .map_err(|_| anyhow::anyhow!("an error reply on {key}"))?;
             }
             Probe::Pose => {
                 r.pose().await?;
