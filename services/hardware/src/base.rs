@@ -25,6 +25,7 @@
 //! so a robot does not drive on after its controller died.
 
 use crate::device::{BaseDevice, BaseOp, BaseStatus, DeviceError};
+use crate::locked;
 use crate::server::{Body, QuickRead, Service};
 use crate::vxy::{Pose32, Pose32Target, VirtualPose};
 use rome_schema::robot::{
@@ -33,7 +34,7 @@ use rome_schema::robot::{
 };
 use rome_schema::{decode, ErrorCode, ErrorReply, Params};
 use serde::de::DeserializeOwned;
-use std::sync::{Arc, Mutex, MutexGuard};
+use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 /// The base server's commands (lock and unlock come with every lockable server).
@@ -104,10 +105,6 @@ impl Read {
             _ => return None,
         })
     }
-}
-
-fn locked(frame: &Mutex<VirtualPose>) -> MutexGuard<'_, VirtualPose> {
-    frame.lock().unwrap_or_else(|p| p.into_inner())
 }
 
 /// A read's answer from the device's status, read through the frame.

@@ -13,6 +13,7 @@
 //! ```
 
 use crate::device::{CameraDevice, Frame};
+use crate::locked;
 use crate::server::{Body, QuickRead, Service};
 pub use rome_schema::robot::MAX_ROWS;
 use rome_schema::robot::{format_rows, param, parse_rows, FrameInfo, Gray8, LockInfo, SizeReply};
@@ -73,7 +74,7 @@ impl<D: CameraDevice> Camera<D> {
     }
 
     fn shot(&self) -> Option<Shot> {
-        self.last.lock().unwrap_or_else(|p| p.into_inner()).clone()
+        locked(&self.last).clone()
     }
 
     async fn grab(&mut self) -> Result<(), ErrorReply> {
@@ -82,7 +83,7 @@ impl<D: CameraDevice> Camera<D> {
             .grab()
             .await
             .map_err(|e| ErrorReply::new(ErrorCode::Device, e.to_string()))?;
-        let mut last = self.last.lock().unwrap_or_else(|p| p.into_inner());
+        let mut last = locked(&self.last);
         let n = last.as_ref().map_or(0, |s| s.n) + 1;
         *last = Some(Shot {
             frame: Arc::new(frame),
@@ -275,7 +276,7 @@ impl<D: CameraDevice> Service for Camera<D> {
             }
             let rows = rows_param(params, height).ok()?;
             // Before the first grab the event loop grabs one.
-            let shot = last.lock().unwrap_or_else(|p| p.into_inner()).clone()?;
+            let shot = locked(&last).clone()?;
             rows_body(&shot, rows).ok()
         }))
     }

@@ -28,6 +28,13 @@ pub mod server;
 pub mod sim;
 pub mod storage;
 pub mod truth;
+
+/// A mutex's contents, also after a panic elsewhere while it was held:
+/// what a server keeps behind one is changed whole or not at all, so it
+/// stays usable.
+pub(crate) fn locked<T>(m: &std::sync::Mutex<T>) -> std::sync::MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+}
 pub mod vxy;
 
 pub use server::{Body, ServerConfig, ServerError, Service};

@@ -177,7 +177,7 @@ impl Parties {
                 .callback(move |s| {
                     let key = s.key_expr().as_str();
                     let id = key.rsplit('/').next().unwrap_or(key).to_string();
-                    let mut all = lock(&inner);
+                    let mut all = crate::locked(&inner);
                     match s.kind() {
                         zenoh::sample::SampleKind::Put => {
                             tracing::info!(party = %id, "a process follows the lock-step clock");
@@ -208,7 +208,7 @@ impl Parties {
                                 return;
                             }
                         };
-                    if let Some((party, expected)) = lock(&inner).get(id) {
+                    if let Some((party, expected)) = crate::locked(&inner).get(id) {
                         if ack.time_ms == *expected {
                             party.done();
                         }
@@ -225,7 +225,7 @@ impl Parties {
 
     /// Every party is sent instant `time_ms`: the clock waits for each.
     pub fn expect(&self, time_ms: u64) {
-        let mut all = lock(&self.inner);
+        let mut all = crate::locked(&self.inner);
         for (party, expected) in all.values_mut() {
             *expected = time_ms;
             party.expect();
@@ -234,7 +234,7 @@ impl Parties {
 
     /// How many processes follow the clock.
     pub fn len(&self) -> usize {
-        lock(&self.inner).len()
+        crate::locked(&self.inner).len()
     }
 
     /// Whether none does.
@@ -244,10 +244,6 @@ impl Parties {
 }
 
 type PartyMap = HashMap<String, (rome_clock::External, u64)>;
-
-fn lock(m: &std::sync::Mutex<PartyMap>) -> std::sync::MutexGuard<'_, PartyMap> {
-    m.lock().unwrap_or_else(|p| p.into_inner())
-}
 
 /// Publishes `clock` on `key` (`<root>/sim/clock`). A lock-step clock is
 /// never dropped on the way (its followers need every instant); a paced

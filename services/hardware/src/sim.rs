@@ -54,9 +54,7 @@ impl SimWorld {
 
     /// The world, locked (a device that panicked mid-step leaves it usable).
     pub fn lock(&self) -> MutexGuard<'_, Sim> {
-        self.sim
-            .lock()
-            .unwrap_or_else(|poisoned| poisoned.into_inner())
+        crate::locked(&self.sim)
     }
 
     /// The world, if nobody else has it right now (a step in progress).

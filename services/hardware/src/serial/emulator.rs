@@ -39,10 +39,7 @@ struct Body {
 impl Emulator {
     /// The bytes received so far.
     pub fn bytes(&self) -> Vec<u8> {
-        self.received
-            .lock()
-            .unwrap_or_else(|p| p.into_inner())
-            .clone()
+        crate::locked(&self.received).clone()
     }
 
     /// Runs on `stream` until it fails.
@@ -71,7 +68,7 @@ impl Emulator {
                         if self.silent.load(Ordering::Relaxed) {
                             continue;
                         }
-                        self.received.lock().unwrap_or_else(|p| p.into_inner()).extend_from_slice(&buf[..n]);
+                        crate::locked(&self.received).extend_from_slice(&buf[..n]);
                         deframer.push(&buf[..n]);
                         while let Some(Ok(p)) = deframer.next_packet() {
                             if let Some(reply) = self.handle(&mut body, &p) {
@@ -89,7 +86,7 @@ impl Emulator {
                         continue;
                     }
                     body.advance(0.1);
-                    *self.x_mm.lock().unwrap_or_else(|p| p.into_inner()) = body.x;
+                    *crate::locked(&self.x_mm) = body.x;
                     bank = (bank + 1) % 2;
                     let sonar = (0..8u8).map(|k| {
                         let n = bank * 8 + k;
@@ -103,7 +100,7 @@ impl Emulator {
                         lvel: body.vel as i16,
                         rvel: body.vel as i16,
                         battery: 125,
-                        stall_bumpers: *self.bumpers.lock().unwrap_or_else(|p| p.into_inner()),
+                        stall_bumpers: *crate::locked(&self.bumpers),
                         flags: 1,
                         sonar,
                         ..Sip::default()

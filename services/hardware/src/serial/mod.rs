@@ -106,7 +106,7 @@ impl P2os {
     }
 
     fn link(&self) -> MutexGuard<'_, Link> {
-        self.link.lock().unwrap_or_else(|p| p.into_inner())
+        crate::locked(&self.link)
     }
 
     /// Whether the robot is connected and answering.
@@ -295,7 +295,7 @@ struct Link2(Arc<Mutex<Link>>);
 
 impl Link2 {
     fn get(&self) -> MutexGuard<'_, Link> {
-        self.0.lock().unwrap_or_else(|p| p.into_inner())
+        crate::locked(&self.0)
     }
 }
 
