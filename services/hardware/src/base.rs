@@ -109,19 +109,18 @@ impl Read {
 
 /// A read's answer from the device's status, read through the frame.
 fn read_body(read: Read, s: BaseStatus, frame: &mut VirtualPose) -> Body {
+    // Every read of the registers follows their wraps, whatever was asked.
+    let p = frame.read(s.raw_x, s.raw_y, s.heading_deg);
     match read {
-        Read::Pose => {
-            let p = frame.read(s.raw_x, s.raw_y, s.heading_deg);
-            Body::json(&PoseReply {
-                x_mm: p.x_mm,
-                y_mm: p.y_mm,
-                heading_deg: p.heading_deg,
-                raw_x: s.raw_x,
-                raw_y: s.raw_y,
-                wraps_x: frame.x.wraps(),
-                wraps_y: frame.y.wraps(),
-            })
-        }
+        Read::Pose => Body::json(&PoseReply {
+            x_mm: p.x_mm,
+            y_mm: p.y_mm,
+            heading_deg: p.heading_deg,
+            raw_x: s.raw_x,
+            raw_y: s.raw_y,
+            wraps_x: frame.x.wraps(),
+            wraps_y: frame.y.wraps(),
+        }),
         Read::Bumper => Body::json(&BumperReply {
             status: s.bumpers,
             front: s.bumpers & 1 != 0,
