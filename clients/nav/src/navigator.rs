@@ -438,27 +438,15 @@ impl Navigator {
         // Where the turning space's end wall stands, if the map has one: a
         // Planner that does not write it (or a value that does not decode)
         // leaves the estimate from the corridor's own width.
-        let end_wall_mm = if goal.goal_type == GoalType::E {
-            self.board
-                .get::<Option<i64>>(Var::EndWall)
-                .await
-                .ok()
-                .flatten()
-                .filter(|d| (1..=100_000).contains(d))
-        } else {
-            None
-        };
+        let end_wall_mm = self
+            .map_mm(goal, GoalType::E, Var::EndWall, |d| {
+                (1..=100_000).contains(&d)
+            })
+            .await;
         // Where across the corridor a D goal lies, if well off the middle.
-        let lane_mm = if goal.goal_type == GoalType::D {
-            self.board
-                .get::<Option<i64>>(Var::GoalLane)
-                .await
-                .ok()
-                .flatten()
-                .filter(|d| d.abs() <= 10_000)
-        } else {
-            None
-        };
+        let lane_mm = self
+            .map_mm(goal, GoalType::D, Var::GoalLane, |d| d.abs() <= 10_000)
+            .await;
         if goal.goal_type == GoalType::C {
             // Leave the corner: stop, face the outgoing corridor, go.
             self.send(Drive::Halt).await?;
@@ -640,6 +628,23 @@ impl Navigator {
         }
         self.publish(goal, &pose, corner).await?;
         Ok(())
+    }
+
+    /// A distance the Planner took from the map for goals of type `kind`
+    /// (`EndWall`, `GoalLane`): `None` for other goals, when it wrote none,
+    /// or when what is there does not decode or is not `sane`.
+    async fn map_mm(
+        &self,
+        goal: &Goal,
+        kind: GoalType,
+        var: Var,
+        sane: impl Fn(i64) -> bool,
+    ) -> Option<i64> {
+        if goal.goal_type != kind {
+            return None;
+        }
+        let value: Option<i64> = self.board.get(var).await.ok().flatten();
+        value.filter(|d| sane(*d))
     }
 
     fn robot_speed(&self) -> f64 {
