@@ -548,9 +548,8 @@ impl Himm {
                             let last = seen >= total && mapped >= self.cfg.min_map_mm;
                             let long = self.cfg.light_map_mm > 0.0 && mapped >= self.cfg.light_map_mm;
                             if in_map >= self.cfg.lights_per_map || last || long {
-                                self.correct(&grid, now, goal, corridor, seen).await?;
-                                let p = crate::track::pose_waiting(&self.robot).await?;
-                                grid = Grid::new(Pose::from(&p).at, self.cfg.half_side_mm);
+                                self.correct_anew(&mut grid, now, goal, corridor, seen)
+                                    .await?;
                                 in_map = 0;
                             }
                         }
@@ -624,10 +623,8 @@ impl Himm {
             let end = along >= total_mm - STRETCH_END_MM;
             if distance(grid.origin, now) >= self.cfg.light_map_mm {
                 fixes += 1;
-                self.correct(&grid, now, goal, Some(corridor), fixes)
+                self.correct_anew(&mut grid, now, goal, Some(corridor), fixes)
                     .await?;
-                let p = crate::track::pose_waiting(&self.robot).await?;
-                grid = Grid::new(Pose::from(&p).at, self.cfg.half_side_mm);
             }
             if end {
                 return Ok(());
@@ -635,6 +632,22 @@ impl Himm {
             self.add_scan(&mut grid, &scan?, track).await?;
         }
         Err(NavError::Gone("the proximity server's scan stream closed"))
+    }
+
+    /// [`Himm::correct`], then a new map from where the corrected odometry
+    /// puts the robot.
+    async fn correct_anew(
+        &self,
+        grid: &mut Grid,
+        now: Point,
+        goal: f64,
+        corridor: Option<&Corridor>,
+        light: i64,
+    ) -> Result<(), NavError> {
+        self.correct(grid, now, goal, corridor, light).await?;
+        let p = crate::track::pose_waiting(&self.robot).await?;
+        *grid = Grid::new(Pose::from(&p).at, self.cfg.half_side_mm);
+        Ok(())
     }
 
     /// Corrects the heading, and the sideways offset when the corridor is
