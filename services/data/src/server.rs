@@ -5,10 +5,12 @@
 //! order Zenoh delivers it, and one task owns the [`Store`] and handles
 //! events one at a time. So a put followed by a get from the same session
 //! is seen in that order and commits are published in commit order. The
-//! one exception is a plain read (`var/<name>`, `sem/<name>`) that finds
-//! nothing queued or being handled: the queryable's callback answers it
-//! itself, under the store's lock, saving the trip through the loop; a
-//! read behind anything else takes its place in the queue.
+//! one exception is a request that finds nothing queued or being handled:
+//! a plain read (`var/<name>`, `sem/<name>`), and with the store in memory
+//! a `set` or a `signal`, is answered by the queryable's callback itself,
+//! under the store's lock, saving the trip through the loop (a change
+//! leaves its publication and grants to the task, ahead of anything
+//! queued); a request behind anything else takes its place in the queue.
 //!
 //! The channel is bounded ([`EVENT_QUEUE`]) and a Zenoh callback never
 //! waits on it: a callback runs on the link's receive path (or, for a
@@ -170,8 +172,8 @@ struct Held {
 struct Server {
     session: Session,
     config: ServerConfig,
-    /// Shared with the queryable's callback, which answers plain reads
-    /// itself when nothing is queued ahead of them (see [`answer_now`]).
+    /// Shared with the queryable's callback, which answers some requests
+    /// itself when nothing is queued ahead of them (see [`Quick`]).
     store: Arc<Mutex<Store>>,
     held: HashMap<String, Held>,
     generation: u64,

@@ -105,7 +105,7 @@ impl<T: Send + 'static> Inbox<T> {
     /// As [`Inbox::on_query`], but a query that finds nothing queued or
     /// being handled is first offered to `answer_now`, which answers it
     /// from the callback and returns true, or leaves it to the event loop.
-    /// It must not wait, and must only read what the loop changes under a
+    /// It must not wait, and must only touch what the loop keeps under a
     /// lock.
     pub fn on_query_or(
         &self,
