@@ -49,6 +49,9 @@ pub const KEEP_RIGHT_BEAR_DEG: f64 = 8.0;
 /// Over this last stretch of a D goal that lies off the corridor's middle,
 /// the robot moves onto the goal's line, mm.
 pub const LANE_APPROACH_MM: f64 = 5_000.0;
+/// Scans in a row (a tenth of a second each) a robot told to drive may
+/// stand still before Check-Bumper looks why.
+const STILL_SCANS: u32 = 3;
 /// A robot's radius, mm (a Pioneer-sized disc): sonar ranges start this
 /// far out from its middle.
 pub(crate) const ROBOT_RADIUS_MM: f64 = 380.0;
@@ -83,6 +86,12 @@ pub struct NavConfig {
     /// How long a read of the light count may go unanswered before the
     /// robot is stopped: without it an L goal cannot tell when it ends.
     pub blind_after: Duration,
+    /// Whether the base stops itself on a touch (Set Bumper) and
+    /// Check-Bumper looks as soon as a robot told to drive stands still.
+    /// Else, as the thesis' Navigator, a robot pushes on until
+    /// Check-Bumper's next periodic look, its wheels turning while its
+    /// body stands and its odometry counting what it never drove.
+    pub stop_on_contact: bool,
 }
 
 impl Default for NavConfig {
@@ -101,6 +110,7 @@ impl Default for NavConfig {
             scan_timeout: Duration::from_secs(10),
             idle_scans: 20,
             blind_after: Duration::from_secs(1),
+            stop_on_contact: true,
         }
     }
 }
@@ -209,6 +219,7 @@ impl Navigator {
     ) -> Result<(), NavError> {
         self.board.declare().await?;
         let scans = self.robot.scans().await?;
+        self.robot.set_bumper(self.cfg.stop_on_contact).await?;
         self.track = Some(crate::track::PoseTrack::start(&self.robot).await?);
         // A Navigator that died in the middle of a goal left it here: take
         // it up, measured from where it was started (the Planner is still
@@ -401,14 +412,15 @@ impl Navigator {
         }
     }
 
-    /// Waits until the base has finished an in-place turn or a stop.
+    /// Waits until the base has finished an in-place turn, a move by a
+    /// distance or a stop.
     async fn settle(&self, scans: &rome_client::robot::Stream<Scan>) -> Result<(), NavError> {
         for _ in 0..600 {
             let _ = self.next_scan(scans).await?;
             let mode = self.robot.mode().await?;
             let speed = self.robot.wheel_speed().await?;
-            if mode.mode != "point_turn" && mode.mode != "stopping" && speed.wheel_speed_mm_s < 5.0
-            {
+            let moving = ["point_turn", "point_go", "stopping"].contains(&mode.mode.as_str());
+            if !moving && speed.wheel_speed_mm_s < 5.0 {
                 return Ok(());
             }
             if mode.mode == "go" && speed.wheel_speed_mm_s > 5.0 {
@@ -475,6 +487,8 @@ impl Navigator {
         let mut walls = Walls::default();
         // The last pose and its time, to tell how fast the robot goes.
         let mut moved: Option<(u64, Pose)> = None;
+        // Scans in a row on which a robot told to drive stood still.
+        let mut still_scans = 0u32;
         loop {
             // The goal function: progress along the goal direction, so a
             // robot that swerves round another does not count the swerve.
@@ -494,6 +508,7 @@ impl Navigator {
                 }
                 _ => asked,
             };
+            let step_mm = moved.map_or(f64::INFINITY, |(_, p0)| pose.dist(&p0));
             moved = Some((scan.time_ms, pose));
             // Braking distance, and what is driven while the pose and the
             // stop travel the link (a real robot runs at real time, so the
@@ -580,6 +595,26 @@ impl Navigator {
             } else {
                 self.send(drive).await?;
             }
+            // Told to drive and standing still: the base may have stopped
+            // itself on a touch. Check-Bumper runs now rather than at the
+            // next check, and the drive is sent again if nothing touches.
+            let driving = self.cfg.stop_on_contact
+                && match self.last {
+                    Some(Drive::Go(v)) => v > 50.0,
+                    Some(Drive::Jog(_)) => true,
+                    _ => false,
+                };
+            still_scans = if driving && step_mm < 1.0 {
+                still_scans + 1
+            } else {
+                0
+            };
+            if still_scans >= STILL_SCANS {
+                still_scans = 0;
+                if !self.check_bumper(&pose, goal, &scan, scans).await? {
+                    self.last = None;
+                }
+            }
             // The timers: Check-Bumper and Check-Goal.
             if scan.time_ms >= next_check {
                 next_check = scan.time_ms + self.cfg.check_period_ms;
@@ -595,7 +630,7 @@ impl Navigator {
                     self.last = None;
                 }
                 checked_at = Some(pose);
-                self.check_bumper(&pose, goal, &scan).await?;
+                let _ = self.check_bumper(&pose, goal, &scan, scans).await?;
                 // Between two walls the walls are the better compass:
                 // Check-Goal only steps in when they are out of sight.
                 let walls_seen = if corner {
@@ -657,18 +692,23 @@ impl Navigator {
 
     /// Check-Bumper: on contact, back off, turn away from the obstacle
     /// (toward the goal direction, or the more open side) and go on.
+    /// Whether there was a contact.
     async fn check_bumper(
         &mut self,
         pose: &Pose,
         goal: &Goal,
         scan: &Scan,
-    ) -> Result<(), NavError> {
+        scans: &rome_client::robot::Stream<Scan>,
+    ) -> Result<bool, NavError> {
         let b = self.robot.bumper().await?;
         if b.front || b.rear {
             self.log.bumps += 1;
             tracing::warn!(front = b.front, rear = b.rear, "navigator: bumper contact");
             let back = if b.front { -300.0 } else { 300.0 };
+            // Each is carried out before the next is sent: a command sent
+            // at once would take the place of the one before.
             self.robot.move_by(back, 200.0, -1.0).await?;
+            self.settle(scans).await?;
             let err = normalize_deg(goal.direction_deg - pose.heading.deg());
             let turn = if err.abs() >= 5.0 {
                 err.clamp(-30.0, 30.0)
@@ -678,9 +718,11 @@ impl Navigator {
                 -20.0
             };
             self.robot.turn(-turn, 45.0, -1.0).await?;
+            self.settle(scans).await?;
             self.last = None;
+            return Ok(true);
         }
-        Ok(())
+        Ok(false)
     }
 
     /// Check-Goal: a heading far off the goal direction is turned back.

@@ -12,6 +12,7 @@
 use crate::{run, RouteSpec, RunConfig};
 use rome_maps::Map;
 use rome_nav::board::GoalType;
+use rome_nav::navigator::NavConfig;
 use rome_nav::report::{mmss, Report};
 use rome_nav::NavError;
 use rome_sim::Noise;
@@ -204,6 +205,9 @@ pub struct Setup {
     /// A run still going after this much wall-clock time is given up as
     /// hung, so that one run cannot hold the whole experiment.
     pub wall_limit: Duration,
+    /// The Navigator's configuration (its cruise replaced by the route's
+    /// or [`Setup::cruise_mm_s`]).
+    pub nav: NavConfig,
 }
 
 /// A trial and how it ended: its report, or why there is none (a route
@@ -240,6 +244,7 @@ pub async fn run_all(
         cfg.noise = setup.noise.clone();
         cfg.limit = setup.limit;
         cfg.people = setup.people;
+        cfg.nav = setup.nav.clone();
         let wall_limit = setup.wall_limit;
         set.spawn(async move {
             let _permit = gate.acquire_owned().await;

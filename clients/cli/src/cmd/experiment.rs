@@ -130,6 +130,7 @@ pub async fn run(args: Args) -> anyhow::Result<u8> {
         cruise_mm_s: Some(args.cruise),
         people: args.people as usize,
         wall_limit: Duration::from_secs_f64(args.wall_limit_min * 60.0),
+        nav: rome_nav::navigator::NavConfig::default(),
     };
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot make the directory {}", args.out.display()))?;
