@@ -26,7 +26,12 @@ const FLOOR_GREY: u8 = 70;
 const UPPER_CEILING_GREY: u8 = 205;
 const FAR_GREY: u8 = 30;
 const WALL_HEIGHT_MM: f64 = 2_700.0;
-const SIDE_RANGE_MM: f64 = 15_000.0;
+/// Grey of a person (clothes, hair) on the sideways image.
+pub const PERSON_GREY: u8 = 95;
+/// A person's height, mm: taller than the door plates, so a person
+/// between the camera and a plate hides it.
+pub const PERSON_HEIGHT_MM: f64 = 1_750.0;
+pub(crate) const SIDE_RANGE_MM: f64 = 15_000.0;
 
 /// Pixel noise drawn once per world: a table of Gaussian grey-level
 /// offsets, read from a random place for each image (drawing a normal per
@@ -165,13 +170,16 @@ fn lit_span(l: &crate::scene::Lamp, centre: Point, across: Vector) -> Option<(f6
 }
 
 /// The sideways camera's image, looking along sonar 18 from the robot's
-/// side at the height of the door plates.
+/// side at the height of the door plates. `people` are the centres of the
+/// people about (upright cylinders of a robot's girth,
+/// [`PERSON_HEIGHT_MM`] tall), who hide what stands behind them.
 #[allow(clippy::too_many_arguments)]
 pub fn side_image(
     scene: &Scene,
     open: &[bool],
     at: Point,
     heading: f64,
+    people: &[Point],
     size: (u32, u32),
     pixel_noise: &PixelNoise,
     rng: &mut Rng,
@@ -247,6 +255,7 @@ pub fn side_image(
                 }
             }
             Some(Column {
+                t,
                 per_row,
                 wi,
                 u,
@@ -256,6 +265,27 @@ pub fn side_image(
             })
         })
         .collect();
+    // The rows a person nearer than the wall covers, column by column.
+    let figures: Vec<Option<(usize, usize)>> = if people.is_empty() {
+        Vec::new()
+    } else {
+        (0..wu)
+            .map(|col| {
+                let x = col as f64 + 0.5 - f64::from(w) / 2.0;
+                let off = (x / focal).atan();
+                let d = direction(axis - off.to_degrees());
+                let wall_t = columns[col].as_ref().map_or(SIDE_RANGE_MM, |c| c.t);
+                let t = people
+                    .iter()
+                    .filter_map(|&c| ray_disc(eye, d, c, ROBOT_RADIUS_MM))
+                    .filter(|&t| t < wall_t)
+                    .min_by(f64::total_cmp)?;
+                let per_row = t * off.cos() / focal;
+                let top = first_below(PERSON_HEIGHT_MM, per_row, false);
+                Some((top, first_below(0.0, per_row, true).max(top)))
+            })
+            .collect()
+    };
     let mut pixels = vec![FAR_GREY; wu * hu];
     for (row, line) in pixels.chunks_exact_mut(wu).enumerate() {
         for (px, column) in line.iter_mut().zip(&columns) {
@@ -273,12 +303,34 @@ pub fn side_image(
             };
         }
     }
+    for (col, figure) in figures.iter().enumerate() {
+        if let Some((top, floor)) = *figure {
+            for row in top..floor {
+                pixels[row * wu + col] = PERSON_GREY;
+            }
+        }
+    }
     pixel_noise.apply(&mut pixels, rng);
     GrayImage::from_raw(w, h, pixels).unwrap_or_else(|| GrayImage::new(w, h))
 }
 
+/// How far along the ray from `eye` in the unit direction `d` it first
+/// meets the disc of radius `r` about `c`, if it does ahead of the eye.
+fn ray_disc(eye: Point, d: Vector, c: Point, r: f64) -> Option<f64> {
+    let f = eye - c;
+    let b = f.dot(&d);
+    let disc = b * b - (f.dot(&f) - r * r);
+    if disc < 0.0 {
+        return None;
+    }
+    let t = -b - disc.sqrt();
+    (t > 0.0).then_some(t)
+}
+
 /// What one column of the sideways image looks at.
 struct Column {
+    /// How far along the ray the wall is, mm.
+    t: f64,
     /// Millimetres of height per row on the wall it meets.
     per_row: f64,
     /// The wall, and where along it.
@@ -415,7 +467,7 @@ mod tests {
         for k in 0..120 {
             let at = spots[(k * 13) % spots.len()];
             let heading = rng.uniform() * 360.0;
-            let got = side_image(&scene, &open, at, heading, (w, h), &quiet, &mut rng);
+            let got = side_image(&scene, &open, at, heading, &[], (w, h), &quiet, &mut rng);
             let axis = heading + sonar_bearing_deg(18);
             let eye = at + direction(axis) * ROBOT_RADIUS_MM;
             let focal = f64::from(w) / 2.0 / (SIDE_FOV_DEG / 2.0).to_radians().tan();
@@ -454,5 +506,68 @@ mod tests {
             }
         }
         assert!(kinds.len() >= 3, "walls seen: {kinds:?}");
+    }
+
+    #[test]
+    fn a_person_between_the_side_camera_and_the_wall_hides_it() {
+        let map = rome_maps::load_named("eb3").unwrap();
+        let scene = Scene::new(&map);
+        let open = vec![false; scene.elevators.len()];
+        let mut rng = Rng::new(5);
+        let quiet = PixelNoise::new(0.0, &mut rng);
+        let (w, h) = (96u32, 90u32);
+        // A spot and heading from which the camera looks at a wall a few
+        // metres off.
+        let (at, heading, axis, eye, t) = scene
+            .world
+            .positions
+            .values()
+            .map(|p| p.in_corridor())
+            .flat_map(|at| (0..8).map(move |k| (at, f64::from(k) * 45.0)))
+            .find_map(|(at, heading)| {
+                let axis = heading + sonar_bearing_deg(18);
+                let eye = at + direction(axis) * ROBOT_RADIUS_MM;
+                let (t, _, _) = scene.ray(eye, axis, SIDE_RANGE_MM, Sense::Sight, &open, None)?;
+                (2_500.0..8_000.0)
+                    .contains(&t)
+                    .then_some((at, heading, axis, eye, t))
+            })
+            .unwrap();
+        let person = eye + direction(axis) * (t - 600.0);
+        let mut r1 = Rng::new(9);
+        let mut r2 = Rng::new(9);
+        let bare = side_image(&scene, &open, at, heading, &[], (w, h), &quiet, &mut r1);
+        let seen = side_image(
+            &scene,
+            &open,
+            at,
+            heading,
+            &[person],
+            (w, h),
+            &quiet,
+            &mut r2,
+        );
+        // The middle column at the plates' height (the middle row) is the
+        // person; the top row, above the person's head at that range, is
+        // what it was without.
+        let (mid, mid_row) = (w / 2, h / 2);
+        assert_eq!(seen.get_pixel(mid, mid_row).0[0], PERSON_GREY);
+        assert_ne!(bare.get_pixel(mid, mid_row).0[0], PERSON_GREY);
+        assert_eq!(seen.get_pixel(mid, 0).0[0], bare.get_pixel(mid, 0).0[0]);
+        // A person behind the camera, or beyond the wall, hides nothing.
+        let behind = eye - direction(axis) * 2_000.0;
+        let beyond = eye + direction(axis) * (t + 2_000.0);
+        let mut r3 = Rng::new(9);
+        let none = side_image(
+            &scene,
+            &open,
+            at,
+            heading,
+            &[behind, beyond],
+            (w, h),
+            &quiet,
+            &mut r3,
+        );
+        assert_eq!(none, bare);
     }
 }

@@ -627,6 +627,18 @@ impl Sim {
     /// in the world (a run repeats whatever order two servers' requests
     /// arrive in).
     pub fn grab_camera(&mut self, i: usize, which: Camera) -> GrayImage {
+        // The people the sideways camera could see.
+        let people: Vec<Point> = match which {
+            Camera::Side => {
+                let at = self.robots[i].pose.at;
+                self.walkers
+                    .iter()
+                    .map(|w| w.at)
+                    .filter(|p| nalgebra::distance(p, &at) < camera::SIDE_RANGE_MM)
+                    .collect()
+            }
+            Camera::Up => Vec::new(),
+        };
         let r = &mut self.robots[i];
         let mut frame = Rng::new(
             r.camera_seed
@@ -648,6 +660,7 @@ impl Sim {
                     &self.open,
                     at,
                     r.pose.heading.deg(),
+                    &people,
                     size,
                     px,
                     &mut frame,
