@@ -328,6 +328,54 @@ impl LockStep {
         names
     }
 
+    /// The clock's state in a line, for a report of a clock that does not
+    /// move: the time, who is busy, who holds the turn and who waits for
+    /// one, the sleepers and the messages in flight.
+    pub fn describe(&self) -> String {
+        let names: BTreeMap<u64, String> = locked(&self.sched.parts)
+            .iter()
+            .filter_map(Weak::upgrade)
+            .map(|p| (p.id, p.name.clone()))
+            .collect();
+        let name = |id: u64| match id {
+            STEPPER => "the clock".to_string(),
+            id => names
+                .get(&id)
+                .cloned()
+                .unwrap_or_else(|| format!("participant {id} (gone)")),
+        };
+        let (holder, ready) = {
+            let t = locked(&self.sched.turn);
+            let ready: Vec<String> = t
+                .ready
+                .iter()
+                .map(|(&id, w)| {
+                    format!(
+                        "{}{}",
+                        name(id),
+                        if w.is_none() { " (never polled)" } else { "" }
+                    )
+                })
+                .collect();
+            (t.holder.map(name), ready)
+        };
+        let (sleepers, next_due) = {
+            let timers = locked(&self.sched.timers);
+            (timers.len(), timers.keys().next().map(|(t, _)| *t))
+        };
+        format!(
+            "time {} ms; busy {} {:?}; turn held by {}; waiting for a turn {:?}; {} sleeper(s), next due {:?}; {} message(s) in flight",
+            self.now_ms(),
+            self.busy(),
+            self.busy_names(),
+            holder.as_deref().unwrap_or("nobody"),
+            ready,
+            sleepers,
+            next_due,
+            self.in_flight()
+        )
+    }
+
     /// A party in another process (a client following this clock over the
     /// network): idle until [`External::expect`] makes it busy, busy until
     /// [`External::done`]; gone when dropped.
@@ -1291,6 +1339,25 @@ mod tests {
         far.expect();
         drop(far);
         assert_eq!(clock.busy(), 0, "a party that leaves is not waited for");
+    }
+
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn a_stuck_clock_says_who_is_busy_and_who_sleeps() {
+        let clock = LockStep::new(0);
+        let sleeper = tokio::spawn(
+            clock.participate("sleeper", async { sleep(Duration::from_millis(250)).await }),
+        );
+        clock.settled().await;
+        let far = clock.external("far");
+        far.expect();
+        let said = clock.describe();
+        assert!(said.starts_with("time 0 ms; busy 1 [\"far\"]"), "{said}");
+        assert!(said.contains("1 sleeper(s), next due Some(250)"), "{said}");
+        assert!(said.contains("turn held by nobody"), "{said}");
+        far.done();
+        assert_eq!(clock.try_advance(|| 250).await, Some(250));
+        sleeper.await.unwrap();
+        assert!(clock.describe().contains("0 sleeper(s)"));
     }
 
     #[tokio::test]

@@ -44,6 +44,47 @@ const STALL: std::time::Duration = std::time::Duration::from_secs(10);
 /// when nobody else is busy, before taking it as dropped.
 const LOST_AFTER: std::time::Duration = std::time::Duration::from_secs(1);
 
+/// How long a lock-step world may go without a step, in wall time, before
+/// the watchdog reports the clock's state.
+const WATCHDOG: std::time::Duration = std::time::Duration::from_secs(60);
+
+/// A thread that reports the clock's state, and whether the world is
+/// locked, when the world has not stepped for [`WATCHDOG`] of wall time: a
+/// thread of its own, so that it speaks even when every task is stuck.
+/// It ends when `stop` is set.
+fn watchdog(
+    clock: &rome_clock::LockStep,
+    world: &SimWorld,
+    stop: &Arc<AtomicBool>,
+    stepped: &Arc<std::sync::atomic::AtomicU64>,
+) -> Option<std::thread::JoinHandle<()>> {
+    let (clock, world, stop, stepped) =
+        (clock.clone(), world.clone(), stop.clone(), stepped.clone());
+    std::thread::Builder::new()
+        .name("lock-step watchdog".into())
+        .spawn(move || {
+            let tick = std::time::Duration::from_millis(200);
+            let mut seen = stepped.load(Ordering::Relaxed);
+            let mut since = std::time::Instant::now();
+            while !stop.load(Ordering::Relaxed) {
+                std::thread::sleep(tick);
+                let now = stepped.load(Ordering::Relaxed);
+                if now != seen {
+                    (seen, since) = (now, std::time::Instant::now());
+                } else if since.elapsed() >= WATCHDOG {
+                    since = std::time::Instant::now();
+                    tracing::warn!(
+                        steps = now,
+                        world_locked = world.try_lock().is_none(),
+                        clock = %clock.describe(),
+                        "lock-step world: no step for a minute of wall time"
+                    );
+                }
+            }
+        })
+        .ok()
+}
+
 impl SimWorld {
     /// Shares a world.
     pub fn new(sim: Sim) -> Self {
@@ -113,6 +154,10 @@ impl SimWorld {
         let stop = Arc::new(AtomicBool::new(false));
         let world = self.clone();
         let stopping = stop.clone();
+        let stepped = Arc::new(std::sync::atomic::AtomicU64::new(0));
+        // Not joined when the stepper goes: it sees `stop` within a tick.
+        let _ = watchdog(&clock, self, &stop, &stepped);
+        let progress = stepped;
         let task = tokio::spawn(async move {
             let start = world.lock().time_ms();
             let pacer = Pacer::new(speed, start);
@@ -158,6 +203,7 @@ impl SimWorld {
                 on_step(now);
                 let wait = pacer.wait(now);
                 steps += 1;
+                progress.store(steps, Ordering::Relaxed);
                 if !wait.is_zero() {
                     tokio::time::sleep(wait).await;
                 } else if steps.is_multiple_of(8) {
