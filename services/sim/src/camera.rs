@@ -448,13 +448,19 @@ mod tests {
         );
     }
 
-    #[test]
-    fn the_side_image_is_every_pixel_looked_at() {
+    /// EB3 with its elevators shut, pixel noise off, and a generator.
+    fn eb3_quiet() -> (Scene, Vec<bool>, PixelNoise, Rng) {
         let map = rome_maps::load_named("eb3").unwrap();
         let scene = Scene::new(&map);
         let open = vec![false; scene.elevators.len()];
         let mut rng = Rng::new(5);
         let quiet = PixelNoise::new(0.0, &mut rng);
+        (scene, open, quiet, rng)
+    }
+
+    #[test]
+    fn the_side_image_is_every_pixel_looked_at() {
+        let (scene, open, quiet, mut rng) = eb3_quiet();
         let (w, h) = (96u32, 90u32);
         // Beside walls with plates, doors and plain stretches.
         let spots: Vec<_> = scene
@@ -510,11 +516,7 @@ mod tests {
 
     #[test]
     fn a_person_between_the_side_camera_and_the_wall_hides_it() {
-        let map = rome_maps::load_named("eb3").unwrap();
-        let scene = Scene::new(&map);
-        let open = vec![false; scene.elevators.len()];
-        let mut rng = Rng::new(5);
-        let quiet = PixelNoise::new(0.0, &mut rng);
+        let (scene, open, quiet, _) = eb3_quiet();
         let (w, h) = (96u32, 90u32);
         // A spot and heading from which the camera looks at a wall a few
         // metres off.
