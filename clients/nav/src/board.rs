@@ -127,6 +127,10 @@ pub enum Var {
     /// mm, when well off it (`null` otherwise), written by the Planner
     /// before it hands the goal over.
     GoalLane,
+    /// For a D goal: how far the corridor's left and right walls stand
+    /// from the goal, mm, as the map has them (`null` when either is not
+    /// in reach), written by the Planner before it hands the goal over.
+    GoalWalls,
 }
 
 impl Var {
@@ -148,6 +152,7 @@ impl Var {
             Var::Route => "Route",
             Var::EndWall => "EndWall",
             Var::GoalLane => "GoalLane",
+            Var::GoalWalls => "GoalWalls",
         }
     }
 }

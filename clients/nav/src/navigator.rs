@@ -49,6 +49,12 @@ pub const KEEP_RIGHT_BEAR_DEG: f64 = 8.0;
 /// Over this last stretch of a D goal that lies off the corridor's middle,
 /// the robot moves onto the goal's line, mm.
 pub const LANE_APPROACH_MM: f64 = 5_000.0;
+/// How far across from its goal's line a robot may end a D goal before it
+/// steps sideways onto it, mm.
+const OFF_LINE_MM: f64 = 300.0;
+/// How near the side sonars' two ranges must add up to the map's width
+/// beside the goal for them to be believed, mm.
+const WIDTH_AGREES_MM: f64 = 250.0;
 /// Scans in a row (a tenth of a second each) a robot told to drive may
 /// stand still before Check-Bumper looks why.
 const STILL_SCANS: u32 = 3;
@@ -92,6 +98,9 @@ pub struct NavConfig {
     /// Check-Bumper's next periodic look, its wheels turning while its
     /// body stands and its odometry counting what it never drove.
     pub stop_on_contact: bool,
+    /// Whether a robot that ends a D goal more than 0.3 m across from the
+    /// goal's line (steering round people, say) steps sideways onto it.
+    pub onto_line: bool,
 }
 
 impl Default for NavConfig {
@@ -111,6 +120,7 @@ impl Default for NavConfig {
             idle_scans: 20,
             blind_after: Duration::from_secs(1),
             stop_on_contact: true,
+            onto_line: true,
         }
     }
 }
@@ -413,18 +423,18 @@ impl Navigator {
     }
 
     /// Waits until the base has finished an in-place turn, a move by a
-    /// distance or a stop.
-    async fn settle(&self, scans: &rome_client::robot::Stream<Scan>) -> Result<(), NavError> {
+    /// distance or a stop; the scan that showed it.
+    async fn settle(&self, scans: &rome_client::robot::Stream<Scan>) -> Result<Scan, NavError> {
         for _ in 0..600 {
-            let _ = self.next_scan(scans).await?;
+            let scan = self.next_scan(scans).await?;
             let mode = self.robot.mode().await?;
             let speed = self.robot.wheel_speed().await?;
             let moving = ["point_turn", "point_go", "stopping"].contains(&mode.mode.as_str());
             if !moving && speed.wheel_speed_mm_s < 5.0 {
-                return Ok(());
+                return Ok(scan);
             }
             if mode.mode == "go" && speed.wheel_speed_mm_s > 5.0 {
-                return Ok(());
+                return Ok(scan);
             }
         }
         Err(NavError::Gone("the base never finished its turn"))
@@ -455,6 +465,12 @@ impl Navigator {
                 (1..=100_000).contains(&d)
             })
             .await;
+        // Where the walls stand beside a D goal, in the map.
+        let goal_walls: Option<(i64, i64)> = if goal.goal_type == GoalType::D {
+            self.board.get(Var::GoalWalls).await.ok().flatten()
+        } else {
+            None
+        };
         // Where across the corridor a D goal lies, if well off the middle.
         let lane_mm = self
             .map_mm(goal, GoalType::D, Var::GoalLane, |d| d.abs() <= 10_000)
@@ -654,14 +670,85 @@ impl Navigator {
         self.carry = None;
         match goal.goal_type {
             GoalType::L => self.carry = Some(pose),
-            GoalType::E | GoalType::D => {
+            GoalType::E => {
                 self.send(Drive::Halt).await?;
                 self.settle(scans).await?;
+                self.hallway = None;
+            }
+            GoalType::D => {
+                self.send(Drive::Halt).await?;
+                let at_rest = self.settle(scans).await?;
+                let step = self.cfg.onto_line && goal.distance > 0;
+                if let Some((left, right)) = goal_walls.filter(|_| step) {
+                    self.onto_line(scans, at_rest, goal, left as f64, right as f64)
+                        .await?;
+                }
                 self.hallway = None;
             }
             GoalType::C => {}
         }
         self.publish(goal, &pose, corner).await?;
+        Ok(())
+    }
+
+    /// At the end of a D goal, a robot standing more than
+    /// [`OFF_LINE_MM`] across from its goal, as the side sonars measure it
+    /// against where the map puts the walls beside the goal (`left`,
+    /// `right` mm from it), steps sideways onto the goal's line: a quarter
+    /// turn, a move, a quarter turn back. Among people the robot keeps
+    /// right or steers round them, and nothing else brings it back once
+    /// the distance is driven. Side readings that do not add up to the
+    /// map's width there (a person or an open door beside the robot) are
+    /// not believed.
+    async fn onto_line(
+        &mut self,
+        scans: &rome_client::robot::Stream<Scan>,
+        at_rest: Scan,
+        goal: &Goal,
+        left_mm: f64,
+        right_mm: f64,
+    ) -> Result<(), NavError> {
+        let mut squared = false;
+        let mut scan = at_rest;
+        let (left, right) = loop {
+            // Side ranges start at the ring, a radius out from the middle.
+            let left = f64::from(scan.sonar_mm[18]) + ROBOT_RADIUS_MM;
+            let right = f64::from(scan.sonar_mm[6]) + ROBOT_RADIUS_MM;
+            tracing::debug!(
+                left,
+                right,
+                left_mm,
+                right_mm,
+                "navigator: where across the hallway the D goal ended"
+            );
+            if (left + right - (left_mm + right_mm)).abs() < WIDTH_AGREES_MM {
+                break (left, right);
+            }
+            // A robot left at an angle to the walls (steering round
+            // someone) hears no echo from them: it faces along the
+            // corridor once and looks again.
+            let err = normalize_deg(goal.direction_deg - self.pose().await?.heading.deg());
+            if squared || err.abs() < 5.0 {
+                return Ok(());
+            }
+            squared = true;
+            self.send(Drive::Turn(err)).await?;
+            scan = self.settle(scans).await?;
+        };
+        // Left of the goal's line is positive.
+        let off = ((right - left) - (right_mm - left_mm)) / 2.0;
+        if off.abs() <= OFF_LINE_MM {
+            return Ok(());
+        }
+        tracing::info!(off, "navigator: stepping sideways onto the goal's line");
+        let quarter = if off > 0.0 { -90.0 } else { 90.0 };
+        self.send(Drive::Turn(quarter)).await?;
+        self.settle(scans).await?;
+        self.robot.move_by(off.abs(), 200.0, -1.0).await?;
+        self.settle(scans).await?;
+        self.send(Drive::Turn(-quarter)).await?;
+        self.settle(scans).await?;
+        self.last = None;
         Ok(())
     }
 

@@ -68,6 +68,9 @@ pub struct Step {
     /// goal lies, mm, when it lies well off it (a door on a corridor's
     /// end wall); `None` for a goal on or near the middle.
     pub lane_mm: Option<f64>,
+    /// For the last D step: how far the corridor's left and right walls
+    /// stand from the goal, mm, if both are in reach.
+    pub goal_walls_mm: Option<(f64, f64)>,
 }
 
 /// A narrow passage on the route (edges tagged `passage=NAME`): the
@@ -250,6 +253,7 @@ impl Plan {
                     walls_mm: walls_beside(world, at(t), at(prev), heading),
                     end_wall_mm: None,
                     lane_mm: None,
+                    goal_walls_mm: None,
                 });
                 t = prev;
             }
@@ -268,6 +272,7 @@ impl Plan {
                     .then(|| ray(world, b, heading, END_WALL_REACH_MM))
                     .flatten(),
                 lane_mm: last.then(|| goal_lane(world, b, heading)).flatten(),
+                goal_walls_mm: last.then(|| goal_walls(world, b, heading)).flatten(),
             });
             if !last {
                 let (_, _, next_len, next_heading) = legs[i + 1];
@@ -286,6 +291,7 @@ impl Plan {
                     walls_mm: None,
                     end_wall_mm: None,
                     lane_mm: None,
+                    goal_walls_mm: None,
                 });
             }
         }
@@ -444,11 +450,19 @@ fn ray(world: &World, at: Point, heading_deg: f64, max_mm: f64) -> Option<f64> {
 /// `None` when it is within [`LANE_MIN_MM`] of the middle or the walls are
 /// not both there.
 fn goal_lane(world: &World, goal: Point, heading_deg: f64) -> Option<f64> {
+    let (left, right) = goal_walls(world, goal, heading_deg)?;
+    let off = (right - left) / 2.0;
+    (off.abs() >= LANE_MIN_MM).then_some(off)
+}
+
+/// How far the walls left and right of a goal at `goal`, reached along
+/// `heading_deg`, stand from it, mm: measured just before it (a goal at a
+/// door is beside the door's jamb, not in its opening).
+fn goal_walls(world: &World, goal: Point, heading_deg: f64) -> Option<(f64, f64)> {
     let p = goal - direction(heading_deg) * 600.0;
     let left = ray(world, p, heading_deg + 90.0, 5_000.0)?;
     let right = ray(world, p, heading_deg - 90.0, 5_000.0)?;
-    let off = (right - left) / 2.0;
-    (off.abs() >= LANE_MIN_MM).then_some(off)
+    Some((left, right))
 }
 
 /// The walls left and right of the route between `from` and `to`: the

@@ -141,6 +141,10 @@ pub async fn run(
                 } else {
                     let lane = step.lane_mm.map(|d| d.round() as i64);
                     board.set(Var::GoalLane, &lane).await?;
+                    let walls = step
+                        .goal_walls_mm
+                        .map(|(l, r)| (l.round() as i64, r.round() as i64));
+                    board.set(Var::GoalWalls, &walls).await?;
                 }
             }
             GoalType::C => {}

@@ -456,6 +456,7 @@ mod tests {
             walls_mm: None,
             end_wall_mm: None,
             lane_mm: None,
+            goal_walls_mm: None,
         }
     }
 

@@ -325,3 +325,27 @@ async fn a_base_that_stops_on_a_touch_keeps_its_odometry_among_people() {
         pushes.table()
     );
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_robot_left_aside_by_people_steps_onto_its_goals_line() {
+    // 6.1 #18 among thirty people at 0.7 m/s: steering for people near the
+    // end, the robot finishes its D goal 0.6 m right of the goal's line,
+    // its odometry good. Measuring itself against the walls the map puts
+    // beside the goal, it steps sideways onto the line.
+    let mut s = setup(900, 2);
+    s.people = 30;
+    s.cruise_mm_s = Some(700.0);
+    let mut aside = setup(900, 2);
+    aside.people = 30;
+    aside.cruise_mm_s = Some(700.0);
+    aside.nav.onto_line = false;
+    let steps = experiment::run_all(&s, vec![trial(18, "341L", "311L", 18)], |_| {});
+    let stays = experiment::run_all(&aside, vec![trial(18, "341L", "311L", 18)], |_| {});
+    let (steps, stays) = tokio::join!(steps, stays);
+    let (steps, stays) = (
+        steps[0].report.as_ref().unwrap(),
+        stays[0].report.as_ref().unwrap(),
+    );
+    assert!(steps.arrived() && steps.miss_cm < 30.0, "{}", steps.table());
+    assert!(stays.miss_cm > 50.0, "not left aside: {}", stays.table());
+}
