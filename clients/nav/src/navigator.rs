@@ -52,6 +52,9 @@ pub const LANE_APPROACH_MM: f64 = 5_000.0;
 /// How far across from its goal's line a robot may end a D goal before it
 /// steps sideways onto it, mm.
 const OFF_LINE_MM: f64 = 300.0;
+/// The longest such sideways step, mm: farther off is a misreading (a
+/// robot in a corridor cannot stand farther from its middle).
+const MAX_STEP_MM: f64 = 1_500.0;
 /// How near the side sonars' two ranges must add up to the map's width
 /// beside the goal for them to be believed, mm.
 const WIDTH_AGREES_MM: f64 = 250.0;
@@ -465,9 +468,16 @@ impl Navigator {
                 (1..=100_000).contains(&d)
             })
             .await;
-        // Where the walls stand beside a D goal, in the map.
+        // Where the walls stand beside a D goal, in the map: anyone may
+        // write the blackboard, so only distances a corridor can have.
         let goal_walls: Option<(i64, i64)> = if goal.goal_type == GoalType::D {
-            self.board.get(Var::GoalWalls).await.ok().flatten()
+            let sane = |d: i64| (1..=10_000).contains(&d);
+            self.board
+                .get(Var::GoalWalls)
+                .await
+                .ok()
+                .flatten()
+                .filter(|&(l, r)| sane(l) && sane(r))
         } else {
             None
         };
@@ -737,7 +747,7 @@ impl Navigator {
         };
         // Left of the goal's line is positive.
         let off = ((right - left) - (right_mm - left_mm)) / 2.0;
-        if off.abs() <= OFF_LINE_MM {
+        if off.abs() <= OFF_LINE_MM || off.abs() > MAX_STEP_MM {
             return Ok(());
         }
         tracing::info!(off, "navigator: stepping sideways onto the goal's line");
