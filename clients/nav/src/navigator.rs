@@ -464,26 +464,22 @@ impl Navigator {
         // Planner that does not write it (or a value that does not decode)
         // leaves the estimate from the corridor's own width.
         let end_wall_mm = self
-            .map_mm(goal, GoalType::E, Var::EndWall, |d| {
-                (1..=100_000).contains(&d)
+            .map_mm(goal, GoalType::E, Var::EndWall, |d: &i64| {
+                (1..=100_000).contains(d)
             })
             .await;
-        // Where the walls stand beside a D goal, in the map: anyone may
-        // write the blackboard, so only distances a corridor can have.
-        let goal_walls: Option<(i64, i64)> = if goal.goal_type == GoalType::D {
-            let sane = |d: i64| (1..=10_000).contains(&d);
-            self.board
-                .get(Var::GoalWalls)
-                .await
-                .ok()
-                .flatten()
-                .filter(|&(l, r)| sane(l) && sane(r))
-        } else {
-            None
-        };
+        // Where the walls stand beside a D goal, in the map: only
+        // distances a corridor can have.
+        let goal_walls: Option<(i64, i64)> = self
+            .map_mm(goal, GoalType::D, Var::GoalWalls, |(l, r)| {
+                [l, r].iter().all(|d| (1..=10_000).contains(*d))
+            })
+            .await;
         // Where across the corridor a D goal lies, if well off the middle.
         let lane_mm = self
-            .map_mm(goal, GoalType::D, Var::GoalLane, |d| d.abs() <= 10_000)
+            .map_mm(goal, GoalType::D, Var::GoalLane, |d: &i64| {
+                d.abs() <= 10_000
+            })
             .await;
         if goal.goal_type == GoalType::C {
             // Leave the corner: stop, face the outgoing corridor, go.
@@ -762,21 +758,22 @@ impl Navigator {
         Ok(())
     }
 
-    /// A distance the Planner took from the map for goals of type `kind`
-    /// (`EndWall`, `GoalLane`): `None` for other goals, when it wrote none,
-    /// or when what is there does not decode or is not `sane`.
-    async fn map_mm(
+    /// Distances the Planner took from the map for goals of type `kind`
+    /// (`EndWall`, `GoalLane`, `GoalWalls`): `None` for other goals, when
+    /// it wrote none, or when what is there does not decode or is not
+    /// `sane` (anyone may write the blackboard).
+    async fn map_mm<T: serde::de::DeserializeOwned>(
         &self,
         goal: &Goal,
         kind: GoalType,
         var: Var,
-        sane: impl Fn(i64) -> bool,
-    ) -> Option<i64> {
+        sane: impl Fn(&T) -> bool,
+    ) -> Option<T> {
         if goal.goal_type != kind {
             return None;
         }
-        let value: Option<i64> = self.board.get(var).await.ok().flatten();
-        value.filter(|d| sane(*d))
+        let value: Option<T> = self.board.get(var).await.ok().flatten();
+        value.filter(|d| sane(d))
     }
 
     fn robot_speed(&self) -> f64 {
