@@ -64,13 +64,21 @@ pub struct Step {
     /// the turning space, mm, if the map has one within reach (a T or an L
     /// turn; none at a crossing).
     pub end_wall_mm: Option<f64>,
-    /// For the last D step: how far left of the corridor's middle the
-    /// goal lies, mm, when it lies well off it (a door on a corridor's
-    /// end wall); `None` for a goal on or near the middle.
-    pub lane_mm: Option<f64>,
     /// For the last D step: how far the corridor's left and right walls
     /// stand from the goal, mm, if both are in reach.
     pub goal_walls_mm: Option<(f64, f64)>,
+}
+
+impl Step {
+    /// For the last D step: how far left of the corridor's middle the
+    /// goal lies, mm, when it lies at least [`LANE_MIN_MM`] off it (a door
+    /// on a corridor's end wall); `None` for a goal on or near the middle,
+    /// or where the walls beside it are not both known.
+    pub fn lane_mm(&self) -> Option<f64> {
+        let (left, right) = self.goal_walls_mm?;
+        let off = (right - left) / 2.0;
+        (off.abs() >= LANE_MIN_MM).then_some(off)
+    }
 }
 
 /// A narrow passage on the route (edges tagged `passage=NAME`): the
@@ -252,7 +260,6 @@ impl Plan {
                     to: at(prev),
                     walls_mm: walls_beside(world, at(t), at(prev), heading),
                     end_wall_mm: None,
-                    lane_mm: None,
                     goal_walls_mm: None,
                 });
                 t = prev;
@@ -271,7 +278,6 @@ impl Plan {
                 end_wall_mm: (!last)
                     .then(|| ray(world, b, heading, END_WALL_REACH_MM))
                     .flatten(),
-                lane_mm: last.then(|| goal_lane(world, b, heading)).flatten(),
                 goal_walls_mm: last.then(|| goal_walls(world, b, heading)).flatten(),
             });
             if !last {
@@ -290,7 +296,6 @@ impl Plan {
                     to: b + nd * leave,
                     walls_mm: None,
                     end_wall_mm: None,
-                    lane_mm: None,
                     goal_walls_mm: None,
                 });
             }
@@ -341,7 +346,7 @@ impl Plan {
                             .collect::<Vec<_>>()
                             .join("+")
                     ),
-                    GoalType::D => match s.lane_mm {
+                    GoalType::D => match s.lane_mm() {
                         Some(lane) => format!(
                             "S{}^d  dead-reckon {} mm to the goal, {:.0} mm {} of the middle",
                             s.subpath,
@@ -443,16 +448,6 @@ fn ray(world: &World, at: Point, heading_deg: f64, max_mm: f64) -> Option<f64> {
             Some(best.map_or(t, |b| b.min(t)))
         })
         .filter(|t| *t <= max_mm)
-}
-
-/// How far left of the corridor's middle a goal at `goal`, reached along
-/// `heading_deg`, lies, mm: from the walls either side just before it;
-/// `None` when it is within [`LANE_MIN_MM`] of the middle or the walls are
-/// not both there.
-fn goal_lane(world: &World, goal: Point, heading_deg: f64) -> Option<f64> {
-    let (left, right) = goal_walls(world, goal, heading_deg)?;
-    let off = (right - left) / 2.0;
-    (off.abs() >= LANE_MIN_MM).then_some(off)
 }
 
 /// How far the walls left and right of a goal at `goal`, reached along

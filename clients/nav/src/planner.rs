@@ -139,7 +139,7 @@ pub async fn run(
                     let end = step.end_wall_mm.map(|d| d.round() as i64);
                     board.set(Var::EndWall, &end).await?;
                 } else {
-                    let lane = step.lane_mm.map(|d| d.round() as i64);
+                    let lane = step.lane_mm().map(|d| d.round() as i64);
                     board.set(Var::GoalLane, &lane).await?;
                     let walls = step
                         .goal_walls_mm

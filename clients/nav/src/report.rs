@@ -455,7 +455,6 @@ mod tests {
             to,
             walls_mm: None,
             end_wall_mm: None,
-            lane_mm: None,
             goal_walls_mm: None,
         }
     }
