@@ -5,7 +5,9 @@
 
 use rome_maps::{Network, World};
 use rome_nav::board::GoalType;
+use rome_nav::navigator::NavConfig;
 use rome_nav::plan::Plan;
+use rome_nav::report::Report;
 use rome_rig::experiment::{self, Setup, Trial, CHAPTER6};
 use rome_rig::RouteSpec;
 use rome_sim::Noise;
@@ -22,6 +24,34 @@ fn setup(limit_s: u64, jobs: usize) -> Setup {
         wall_limit: Duration::from_secs(600),
         nav: Default::default(),
     }
+}
+
+/// Thirty people in every run, two runs at a time, cruising at `cruise`
+/// mm/s (`None`: the Navigator's own).
+fn among_people(limit_s: u64, cruise: Option<f64>) -> Setup {
+    let mut s = setup(limit_s, 2);
+    s.people = 30;
+    s.cruise_mm_s = cruise;
+    s
+}
+
+/// `trial` run with `setup` and, at the same time, with `setup`'s
+/// Navigator changed by `without`: the two reports.
+async fn with_and_without(
+    setup: Setup,
+    without: impl FnOnce(&mut NavConfig),
+    trial: Trial,
+) -> (Report, Report) {
+    let mut other = setup.clone();
+    without(&mut other.nav);
+    let (with, without) = tokio::join!(
+        experiment::run_all(&setup, vec![trial.clone()], |_| {}),
+        experiment::run_all(&other, vec![trial], |_| {}),
+    );
+    (
+        with[0].report.clone().unwrap(),
+        without[0].report.clone().unwrap(),
+    )
 }
 
 fn trial(no: usize, from: &str, to: &str, seed: u64) -> Trial {
@@ -295,18 +325,12 @@ async fn a_base_that_stops_on_a_touch_keeps_its_odometry_among_people() {
     // until Check-Bumper's next look, the robot's odometry runs metres
     // ahead and the run is lost; stopping on the touch and backing off at
     // once, it keeps its odometry and arrives.
-    let mut s = setup(1_200, 2);
-    s.people = 30;
-    let mut thesis = setup(1_200, 2);
-    thesis.people = 30;
-    thesis.nav.stop_on_contact = false;
-    let stops = experiment::run_all(&s, vec![trial(21, "303.second.L", "350L", 21)], |_| {});
-    let pushes = experiment::run_all(&thesis, vec![trial(21, "303.second.L", "350L", 21)], |_| {});
-    let (stops, pushes) = tokio::join!(stops, pushes);
-    let (stops, pushes) = (
-        stops[0].report.as_ref().unwrap(),
-        pushes[0].report.as_ref().unwrap(),
-    );
+    let (stops, pushes) = with_and_without(
+        among_people(1_200, None),
+        |nav| nav.stop_on_contact = false,
+        trial(21, "303.second.L", "350L", 21),
+    )
+    .await;
     assert!(stops.contacts.robot > 0, "no touch: {}", stops.table());
     assert!(
         stops.arrived() && stops.to_goal_cm.abs() < 50.0,
@@ -332,20 +356,12 @@ async fn a_robot_left_aside_by_people_steps_onto_its_goals_line() {
     // end, the robot finishes its D goal 0.6 m right of the goal's line,
     // its odometry good. Measuring itself against the walls the map puts
     // beside the goal, it steps sideways onto the line.
-    let mut s = setup(900, 2);
-    s.people = 30;
-    s.cruise_mm_s = Some(700.0);
-    let mut aside = setup(900, 2);
-    aside.people = 30;
-    aside.cruise_mm_s = Some(700.0);
-    aside.nav.onto_line = false;
-    let steps = experiment::run_all(&s, vec![trial(18, "341L", "311L", 18)], |_| {});
-    let stays = experiment::run_all(&aside, vec![trial(18, "341L", "311L", 18)], |_| {});
-    let (steps, stays) = tokio::join!(steps, stays);
-    let (steps, stays) = (
-        steps[0].report.as_ref().unwrap(),
-        stays[0].report.as_ref().unwrap(),
-    );
+    let (steps, stays) = with_and_without(
+        among_people(900, Some(700.0)),
+        |nav| nav.onto_line = false,
+        trial(18, "341L", "311L", 18),
+    )
+    .await;
     assert!(steps.arrived() && steps.miss_cm < 30.0, "{}", steps.table());
     assert!(stays.miss_cm > 50.0, "not left aside: {}", stays.table());
 }
