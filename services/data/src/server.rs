@@ -11,6 +11,9 @@
 //! under the store's lock, saving the trip through the loop (a change
 //! leaves its publication and grants to the task, ahead of anything
 //! queued); a request behind anything else takes its place in the queue.
+//! A change the task commits while such a publication is still queued is
+//! queued behind it, so watchers see commits in commit order whichever
+//! path made them.
 //!
 //! The channel is bounded ([`EVENT_QUEUE`]) and a Zenoh callback never
 //! waits on it: a callback runs on the link's receive path (or, for a
@@ -35,6 +38,7 @@ use serde::Serialize;
 use std::collections::hash_map::Entry;
 use std::collections::{HashMap, HashSet};
 use std::future::Future;
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
 use std::time::Duration;
 use zenoh::bytes::Encoding;
@@ -179,6 +183,10 @@ struct Server {
     generation: u64,
     alive: HashSet<String>,
     events: flume::Sender<Event>,
+    /// The queue [`Own::Follow`] goes on, and how many are on it: counted
+    /// under the store's lock, so a commit made while one is queued can
+    /// be queued behind it instead of published ahead of it.
+    follows: (flume::Sender<Event>, Arc<AtomicUsize>),
     disk: Option<Disk>,
     /// Plain puts written to disk but not yet synced.
     unsynced: bool,
@@ -221,9 +229,11 @@ pub async fn run(
     };
     let inbox = Inbox::<Own>::new("the data server", EVENT_QUEUE);
     let store = Arc::new(Mutex::new(store));
+    let follows = (inbox.first_sender(), Arc::new(AtomicUsize::new(0)));
     let quick = Quick {
         store: store.clone(),
         root: root.clone(),
+        queued: follows.1.clone(),
         // A write answered at once must already be on disk, and must be
         // stamped on the clock the event loop uses (in a lock-step run,
         // the simulated one, which a callback on a link's thread does not
@@ -269,6 +279,7 @@ pub async fn run(
         generation: 0,
         alive: HashSet::new(),
         events: inbox.sender(),
+        follows,
         config,
     };
     let periods = Periods {
@@ -294,6 +305,7 @@ impl Handler<Own> for Server {
                     self.publish(&commit).await;
                 }
                 self.answer_grants(grants).await;
+                self.follows.1.fetch_sub(1, Ordering::SeqCst);
             }
         }
     }
@@ -318,8 +330,10 @@ impl Server {
                 // callback can see it.
                 let store = self.store.clone();
                 let mut store = lock(&store);
-                let applied = request.apply(&mut store, now)?;
-                self.keep_in(&mut store, Flush::Sync).map(|()| applied)
+                let mut applied = request.apply(&mut store, now)?;
+                self.keep_in(&mut store, Flush::Sync)?;
+                applied.commit = applied.commit.and_then(|c| self.in_order(c));
+                Ok(applied)
             },
         );
         match applied {
@@ -395,10 +409,15 @@ impl Server {
         let result: Result<Option<Committed>, ErrorReply> = match (data_key.op, sample.kind()) {
             (DataOp::Var, SampleKind::Put) => {
                 let bytes = sample.payload().to_bytes();
-                crate::cmd::set_value_from_payload(&data_key.name, Some(&bytes))
-                    .and_then(|value| lock(&self.store).put(&data_key.name, value).map(Some))
+                crate::cmd::set_value_from_payload(&data_key.name, Some(&bytes)).and_then(|value| {
+                    let mut store = lock(&self.store);
+                    store.put(&data_key.name, value).map(|c| self.in_order(c))
+                })
             }
-            (DataOp::Var, SampleKind::Delete) => Ok(lock(&self.store).delete(&data_key.name)),
+            (DataOp::Var, SampleKind::Delete) => {
+                let mut store = lock(&self.store);
+                Ok(store.delete(&data_key.name).and_then(|c| self.in_order(c)))
+            }
             (DataOp::Signal, SampleKind::Put) => {
                 let signalled = lock(&self.store).signal(&data_key.name, None, now);
                 match signalled {
@@ -437,6 +456,24 @@ impl Server {
             message: e.message,
         };
         self.send(&self.config.root.rejected(), &rejected).await;
+    }
+
+    /// `commit`, just made with the store locked, if it may be published
+    /// now; `None` when a change answered from the callback is still
+    /// waiting to be published: then `commit` is queued behind it.
+    fn in_order(&self, commit: Committed) -> Option<Committed> {
+        let (queue, queued) = &self.follows;
+        if queued.load(Ordering::SeqCst) == 0 {
+            return Some(commit);
+        }
+        queued.fetch_add(1, Ordering::SeqCst);
+        let follow = Own::Follow {
+            commit: Some(commit),
+            grants: Vec::new(),
+        };
+        // The queue is unbounded and its receiver lives as long as `self`.
+        let _ = queue.send(Event::Own(follow));
+        None
     }
 
     async fn publish(&self, commit: &Committed) {
@@ -596,6 +633,8 @@ fn lock(store: &Mutex<Store>) -> MutexGuard<'_, Store> {
 struct Quick {
     store: Arc<Mutex<Store>>,
     root: Root,
+    /// How many follow-ups are queued ([`Server::follows`]).
+    queued: Arc<AtomicUsize>,
     /// Changes too (`set`, `signal`), when the store is in memory: what is
     /// left to do (publication, grants) goes to the event loop, ahead of
     /// anything queued; and whether the loop's clock is a lock-step one.
@@ -627,6 +666,7 @@ impl Quick {
                             commit: a.commit.take(),
                             grants: std::mem::take(&mut a.grants),
                         };
+                        self.queued.fetch_add(1, Ordering::SeqCst);
                         let _ = first.send(Event::Own(follow));
                     }
                     applied
