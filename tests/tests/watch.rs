@@ -115,3 +115,96 @@ async fn every_commit_once_in_order() {
     reader.abort();
     server.stop().await;
 }
+
+/// A reader that stops to ask the server something while commits pile up
+/// gets its answer: the commits wait in the watch's own queue, not in the
+/// link, where they would hold the answer back behind them.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_reader_that_asks_while_commits_pile_up_gets_its_answer() {
+    const WRITES: usize = 2_000;
+    let server = TestServer::start().await;
+    let reader = server.client("reader").await;
+    let mut watch = reader.watch("burst").await.unwrap();
+    let writer = server.client("writer").await;
+    writer.set("burst", &0).await.unwrap();
+    tokio::time::timeout(Duration::from_secs(10), watch.next())
+        .await
+        .expect("the first commit arrives")
+        .unwrap()
+        .unwrap();
+    for i in 1..WRITES {
+        writer.set("burst", &i).await.unwrap();
+    }
+    // Most of the commits are on their way ahead of this answer.
+    let last = tokio::time::timeout(Duration::from_secs(20), reader.get("burst"))
+        .await
+        .expect("the reader's get is answered while its watch is unread")
+        .unwrap();
+    assert_eq!(last, json!(WRITES - 1));
+    let mut seen = 1;
+    while seen < WRITES {
+        let c = tokio::time::timeout(Duration::from_secs(10), watch.next())
+            .await
+            .unwrap_or_else(|_| panic!("{seen} of {WRITES} commits seen"))
+            .unwrap()
+            .unwrap();
+        seen += 1;
+        assert_eq!(c.seq, seen as u64);
+    }
+    assert_eq!(watch.missed(), 0);
+    server.stop().await;
+}
+
+/// A reader that falls further behind than its backlog loses the commits
+/// beyond it, counted, and is not stopped: what comes after arrives.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn commits_beyond_the_backlog_are_counted_as_missed() {
+    const WRITES: u64 = 100;
+    let server = TestServer::start().await;
+    let mut options = rome_client::DataOptions::new("reader");
+    options.watch_backlog = 10_000;
+    let reader = server.client_with(options).await;
+    let mut watch = reader.watch("big").await.unwrap();
+    let writer = server.client("writer").await;
+    let value = "x".repeat(1_000);
+    writer.set("big", &value).await.unwrap();
+    tokio::time::timeout(Duration::from_secs(10), watch.next())
+        .await
+        .expect("the first commit arrives")
+        .unwrap()
+        .unwrap();
+    for _ in 1..WRITES {
+        writer.set("big", &value).await.unwrap();
+    }
+    // Each commit is either kept and read, or counted as missed.
+    let mut seqs = vec![1];
+    while seqs.len() as u64 + watch.missed() < WRITES {
+        let c = tokio::time::timeout(Duration::from_secs(10), watch.next())
+            .await
+            .unwrap_or_else(|_| panic!("seen {seqs:?}, missed {}", watch.missed()))
+            .unwrap()
+            .unwrap();
+        seqs.push(c.seq);
+    }
+    let missed = watch.missed();
+    assert!(missed > 0, "a 10 kB backlog held 100 commits of 1 kB");
+    assert!(seqs.len() > 1, "the backlog kept nothing");
+    assert!(
+        seqs.windows(2).all(|w| w[0] < w[1]),
+        "out of order: {seqs:?}"
+    );
+    assert_eq!(
+        seqs.len() as u64 + missed,
+        WRITES,
+        "seen {seqs:?}, missed {missed}"
+    );
+    // Caught up, the reader sees the next commit.
+    writer.set("big", &"after").await.unwrap();
+    let next = tokio::time::timeout(Duration::from_secs(10), watch.next())
+        .await
+        .expect("a commit after the gap arrives")
+        .unwrap()
+        .unwrap();
+    assert_eq!(next.seq, WRITES + 1);
+    server.stop().await;
+}

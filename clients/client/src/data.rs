@@ -18,11 +18,10 @@ use serde::de::DeserializeOwned;
 use serde::Serialize;
 use serde_json::Value;
 use std::collections::HashMap;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 use zenoh::bytes::Encoding;
-use zenoh::handlers::FifoChannelHandler;
 use zenoh::liveliness::LivelinessToken;
 use zenoh::pubsub::Subscriber;
 use zenoh::qos::Priority;
@@ -34,6 +33,10 @@ use zenoh::Session;
 const FIRST_BACKOFF: Duration = Duration::from_millis(20);
 /// The longest pause between such queries.
 const MAX_BACKOFF: Duration = Duration::from_millis(500);
+
+/// How many bytes of commits a [`Watch`] keeps for its reader by default
+/// ([`DataOptions::watch_backlog`]).
+pub const WATCH_BACKLOG_BYTES: usize = 64 << 20;
 
 /// Numbers the clients of this process, so owners are unique per session.
 static NEXT_CLIENT: AtomicU64 = AtomicU64::new(1);
@@ -58,6 +61,9 @@ pub struct DataOptions {
     pub connect_timeout: Duration,
     /// The Zenoh priority of this client's requests (§4.3).
     pub priority: Priority,
+    /// How many bytes of commits a [`Watch`] keeps while its reader is
+    /// busy; commits beyond are dropped and counted ([`Watch::missed`]).
+    pub watch_backlog: usize,
 }
 
 impl DataOptions {
@@ -72,6 +78,7 @@ impl DataOptions {
             hold: Duration::from_secs(10),
             connect_timeout: Duration::from_secs(10),
             priority: Priority::Data,
+            watch_backlog: WATCH_BACKLOG_BYTES,
         }
     }
 }
@@ -423,24 +430,51 @@ impl DataClient {
 
     /// Follows committed writes to variables matching `pattern` (`PosX`,
     /// `r1/**`, `**`): each exactly once, in commit order per variable.
+    ///
+    /// Commits wait for the reader in a queue of up to
+    /// [`DataOptions::watch_backlog`] bytes. It never holds up the session:
+    /// a full queue that stopped the link's receive path would also stop
+    /// the answers to this client's own requests, so a reader that asks
+    /// the server something between two commits would wait for ever.
     pub async fn watch(&self, pattern: &str) -> Result<Watch, ClientError> {
         let key = self
             .inner
             .options
             .root
             .data_pattern(DataOp::Watch, pattern)?;
+        let backlog = Arc::new(Backlog {
+            limit: self.inner.options.watch_backlog,
+            bytes: AtomicUsize::new(0),
+            missed: AtomicU64::new(0),
+        });
+        let (tx, rx) = flume::unbounded::<Sample>();
+        let queue = backlog.clone();
+        let push = move |sample: Sample| {
+            let len = sample.payload().len();
+            if queue.bytes.fetch_add(len, Ordering::SeqCst) + len > queue.limit {
+                queue.bytes.fetch_sub(len, Ordering::SeqCst);
+                let n = queue.missed.fetch_add(1, Ordering::SeqCst) + 1;
+                if n.is_power_of_two() {
+                    tracing::warn!(
+                        missed = n,
+                        backlog = queue.limit,
+                        "watch reader too slow: commits dropped"
+                    );
+                }
+                return;
+            }
+            let _ = tx.send(sample);
+        };
         let subscriber = self
             .inner
             .session
             .declare_subscriber(&key)
-            .with(crate::inflight::counted(
-                &key,
-                zenoh::handlers::FifoChannel::default(),
-            ))
+            .with(crate::inflight::counted(&key, (push, rx)))
             .await
             .map_err(ClientError::zenoh)?;
         Ok(Watch {
             subscriber,
+            backlog,
             last: HashMap::new(),
         })
     }
@@ -661,11 +695,28 @@ pub(crate) fn selector(key: &str, params: &[(&str, String)]) -> String {
 
 /// A stream of committed writes (see [`DataClient::watch`]).
 pub struct Watch {
-    subscriber: Subscriber<FifoChannelHandler<Sample>>,
+    subscriber: Subscriber<flume::Receiver<Sample>>,
+    backlog: Arc<Backlog>,
     last: HashMap<String, u64>,
 }
 
+/// What a [`Watch`] holds for its reader.
+struct Backlog {
+    limit: usize,
+    /// Payload bytes queued.
+    bytes: AtomicUsize,
+    /// Commits dropped because `limit` was reached.
+    missed: AtomicU64,
+}
+
 impl Watch {
+    /// How many commits were dropped so far because the reader fell more
+    /// than [`DataOptions::watch_backlog`] bytes behind (a skipped commit
+    /// number also shows each gap).
+    pub fn missed(&self) -> u64 {
+        self.backlog.missed.load(Ordering::SeqCst)
+    }
+
     /// The next committed write; `None` once the session is closed.
     ///
     /// A repeat of a commit already seen is skipped, so each write is
@@ -673,6 +724,9 @@ impl Watch {
     pub async fn next(&mut self) -> Option<Result<Committed, ClientError>> {
         loop {
             let sample = rome_clock::idle(self.subscriber.recv_async()).await.ok()?;
+            self.backlog
+                .bytes
+                .fetch_sub(sample.payload().len(), Ordering::SeqCst);
             let commit: Committed = match decode(&sample.payload().to_bytes(), "watch event") {
                 Ok(c) => c,
                 Err(e) => return Some(Err(e.into())),
