@@ -658,16 +658,20 @@ impl Quick {
                 Some((first, lockstep)) if rome_clock::now_ms().is_some() == *lockstep => {
                     let mut store = lock(&self.store);
                     let mut applied = request.apply(&mut store, Instant::now());
-                    if let Ok(a) = &mut applied {
-                        // Queued under the store's lock, so changes made on
-                        // two threads are followed up in their order; the
-                        // queue is unbounded, so none is lost.
-                        let follow = Own::Follow {
-                            commit: a.commit.take(),
-                            grants: std::mem::take(&mut a.grants),
-                        };
-                        self.queued.fetch_add(1, Ordering::SeqCst);
-                        let _ = first.send(Event::Own(follow));
+                    // Queued under the store's lock, so changes made on
+                    // two threads are followed up in their order; the
+                    // queue is unbounded, so none is lost. A signal that
+                    // granted nothing leaves nothing to do, and the task
+                    // is not woken for it.
+                    if let Ok(a) = applied.as_mut() {
+                        if a.commit.is_some() || !a.grants.is_empty() {
+                            let follow = Own::Follow {
+                                commit: a.commit.take(),
+                                grants: std::mem::take(&mut a.grants),
+                            };
+                            self.queued.fetch_add(1, Ordering::SeqCst);
+                            let _ = first.send(Event::Own(follow));
+                        }
                     }
                     applied
                 }
