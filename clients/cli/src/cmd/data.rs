@@ -79,8 +79,18 @@ pub async fn run(common: &CommonArgs, cmd: DataCmd) -> anyhow::Result<u8> {
         DataCmd::Watch { pattern, json } => {
             let mut watch = ds.watch(&pattern).await?;
             eprintln!("watching '{pattern}'; Ctrl-C to stop");
+            let mut missed = 0;
             while let Some(commit) = watch.next().await {
                 let commit = commit?;
+                // Output slower than the writers (a pager left waiting, a
+                // slow pipe) lets commits pile up past the watch's backlog.
+                if watch.missed() > missed {
+                    eprintln!(
+                        "{} commit(s) missed: this output fell too far behind",
+                        watch.missed() - missed
+                    );
+                    missed = watch.missed();
+                }
                 if json {
                     crate::out!("{}", serde_json::to_string(&commit)?);
                 } else if commit.deleted {
