@@ -3,6 +3,7 @@
 
 #![allow(clippy::unwrap_used)]
 
+use rome_schema::data::Committed;
 use rome_tests::TestServer;
 use serde_json::json;
 use std::collections::HashMap;
@@ -17,7 +18,19 @@ async fn every_commit_once_in_order() {
     let server = TestServer::start().await;
     let watcher = server.client("watcher").await;
     let mut watch = watcher.watch("**").await.unwrap();
-    // The subscription must reach the server before the first write.
+    // Beside the library's watch, which skips a commit older than one it
+    // has returned, the publications exactly as they arrive.
+    let raw_session = server.session().await;
+    let (raw_tx, mut raw_rx) = tokio::sync::mpsc::unbounded_channel();
+    let _raw = raw_session
+        .declare_subscriber("rome/data/watch/**")
+        .callback(move |s| {
+            let c: Committed = serde_json::from_slice(&s.payload().to_bytes()).unwrap();
+            let _ = raw_tx.send((c.name, c.seq));
+        })
+        .await
+        .unwrap();
+    // Both subscriptions must reach the server before the first write.
     watcher.set("ready", &true).await.unwrap();
     let first = tokio::time::timeout(Duration::from_secs(10), watch.next())
         .await
@@ -25,6 +38,10 @@ async fn every_commit_once_in_order() {
         .unwrap()
         .unwrap();
     assert_eq!(first.name, "ready");
+    let raw_first = tokio::time::timeout(Duration::from_secs(10), raw_rx.recv())
+        .await
+        .expect("ready seen by the plain subscriber");
+    assert_eq!(raw_first, Some(("ready".to_string(), 1)));
 
     // Read while they write, as a watcher does: what is under test is the
     // order the server publishes in, not how much a silent reader buffers.
@@ -105,6 +122,22 @@ async fn every_commit_once_in_order() {
     for (name, s) in &seqs {
         let expect: Vec<u64> = (1..=s.len() as u64).collect();
         assert_eq!(s, &expect, "commits of {name} not each once in order");
+    }
+    // As published: each variable's commits once each, in commit order.
+    let mut raw: HashMap<String, Vec<u64>> = HashMap::new();
+    for _ in 0..committed {
+        let (name, seq) = tokio::time::timeout(Duration::from_secs(10), raw_rx.recv())
+            .await
+            .expect("every publication arrives at the plain subscriber")
+            .unwrap();
+        raw.entry(name).or_default().push(seq);
+    }
+    for (name, s) in &raw {
+        let expect: Vec<u64> = (1..=s.len() as u64).collect();
+        assert_eq!(
+            s, &expect,
+            "publications of {name} not each once in commit order"
+        );
     }
     // Nothing more: no duplicate arrives late.
     assert!(
