@@ -1348,6 +1348,17 @@ mod tests {
             clock.participate("sleeper", async { sleep(Duration::from_millis(250)).await }),
         );
         clock.settled().await;
+        // A participant going idle is counted out just before it passes
+        // the turn, on its own thread: the clock's own stepping waits for
+        // the turn, and so does this.
+        let deadline = std::time::Instant::now() + Duration::from_secs(5);
+        while locked(&clock.sched.turn).holder.is_some() {
+            assert!(
+                std::time::Instant::now() < deadline,
+                "the sleeper kept the turn"
+            );
+            tokio::task::yield_now().await;
+        }
         let far = clock.external("far");
         far.expect();
         let said = clock.describe();
