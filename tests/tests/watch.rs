@@ -3,11 +3,22 @@
 
 #![allow(clippy::unwrap_used)]
 
+use rome_client::Watch;
 use rome_schema::data::Committed;
 use rome_tests::TestServer;
 use serde_json::json;
 use std::collections::HashMap;
 use std::time::Duration;
+
+/// The next commit `watch` returns within 10 s; else a panic saying
+/// `what` was awaited (told the watch, to report what it has missed).
+async fn next_commit(watch: &mut Watch, what: impl FnOnce(&Watch) -> String) -> Committed {
+    match tokio::time::timeout(Duration::from_secs(10), watch.next()).await {
+        Ok(Some(c)) => c.unwrap(),
+        Ok(None) => panic!("the watch ended: {}", what(watch)),
+        Err(_) => panic!("not within 10 s: {}", what(watch)),
+    }
+}
 
 /// Writes by each writer; half the writers put, half set.
 const PER_WRITER: u64 = 400;
@@ -30,13 +41,16 @@ async fn every_commit_once_in_order() {
         })
         .await
         .unwrap();
-    // Both subscriptions must reach the server before the first write.
-    watcher.set("ready", &true).await.unwrap();
-    let first = tokio::time::timeout(Duration::from_secs(10), watch.next())
+    // Both subscriptions must reach the server before the first write: a
+    // query on a subscriber's own link follows its declaration there.
+    rome_client::DataClient::connect(&raw_session, rome_client::DataOptions::new("raw"))
         .await
-        .expect("ready seen")
         .unwrap()
+        .list()
+        .await
         .unwrap();
+    watcher.set("ready", &true).await.unwrap();
+    let first = next_commit(&mut watch, |_| "ready seen".into()).await;
     assert_eq!(first.name, "ready");
     let raw_first = tokio::time::timeout(Duration::from_secs(10), raw_rx.recv())
         .await
@@ -158,13 +172,12 @@ async fn a_reader_that_asks_while_commits_pile_up_gets_its_answer() {
     let server = TestServer::start().await;
     let reader = server.client("reader").await;
     let mut watch = reader.watch("burst").await.unwrap();
+    // The writer's link is another: the subscription must have reached
+    // the server first, which a query on its own link after it shows.
+    reader.list().await.unwrap();
     let writer = server.client("writer").await;
     writer.set("burst", &0).await.unwrap();
-    tokio::time::timeout(Duration::from_secs(10), watch.next())
-        .await
-        .expect("the first commit arrives")
-        .unwrap()
-        .unwrap();
+    next_commit(&mut watch, |_| "the first commit arrives".into()).await;
     for i in 1..WRITES {
         writer.set("burst", &i).await.unwrap();
     }
@@ -176,11 +189,7 @@ async fn a_reader_that_asks_while_commits_pile_up_gets_its_answer() {
     assert_eq!(last, json!(WRITES - 1));
     let mut seen = 1;
     while seen < WRITES {
-        let c = tokio::time::timeout(Duration::from_secs(10), watch.next())
-            .await
-            .unwrap_or_else(|_| panic!("{seen} of {WRITES} commits seen"))
-            .unwrap()
-            .unwrap();
+        let c = next_commit(&mut watch, |_| format!("{seen} of {WRITES} commits seen")).await;
         seen += 1;
         assert_eq!(c.seq, seen as u64);
     }
@@ -198,25 +207,23 @@ async fn commits_beyond_the_backlog_are_counted_as_missed() {
     options.watch_backlog = 10_000;
     let reader = server.client_with(options).await;
     let mut watch = reader.watch("big").await.unwrap();
+    // The writer's link is another: the subscription must have reached
+    // the server first, which a query on its own link after it shows.
+    reader.list().await.unwrap();
     let writer = server.client("writer").await;
     let value = "x".repeat(1_000);
     writer.set("big", &value).await.unwrap();
-    tokio::time::timeout(Duration::from_secs(10), watch.next())
-        .await
-        .expect("the first commit arrives")
-        .unwrap()
-        .unwrap();
+    next_commit(&mut watch, |_| "the first commit arrives".into()).await;
     for _ in 1..WRITES {
         writer.set("big", &value).await.unwrap();
     }
     // Each commit is either kept and read, or counted as missed.
     let mut seqs = vec![1];
     while seqs.len() as u64 + watch.missed() < WRITES {
-        let c = tokio::time::timeout(Duration::from_secs(10), watch.next())
-            .await
-            .unwrap_or_else(|_| panic!("seen {seqs:?}, missed {}", watch.missed()))
-            .unwrap()
-            .unwrap();
+        let c = next_commit(&mut watch, |w| {
+            format!("seen {seqs:?}, missed {}", w.missed())
+        })
+        .await;
         seqs.push(c.seq);
     }
     let missed = watch.missed();
@@ -233,11 +240,7 @@ async fn commits_beyond_the_backlog_are_counted_as_missed() {
     );
     // Caught up, the reader sees the next commit.
     writer.set("big", &"after").await.unwrap();
-    let next = tokio::time::timeout(Duration::from_secs(10), watch.next())
-        .await
-        .expect("a commit after the gap arrives")
-        .unwrap()
-        .unwrap();
+    let next = next_commit(&mut watch, |_| "a commit after the gap arrives".into()).await;
     assert_eq!(next.seq, WRITES + 1);
     server.stop().await;
 }
