@@ -383,27 +383,38 @@ impl Navigator {
         }
         // Simulated time in a lock-step run, where the link costs nothing.
         let sent = rome_clock::Instant::now();
-        match d {
+        // Commands sent, one round trip each.
+        let trips = match d {
             Drive::Go(v) => {
                 self.speed = v;
-                self.robot.go(v).await?
+                self.robot.go(v).await?;
+                1
             }
             Drive::Jog(r) => {
                 // A jog moves at the speed setting, which a spin or a halt
                 // left at zero.
-                if matches!(self.last, None | Some(Drive::Spin(_) | Drive::Halt)) {
+                let again = matches!(self.last, None | Some(Drive::Spin(_) | Drive::Halt));
+                if again {
                     self.robot.go(self.speed).await?;
                 }
-                self.robot.jog(-r).await?
+                self.robot.jog(-r).await?;
+                1 + u32::from(again)
             }
-            Drive::Turn(deg) => self.robot.turn(-deg, 45.0, -1.0).await?,
+            Drive::Turn(deg) => {
+                self.robot.turn(-deg, 45.0, -1.0).await?;
+                1
+            }
             Drive::Spin(r) => {
                 self.robot.go(0.0).await?;
-                self.robot.jog(-r).await?
+                self.robot.jog(-r).await?;
+                2
             }
-            Drive::Halt => self.robot.stop(false).await?,
+            Drive::Halt => {
+                self.robot.stop(false).await?;
+                1
+            }
         };
-        let rtt = sent.elapsed().as_secs_f64().min(2.0);
+        let rtt = (sent.elapsed().as_secs_f64() / f64::from(trips)).min(2.0);
         self.rtt_s = if self.rtt_s == 0.0 {
             rtt
         } else {
