@@ -72,6 +72,9 @@ struct Sched {
     next_sub: AtomicU64,
     /// Parties in other processes, busy until they say they are done.
     externals: Mutex<Vec<Weak<ExternalState>>>,
+    /// How often a participant has become busy (made, or woken from
+    /// parked): whether anything happened between two looks.
+    activity: AtomicU64,
 }
 
 /// A subscription the clock counts messages for.
@@ -98,6 +101,9 @@ struct Turn {
     /// Woken participants by creation order, with the waker that gets
     /// each polled (none until its task is first polled).
     ready: BTreeMap<u64, Option<Waker>>,
+    /// A new time has been heard and not yet moved to: no participant
+    /// takes the turn until the clock has (see [`LockStep::announce`]).
+    announced: bool,
 }
 
 /// The turn's holder while the clock wakes its sleepers.
@@ -121,7 +127,7 @@ impl Sched {
                 }
                 return;
             }
-            if t.holder.is_some() {
+            if t.holder.is_some() || t.announced {
                 return;
             }
             grant(&mut t)
@@ -144,7 +150,7 @@ impl Sched {
             // Polled without being woken: it waits for its wake.
             None => return false,
         }
-        if t.holder.is_none() && t.ready.keys().next() == Some(&id) {
+        if t.holder.is_none() && !t.announced && t.ready.keys().next() == Some(&id) {
             t.ready.remove(&id);
             t.holder = Some(id);
             return true;
@@ -160,6 +166,10 @@ impl Sched {
                 return;
             }
             t.holder = None;
+            if t.announced {
+                // The clock is about to move on: it takes the turn next.
+                return;
+            }
             grant(&mut t)
         };
         if let Some(w) = next {
@@ -198,6 +208,7 @@ struct PartState {
 impl Part {
     fn new(sched: &Arc<Sched>, name: &str) -> Arc<Part> {
         sched.busy.fetch_add(1, Ordering::AcqRel);
+        sched.activity.fetch_add(1, Ordering::AcqRel);
         let id = sched.next_part.fetch_add(1, Ordering::Relaxed);
         // A new participant waits for its first turn like a woken one.
         sched.ready(id, None);
@@ -220,6 +231,7 @@ impl Part {
         if s.parked && !s.done {
             s.parked = false;
             self.sched.busy.fetch_add(1, Ordering::AcqRel);
+            self.sched.activity.fetch_add(1, Ordering::AcqRel);
         }
     }
 
@@ -283,6 +295,7 @@ impl LockStep {
                 subs: Mutex::new(BTreeMap::new()),
                 next_sub: AtomicU64::new(0),
                 externals: Mutex::new(Vec::new()),
+                activity: AtomicU64::new(0),
             }),
         }
     }
@@ -299,6 +312,14 @@ impl LockStep {
             part: Some(Part::new(&self.sched, name)),
             inner: Box::pin(fut),
         }
+    }
+
+    /// How often a participant of this process has become busy so far
+    /// (made, or woken by a message, a timer or another participant); the
+    /// parties in other processes are not counted. Two equal looks mean
+    /// nothing happened in between.
+    pub fn activity(&self) -> u64 {
+        self.sched.activity.load(Ordering::Acquire)
     }
 
     /// How many participants are busy.
@@ -440,7 +461,18 @@ impl LockStep {
     pub async fn advance(&self, now_ms: u64) {
         self.take_turn().await;
         self.wake_due(now_ms);
+        locked(&self.sched.turn).announced = false;
         self.sched.pass(STEPPER);
+    }
+
+    /// Says, from wherever the new time is heard (a subscriber's callback),
+    /// that [`LockStep::advance`] is coming: until it has run, no
+    /// participant takes a free turn. A message heard after the time and
+    /// before the clock moved then wakes its reader at the new time, not
+    /// the old, however the threads are scheduled. Call only when an
+    /// `advance` will follow.
+    pub fn announce(&self) {
+        locked(&self.sched.turn).announced = true;
     }
 
     /// The step of the clock's owner: if no participant is busy once the
@@ -1121,6 +1153,37 @@ mod tests {
             .await;
         stepping.abort();
         assert_eq!(got, vec![0; 20]);
+    }
+
+    /// A message heard after a new time was announced, and before the
+    /// clock moved to it, is read at the new time; without the announcement
+    /// its reader may run first, at the old one.
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn a_message_after_an_announced_time_is_read_at_that_time() {
+        for announced in [true, false] {
+            let clock = LockStep::new(0);
+            let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel::<()>();
+            let reader = tokio::spawn(clock.participate("reader", async move {
+                idle(rx.recv()).await;
+                now_ms().expect("in a participant")
+            }));
+            clock.settled().await;
+            if announced {
+                clock.announce();
+            }
+            tx.send(()).expect("reader alive");
+            if !announced {
+                // Nothing holds the reader back: it reads before the step.
+                clock.settled().await;
+            }
+            clock.advance(10).await;
+            let read_at = reader.await.expect("reader ends");
+            assert_eq!(
+                read_at,
+                if announced { 10 } else { 0 },
+                "announced: {announced}"
+            );
+        }
     }
 
     #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
