@@ -15,32 +15,66 @@ use crate::keys::Name;
 use crate::Root;
 use serde::{Deserialize, Serialize};
 
-/// Simulator → anyone: simulated time, ten times a simulated second.
+/// Simulator → anyone: simulated time, ten times a simulated second
+/// (every instant in lock-step).
+///
+/// In lock-step an instant is settled in rounds. Round 0 moves time on;
+/// every later round repeats the instant with the parties that must
+/// answer it, until a round in which nobody had anything more to do: a
+/// message one follower sent another is then handled at the instant it
+/// was sent, wherever the two run.
 ///
 /// ```text
 /// rome/sim/clock
 /// {"time_ms":61500,"lockstep":true}
+/// {"time_ms":61500,"lockstep":true,"round":1,"parties":["2f0c…","9a1e…"]}
 /// ```
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Clock {
     /// Simulated time, ms.
     pub time_ms: u64,
     /// Whether the world steps only when every participant is done with
     /// the present instant (else it is paced against the wall clock).
     pub lockstep: bool,
+    /// Which round of the instant this is (0: time has just moved on).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub round: u32,
+    /// In a round after the first, the parties (process ids) that answered
+    /// the round before: each follower waits until it has heard all of
+    /// their acknowledgements before it answers this one.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub parties: Vec<String>,
 }
 
-/// A process following a lock-step clock → the simulator: it has finished
-/// with the instant `time_ms` (every reaction to it is sent).
+/// A process following a lock-step clock → the simulator and the other
+/// followers: it has finished with round `round` of the instant `time_ms`
+/// (every reaction to it is sent), and whether it had anything to do
+/// since its acknowledgement of the round before.
 ///
 /// ```text
 /// rome/sim/clock/ack/<id>
 /// {"time_ms":61500}
+/// {"time_ms":61500,"round":1,"worked":false}
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub struct ClockAck {
     /// The instant finished with, simulated ms.
     pub time_ms: u64,
+    /// The round of the instant finished with.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub round: u32,
+    /// Whether the process handled anything since its last
+    /// acknowledgement (always so in round 0).
+    #[serde(default = "yes")]
+    pub worked: bool,
+}
+
+fn is_zero(n: &u32) -> bool {
+    *n == 0
+}
+
+fn yes() -> bool {
+    true
 }
 
 /// How often the clock is published, in simulated milliseconds.
@@ -151,9 +185,22 @@ mod tests {
         assert_eq!(root.sim_clock_party("z1"), "rome/sim/clock/party/z1");
         assert_eq!(root.sim_clock_acks(), "rome/sim/clock/ack/*");
         let a: ClockAck = crate::decode(br#"{"time_ms":61510}"#, "ack").unwrap();
-        assert_eq!(a.time_ms, 61_510);
+        assert_eq!((a.time_ms, a.round, a.worked), (61_510, 0, true));
+        let a: ClockAck =
+            crate::decode(br#"{"time_ms":61510,"round":2,"worked":false}"#, "ack").unwrap();
+        assert_eq!((a.round, a.worked), (2, false));
         let c: Clock = crate::decode(br#"{"time_ms":61500,"lockstep":true}"#, "clock").unwrap();
-        assert_eq!(c.time_ms, 61_500);
+        assert_eq!((c.time_ms, c.round, c.parties.len()), (61_500, 0, 0));
+        let round = Clock {
+            time_ms: 10,
+            lockstep: true,
+            round: 1,
+            parties: vec!["a1".into()],
+        };
+        assert_eq!(
+            String::from_utf8(crate::encode(&round)).unwrap(),
+            r#"{"time_ms":10,"lockstep":true,"round":1,"parties":["a1"]}"#
+        );
         let a = ContactCount {
             wall: 1,
             robot: 0,

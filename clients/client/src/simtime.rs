@@ -13,10 +13,19 @@
 //! before the next instant's clock, since Zenoh keeps one sender's
 //! messages in order on a link: a reaction to a reading of instant `t`
 //! happens at `t` in every run.
+//!
+//! Messages between two followers (a commit or a grant the data server
+//! publishes) are brought to the same rule by rounds: the simulator sends
+//! an instant again ([`Clock::round`]) while anyone had something to do
+//! since the round before, and a follower answers round `r` only once it
+//! has heard every other party's answer to round `r − 1`. What a party
+//! sent before answering has reached this process before its answer did,
+//! so a round in which nobody worked shows that nothing is on its way.
 
 use crate::ClientError;
 use rome_schema::sim::{Clock, ClockAck};
 use rome_schema::{decode, encode, Root};
+use std::collections::{HashMap, HashSet};
 use std::future::Future;
 use std::time::Duration;
 use zenoh::bytes::Encoding;
@@ -36,73 +45,248 @@ pub async fn follow<F: Future>(
     fut: F,
 ) -> Result<F::Output, ClientError> {
     let key = root.sim_clock();
-    let ticks = session
-        .declare_subscriber(&key)
-        .await
-        .map_err(ClientError::zenoh)?;
-    let first = loop {
-        let sample = match tokio::time::timeout(SAY_AFTER, ticks.recv_async()).await {
-            Ok(s) => s.map_err(ClientError::zenoh)?,
-            Err(_) => {
-                tracing::warn!(%key, "waiting for the simulator's clock (is `rome sim` running?)");
-                ticks.recv_async().await.map_err(ClientError::zenoh)?
-            }
-        };
-        match decode::<Clock>(&sample.payload().to_bytes(), "sim clock") {
-            Ok(c) => break c,
-            Err(e) => tracing::warn!(%key, error = %e, "clock message skipped"),
-        }
-    };
-    let clock = rome_clock::LockStep::new(first.time_ms);
-    let id = session.zid().to_string();
-    let token = if first.lockstep {
-        Some(
-            session
-                .liveliness()
-                .declare_token(root.sim_clock_party(&id))
-                .await
-                .map_err(ClientError::zenoh)?,
-        )
-    } else {
-        None
-    };
-    let ack_key = root.sim_clock_ack(&id);
-    let driver = {
-        let (clock, session) = (clock.clone(), session.clone());
-        tokio::spawn(async move {
-            while let Ok(sample) = ticks.recv_async().await {
+    // Decoded as they arrive, on the link's own thread, so that a new time
+    // is announced to the clock before any message behind it is handed
+    // over (`LockStep::announce`).
+    let following: std::sync::Arc<std::sync::OnceLock<rome_clock::LockStep>> = Default::default();
+    let (tx, ticks) = flume::unbounded::<Clock>();
+    let _ticks = {
+        let (following, said) = (following.clone(), key.clone());
+        session
+            .declare_subscriber(&key)
+            .callback(move |sample| {
                 let tick: Clock = match decode(&sample.payload().to_bytes(), "sim clock") {
                     Ok(c) => c,
                     Err(e) => {
-                        tracing::warn!(error = %e, "clock message skipped");
-                        continue;
+                        tracing::warn!(key = %said, error = %e, "clock message skipped");
+                        return;
                     }
                 };
-                clock.advance(tick.time_ms).await;
-                if tick.lockstep {
-                    clock.settled().await;
-                    let ack = ClockAck {
-                        time_ms: tick.time_ms,
-                    };
-                    let sent = session
-                        .put(&ack_key, encode(&ack))
-                        .encoding(Encoding::APPLICATION_JSON)
-                        .congestion_control(CongestionControl::Block)
-                        .await;
-                    match sent {
-                        // The program is ending: nothing is waiting on it.
-                        Err(_) if session.is_closed() => break,
-                        Err(e) => {
-                            tracing::warn!(key = %ack_key, error = %e, "clock acknowledgement not sent")
-                        }
-                        Ok(()) => {}
+                if let Some(clock) = following.get() {
+                    if tick.round == 0 || tick.time_ms > clock.now_ms() {
+                        clock.announce();
                     }
+                }
+                let _ = tx.send(tick);
+            })
+            .await
+            .map_err(ClientError::zenoh)?
+    };
+    let first = match tokio::time::timeout(SAY_AFTER, ticks.recv_async()).await {
+        Ok(c) => c,
+        Err(_) => {
+            tracing::warn!(%key, "waiting for the simulator's clock (is `rome sim` running?)");
+            ticks.recv_async().await
+        }
+    }
+    .map_err(|_| ClientError::Zenoh("the clock subscription ended".into()))?;
+    let clock = rome_clock::LockStep::new(first.time_ms);
+    let _ = following.set(clock.clone());
+    let id = session.zid().to_string();
+    let ack_key = root.sim_clock_ack(&id);
+    let heard = Heard::follow(session, root, &id).await?;
+    let driver = {
+        let (clock, session) = (clock.clone(), session.clone());
+        tokio::spawn(async move {
+            // The participants' activity when this process last answered.
+            let mut seen = clock.activity();
+            while let Ok(tick) = ticks.recv_async().await {
+                // Every clock message, even a round that does not move
+                // time: each ends what its callback may have announced.
+                clock.advance(tick.time_ms).await;
+                if !tick.lockstep {
+                    continue;
+                }
+                if tick.round > 0 {
+                    // Everything the other parties sent before answering
+                    // the round before is here once their answers are.
+                    heard
+                        .answers(&tick.parties, (tick.time_ms, tick.round - 1))
+                        .await;
+                }
+                clock.settled().await;
+                let now = clock.activity();
+                let ack = ClockAck {
+                    time_ms: tick.time_ms,
+                    round: tick.round,
+                    worked: tick.round == 0 || now != seen,
+                };
+                seen = now;
+                let sent = session
+                    .put(&ack_key, encode(&ack))
+                    .encoding(Encoding::APPLICATION_JSON)
+                    .congestion_control(CongestionControl::Block)
+                    .await;
+                match sent {
+                    // The program is ending: nothing is waiting on it.
+                    Err(_) if session.is_closed() => break,
+                    Err(e) => {
+                        tracing::warn!(key = %ack_key, error = %e, "clock acknowledgement not sent")
+                    }
+                    Ok(()) => {}
                 }
             }
         })
     };
-    let out = clock.participate(name, fut).await;
+    // What this process runs starts at the instant it first heard, and has
+    // settled there, before the process declares itself a party: a world
+    // held for its parties (`--parties`) cannot step before that, so the
+    // process starts at the same instant in every run.
+    let run = clock.participate(name, fut);
+    tokio::pin!(run);
+    let mut token = None;
+    if first.lockstep {
+        let declared = async {
+            clock.settled().await;
+            session
+                .liveliness()
+                .declare_token(root.sim_clock_party(&id))
+                .await
+        };
+        tokio::select! {
+            biased;
+            out = &mut run => {
+                driver.abort();
+                return Ok(out);
+            }
+            t = declared => token = Some(t.map_err(ClientError::zenoh)?),
+        }
+    }
+    let out = run.await;
     driver.abort();
     drop(token);
     Ok(out)
+}
+
+/// How long to wait for another party's answer before saying so.
+const ANSWER_SAY_AFTER: Duration = Duration::from_secs(5);
+/// How long to wait for it at all: a party that vanished without its
+/// liveliness token going (a killed host) must not stop the world.
+const ANSWER_GIVE_UP: Duration = Duration::from_secs(30);
+
+/// The latest answer heard from every other party, and which have gone.
+struct Heard {
+    me: String,
+    state: std::sync::Arc<std::sync::Mutex<HeardState>>,
+    changed: std::sync::Arc<tokio::sync::Notify>,
+    _subscribers: (zenoh::pubsub::Subscriber<()>, zenoh::pubsub::Subscriber<()>),
+}
+
+#[derive(Default)]
+struct HeardState {
+    /// Party id → the latest (instant, round) it answered.
+    answered: HashMap<String, (u64, u32)>,
+    /// Parties whose liveliness token has gone.
+    gone: HashSet<String>,
+}
+
+impl Heard {
+    async fn follow(session: &Session, root: &Root, me: &str) -> Result<Heard, ClientError> {
+        let state: std::sync::Arc<std::sync::Mutex<HeardState>> = Default::default();
+        let changed = std::sync::Arc::new(tokio::sync::Notify::new());
+        let acks = {
+            let (state, changed, me) = (state.clone(), changed.clone(), me.to_string());
+            session
+                .declare_subscriber(root.sim_clock_acks())
+                .callback(move |s| {
+                    let key = s.key_expr().as_str();
+                    let id = key.rsplit('/').next().unwrap_or(key);
+                    if id == me {
+                        return;
+                    }
+                    let ack: ClockAck = match decode(&s.payload().to_bytes(), "clock ack") {
+                        Ok(a) => a,
+                        Err(e) => {
+                            tracing::warn!(%key, error = %e, "clock acknowledgement skipped");
+                            return;
+                        }
+                    };
+                    let mut st = lock(&state);
+                    let at = (ack.time_ms, ack.round);
+                    let latest = st.answered.entry(id.to_string()).or_insert(at);
+                    *latest = (*latest).max(at);
+                    drop(st);
+                    changed.notify_waiters();
+                })
+                .await
+                .map_err(ClientError::zenoh)?
+        };
+        let members = {
+            let (state, changed) = (state.clone(), changed.clone());
+            session
+                .liveliness()
+                .declare_subscriber(root.sim_clock_parties())
+                .history(true)
+                .callback(move |s| {
+                    let key = s.key_expr().as_str();
+                    let id = key.rsplit('/').next().unwrap_or(key).to_string();
+                    let mut st = lock(&state);
+                    match s.kind() {
+                        zenoh::sample::SampleKind::Put => st.gone.remove(&id),
+                        zenoh::sample::SampleKind::Delete => st.gone.insert(id),
+                    };
+                    drop(st);
+                    changed.notify_waiters();
+                })
+                .await
+                .map_err(ClientError::zenoh)?
+        };
+        Ok(Heard {
+            me: me.to_string(),
+            state,
+            changed,
+            _subscribers: (acks, members),
+        })
+    }
+
+    /// Waits until every party of `parties` (this one aside) has answered
+    /// round `at` or a later one, or has gone.
+    async fn answers(&self, parties: &[String], at: (u64, u32)) {
+        let started = std::time::Instant::now();
+        let mut said = false;
+        loop {
+            let notified = self.changed.notified();
+            tokio::pin!(notified);
+            notified.as_mut().enable();
+            let missing: Vec<String> = {
+                let st = lock(&self.state);
+                parties
+                    .iter()
+                    .filter(|p| {
+                        p.as_str() != self.me
+                            && !st.gone.contains(*p)
+                            && st.answered.get(*p).is_none_or(|a| *a < at)
+                    })
+                    .cloned()
+                    .collect()
+            };
+            if missing.is_empty() {
+                return;
+            }
+            let waited = started.elapsed();
+            if waited >= ANSWER_GIVE_UP {
+                tracing::warn!(
+                    ?missing,
+                    instant = at.0,
+                    round = at.1,
+                    "lock-step clock: answering without these parties' answers to the round before"
+                );
+                return;
+            }
+            if waited >= ANSWER_SAY_AFTER && !said {
+                said = true;
+                tracing::warn!(
+                    ?missing,
+                    instant = at.0,
+                    round = at.1,
+                    "lock-step clock: waiting for these parties' answers to the round before"
+                );
+            }
+            let _ = tokio::time::timeout(Duration::from_millis(500), notified).await;
+        }
+    }
+}
+
+fn lock<T>(m: &std::sync::Mutex<T>) -> std::sync::MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
 }

@@ -138,8 +138,10 @@ pub fn spawn_clock(
                     let clock = rome_schema::sim::Clock {
                         time_ms: world.lock().time_ms(),
                         lockstep,
+                        round: 0,
+                        parties: Vec::new(),
                     };
-                    let _ = publish_clock(&session, &key, clock).await;
+                    let _ = publish_clock(&session, &key, &clock).await;
                 }
             }
         }
@@ -154,10 +156,37 @@ pub fn spawn_clock(
 /// The processes following a lock-step clock over the network (clients
 /// started with `--sim-time`): each is a party of `clock`, sent every
 /// instant and waited for until it acknowledges it.
+///
+/// An instant is settled in rounds ([`rome_schema::sim::Clock::round`]):
+/// round 0 moves time on; then, while anyone (a party, or this process)
+/// had something to do since the round before, the instant is sent again.
+/// Each follower answers a round only once it has heard every other
+/// party's answer to the round before, and Zenoh keeps one sender's
+/// messages in order: whatever a party sent before its answer has reached
+/// every follower by then. A round in which nobody worked so proves that
+/// no message between followers is still on its way, and the world may
+/// step.
 #[derive(Clone)]
 pub struct Parties {
     inner: Arc<std::sync::Mutex<PartyMap>>,
     _subscribers: Arc<(zenoh::pubsub::Subscriber<()>, zenoh::pubsub::Subscriber<()>)>,
+}
+
+#[derive(Default)]
+struct PartyMap {
+    parties: HashMap<String, Party>,
+    /// The instant and round the parties were last sent.
+    time_ms: u64,
+    round: u32,
+}
+
+struct Party {
+    clock: rome_clock::External,
+    /// The instant and round this party is to answer (`None`: not sent one
+    /// since it joined).
+    expected: Option<(u64, u32)>,
+    /// Whether its answer said it had worked since its answer before.
+    worked: bool,
 }
 
 impl Parties {
@@ -181,12 +210,16 @@ impl Parties {
                     match s.kind() {
                         zenoh::sample::SampleKind::Put => {
                             tracing::info!(party = %id, "a process follows the lock-step clock");
-                            let party = clock.external(&format!("process {id}"));
-                            all.insert(id, (party, u64::MAX));
+                            let party = Party {
+                                clock: clock.external(&format!("process {id}")),
+                                expected: None,
+                                worked: true,
+                            };
+                            all.parties.insert(id, party);
                         }
                         zenoh::sample::SampleKind::Delete => {
                             tracing::info!(party = %id, "a process no longer follows the lock-step clock");
-                            all.remove(&id);
+                            all.parties.remove(&id);
                         }
                     }
                 })
@@ -208,9 +241,10 @@ impl Parties {
                                 return;
                             }
                         };
-                    if let Some((party, expected)) = crate::locked(&inner).get(id) {
-                        if ack.time_ms == *expected {
-                            party.done();
+                    if let Some(party) = crate::locked(&inner).parties.get_mut(id) {
+                        if party.expected == Some((ack.time_ms, ack.round)) {
+                            party.worked = ack.worked;
+                            party.clock.done();
                         }
                     }
                 })
@@ -223,18 +257,64 @@ impl Parties {
         })
     }
 
-    /// Every party is sent instant `time_ms`: the clock waits for each.
-    pub fn expect(&self, time_ms: u64) {
+    /// Every party is sent instant `time_ms` (its round 0): the clock waits
+    /// for each. Returns the message that says so.
+    pub fn expect(&self, time_ms: u64) -> rome_schema::sim::Clock {
         let mut all = crate::locked(&self.inner);
-        for (party, expected) in all.values_mut() {
-            *expected = time_ms;
-            party.expect();
+        all.time_ms = time_ms;
+        all.round = 0;
+        for party in all.parties.values_mut() {
+            party.expected = Some((time_ms, 0));
+            party.clock.expect();
         }
+        rome_schema::sim::Clock {
+            time_ms,
+            lockstep: true,
+            round: 0,
+            parties: Vec::new(),
+        }
+    }
+
+    /// Once every party has answered the present round: `None` if the
+    /// instant is over (no party and, per `here_worked`, not this process
+    /// either had anything to do during the round, or there is no party);
+    /// otherwise every party is sent the next round, returned.
+    pub fn next_round(&self, here_worked: bool) -> Option<rome_schema::sim::Clock> {
+        let mut all = crate::locked(&self.inner);
+        let anyone_worked = all.round == 0
+            || here_worked
+            || all
+                .parties
+                .values()
+                .any(|p| p.worked || p.expected.is_none());
+        if all.parties.is_empty() || !anyone_worked {
+            return None;
+        }
+        all.round += 1;
+        let (time_ms, round) = (all.time_ms, all.round);
+        let mut ids = Vec::with_capacity(all.parties.len());
+        for (id, party) in all.parties.iter_mut() {
+            if party.expected.is_some() {
+                // Only those that answered the round before: a newcomer has
+                // sent no answer to wait for.
+                ids.push(id.clone());
+            }
+            party.expected = Some((time_ms, round));
+            party.worked = true;
+            party.clock.expect();
+        }
+        ids.sort();
+        Some(rome_schema::sim::Clock {
+            time_ms,
+            lockstep: true,
+            round,
+            parties: ids,
+        })
     }
 
     /// How many processes follow the clock.
     pub fn len(&self) -> usize {
-        crate::locked(&self.inner).len()
+        crate::locked(&self.inner).parties.len()
     }
 
     /// Whether none does.
@@ -243,18 +323,16 @@ impl Parties {
     }
 }
 
-type PartyMap = HashMap<String, (rome_clock::External, u64)>;
-
 /// Publishes `clock` on `key` (`<root>/sim/clock`). A lock-step clock is
 /// never dropped on the way (its followers need every instant); a paced
 /// one may be, as any stream.
 pub async fn publish_clock(
     session: &Session,
     key: &str,
-    clock: rome_schema::sim::Clock,
+    clock: &rome_schema::sim::Clock,
 ) -> zenoh::Result<()> {
     session
-        .put(key, rome_schema::encode(&clock))
+        .put(key, rome_schema::encode(clock))
         .encoding(zenoh::bytes::Encoding::APPLICATION_JSON)
         .congestion_control(if clock.lockstep {
             zenoh::qos::CongestionControl::Block
@@ -264,13 +342,13 @@ pub async fn publish_clock(
         .await
 }
 
-/// Publishes each instant a lock-step world steps to (from `steps`) on
-/// `<root>/sim/clock`, none dropped: processes following the clock need
+/// Publishes each instant and round of a lock-step world (from `steps`)
+/// on `<root>/sim/clock`, none dropped: processes following the clock need
 /// every one.
 pub fn spawn_lockstep_clock(
     session: &Session,
     root: &Root,
-    mut steps: tokio::sync::mpsc::UnboundedReceiver<u64>,
+    mut steps: tokio::sync::mpsc::UnboundedReceiver<rome_schema::sim::Clock>,
 ) -> Running {
     let (stop, mut stopped) = tokio::sync::oneshot::channel::<()>();
     let (session, key) = (session.clone(), root.sim_clock());
@@ -280,9 +358,8 @@ pub fn spawn_lockstep_clock(
                 biased;
                 _ = &mut stopped => return Ok(()),
                 step = steps.recv() => {
-                    let Some(time_ms) = step else { return Ok(()) };
-                    let clock = rome_schema::sim::Clock { time_ms, lockstep: true };
-                    let _ = publish_clock(&session, &key, clock).await;
+                    let Some(clock) = step else { return Ok(()) };
+                    let _ = publish_clock(&session, &key, &clock).await;
                 }
             }
         }
@@ -292,6 +369,59 @@ pub fn spawn_lockstep_clock(
         stop: Some(stop),
         task,
     }
+}
+
+/// Steps `world` in lock-step with `clock` and with `parties`, the
+/// processes that follow it over the network: each instant and each of
+/// its rounds is published on `<root>/sim/clock`, and the world steps once
+/// a round finds that nobody, here or there, had anything left to do.
+/// Returns the clock's publisher and the stepper.
+pub fn start_lockstep_with(
+    session: &Session,
+    root: &Root,
+    world: &SimWorld,
+    clock: &rome_clock::LockStep,
+    parties: Parties,
+) -> (Running, crate::sim::Stepper) {
+    let (steps, stepped) = tokio::sync::mpsc::unbounded_channel();
+    let publisher = spawn_lockstep_clock(session, root, stepped);
+    let on_step = {
+        let (parties, session, key) = (parties.clone(), session.clone(), root.sim_clock());
+        move |t| {
+            // Busy before the instant is announced: no reply can come
+            // before the clock knows to wait for it. Sent here and now,
+            // before this process's servers wake to the instant: every
+            // follower hears the new time before what they publish at it,
+            // so it reacts to a reading at the reading's instant.
+            let clock = parties.expect(t);
+            let sent = zenoh::Wait::wait(
+                session
+                    .put(&key, rome_schema::encode(&clock))
+                    .encoding(zenoh::bytes::Encoding::APPLICATION_JSON)
+                    .congestion_control(zenoh::qos::CongestionControl::Block),
+            );
+            if let Err(e) = sent {
+                tracing::warn!(%key, error = %e, "clock not published");
+            }
+        }
+    };
+    // Whether this process worked during a round: its participants'
+    // activity since the round was sent.
+    let (here, mut seen) = (clock.clone(), clock.activity());
+    let another_round = move || {
+        let now = here.activity();
+        let worked = now != seen;
+        seen = now;
+        match parties.next_round(worked) {
+            Some(round) => {
+                let _ = steps.send(round);
+                true
+            }
+            None => false,
+        }
+    };
+    let stepper = world.start_lockstep_rounds(clock.clone(), None, on_step, another_round);
+    (publisher, stepper)
 }
 
 /// Starts the base, proximity and both camera servers of simulated robot

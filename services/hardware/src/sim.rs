@@ -143,13 +143,28 @@ impl SimWorld {
     /// Steps the world in lock-step with `clock`: a step is taken only
     /// when every participant of the clock has finished with the present
     /// instant, and never faster than `speed` × real time (`None`: as fast
-    /// as they go). `on_step` hears each new time. Call within a tokio
-    /// runtime.
+    /// as they go). `on_step` hears each new time, before any participant
+    /// is woken to it. Call within a tokio runtime.
     pub fn start_lockstep(
         &self,
         clock: rome_clock::LockStep,
         speed: Option<f64>,
+        on_step: impl FnMut(u64) + Send + 'static,
+    ) -> Stepper {
+        self.start_lockstep_rounds(clock, speed, on_step, || false)
+    }
+
+    /// As [`SimWorld::start_lockstep`], and each time every participant
+    /// has settled, before the world steps, `another_round` is asked
+    /// whether the present instant goes on (it returns true once it has
+    /// made someone busy again, as [`crate::robot::Parties::next_round`]
+    /// does): the clock then waits for them first.
+    pub fn start_lockstep_rounds(
+        &self,
+        clock: rome_clock::LockStep,
+        speed: Option<f64>,
         mut on_step: impl FnMut(u64) + Send + 'static,
+        mut another_round: impl FnMut() -> bool + Send + 'static,
     ) -> Stepper {
         let stop = Arc::new(AtomicBool::new(false));
         let world = self.clone();
@@ -191,16 +206,24 @@ impl SimWorld {
                     continue;
                 }
                 waited = std::time::Duration::ZERO;
+                if another_round() {
+                    continue;
+                }
+                // `on_step` hears the new time before any participant wakes
+                // to it: what it sends goes ahead of whatever they send.
                 let stepped = clock
                     .try_advance(|| {
-                        let mut sim = world.lock();
-                        sim.step();
-                        sim.time_ms()
+                        let now = {
+                            let mut sim = world.lock();
+                            sim.step();
+                            sim.time_ms()
+                        };
+                        on_step(now);
+                        now
                     })
                     .await;
                 // Someone became busy after all: it finishes first.
                 let Some(now) = stepped else { continue };
-                on_step(now);
                 let wait = pacer.wait(now);
                 steps += 1;
                 progress.store(steps, Ordering::Relaxed);

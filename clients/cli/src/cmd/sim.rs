@@ -217,11 +217,13 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
                 let start = rome_schema::sim::Clock {
                     time_ms: clock.now_ms(),
                     lockstep: true,
+                    round: 0,
+                    parties: Vec::new(),
                 };
                 let interrupted = exit::interrupted();
                 tokio::pin!(interrupted);
                 while parties.len() < args.parties {
-                    rome_hardware::robot::publish_clock(&session, &root.sim_clock(), start)
+                    rome_hardware::robot::publish_clock(&session, &root.sim_clock(), &start)
                         .await
                         .map_err(|e| anyhow::anyhow!("cannot publish the clock: {e}"))?;
                     if parties.len() != said {
@@ -234,16 +236,9 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
                     }
                 }
             }
-            let (steps, stepped) = tokio::sync::mpsc::unbounded_channel();
-            servers.push(rome_hardware::robot::spawn_lockstep_clock(
-                &session, &root, stepped,
-            ));
-            let stepper = world.start_lockstep(clock.clone(), None, move |t| {
-                // Busy before the instant is announced: no reply can come
-                // before the clock knows to wait for it.
-                parties.expect(t);
-                let _ = steps.send(t);
-            });
+            let (publisher, stepper) =
+                rome_hardware::robot::start_lockstep_with(&session, &root, &world, clock, parties);
+            servers.push(publisher);
             (servers, stepper)
         }
         None => {

@@ -1,0 +1,148 @@
+//! A lock-step clock over the network: a message one follower sends
+//! another, after the sender had already finished with the instant, is
+//! still handled at the instant it was sent (the rounds of
+//! `rome_hardware::robot::Parties`).
+
+use rome_client::net::{open_loopback_peer, NetOptions};
+use rome_hardware::robot::{publish_clock, start_lockstep_with, Parties};
+use rome_hardware::sim::SimWorld;
+use rome_schema::Root;
+use rome_sim::{Sim, SimConfig};
+use std::time::Duration;
+
+const POKE: &str = "test/rounds/poke";
+const NEWS: &str = "test/rounds/news";
+
+/// Three followers in separate sessions: an asker queries a server at
+/// instant T; the server answers, then (50 ms of wall time later, long
+/// after it had said it was done with T before the query came) publishes
+/// news to a watcher. Without rounds the world has moved on by then and
+/// the watcher reads the news at a later instant; with them it reads it at
+/// T, the instant it was sent, however late it comes.
+#[tokio::test(flavor = "multi_thread", worker_threads = 4)]
+async fn news_sent_late_in_an_instant_is_read_at_that_instant() {
+    let root = Root::default();
+    let (hub, port) = open_loopback_peer(&[]).await.expect("hub on loopback");
+    let map = rome_maps::load_named("fig5_3").expect("built-in map");
+    let world = SimWorld::new(Sim::new(&map, SimConfig::default()));
+    let clock = rome_clock::LockStep::new(world.lock().time_ms());
+    let parties = Parties::follow(&hub, &root, &clock)
+        .await
+        .expect("parties followed");
+
+    let session = || async {
+        NetOptions::loopback_client(port)
+            .open()
+            .await
+            .expect("follower session")
+    };
+
+    // The watcher: its subscription is declared before it joins the clock.
+    let watcher = {
+        let (s, root) = (session().await, root.clone());
+        let news = s.declare_subscriber(NEWS).await.expect("subscriber");
+        tokio::spawn(async move {
+            rome_client::simtime::follow(&s, &root, "watcher", async {
+                let sample = rome_clock::idle(news.recv_async())
+                    .await
+                    .expect("news arrives");
+                let sent: u64 = String::from_utf8_lossy(&sample.payload().to_bytes())
+                    .parse()
+                    .expect("news is an instant");
+                (sent, rome_clock::now_ms().expect("in simulated time"))
+            })
+            .await
+            .expect("watcher follows the clock")
+        })
+    };
+    // The server: answers first, publishes later.
+    let server = {
+        let (s, root) = (session().await, root.clone());
+        let pokes = s.declare_queryable(POKE).await.expect("queryable");
+        tokio::spawn(async move {
+            let inner = s.clone();
+            rome_client::simtime::follow(&s, &root, "server", async move {
+                let query = rome_clock::idle(pokes.recv_async()).await.expect("a poke");
+                query.reply(POKE, "ok").await.expect("reply");
+                // The query ends here: the asker has its answer now.
+                drop(query);
+                let at = rome_clock::now_ms().expect("in simulated time");
+                rome_clock::busy(tokio::time::sleep(Duration::from_millis(50))).await;
+                inner.put(NEWS, at.to_string()).await.expect("news sent");
+                at
+            })
+            .await
+            .expect("server follows the clock")
+        })
+    };
+    // The asker: pokes the server 100 ms into the run, once the server has
+    // long said it is done with that instant.
+    let asker = {
+        let (s, root) = (session().await, root.clone());
+        tokio::spawn(async move {
+            let inner = s.clone();
+            rome_client::simtime::follow(&s, &root, "asker", async move {
+                rome_clock::sleep(Duration::from_millis(100)).await;
+                rome_clock::busy(tokio::time::sleep(Duration::from_millis(20))).await;
+                let replies = inner
+                    .get(POKE)
+                    .consolidation(zenoh::query::ConsolidationMode::None)
+                    .await
+                    .expect("poke sent");
+                rome_clock::busy(replies.recv_async())
+                    .await
+                    .expect("poke answered");
+                rome_clock::now_ms().expect("in simulated time")
+            })
+            .await
+            .expect("asker follows the clock")
+        })
+    };
+
+    // Hold the clock at its start until all three follow it, as
+    // `rome sim --lockstep --parties 3` does.
+    let start = rome_schema::sim::Clock {
+        time_ms: clock.now_ms(),
+        lockstep: true,
+        round: 0,
+        parties: Vec::new(),
+    };
+    let held = tokio::time::Instant::now();
+    while parties.len() < 3 {
+        assert!(
+            held.elapsed() < Duration::from_secs(20),
+            "only {} of 3 followers joined",
+            parties.len()
+        );
+        publish_clock(&hub, &root.sim_clock(), &start)
+            .await
+            .expect("clock published");
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+    let (_publisher, _stepper) = start_lockstep_with(&hub, &root, &world, &clock, parties);
+
+    let within = Duration::from_secs(30);
+    let asked = tokio::time::timeout(within, asker)
+        .await
+        .expect("asker ends");
+    let answered = tokio::time::timeout(within, server)
+        .await
+        .expect("server ends");
+    let (sent, read) = tokio::time::timeout(within, watcher)
+        .await
+        .expect("watcher ends")
+        .expect("watcher task");
+    let (asked, answered) = (asked.expect("asker task"), answered.expect("server task"));
+    assert_eq!(
+        asked, answered,
+        "the poke is answered at the instant it is sent"
+    );
+    assert_eq!(
+        sent, answered,
+        "the news carries the instant it was sent at"
+    );
+    assert_eq!(
+        read, sent,
+        "the news is read at the instant it was sent, not when it happened to arrive"
+    );
+}
