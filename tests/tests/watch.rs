@@ -244,3 +244,37 @@ async fn commits_beyond_the_backlog_are_counted_as_missed() {
     assert_eq!(next.seq, WRITES + 1);
     server.stop().await;
 }
+
+/// A watch over a slow link: `watch` returns only once the server knows of
+/// the subscription, so a commit another client makes right after is seen
+/// (the subscription's declaration takes 150 ms to cross; the other
+/// client's write does not wait for it).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_commit_made_just_after_watch_returns_is_seen_over_a_slow_link() {
+    let server = TestServer::start().await;
+    let relay = rome_tests::relay::Relay::start(
+        ([127, 0, 0, 1], 0).into(),
+        ([127, 0, 0, 1], server.port).into(),
+        Duration::from_millis(150),
+    )
+    .await
+    .unwrap();
+    let far = rome_client::net::NetOptions::loopback_client(relay.addr.port())
+        .open()
+        .await
+        .unwrap();
+    let watcher = rome_client::DataClient::connect(&far, rome_client::DataOptions::new("watcher"))
+        .await
+        .unwrap();
+    let writer = server.client("writer").await;
+    let mut watch = watcher.watch("Slow").await.unwrap();
+    writer.set("Slow", &json!(1)).await.unwrap();
+    let c = next_commit(&mut watch, |w| {
+        format!(
+            "the commit made right after `watch` ({} missed)",
+            w.missed()
+        )
+    })
+    .await;
+    assert_eq!((c.name.as_str(), c.seq), ("Slow", 1));
+}

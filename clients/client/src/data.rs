@@ -37,6 +37,9 @@ const MAX_BACKOFF: Duration = Duration::from_millis(500);
 /// How many bytes of commits a [`Watch`] keeps for its reader by default
 /// ([`DataOptions::watch_backlog`]).
 pub const WATCH_BACKLOG_BYTES: usize = 64 << 20;
+/// The variable [`DataClient::watch`] reads to learn that its subscription
+/// has reached the server (a plain read: nothing changes).
+const WATCH_PROBE: &str = "watch-probe";
 
 /// Numbers the clients of this process, so owners are unique per session.
 static NEXT_CLIENT: AtomicU64 = AtomicU64::new(1);
@@ -431,6 +434,12 @@ impl DataClient {
     /// Follows committed writes to variables matching `pattern` (`PosX`,
     /// `r1/**`, `**`): each exactly once, in commit order per variable.
     ///
+    /// Returns once the data server has answered a read sent after the
+    /// subscription on this client's link, so the server knows of the
+    /// subscription: every commit made after `watch` returns, by anyone,
+    /// is seen. (If no server answers within the request timeout, it
+    /// returns all the same: the subscription stands.)
+    ///
     /// Commits wait for the reader in a queue of up to
     /// [`DataOptions::watch_backlog`] bytes. It never holds up the session:
     /// a full queue that stopped the link's receive path would also stop
@@ -472,6 +481,13 @@ impl DataClient {
             .with(crate::inflight::counted(&key, (push, rx)))
             .await
             .map_err(ClientError::zenoh)?;
+        // Zenoh keeps a link's messages in order: once this read is
+        // answered, the subscription declared before it has reached the
+        // server. What the read finds does not matter.
+        let probe = self.key(DataOp::Var, &Name::new(WATCH_PROBE)?);
+        let _ = self
+            .attempt(&probe, &[], None, self.inner.options.request_timeout)
+            .await;
         Ok(Watch {
             subscriber,
             backlog,
