@@ -400,8 +400,11 @@ pub fn start_lockstep_with(
                     .encoding(zenoh::bytes::Encoding::APPLICATION_JSON)
                     .congestion_control(zenoh::qos::CongestionControl::Block),
             );
-            if let Err(e) = sent {
-                tracing::warn!(%key, error = %e, "clock not published");
+            match sent {
+                // The program is ending: nobody is waiting on the clock.
+                Err(_) if session.is_closed() => {}
+                Err(e) => tracing::warn!(%key, error = %e, "clock not published"),
+                Ok(()) => {}
             }
         }
     };
