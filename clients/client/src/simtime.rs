@@ -164,6 +164,9 @@ const ANSWER_SAY_AFTER: Duration = Duration::from_secs(5);
 /// liveliness token going (a killed host) must not stop the world.
 const ANSWER_GIVE_UP: Duration = Duration::from_secs(30);
 
+/// How many parties' answers are kept at most.
+const MAX_PARTIES: usize = 4096;
+
 /// The latest answer heard from every other party, and which have gone.
 struct Heard {
     me: String,
@@ -203,6 +206,11 @@ impl Heard {
                     };
                     let mut st = lock(&state);
                     let at = (ack.time_ms, ack.round);
+                    if !st.answered.contains_key(id) && st.answered.len() >= MAX_PARTIES {
+                        // Anyone can publish on the key: a flood of made-up
+                        // ids must not grow this without end.
+                        return;
+                    }
                     let latest = st.answered.entry(id.to_string()).or_insert(at);
                     *latest = (*latest).max(at);
                     drop(st);
@@ -222,8 +230,15 @@ impl Heard {
                     let id = key.rsplit('/').next().unwrap_or(key).to_string();
                     let mut st = lock(&state);
                     match s.kind() {
-                        zenoh::sample::SampleKind::Put => st.gone.remove(&id),
-                        zenoh::sample::SampleKind::Delete => st.gone.insert(id),
+                        zenoh::sample::SampleKind::Put => {
+                            st.gone.remove(&id);
+                        }
+                        zenoh::sample::SampleKind::Delete => {
+                            st.answered.remove(&id);
+                            if st.gone.len() < MAX_PARTIES {
+                                st.gone.insert(id);
+                            }
+                        }
                     };
                     drop(st);
                     changed.notify_waiters();
