@@ -49,9 +49,17 @@ pub async fn follow<F: Future>(
     // is announced to the clock before any message behind it is handed
     // over (`LockStep::announce`).
     let following: std::sync::Arc<std::sync::OnceLock<rome_clock::LockStep>> = Default::default();
+    // A new time is announced only while this process is a party and its
+    // driver (below) waits for the next clock message: a party's world
+    // moves on only after the party has answered, so the announcement
+    // cannot keep from its turn a participant the driver is waiting for
+    // (as it would, were the time announced in the middle of a round).
+    let party = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let waiting = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
     let (tx, ticks) = flume::unbounded::<Clock>();
     let _ticks = {
         let (following, said) = (following.clone(), key.clone());
+        let (party, waiting) = (party.clone(), waiting.clone());
         session
             .declare_subscriber(&key)
             .callback(move |sample| {
@@ -63,7 +71,11 @@ pub async fn follow<F: Future>(
                     }
                 };
                 if let Some(clock) = following.get() {
-                    if tick.round == 0 || tick.time_ms > clock.now_ms() {
+                    if tick.lockstep
+                        && party.load(std::sync::atomic::Ordering::Acquire)
+                        && waiting.load(std::sync::atomic::Ordering::Acquire)
+                        && tick.time_ms > clock.now_ms()
+                    {
                         clock.announce();
                     }
                 }
@@ -86,11 +98,16 @@ pub async fn follow<F: Future>(
     let ack_key = root.sim_clock_ack(&id);
     let heard = Heard::follow(session, root, &id).await?;
     let driver = {
-        let (clock, session) = (clock.clone(), session.clone());
+        let (clock, session, waiting) = (clock.clone(), session.clone(), waiting.clone());
         tokio::spawn(async move {
             // The participants' activity when this process last answered.
             let mut seen = clock.activity();
-            while let Ok(tick) = ticks.recv_async().await {
+            loop {
+                waiting.store(true, std::sync::atomic::Ordering::Release);
+                let Ok(tick) = ticks.recv_async().await else {
+                    break;
+                };
+                waiting.store(false, std::sync::atomic::Ordering::Release);
                 // Every clock message, even a round that does not move
                 // time: each ends what its callback may have announced.
                 clock.advance(tick.time_ms).await;
@@ -112,6 +129,10 @@ pub async fn follow<F: Future>(
                     worked: tick.round == 0 || now != seen,
                 };
                 seen = now;
+                // From here on the driver waits on nothing but the next
+                // clock message, which may come before the answer's `put`
+                // has returned.
+                waiting.store(true, std::sync::atomic::Ordering::Release);
                 let sent = session
                     .put(&ack_key, encode(&ack))
                     .encoding(Encoding::APPLICATION_JSON)
@@ -138,6 +159,7 @@ pub async fn follow<F: Future>(
     if first.lockstep {
         let declared = async {
             clock.settled().await;
+            party.store(true, std::sync::atomic::Ordering::Release);
             session
                 .liveliness()
                 .declare_token(root.sim_clock_party(&id))

@@ -177,6 +177,10 @@ impl SimWorld {
             let start = world.lock().time_ms();
             let pacer = Pacer::new(speed, start);
             clock.advance(start).await;
+            // The start is an instant like any other: whoever follows the
+            // clock from elsewhere has finished with it, and waits for the
+            // next, before the world first steps.
+            on_step(start);
             let mut steps = 0u64;
             let mut waited = std::time::Duration::ZERO;
             while !stopping.load(Ordering::Relaxed) {
