@@ -487,9 +487,8 @@ async fn a_run_whose_data_server_is_killed_and_restarted_mid_route_still_arrives
     let _ = session.close().await;
 }
 
-/// One lock-step run of 302L→A340R with every process on its own: the
-/// planner's whole output.
-async fn lockstep_split_run() -> String {
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_lockstep_run_split_into_processes_arrives() {
     // Every process takes its time from the simulator's clock, and the
     // world waits for each of them at every instant: six followers (data
     // server, four helpers, planner), held at the start until all are in.
@@ -521,14 +520,4 @@ async fn lockstep_split_run() -> String {
     for mut c in crew {
         c.kill();
     }
-    out
-}
-
-/// Two such runs at once, on a machine they load between them: the same
-/// run, line for line, since every message between the processes is
-/// handled at the instant it was sent (rounds, docs/navigation.md).
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn a_lockstep_run_split_into_processes_arrives_the_same_twice() {
-    let (a, b) = tokio::join!(lockstep_split_run(), lockstep_split_run());
-    assert_eq!(a, b, "two runs of one seed differ");
 }

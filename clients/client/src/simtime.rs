@@ -110,7 +110,20 @@ pub async fn follow<F: Future>(
                 waiting.store(false, std::sync::atomic::Ordering::Release);
                 // Every clock message, even a round that does not move
                 // time: each ends what its callback may have announced.
-                clock.advance(tick.time_ms).await;
+                tracing::trace!(time_ms = tick.time_ms, round = tick.round, "clock heard");
+                // `advance` waits for the turn; given up at a yield, before
+                // it has taken it, so it is tried again as if new.
+                while tokio::time::timeout(STUCK_SAY_EVERY, clock.advance(tick.time_ms))
+                    .await
+                    .is_err()
+                {
+                    tracing::warn!(
+                        time_ms = tick.time_ms,
+                        round = tick.round,
+                        clock = %clock.describe(),
+                        "lock-step: the clock cannot move on in this process"
+                    );
+                }
                 if !tick.lockstep {
                     continue;
                 }
@@ -121,7 +134,19 @@ pub async fn follow<F: Future>(
                         .answers(&tick.parties, (tick.time_ms, tick.round - 1))
                         .await;
                 }
-                clock.settled().await;
+                // A process that never settles holds every other up: say
+                // who in it is busy, every ten seconds.
+                while tokio::time::timeout(STUCK_SAY_EVERY, clock.settled())
+                    .await
+                    .is_err()
+                {
+                    tracing::warn!(
+                        time_ms = tick.time_ms,
+                        round = tick.round,
+                        clock = %clock.describe(),
+                        "lock-step: this process has not finished with the instant"
+                    );
+                }
                 let now = clock.activity();
                 let ack = ClockAck {
                     time_ms: tick.time_ms,
@@ -129,6 +154,12 @@ pub async fn follow<F: Future>(
                     worked: tick.round == 0 || now != seen,
                 };
                 seen = now;
+                tracing::trace!(
+                    time_ms = ack.time_ms,
+                    round = ack.round,
+                    worked = ack.worked,
+                    "answering"
+                );
                 // From here on the driver waits on nothing but the next
                 // clock message, which may come before the answer's `put`
                 // has returned.
@@ -180,6 +211,8 @@ pub async fn follow<F: Future>(
     Ok(out)
 }
 
+/// How often to say that this process has not settled at an instant.
+const STUCK_SAY_EVERY: Duration = Duration::from_secs(10);
 /// How long to wait for another party's answer before saying so.
 const ANSWER_SAY_AFTER: Duration = Duration::from_secs(5);
 /// How long to wait for it at all: a party that vanished without its

@@ -365,7 +365,7 @@ impl LockStep {
                 .cloned()
                 .unwrap_or_else(|| format!("participant {id} (gone)")),
         };
-        let (holder, ready) = {
+        let (holder, ready, announced) = {
             let t = locked(&self.sched.turn);
             let ready: Vec<String> = t
                 .ready
@@ -378,15 +378,16 @@ impl LockStep {
                     )
                 })
                 .collect();
-            (t.holder.map(name), ready)
+            (t.holder.map(name), ready, t.announced)
         };
         let (sleepers, next_due) = {
             let timers = locked(&self.sched.timers);
             (timers.len(), timers.keys().next().map(|(t, _)| *t))
         };
         format!(
-            "time {} ms; busy {} {:?}; turn held by {}; waiting for a turn {:?}; {} sleeper(s), next due {:?}; {} message(s) in flight",
+            "time {} ms{}; busy {} {:?}; turn held by {}; waiting for a turn {:?}; {} sleeper(s), next due {:?}; {} message(s) in flight",
             self.now_ms(),
+            if announced { " (a new time announced)" } else { "" },
             self.busy(),
             self.busy_names(),
             holder.as_deref().unwrap_or("nobody"),
