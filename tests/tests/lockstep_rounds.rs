@@ -55,6 +55,9 @@ async fn news_sent_late_in_an_instant_is_read_at_that_instant() {
             .expect("watcher follows the clock")
         })
     };
+    // The server and the asker stay until the watcher has read the news.
+    let (done_tx, done_server) = flume::bounded::<()>(1);
+    let done_asker = done_server.clone();
     // The server: answers first, publishes later.
     let server = {
         let (s, root) = (session().await, root.clone());
@@ -69,6 +72,9 @@ async fn news_sent_late_in_an_instant_is_read_at_that_instant() {
                 let at = rome_clock::now_ms().expect("in simulated time");
                 rome_clock::busy(tokio::time::sleep(Duration::from_millis(50))).await;
                 inner.put(NEWS, at.to_string()).await.expect("news sent");
+                // Stays a party: one that leaves mid-instant is no longer
+                // waited for, and its last messages with it.
+                let _ = rome_clock::idle(done_server.recv_async()).await;
                 at
             })
             .await
@@ -92,7 +98,9 @@ async fn news_sent_late_in_an_instant_is_read_at_that_instant() {
                 rome_clock::busy(replies.recv_async())
                     .await
                     .expect("poke answered");
-                rome_clock::now_ms().expect("in simulated time")
+                let at = rome_clock::now_ms().expect("in simulated time");
+                let _ = rome_clock::idle(done_asker.recv_async()).await;
+                at
             })
             .await
             .expect("asker follows the clock")
@@ -122,16 +130,17 @@ async fn news_sent_late_in_an_instant_is_read_at_that_instant() {
     let (_publisher, _stepper) = start_lockstep_with(&hub, &root, &world, &clock, parties);
 
     let within = Duration::from_secs(30);
+    let (sent, read) = tokio::time::timeout(within, watcher)
+        .await
+        .expect("watcher ends")
+        .expect("watcher task");
+    drop(done_tx);
     let asked = tokio::time::timeout(within, asker)
         .await
         .expect("asker ends");
     let answered = tokio::time::timeout(within, server)
         .await
         .expect("server ends");
-    let (sent, read) = tokio::time::timeout(within, watcher)
-        .await
-        .expect("watcher ends")
-        .expect("watcher task");
     let (asked, answered) = (asked.expect("asker task"), answered.expect("server task"));
     assert_eq!(
         asked, answered,
