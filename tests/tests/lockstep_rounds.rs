@@ -21,6 +21,20 @@ const NEWS: &str = "test/rounds/news";
 /// T, the instant it was sent, however late it comes.
 #[tokio::test(flavor = "multi_thread", worker_threads = 4)]
 async fn news_sent_late_in_an_instant_is_read_at_that_instant() {
+    late_news(true).await;
+}
+
+/// The same, with the server ending its run (and so leaving the clock)
+/// right after it has published: its last message is still read at the
+/// instant it was sent, since a party that leaves brings one more round.
+#[tokio::test(flavor = "multi_thread", worker_threads = 4)]
+async fn news_sent_just_before_its_sender_leaves_is_read_at_that_instant() {
+    late_news(false).await;
+}
+
+/// Runs the three followers; `server_stays`: the server remains a party
+/// until the news is read, else it leaves as soon as it has sent it.
+async fn late_news(server_stays: bool) {
     let root = Root::default();
     let (hub, port) = open_loopback_peer(&[]).await.expect("hub on loopback");
     let map = rome_maps::load_named("fig5_3").expect("built-in map");
@@ -74,7 +88,9 @@ async fn news_sent_late_in_an_instant_is_read_at_that_instant() {
                 inner.put(NEWS, at.to_string()).await.expect("news sent");
                 // Stays a party: one that leaves mid-instant is no longer
                 // waited for, and its last messages with it.
-                let _ = rome_clock::idle(done_server.recv_async()).await;
+                if server_stays {
+                    let _ = rome_clock::idle(done_server.recv_async()).await;
+                }
                 at
             })
             .await

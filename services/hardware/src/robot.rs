@@ -178,6 +178,11 @@ struct PartyMap {
     /// The instant and round the parties were last sent.
     time_ms: u64,
     round: u32,
+    /// Parties that left since the present round was sent: their last
+    /// messages may still be on their way, so another round follows, in
+    /// which each follower waits for them as for the others (until their
+    /// token's removal, which comes after those messages).
+    left: Vec<String>,
 }
 
 struct Party {
@@ -219,7 +224,10 @@ impl Parties {
                         }
                         zenoh::sample::SampleKind::Delete => {
                             tracing::info!(party = %id, "a process no longer follows the lock-step clock");
-                            all.parties.remove(&id);
+                            let was = all.parties.remove(&id);
+                            if was.is_some_and(|p| p.expected.is_some()) && all.left.len() < 4096 {
+                                all.left.push(id);
+                            }
                         }
                     }
                 })
@@ -263,6 +271,7 @@ impl Parties {
         let mut all = crate::locked(&self.inner);
         all.time_ms = time_ms;
         all.round = 0;
+        all.left.clear();
         for party in all.parties.values_mut() {
             party.expected = Some((time_ms, 0));
             party.clock.expect();
@@ -283,6 +292,7 @@ impl Parties {
         let mut all = crate::locked(&self.inner);
         let anyone_worked = all.round == 0
             || here_worked
+            || !all.left.is_empty()
             || all
                 .parties
                 .values()
@@ -303,6 +313,7 @@ impl Parties {
             party.worked = true;
             party.clock.expect();
         }
+        ids.append(&mut all.left);
         ids.sort();
         Some(rome_schema::sim::Clock {
             time_ms,
