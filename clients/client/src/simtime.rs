@@ -113,17 +113,13 @@ pub async fn follow<F: Future>(
                 tracing::trace!(time_ms = tick.time_ms, round = tick.round, "clock heard");
                 // `advance` waits for the turn; given up at a yield, before
                 // it has taken it, so it is tried again as if new.
-                while tokio::time::timeout(STUCK_SAY_EVERY, clock.advance(tick.time_ms))
-                    .await
-                    .is_err()
-                {
-                    tracing::warn!(
-                        time_ms = tick.time_ms,
-                        round = tick.round,
-                        clock = %clock.describe(),
-                        "lock-step: the clock cannot move on in this process"
-                    );
-                }
+                saying_when_stuck(
+                    &clock,
+                    &tick,
+                    || clock.advance(tick.time_ms),
+                    "lock-step: the clock cannot move on in this process",
+                )
+                .await;
                 if !tick.lockstep {
                     continue;
                 }
@@ -134,19 +130,14 @@ pub async fn follow<F: Future>(
                         .answers(&tick.parties, (tick.time_ms, tick.round - 1))
                         .await;
                 }
-                // A process that never settles holds every other up: say
-                // who in it is busy, every ten seconds.
-                while tokio::time::timeout(STUCK_SAY_EVERY, clock.settled())
-                    .await
-                    .is_err()
-                {
-                    tracing::warn!(
-                        time_ms = tick.time_ms,
-                        round = tick.round,
-                        clock = %clock.describe(),
-                        "lock-step: this process has not finished with the instant"
-                    );
-                }
+                // A process that never settles holds every other up.
+                saying_when_stuck(
+                    &clock,
+                    &tick,
+                    || clock.settled(),
+                    "lock-step: this process has not finished with the instant",
+                )
+                .await;
                 let now = clock.activity();
                 let ack = ClockAck {
                     time_ms: tick.time_ms,
@@ -209,6 +200,26 @@ pub async fn follow<F: Future>(
     driver.abort();
     drop(token);
     Ok(out)
+}
+
+/// Runs `step` (made anew after each [`STUCK_SAY_EVERY`], so it must be
+/// safe to drop at an await) until it completes, saying `what` with the
+/// clock's state each time it has not: who in this process keeps the
+/// world waiting.
+async fn saying_when_stuck<F: Future<Output = ()>>(
+    clock: &rome_clock::LockStep,
+    tick: &Clock,
+    mut step: impl FnMut() -> F,
+    what: &str,
+) {
+    while tokio::time::timeout(STUCK_SAY_EVERY, step()).await.is_err() {
+        tracing::warn!(
+            time_ms = tick.time_ms,
+            round = tick.round,
+            clock = %clock.describe(),
+            "{what}"
+        );
+    }
 }
 
 /// How often to say that this process has not settled at an instant.
