@@ -1,7 +1,8 @@
 //! Simulated time that advances only when everyone has finished with the
 //! present instant: ROS's `use_sim_time` with a lock-step simulator.
 //!
-//! How this crate is laid out (one file):
+//! How this crate is laid out (the clock in this file; [`Stamp`] and
+//! [`Hold`], for a run split into processes, in `rounds.rs`):
 //! - [`LockStep`]: the clock a simulator steps. It counts the
 //!   *participants* that are busy; [`LockStep::settled`] waits until none
 //!   is, and [`LockStep::advance`] moves time on and wakes the sleepers
@@ -28,6 +29,9 @@
 //!   keeps the clock busy until it arrives.
 //! - [`External`] ([`LockStep::external`]): a party in another process,
 //!   busy from the moment it is sent an instant until it says it is done.
+//! - [`Stamp`], [`Hold`], [`LockStep::hand_over`]: in a run split into
+//!   processes, the requests of one round handed to a server in the same
+//!   order in every run, whatever order they arrived in.
 //!
 //! A participant that waits on several things at once writes
 //! `tokio::select! { biased; … }`: without `biased` tokio polls the
@@ -41,6 +45,9 @@
 //! order they were created among those woken: what wakes whom is decided
 //! by what ran before, not by threads, so the same start gives the same
 //! run.
+
+mod rounds;
+pub use rounds::{in_rounds, name_hash, stamp, Held, Hold, Stamp};
 
 use std::cell::RefCell;
 use std::collections::BTreeMap;
@@ -75,6 +82,9 @@ struct Sched {
     /// How often a participant has become busy (made, or woken from
     /// parked): whether anything happened between two looks.
     activity: AtomicU64,
+    /// Rounds of a run split into processes, and the holds that wait on
+    /// them.
+    rounds: Mutex<rounds::Rounds>,
 }
 
 /// A subscription the clock counts messages for.
@@ -296,6 +306,7 @@ impl LockStep {
                 next_sub: AtomicU64::new(0),
                 externals: Mutex::new(Vec::new()),
                 activity: AtomicU64::new(0),
+                rounds: Mutex::new(rounds::Rounds::default()),
             }),
         }
     }
