@@ -193,6 +193,18 @@ impl DataOp {
     fn from_chunk(chunk: &str) -> Option<Self> {
         DataOp::ALL.into_iter().find(|op| op.chunk() == chunk)
     }
+
+    /// Whether a request of this operation changes nothing (`history`
+    /// only without a payload, which would set the length). In a run split
+    /// into processes the data server answers these within their round and
+    /// holds anything else until its round is over.
+    pub fn only_reads(self, with_payload: bool) -> bool {
+        match self {
+            DataOp::Var | DataOp::Sem | DataOp::Watch => true,
+            DataOp::History => !with_payload,
+            _ => false,
+        }
+    }
 }
 
 /// A parsed data-server key: an operation on a name.

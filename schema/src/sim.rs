@@ -28,6 +28,7 @@ use serde::{Deserialize, Serialize};
 /// rome/sim/clock
 /// {"time_ms":61500,"lockstep":true}
 /// {"time_ms":61500,"lockstep":true,"round":1,"parties":["2f0c…","9a1e…"]}
+/// {"time_ms":61500,"lockstep":true,"round":2,"parties":["2f0c…","9a1e…"],"release":true}
 /// ```
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Clock {
@@ -44,6 +45,12 @@ pub struct Clock {
     /// their acknowledgements before it answers this one.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub parties: Vec<String>,
+    /// Nobody had anything to do in the round before, but requests that
+    /// change something wait for their round to end (some party said it
+    /// was `holding` them): every process hands them to its servers now,
+    /// in the same order in every run, before it answers this round.
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub release: bool,
 }
 
 /// A process following a lock-step clock → the simulator and the other
@@ -55,6 +62,7 @@ pub struct Clock {
 /// rome/sim/clock/ack/<id>
 /// {"time_ms":61500}
 /// {"time_ms":61500,"round":1,"worked":false}
+/// {"time_ms":61500,"round":1,"worked":false,"holding":true}
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub struct ClockAck {
@@ -67,10 +75,18 @@ pub struct ClockAck {
     /// acknowledgement (always so in round 0).
     #[serde(default = "yes")]
     pub worked: bool,
+    /// Whether its servers hold requests that change something until a
+    /// round with `release`.
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub holding: bool,
 }
 
 fn is_zero(n: &u32) -> bool {
     *n == 0
+}
+
+fn is_false(b: &bool) -> bool {
+    !*b
 }
 
 fn yes() -> bool {
@@ -196,11 +212,20 @@ mod tests {
             lockstep: true,
             round: 1,
             parties: vec!["a1".into()],
+            release: false,
         };
         assert_eq!(
             String::from_utf8(crate::encode(&round)).unwrap(),
             r#"{"time_ms":10,"lockstep":true,"round":1,"parties":["a1"]}"#
         );
+        let c: Clock = crate::decode(
+            br#"{"time_ms":10,"lockstep":true,"round":2,"release":true}"#,
+            "clock",
+        )
+        .unwrap();
+        assert!(c.release && !a.holding);
+        let a: ClockAck = crate::decode(br#"{"time_ms":10,"holding":true}"#, "ack").unwrap();
+        assert!(a.holding && a.worked);
         let a = ContactCount {
             wall: 1,
             robot: 0,

@@ -4,7 +4,8 @@
 //! `rome_hardware::robot::Parties`).
 
 use rome_client::net::{open_loopback_peer, NetOptions};
-use rome_hardware::robot::{publish_clock, start_lockstep_with, Parties};
+use rome_client::robot::{RobotClient, RobotOptions};
+use rome_hardware::robot::{publish_clock, spawn_sim_robot, start_lockstep_with, Parties, Rates};
 use rome_hardware::sim::SimWorld;
 use rome_schema::Root;
 use rome_sim::{Sim, SimConfig};
@@ -130,6 +131,7 @@ async fn late_news(server_stays: bool) {
         lockstep: true,
         round: 0,
         parties: Vec::new(),
+        release: false,
     };
     let held = tokio::time::Instant::now();
     while parties.len() < 3 {
@@ -170,4 +172,140 @@ async fn late_news(server_stays: bool) {
         read, sent,
         "the news is read at the instant it was sent, not when it happened to arrive"
     );
+}
+
+/// Which of the two commanding followers is slow.
+#[derive(Clone, Copy)]
+enum Slow {
+    Alpha,
+    Beta,
+}
+
+/// Two followers, each its own session, command one simulated base at the
+/// same instant: alpha sets 100 mm/s, beta 200 mm/s. One of them is slow:
+/// its command leaves 80 ms of wall time after the other's. The base
+/// serves them in the same order either way (by the senders' stable
+/// names, not by arrival), so it is left at the same speed: served as they
+/// arrive, the slow one's command would come last and win each time.
+#[tokio::test(flavor = "multi_thread", worker_threads = 4)]
+async fn commands_two_processes_send_one_base_at_one_instant_are_served_in_the_same_order_whichever_arrives_first(
+) {
+    let alpha_slow = speed_left(Slow::Alpha).await;
+    let beta_slow = speed_left(Slow::Beta).await;
+    assert!(
+        [100.0, 200.0].contains(&alpha_slow),
+        "the base is left at one of the two speeds, not {alpha_slow}"
+    );
+    assert_eq!(
+        alpha_slow, beta_slow,
+        "the same commands at the same instant leave the base at the same speed, whichever arrived first"
+    );
+}
+
+/// Runs the two followers against a lock-step simulator with robot r1;
+/// the speed both read back at the instant after their commands.
+async fn speed_left(slow: Slow) -> f64 {
+    let root = Root::default();
+    let (hub, port) = open_loopback_peer(&[]).await.expect("hub on loopback");
+    let map = rome_maps::load_named("fig5_3").expect("built-in map");
+    let mut sim = Sim::new(&map, SimConfig::default());
+    let heading = sim
+        .scene()
+        .world
+        .position("301L")
+        .expect("301L on the map")
+        .wall_heading_deg;
+    sim.add_robot_at("r1", "301L", heading).expect("r1 placed");
+    let world = SimWorld::new(sim);
+    let clock = rome_clock::LockStep::new(world.lock().time_ms());
+    let rates = Rates {
+        state: Some(Duration::from_millis(100)),
+        scan: Some(Duration::from_millis(100)),
+        camera: Duration::from_secs(3_600),
+    };
+    let _servers = {
+        let (hub, root, world) = (hub.clone(), root.clone(), world.clone());
+        clock
+            .participate("sim", async move {
+                spawn_sim_robot(&hub, &root, &world, "r1", rates).expect("r1's servers")
+            })
+            .await
+    };
+    let parties = Parties::follow(&hub, &root, &clock)
+        .await
+        .expect("parties followed");
+
+    let (done_tx, done_rx) = flume::bounded::<()>(1);
+    let (read_tx, read_rx) = flume::unbounded::<f64>();
+    let mut followers = Vec::new();
+    for (name, speed, is_slow) in [
+        ("alpha", 100.0, matches!(slow, Slow::Alpha)),
+        ("beta", 200.0, matches!(slow, Slow::Beta)),
+    ] {
+        let s = NetOptions::loopback_client(port)
+            .open()
+            .await
+            .expect("follower session");
+        let (root, done, read) = (root.clone(), done_rx.clone(), read_tx.clone());
+        followers.push(tokio::spawn(async move {
+            rome_client::simtime::follow(&s, &root, name, async {
+                let rc = RobotClient::connect(&s, "r1", RobotOptions::new(name))
+                    .await
+                    .expect("client of r1");
+                rome_clock::sleep(Duration::from_millis(100)).await;
+                if is_slow {
+                    rome_clock::busy(tokio::time::sleep(Duration::from_millis(80))).await;
+                }
+                let sent_at = rome_clock::now_ms();
+                rc.go(speed).await.expect("go carried out");
+                assert_eq!(rome_clock::now_ms(), sent_at, "answered in its instant");
+                rome_clock::sleep(Duration::from_millis(10)).await;
+                let left = rc.speed().await.expect("speed read").speed_mm_s;
+                read.send(left).expect("reported");
+                // Both stay parties until both have read.
+                let _ = rome_clock::idle(done.recv_async()).await;
+            })
+            .await
+            .expect("follows the clock")
+        }));
+    }
+
+    let start = rome_schema::sim::Clock {
+        time_ms: clock.now_ms(),
+        lockstep: true,
+        round: 0,
+        parties: Vec::new(),
+        release: false,
+    };
+    let held = tokio::time::Instant::now();
+    while parties.len() < 2 {
+        assert!(
+            held.elapsed() < Duration::from_secs(20),
+            "only {} of 2 followers joined",
+            parties.len()
+        );
+        publish_clock(&hub, &root.sim_clock(), &start)
+            .await
+            .expect("clock published");
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+    let (_publisher, _stepper) = start_lockstep_with(&hub, &root, &world, &clock, parties);
+    let within = Duration::from_secs(30);
+    let mut read = Vec::new();
+    for _ in 0..2 {
+        let left = tokio::time::timeout(within, read_rx.recv_async())
+            .await
+            .expect("both read within 30 s")
+            .expect("a follower reports");
+        read.push(left);
+    }
+    drop(done_tx);
+    for f in followers {
+        tokio::time::timeout(within, f)
+            .await
+            .expect("follower ends")
+            .expect("follower task");
+    }
+    assert_eq!(read[0], read[1], "both read the speed the base was left at");
+    read[0]
 }

@@ -138,11 +138,15 @@ impl CommonArgs {
         net
     }
 
-    /// Opens a session for this side.
+    /// Opens a session for this side (a client's is the process's shared
+    /// one, if [`share_session`] gave one).
     pub async fn open(&self, side: Side) -> anyhow::Result<zenoh::Session> {
         match side {
             Side::Server => Ok(self.open_server().await?.0),
-            Side::Client => Ok(self.net(side).open().await?),
+            Side::Client => match SHARED.get() {
+                Some(session) => Ok(session.clone()),
+                None => Ok(self.net(side).open().await?),
+            },
         }
     }
 
@@ -231,4 +235,16 @@ pub fn default_data_dir(root: &str) -> anyhow::Result<PathBuf> {
             .ok_or_else(|| anyhow::anyhow!("neither XDG_DATA_HOME nor HOME is set, so there is no default data directory; give --data-dir DIR or --in-memory"))?,
     };
     Ok(base.join("rome").join(root.replace('/', "_")))
+}
+
+/// The session every client of this process uses, once shared.
+static SHARED: std::sync::OnceLock<zenoh::Session> = std::sync::OnceLock::new();
+
+/// Makes `session` the one [`CommonArgs::open`] gives every client of this
+/// process. A process that follows a lock-step clock sends its answers to
+/// the clock on it: Zenoh keeps one sender's messages in order only on one
+/// session's link, and the rounds rely on a process's requests reaching
+/// the others before its answer does.
+pub fn share_session(session: &zenoh::Session) {
+    let _ = SHARED.set(session.clone());
 }

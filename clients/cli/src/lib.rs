@@ -176,8 +176,11 @@ pub async fn run(cli: Cli) -> anyhow::Result<u8> {
         "--sim-time is for the data server and the clients that follow a simulator (`rome sim` keeps the clock itself)"
     );
     let session = cli.common.open(args::Side::Client).await?;
+    args::share_session(&session);
     let root = cli.common.root()?;
-    let name = format!("rome, process {}", std::process::id());
+    // The same in every run of the same command, whatever its ports or
+    // process id: it orders this process's requests among the others'.
+    let name = format!("rome {:?}", cli.command);
     let out = rome_client::simtime::follow(&session, &root, &name, run_command(cli)).await;
     let _ = session.close().await;
     out?

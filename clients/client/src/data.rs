@@ -176,6 +176,16 @@ impl DataClient {
         format!("{}.{n}", self.inner.owner)
     }
 
+    /// The band requests travel in: the options', except in a lock-step
+    /// run (see [`crate::robot::band`]).
+    fn band(&self) -> Priority {
+        if rome_clock::is_lockstep() {
+            Priority::DEFAULT
+        } else {
+            self.inner.options.priority
+        }
+    }
+
     fn key(&self, op: DataOp, name: &Name) -> String {
         self.inner.options.root.data(op, name)
     }
@@ -198,15 +208,27 @@ impl DataClient {
             // arrives, not held until the server has finished with the
             // query (Zenoh's default, to pick the latest of several).
             .consolidation(ConsolidationMode::None)
-            .priority(self.inner.options.priority);
+            .priority(self.band());
         if let Some(p) = payload {
             get = get.payload(p.to_vec()).encoding(Encoding::APPLICATION_JSON);
         }
+        if let Some(stamp) = rome_clock::stamp() {
+            get = get.attachment(stamp.to_bytes().to_vec());
+        }
         let replies = get.await.map_err(ClientError::zenoh)?;
-        // In a lock-step run a held wait waits for another client (idle);
-        // anything else is answered at once (busy: the clock waits).
+        // In a lock-step run a held wait waits for another client (idle),
+        // and so does a change that waits for its round to end in a run
+        // split into processes; anything else is answered at once (busy:
+        // the clock waits).
         let answer = replies.recv_async();
-        let answer = if params.iter().any(|(k, _)| *k == param::HOLD_MS) {
+        let held = rome_clock::in_rounds()
+            && !self
+                .inner
+                .options
+                .root
+                .parse_data(key)
+                .map_or(true, |k| k.op.only_reads(payload.is_some()));
+        let answer = if held || params.iter().any(|(k, _)| *k == param::HOLD_MS) {
             rome_clock::idle(answer).await
         } else {
             rome_clock::busy(answer).await
@@ -251,7 +273,14 @@ impl DataClient {
                 });
             }
             let tried = Instant::now();
-            let this_attempt = left.min(attempt_timeout);
+            // In a run split into processes a change waits for its round
+            // to end, and a second attempt would be stamped for a later
+            // round than the first: one attempt, as long as the call.
+            let this_attempt = if rome_clock::in_rounds() {
+                left
+            } else {
+                left.min(attempt_timeout)
+            };
             // A loaded server or link answers late: give the next attempt
             // longer instead of abandoning every one at the same point.
             attempt_timeout =
@@ -297,7 +326,7 @@ impl DataClient {
             .session
             .get(key)
             .timeout(self.inner.options.max_attempt_timeout)
-            .priority(self.inner.options.priority)
+            .priority(self.band())
             .await
             .map_err(ClientError::zenoh)?;
         let mut out = Vec::new();

@@ -73,6 +73,20 @@ pub fn zenoh_priority(priority: u8) -> Priority {
     }
 }
 
+/// The band a request travels in: its priority's ([`zenoh_priority`]),
+/// except in a lock-step run, where every message goes in the default
+/// band. Zenoh keeps one sender's messages in order only within a band,
+/// and the clock's rounds rely on that order; the priority still rides as
+/// a parameter, which is what the servers go by, and the clock waits for
+/// every message whatever its band.
+pub fn band(priority: u8) -> Priority {
+    if rome_clock::is_lockstep() {
+        Priority::DEFAULT
+    } else {
+        zenoh_priority(priority)
+    }
+}
+
 /// How a [`RobotClient`] behaves.
 #[derive(Debug, Clone)]
 pub struct RobotOptions {
@@ -348,21 +362,28 @@ impl RobotClient {
                 .timeout(timeout)
                 // One server answers: its reply is handed over at once.
                 .consolidation(ConsolidationMode::None)
-                .priority(zenoh_priority(o.priority));
+                .priority(band(o.priority));
             if let Some(p) = &payload {
                 get = get.payload(p.clone()).encoding(Encoding::APPLICATION_JSON);
+            }
+            if let Some(stamp) = rome_clock::stamp() {
+                get = get.attachment(stamp.to_bytes().to_vec());
             }
             let tried = std::time::Instant::now();
             let replies = get.await.map_err(ClientError::zenoh)?;
             // In a lock-step run, a command queued behind another client's
-            // lock waits for that client (idle); any other is answered at
-            // once (busy: the clock waits for the answer).
+            // lock waits for that client (idle), and so does one that waits
+            // for its round to end in a run split into processes; any other
+            // is answered at once (busy: the clock waits for the answer).
             let answer = replies.recv_async();
-            let answer = if wait.is_zero() {
+            let held = rome_clock::in_rounds() && !rome_schema::robot::only_reads(&key);
+            tracing::trace!(%key, now = ?rome_clock::now_ms(), "TMP request sent");
+            let answer = if wait.is_zero() && !held {
                 rome_clock::busy(answer).await
             } else {
                 rome_clock::idle(answer).await
             };
+            tracing::trace!(%key, now = ?rome_clock::now_ms(), "TMP reply in");
             if let Ok(reply) = answer {
                 match reply.result() {
                     Ok(sample) => {

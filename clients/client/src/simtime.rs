@@ -21,6 +21,17 @@
 //! has heard every other party's answer to round `r − 1`. What a party
 //! sent before answering has reached this process before its answer did,
 //! so a round in which nobody worked shows that nothing is on its way.
+//! One sender's messages keep their order only within one of Zenoh's
+//! priority bands (a reply sent before a round was seen to arrive after
+//! it across two), so in a lock-step run every request, reply, answer and
+//! round travels in the default band: the clients' priorities still ride
+//! as a parameter, which is what the servers go by.
+//!
+//! Requests to a server from two processes within one round are put in
+//! the same order in every run: each carries a stamp (`rome_clock::Stamp`:
+//! its round, this process's name, a count), and a server holds what
+//! changes something until its round is over, then takes it in stamp
+//! order (`rome_clock::Hold`); see `LockStep::hand_over`.
 
 use crate::ClientError;
 use rome_schema::sim::{Clock, ClockAck};
@@ -37,7 +48,9 @@ const SAY_AFTER: Duration = Duration::from_secs(2);
 
 /// Runs `fut`, named `name`, in the simulator's time; see the module.
 /// Returns once `fut` does. Waits for the simulator's first clock message
-/// before starting `fut`.
+/// before starting `fut`. `name` also orders this process's requests
+/// among those of the same round from other processes: the same in every
+/// run, and unlike any other party's.
 pub async fn follow<F: Future>(
     session: &Session,
     root: &Root,
@@ -108,6 +121,8 @@ pub async fn follow<F: Future>(
                     break;
                 };
                 waiting.store(false, std::sync::atomic::Ordering::Release);
+                // What is sent from here on precedes this round's answer.
+                clock.set_round(tick.time_ms, tick.round);
                 // Every clock message, even a round that does not move
                 // time: each ends what its callback may have announced.
                 tracing::trace!(time_ms = tick.time_ms, round = tick.round, "clock heard");
@@ -130,6 +145,16 @@ pub async fn follow<F: Future>(
                         .answers(&tick.parties, (tick.time_ms, tick.round - 1))
                         .await;
                 }
+                if clock.in_rounds() {
+                    // Every request stamped before this round is here: the
+                    // reads stamped up to it are answered now and, after a
+                    // round in which nobody had anything to do (`release`),
+                    // first the requests that change something, in stamp
+                    // order.
+                    clock
+                        .hand_over((tick.time_ms, tick.round), tick.release)
+                        .await;
+                }
                 // A process that never settles holds every other up.
                 saying_when_stuck(
                     &clock,
@@ -138,23 +163,32 @@ pub async fn follow<F: Future>(
                     "lock-step: this process has not finished with the instant",
                 )
                 .await;
+                // Set before the look at the activity: a participant woken
+                // after the look stamps what it sends for the next round,
+                // and one woken before it is counted in this answer.
+                clock.set_round(tick.time_ms, tick.round.saturating_add(1));
                 let now = clock.activity();
                 let ack = ClockAck {
                     time_ms: tick.time_ms,
                     round: tick.round,
                     worked: tick.round == 0 || now != seen,
+                    holding: clock.holding(),
                 };
                 seen = now;
                 tracing::trace!(
                     time_ms = ack.time_ms,
                     round = ack.round,
                     worked = ack.worked,
+                    holding = ack.holding,
                     "answering"
                 );
                 // From here on the driver waits on nothing but the next
                 // clock message, which may come before the answer's `put`
                 // has returned.
                 waiting.store(true, std::sync::atomic::Ordering::Release);
+                // In the default band, as every request of a lock-step
+                // run: Zenoh keeps one sender's messages in order only
+                // within a band.
                 let sent = session
                     .put(&ack_key, encode(&ack))
                     .encoding(Encoding::APPLICATION_JSON)
@@ -181,6 +215,8 @@ pub async fn follow<F: Future>(
     if first.lockstep {
         let declared = async {
             clock.settled().await;
+            // From now on requests between processes go by rounds.
+            clock.split_into_rounds(name);
             party.store(true, std::sync::atomic::Ordering::Release);
             session
                 .liveliness()

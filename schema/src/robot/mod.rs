@@ -83,6 +83,33 @@ pub mod param {
     pub const SUPPRESS_MS: &str = "suppress_ms";
 }
 
+/// The requests that only read, on any hardware server: the commands
+/// whose answer changes nothing, `stats`, and a stream's key (its last
+/// publication). In a run split into processes a server answers these
+/// within their round and holds anything else until its round is over,
+/// so a client waits for the one busy and for the other idle.
+pub const READS: &[&str] = &[
+    "pose",
+    "speed",
+    "wheel-speed",
+    "mode",
+    "bumper",
+    "sonar",
+    "ir",
+    "size",
+    "rows",
+    "stats",
+    "state",
+    "scan",
+    "frame",
+];
+
+/// Whether a request on `key` only reads ([`READS`]): its last chunk is
+/// one of them, or the key has wildcards (a sweep of every read).
+pub fn only_reads(key: &str) -> bool {
+    key.contains(['*', '$']) || READS.contains(&key.rsplit('/').next().unwrap_or_default())
+}
+
 /// A request's priority when it names none (Zenoh's default `Data` band).
 pub const DEFAULT_PRIORITY: u8 = 128;
 /// How long a request may wait in a queue when it says nothing, ms.

@@ -227,7 +227,14 @@ pub async fn run(
             Some(disk)
         }
     };
-    let inbox = Inbox::<Own>::new("the data server", EVENT_QUEUE);
+    let inbox = {
+        let root = root.clone();
+        // A key that does not parse is refused, which changes nothing.
+        Inbox::<Own>::new("the data server", EVENT_QUEUE).reads(move |q| {
+            root.parse_data(q.key_expr().as_str())
+                .map_or(true, |k| k.op.only_reads(q.payload().is_some()))
+        })
+    };
     let store = Arc::new(Mutex::new(store));
     let follows = (inbox.first_sender(), Arc::new(AtomicUsize::new(0)));
     let quick = Quick {

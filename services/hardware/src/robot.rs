@@ -140,6 +140,7 @@ pub fn spawn_clock(
                         lockstep,
                         round: 0,
                         parties: Vec::new(),
+                        release: false,
                     };
                     let _ = publish_clock(&session, &key, &clock).await;
                 }
@@ -192,6 +193,21 @@ struct Party {
     expected: Option<(u64, u32)>,
     /// Whether its answer said it had worked since its answer before.
     worked: bool,
+    /// Whether its answer said its servers hold requests for a release.
+    holding: bool,
+}
+
+/// What follows a round every party has answered ([`Parties::close`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Close {
+    /// Someone had something to do: the instant is sent again.
+    Another,
+    /// Nobody had, but requests wait for a release: every process hands
+    /// them to its servers, this one first, then the instant is sent again
+    /// with `release`.
+    Release,
+    /// Nothing is left: the world may step.
+    Over,
 }
 
 impl Parties {
@@ -219,6 +235,7 @@ impl Parties {
                                 clock: clock.external(&format!("process {id}")),
                                 expected: None,
                                 worked: true,
+                                holding: false,
                             };
                             all.parties.insert(id, party);
                         }
@@ -249,9 +266,11 @@ impl Parties {
                                 return;
                             }
                         };
+                    tracing::trace!(party = %id, time_ms = ack.time_ms, round = ack.round, worked = ack.worked, "answer heard");
                     if let Some(party) = crate::locked(&inner).parties.get_mut(id) {
                         if party.expected == Some((ack.time_ms, ack.round)) {
                             party.worked = ack.worked;
+                            party.holding = ack.holding;
                             party.clock.done();
                         }
                     }
@@ -281,15 +300,23 @@ impl Parties {
             lockstep: true,
             round: 0,
             parties: Vec::new(),
+            release: false,
         }
     }
 
-    /// Once every party has answered the present round: `None` if the
-    /// instant is over (no party and, per `here_worked`, not this process
-    /// either had anything to do during the round, or there is no party);
-    /// otherwise every party is sent the next round, returned.
-    pub fn next_round(&self, here_worked: bool) -> Option<rome_schema::sim::Clock> {
-        let mut all = crate::locked(&self.inner);
+    /// Once every party has answered the present round: what follows it,
+    /// given whether this process had anything to do during the round
+    /// (`here_worked`) and holds requests for a release (`here_holding`).
+    /// With no party, only a release of this process's own requests.
+    pub fn close(&self, here_worked: bool, here_holding: bool) -> Close {
+        let all = crate::locked(&self.inner);
+        if all.parties.is_empty() {
+            return if here_holding {
+                Close::Release
+            } else {
+                Close::Over
+            };
+        }
         let anyone_worked = all.round == 0
             || here_worked
             || !all.left.is_empty()
@@ -297,7 +324,20 @@ impl Parties {
                 .parties
                 .values()
                 .any(|p| p.worked || p.expected.is_none());
-        if all.parties.is_empty() || !anyone_worked {
+        if anyone_worked {
+            Close::Another
+        } else if here_holding || all.parties.values().any(|p| p.holding) {
+            Close::Release
+        } else {
+            Close::Over
+        }
+    }
+
+    /// Sends every party the next round of the instant (with `release`, see
+    /// [`Close::Release`]) and returns it; `None` when there is no party.
+    pub fn next_round(&self, release: bool) -> Option<rome_schema::sim::Clock> {
+        let mut all = crate::locked(&self.inner);
+        if all.parties.is_empty() {
             return None;
         }
         all.round += 1;
@@ -311,6 +351,7 @@ impl Parties {
             }
             party.expected = Some((time_ms, round));
             party.worked = true;
+            party.holding = false;
             party.clock.expect();
         }
         ids.append(&mut all.left);
@@ -320,6 +361,7 @@ impl Parties {
             lockstep: true,
             round,
             parties: ids,
+            release,
         })
     }
 
@@ -396,9 +438,14 @@ pub fn start_lockstep_with(
 ) -> (Running, crate::sim::Stepper) {
     let (steps, stepped) = tokio::sync::mpsc::unbounded_channel();
     let publisher = spawn_lockstep_clock(session, root, stepped);
+    // Requests from the parties are held until their round is over, then
+    // taken in stamp order (`LockStep::hand_over`, called by the stepper).
+    clock.split_into_rounds("rome sim");
     let on_step = {
         let (parties, session, key) = (parties.clone(), session.clone(), root.sim_clock());
+        let clock = clock.clone();
         move |t| {
+            clock.set_round(t, 0);
             // Busy before the instant is announced: no reply can come
             // before the clock knows to wait for it. Sent here and now,
             // before this process's servers wake to the instant: every
@@ -426,12 +473,34 @@ pub fn start_lockstep_with(
         let now = here.activity();
         let worked = now != seen;
         seen = now;
-        match parties.next_round(worked) {
-            Some(round) => {
-                let _ = steps.send(round);
-                true
+        let close = parties.close(worked, here.holding());
+        let (parties, here, steps) = (parties.clone(), here.clone(), steps.clone());
+        async move {
+            let release = match close {
+                Close::Over => return false,
+                Close::Another => false,
+                Close::Release => {
+                    let (t, r) = here.round();
+                    here.hand_over((t, r.saturating_add(1)), true).await;
+                    // This process's servers finish with what they were
+                    // handed (their replies sent) before the round that
+                    // marks its end is.
+                    here.settled().await;
+                    true
+                }
+            };
+            match parties.next_round(release) {
+                Some(round) => {
+                    let at = (round.time_ms, round.round);
+                    here.set_round(at.0, at.1);
+                    let _ = steps.send(round);
+                    // A read stamped for this round is answered in it.
+                    here.hand_over(at, false).await;
+                    true
+                }
+                // Alone: another look once what was handed over is done.
+                None => release,
             }
-            None => false,
         }
     };
     let stepper = world.start_lockstep_rounds(clock.clone(), None, on_step, another_round);

@@ -292,7 +292,8 @@ pub async fn run<S: Service>(
     // path, or on the task of a client in the same session): a full queue
     // answers `busy` at once. Liveliness changes have a queue of their
     // own that never drops: lock releases and the deadman depend on them.
-    let inbox = Inbox::new(&config.label(), EVENT_QUEUE);
+    let inbox = Inbox::new(&config.label(), EVENT_QUEUE)
+        .reads(|q| rome_schema::robot::only_reads(q.key_expr().as_str()));
     let quiet = Arc::new(AtomicBool::new(false));
     let quick_reads = Arc::new(AtomicU64::new(0));
     let answer_now = quick_answer(service.quick(), quiet.clone(), quick_reads.clone());

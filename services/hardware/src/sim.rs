@@ -151,21 +151,24 @@ impl SimWorld {
         speed: Option<f64>,
         on_step: impl FnMut(u64) + Send + 'static,
     ) -> Stepper {
-        self.start_lockstep_rounds(clock, speed, on_step, || false)
+        self.start_lockstep_rounds(clock, speed, on_step, || async { false })
     }
 
     /// As [`SimWorld::start_lockstep`], and each time every participant
     /// has settled, before the world steps, `another_round` is asked
-    /// whether the present instant goes on (it returns true once it has
-    /// made someone busy again, as [`crate::robot::Parties::next_round`]
-    /// does): the clock then waits for them first.
-    pub fn start_lockstep_rounds(
+    /// whether the present instant goes on (it resolves to true once it
+    /// has made someone busy again, as [`crate::robot::start_lockstep_with`]
+    /// does with the next round): the clock then waits for them first.
+    pub fn start_lockstep_rounds<R>(
         &self,
         clock: rome_clock::LockStep,
         speed: Option<f64>,
         mut on_step: impl FnMut(u64) + Send + 'static,
-        mut another_round: impl FnMut() -> bool + Send + 'static,
-    ) -> Stepper {
+        mut another_round: impl FnMut() -> R + Send + 'static,
+    ) -> Stepper
+    where
+        R: std::future::Future<Output = bool> + Send,
+    {
         let stop = Arc::new(AtomicBool::new(false));
         let world = self.clone();
         let stopping = stop.clone();
@@ -210,7 +213,7 @@ impl SimWorld {
                     continue;
                 }
                 waited = std::time::Duration::ZERO;
-                if another_round() {
+                if another_round().await {
                     continue;
                 }
                 // `on_step` hears the new time before any participant wakes
@@ -228,6 +231,10 @@ impl SimWorld {
                     .await;
                 // Someone became busy after all: it finishes first.
                 let Some(now) = stepped else { continue };
+                if clock.in_rounds() {
+                    // A read stamped for the new instant is answered in it.
+                    clock.hand_over((now, 0), false).await;
+                }
                 let wait = pacer.wait(now);
                 steps += 1;
                 progress.store(steps, Ordering::Relaxed);

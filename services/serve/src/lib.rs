@@ -8,6 +8,10 @@
 //!   that finds it full is answered [`busy`] at once; liveliness changes
 //!   go to an unbounded queue of their own, because releases and undo
 //!   depend on every one of them.
+//!   In a run split into processes (a lock-step clock split into rounds)
+//!   a request that changes something waits in a `rome_clock::Hold` until
+//!   its round is over and is then queued in the same order in every run;
+//!   a read ([`Inbox::reads`]) is queued once its round has begun.
 //! - [`Handler`] and [`Inbox::run`]: the event loop, one task per server:
 //!   liveliness first, then requests (a burst taken in whole before the
 //!   handler chooses what to do next), a sweep and an optional tick, until
@@ -15,6 +19,7 @@
 //! - [`reply`], [`reply_err`], [`busy`]: answers, with failures to send
 //!   logged rather than returned (the asker may be gone).
 
+use rome_clock::Held;
 use rome_schema::{encode, ErrorCode, ErrorReply};
 use std::future::Future;
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
@@ -50,6 +55,11 @@ pub struct Inbox<T> {
     /// request itself only when this is 0, so nothing a client sent before
     /// it is still on its way.
     pending: Arc<AtomicUsize>,
+    /// In a run split into processes, where requests wait for their round
+    /// (made when the inbox is made within a lock-step participant).
+    hold: Option<Arc<rome_clock::Hold<Event<T>>>>,
+    /// Which queries only read (see [`Inbox::reads`]).
+    reads: Arc<dyn Fn(&Query) -> bool + Send + Sync>,
 }
 
 /// When the event loop calls [`Handler::sweep`] and [`Handler::tick`].
@@ -84,6 +94,19 @@ impl<T: Send + 'static> Inbox<T> {
     pub fn new(label: &str, capacity: usize) -> Self {
         let (tx, rx) = flume::bounded(capacity);
         let (alive_tx, alive_rx) = flume::unbounded();
+        let dropped = Arc::new(AtomicU64::new(0));
+        let pending = Arc::new(AtomicUsize::new(0));
+        let hold = rome_clock::LockStep::current().map(|clock| {
+            let queue = Queue {
+                tx: tx.clone(),
+                pending: pending.clone(),
+                dropped: dropped.clone(),
+                label: label.to_string(),
+                capacity,
+                runtime: tokio::runtime::Handle::current(),
+            };
+            Arc::new(clock.hold(capacity, move |event| queue.push(event)))
+        });
         Inbox {
             label: label.to_string(),
             capacity,
@@ -91,9 +114,21 @@ impl<T: Send + 'static> Inbox<T> {
             rx,
             alive_tx,
             alive_rx,
-            dropped: Arc::new(AtomicU64::new(0)),
-            pending: Arc::new(AtomicUsize::new(0)),
+            dropped,
+            pending,
+            hold,
+            reads: Arc::new(|_| false),
         }
+    }
+
+    /// Says which queries only read (their answer changes nothing): in a
+    /// run split into processes they are answered within their round,
+    /// while anything else waits for the end of its round and is taken in
+    /// the same order in every run (see `rome_clock::Hold`). Call before
+    /// making the callbacks.
+    pub fn reads(mut self, read: impl Fn(&Query) -> bool + Send + Sync + 'static) -> Self {
+        self.reads = Arc::new(read);
+        self
     }
 
     /// A queryable callback: queues the query, or answers [`busy`] at once
@@ -115,7 +150,26 @@ impl<T: Send + 'static> Inbox<T> {
         let pending = self.pending.clone();
         let runtime = tokio::runtime::Handle::current();
         let refusal = busy(&self.label, self.capacity, "waiting");
+        let (hold, reads) = (self.hold.clone(), self.reads.clone());
+        let held_refusal = busy(&self.label, self.capacity, "waiting for their round");
         move |q| {
+            let q = match hold.as_ref().filter(|h| h.active()) {
+                None => q,
+                Some(h) => {
+                    let stamp = stamp_of(q.attachment());
+                    let read = reads(&q);
+                    tracing::trace!(key = %q.key_expr(), ?stamp, read, "offered to the hold");
+                    match h.put(stamp, read, Event::Query(q)) {
+                        Held::Pass(Event::Query(q)) => q,
+                        Held::Full(Event::Query(q)) => {
+                            let e = held_refusal.clone();
+                            runtime.spawn(async move { reply_err(&q, &e).await });
+                            return;
+                        }
+                        _ => return,
+                    }
+                }
+            };
             if pending.load(Ordering::SeqCst) == 0 && answer_now(&q) {
                 return;
             }
@@ -132,19 +186,24 @@ impl<T: Send + 'static> Inbox<T> {
     /// counted when the queue is full (a put has no one to answer; a flood
     /// is reported at 1, 2, 4, 8 … drops, not echoed).
     pub fn on_put(&self) -> impl Fn(Sample) + Send + Sync + 'static {
-        let tx = self.tx.clone();
-        let dropped = self.dropped.clone();
-        let pending = self.pending.clone();
-        let (label, capacity) = (self.label.clone(), self.capacity);
+        let queue = Queue {
+            tx: self.tx.clone(),
+            pending: self.pending.clone(),
+            dropped: self.dropped.clone(),
+            label: self.label.clone(),
+            capacity: self.capacity,
+            runtime: tokio::runtime::Handle::current(),
+        };
+        let hold = self.hold.clone();
         move |s| {
-            pending.fetch_add(1, Ordering::SeqCst);
-            if let Err(flume::TrySendError::Full(_)) = tx.try_send(Event::Put(s)) {
-                pending.fetch_sub(1, Ordering::SeqCst);
-                let n = dropped.fetch_add(1, Ordering::Relaxed) + 1;
-                if n.is_power_of_two() {
-                    tracing::warn!(server = %label, dropped = n, queue = capacity, "too busy: plain puts dropped");
-                }
-            }
+            let s = match hold.as_ref().filter(|h| h.active()) {
+                None => s,
+                Some(h) => match h.put(stamp_of(s.attachment()), false, Event::Put(s)) {
+                    Held::Pass(Event::Put(s)) | Held::Full(Event::Put(s)) => s,
+                    _ => return,
+                },
+            };
+            queue.push(Event::Put(s));
         }
     }
 
@@ -217,6 +276,46 @@ impl<T: Send + 'static> Inbox<T> {
             }
         }
     }
+}
+
+/// The bounded queue as a callback or a hand-over pushes into it.
+struct Queue<T> {
+    tx: flume::Sender<Event<T>>,
+    pending: Arc<AtomicUsize>,
+    dropped: Arc<AtomicU64>,
+    label: String,
+    capacity: usize,
+    runtime: tokio::runtime::Handle,
+}
+
+impl<T: Send + 'static> Queue<T> {
+    /// Queues a request or a put without waiting: a query that finds the
+    /// queue full is answered [`busy`], a put dropped and counted (a flood
+    /// is reported at 1, 2, 4, 8 … drops, not echoed).
+    fn push(&self, event: Event<T>) {
+        self.pending.fetch_add(1, Ordering::SeqCst);
+        let Err(flume::TrySendError::Full(event)) = self.tx.try_send(event) else {
+            return;
+        };
+        self.pending.fetch_sub(1, Ordering::SeqCst);
+        match event {
+            Event::Query(q) => {
+                let e = busy(&self.label, self.capacity, "waiting");
+                self.runtime.spawn(async move { reply_err(&q, &e).await });
+            }
+            _ => {
+                let n = self.dropped.fetch_add(1, Ordering::Relaxed) + 1;
+                if n.is_power_of_two() {
+                    tracing::warn!(server = %self.label, dropped = n, queue = self.capacity, "too busy: plain puts dropped");
+                }
+            }
+        }
+    }
+}
+
+/// A message's round stamp, if its attachment is one.
+fn stamp_of(attachment: Option<&zenoh::bytes::ZBytes>) -> Option<rome_clock::Stamp> {
+    rome_clock::Stamp::from_bytes(&attachment?.to_bytes())
 }
 
 /// The answer to a request that found `capacity` others `waiting` (in the

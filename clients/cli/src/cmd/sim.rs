@@ -219,6 +219,7 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
                     lockstep: true,
                     round: 0,
                     parties: Vec::new(),
+                    release: false,
                 };
                 let interrupted = exit::interrupted();
                 tokio::pin!(interrupted);
