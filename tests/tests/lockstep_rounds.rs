@@ -145,7 +145,7 @@ async fn late_news(server_stays: bool) {
             .expect("clock published");
         tokio::time::sleep(Duration::from_millis(50)).await;
     }
-    let (_publisher, _stepper) = start_lockstep_with(&hub, &root, &world, &clock, parties);
+    let _stepper = start_lockstep_with(&hub, &root, &world, &clock, parties);
 
     let within = Duration::from_secs(30);
     let (sent, read) = tokio::time::timeout(within, watcher)
@@ -289,7 +289,7 @@ async fn speed_left(slow: Slow) -> f64 {
             .expect("clock published");
         tokio::time::sleep(Duration::from_millis(50)).await;
     }
-    let (_publisher, _stepper) = start_lockstep_with(&hub, &root, &world, &clock, parties);
+    let _stepper = start_lockstep_with(&hub, &root, &world, &clock, parties);
     let within = Duration::from_secs(30);
     let mut read = Vec::new();
     for _ in 0..2 {

@@ -395,49 +395,19 @@ pub async fn publish_clock(
         .await
 }
 
-/// Publishes each instant and round of a lock-step world (from `steps`)
-/// on `<root>/sim/clock`, none dropped: processes following the clock need
-/// every one.
-pub fn spawn_lockstep_clock(
-    session: &Session,
-    root: &Root,
-    mut steps: tokio::sync::mpsc::UnboundedReceiver<rome_schema::sim::Clock>,
-) -> Running {
-    let (stop, mut stopped) = tokio::sync::oneshot::channel::<()>();
-    let (session, key) = (session.clone(), root.sim_clock());
-    let task = tokio::spawn(async move {
-        loop {
-            tokio::select! {
-                biased;
-                _ = &mut stopped => return Ok(()),
-                step = steps.recv() => {
-                    let Some(clock) = step else { return Ok(()) };
-                    let _ = publish_clock(&session, &key, &clock).await;
-                }
-            }
-        }
-    });
-    Running {
-        label: "sim clock".into(),
-        stop: Some(stop),
-        task,
-    }
-}
-
 /// Steps `world` in lock-step with `clock` and with `parties`, the
 /// processes that follow it over the network: each instant and each of
 /// its rounds is published on `<root>/sim/clock`, and the world steps once
 /// a round finds that nobody, here or there, had anything left to do.
-/// Returns the clock's publisher and the stepper.
+/// Every instant and round is published by the stepper itself, at the
+/// point of its decision. Returns the stepper.
 pub fn start_lockstep_with(
     session: &Session,
     root: &Root,
     world: &SimWorld,
     clock: &rome_clock::LockStep,
     parties: Parties,
-) -> (Running, crate::sim::Stepper) {
-    let (steps, stepped) = tokio::sync::mpsc::unbounded_channel();
-    let publisher = spawn_lockstep_clock(session, root, stepped);
+) -> crate::sim::Stepper {
     // Requests from the parties are held until their round is over, then
     // taken in stamp order (`LockStep::hand_over`, called by the stepper).
     clock.split_into_rounds("rome sim");
@@ -469,12 +439,14 @@ pub fn start_lockstep_with(
     // Whether this process worked during a round: its participants'
     // activity since the round was sent.
     let (here, mut seen) = (clock.clone(), clock.activity());
+    let (session, key) = (session.clone(), root.sim_clock());
     let another_round = move || {
         let now = here.activity();
         let worked = now != seen;
         seen = now;
         let close = parties.close(worked, here.holding());
-        let (parties, here, steps) = (parties.clone(), here.clone(), steps.clone());
+        let (parties, here, session, key) =
+            (parties.clone(), here.clone(), session.clone(), key.clone());
         async move {
             let release = match close {
                 Close::Over => return false,
@@ -493,7 +465,12 @@ pub fn start_lockstep_with(
                 Some(round) => {
                     let at = (round.time_ms, round.round);
                     here.set_round(at.0, at.1);
-                    let _ = steps.send(round);
+                    match publish_clock(&session, &key, &round).await {
+                        // The program is ending: nobody is waiting on it.
+                        Err(_) if session.is_closed() => {}
+                        Err(e) => tracing::warn!(%key, error = %e, "clock not published"),
+                        Ok(()) => {}
+                    }
                     // A read stamped for this round is answered in it.
                     here.hand_over(at, false).await;
                     true
@@ -503,8 +480,7 @@ pub fn start_lockstep_with(
             }
         }
     };
-    let stepper = world.start_lockstep_rounds(clock.clone(), None, on_step, another_round);
-    (publisher, stepper)
+    world.start_lockstep_rounds(clock.clone(), None, on_step, another_round)
 }
 
 /// Starts the base, proximity and both camera servers of simulated robot

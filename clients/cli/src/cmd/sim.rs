@@ -204,7 +204,7 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
     // In lock-step the servers are the clock's participants: spawned in one.
     let (mut servers, _stepper) = match &clock {
         Some(clock) => {
-            let mut servers = clock.participate("rome sim", spawn_servers).await?;
+            let servers = clock.participate("rome sim", spawn_servers).await?;
             let parties = rome_hardware::robot::Parties::follow(&session, &root, clock).await?;
             if args.parties > 0 {
                 eprintln!(
@@ -237,9 +237,8 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
                     }
                 }
             }
-            let (publisher, stepper) =
+            let stepper =
                 rome_hardware::robot::start_lockstep_with(&session, &root, &world, clock, parties);
-            servers.push(publisher);
             (servers, stepper)
         }
         None => {
