@@ -97,8 +97,11 @@ fn sim(port: u16, map: &str, at: &[&str]) -> ChildGuard {
     sim_with(port, map, at, &["--speed", "4"])
 }
 
+/// The seed of every simulated world here.
+const SEED: &str = "4";
+
 /// `rome sim` with a robot at each of `at`, joined to the data server,
-/// seed 4, with `pace` (`--speed 4`, `--lockstep` …).
+/// seed [`SEED`], with `pace` (`--speed 4`, `--lockstep` …).
 fn sim_with(port: u16, map: &str, at: &[&str], pace: &[&str]) -> ChildGuard {
     let endpoint = format!("tcp/127.0.0.1:{port}");
     let robots = at.len().to_string();
@@ -120,7 +123,7 @@ fn sim_with(port: u16, map: &str, at: &[&str], pace: &[&str]) -> ChildGuard {
             "--at",
             &at,
             "--seed",
-            "4",
+            SEED,
         ]
         .iter()
         .chain(pace)
@@ -488,7 +491,7 @@ async fn a_run_whose_data_server_is_killed_and_restarted_mid_route_still_arrives
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn a_lockstep_run_split_into_processes_arrives() {
+async fn a_lockstep_run_split_into_processes_is_the_same_run_as_in_one_process() {
     // Every process takes its time from the simulator's clock, and the
     // world waits for each of them at every instant: six followers (data
     // server, four helpers, planner), held at the start until all are in.
@@ -520,4 +523,29 @@ async fn a_lockstep_run_split_into_processes_arrives() {
     for mut c in crew {
         c.kill();
     }
+    // The same route in one process (`rome demo`, lock-step, no network):
+    // the same seed, so the same run, to the last digit of its row.
+    let png = log_dir(port).join("one-process.png");
+    let png = png.to_str().expect("a UTF-8 path").to_string();
+    let one = tokio::task::spawn_blocking(move || {
+        Command::new(ROME)
+            .args(["demo", "--no-multicast", "--seed", SEED])
+            .args(["--from", from, "--to", to, "-o"])
+            .arg(png)
+            .output()
+            .expect("rome demo runs")
+    })
+    .await
+    .expect("rome demo ends");
+    let one_out = String::from_utf8_lossy(&one.stdout);
+    assert!(one.status.success(), "rome demo failed:\n{one_out}");
+    let one_row = one_out
+        .lines()
+        .find(|l| l.contains("302L to A340R"))
+        .unwrap_or_else(|| panic!("no table row from rome demo:\n{one_out}"));
+    assert_eq!(
+        row.split_whitespace().collect::<Vec<_>>(),
+        one_row.split_whitespace().collect::<Vec<_>>(),
+        "split into seven processes and in one, the run differs:\n{out}\n---\n{one_out}"
+    );
 }
