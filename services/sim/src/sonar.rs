@@ -54,6 +54,8 @@ pub struct Scratch {
     firing: u32,
     /// Candidate echoes: (range, wall or usize::MAX, point).
     echoes: Vec<(f64, usize, Point)>,
+    /// Where the robots near enough for the infrared sensors are.
+    close: Vec<Point>,
 }
 
 /// The order in which the ring fires its sonars, one after another through
@@ -415,12 +417,16 @@ pub fn infrared(
     });
     let walls = &scratch.walls;
     let reach2 = (2.0 * ROBOT_RADIUS_MM + IR_RANGE_MM).powi(2);
-    let close = || {
+    // Found once for all the sensors.
+    scratch.close.clear();
+    scratch.close.extend(
         others
             .iter()
-            .filter(move |o| nalgebra::distance_squared(&o.at, &at) <= reach2)
-    };
-    if walls.is_empty() && close().next().is_none() {
+            .filter(|o| nalgebra::distance_squared(&o.at, &at) <= reach2)
+            .map(|o| o.at),
+    );
+    let close = &scratch.close;
+    if walls.is_empty() && close.is_empty() {
         return 0;
     }
     let forward = direction(heading);
@@ -436,11 +442,11 @@ pub fn infrared(
             })
         });
         if !seen {
-            seen = close().any(|o| {
-                let dist = nalgebra::distance(&o.at, &s) - ROBOT_RADIUS_MM;
+            seen = close.iter().any(|&o| {
+                let dist = nalgebra::distance(&o, &s) - ROBOT_RADIUS_MM;
                 dist <= IR_RANGE_MM
                     && dist > -ROBOT_RADIUS_MM
-                    && normalize_deg(heading_to(s, o.at) - b).abs() <= 30.0
+                    && normalize_deg(heading_to(s, o) - b).abs() <= 30.0
             });
         }
         if seen {
