@@ -53,6 +53,20 @@ pub struct Clock {
     pub release: bool,
 }
 
+impl Clock {
+    /// The first message of instant `time_ms` (round 0), in lock-step or
+    /// paced against the wall clock.
+    pub fn instant(time_ms: u64, lockstep: bool) -> Clock {
+        Clock {
+            time_ms,
+            lockstep,
+            round: 0,
+            parties: Vec::new(),
+            release: false,
+        }
+    }
+}
+
 /// A process following a lock-step clock → the simulator and the other
 /// followers: it has finished with round `round` of the instant `time_ms`
 /// (every reaction to it is sent), and whether it had anything to do

@@ -126,26 +126,7 @@ async fn late_news(server_stays: bool) {
 
     // Hold the clock at its start until all three follow it, as
     // `rome sim --lockstep --parties 3` does.
-    let start = rome_schema::sim::Clock {
-        time_ms: clock.now_ms(),
-        lockstep: true,
-        round: 0,
-        parties: Vec::new(),
-        release: false,
-    };
-    let held = tokio::time::Instant::now();
-    while parties.len() < 3 {
-        assert!(
-            held.elapsed() < Duration::from_secs(20),
-            "only {} of 3 followers joined",
-            parties.len()
-        );
-        publish_clock(&hub, &root.sim_clock(), &start)
-            .await
-            .expect("clock published");
-        tokio::time::sleep(Duration::from_millis(50)).await;
-    }
-    let _stepper = start_lockstep_with(&hub, &root, &world, &clock, parties);
+    let _stepper = start_when_joined(&hub, &root, &world, &clock, parties, 3).await;
 
     let within = Duration::from_secs(30);
     let (sent, read) = tokio::time::timeout(within, watcher)
@@ -270,26 +251,7 @@ async fn speed_left(slow: Slow) -> f64 {
         }));
     }
 
-    let start = rome_schema::sim::Clock {
-        time_ms: clock.now_ms(),
-        lockstep: true,
-        round: 0,
-        parties: Vec::new(),
-        release: false,
-    };
-    let held = tokio::time::Instant::now();
-    while parties.len() < 2 {
-        assert!(
-            held.elapsed() < Duration::from_secs(20),
-            "only {} of 2 followers joined",
-            parties.len()
-        );
-        publish_clock(&hub, &root.sim_clock(), &start)
-            .await
-            .expect("clock published");
-        tokio::time::sleep(Duration::from_millis(50)).await;
-    }
-    let _stepper = start_lockstep_with(&hub, &root, &world, &clock, parties);
+    let _stepper = start_when_joined(&hub, &root, &world, &clock, parties, 2).await;
     let within = Duration::from_secs(30);
     let mut read = Vec::new();
     for _ in 0..2 {
@@ -308,4 +270,30 @@ async fn speed_left(slow: Slow) -> f64 {
     }
     assert_eq!(read[0], read[1], "both read the speed the base was left at");
     read[0]
+}
+
+/// Holds the clock at its start until `n` followers follow it, as
+/// `rome sim --lockstep --parties n` does, then steps the world with them.
+async fn start_when_joined(
+    hub: &zenoh::Session,
+    root: &Root,
+    world: &SimWorld,
+    clock: &rome_clock::LockStep,
+    parties: Parties,
+    n: usize,
+) -> rome_hardware::sim::Stepper {
+    let start = rome_schema::sim::Clock::instant(clock.now_ms(), true);
+    let held = tokio::time::Instant::now();
+    while parties.len() < n {
+        assert!(
+            held.elapsed() < Duration::from_secs(20),
+            "only {} of {n} followers joined",
+            parties.len()
+        );
+        publish_clock(hub, &root.sim_clock(), &start)
+            .await
+            .expect("clock published");
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+    start_lockstep_with(hub, root, world, clock, parties)
 }

@@ -135,13 +135,7 @@ pub fn spawn_clock(
                 biased;
                 _ = rome_clock::idle(&mut stopped) => return Ok(()),
                 _ = tick.tick() => {
-                    let clock = rome_schema::sim::Clock {
-                        time_ms: world.lock().time_ms(),
-                        lockstep,
-                        round: 0,
-                        parties: Vec::new(),
-                        release: false,
-                    };
+                    let clock = rome_schema::sim::Clock::instant(world.lock().time_ms(), lockstep);
                     let _ = publish_clock(&session, &key, &clock).await;
                 }
             }
@@ -295,13 +289,7 @@ impl Parties {
             party.expected = Some((time_ms, 0));
             party.clock.expect();
         }
-        rome_schema::sim::Clock {
-            time_ms,
-            lockstep: true,
-            round: 0,
-            parties: Vec::new(),
-            release: false,
-        }
+        rome_schema::sim::Clock::instant(time_ms, true)
     }
 
     /// Once every party has answered the present round: what follows it,

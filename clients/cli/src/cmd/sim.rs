@@ -214,13 +214,7 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
                 let mut said = parties.len();
                 // The start instant, over and over: a follower declares
                 // itself once it has heard the clock.
-                let start = rome_schema::sim::Clock {
-                    time_ms: clock.now_ms(),
-                    lockstep: true,
-                    round: 0,
-                    parties: Vec::new(),
-                    release: false,
-                };
+                let start = rome_schema::sim::Clock::instant(clock.now_ms(), true);
                 let interrupted = exit::interrupted();
                 tokio::pin!(interrupted);
                 while parties.len() < args.parties {
