@@ -194,16 +194,12 @@ impl DataOp {
         DataOp::ALL.into_iter().find(|op| op.chunk() == chunk)
     }
 
-    /// Whether a request of this operation changes nothing (`history`
-    /// only without a payload, which would set the length). In a run split
+    /// Whether a request of this operation changes nothing. In a run split
     /// into processes the data server answers these within their round and
-    /// holds anything else until its round is over.
-    pub fn only_reads(self, with_payload: bool) -> bool {
-        match self {
-            DataOp::Var | DataOp::Sem | DataOp::Watch => true,
-            DataOp::History => !with_payload,
-            _ => false,
-        }
+    /// holds anything else until its round is over (`history`, which may
+    /// set a length, among them).
+    pub fn only_reads(self) -> bool {
+        matches!(self, DataOp::Var | DataOp::Sem | DataOp::Watch)
     }
 }
 
@@ -363,6 +359,16 @@ pub struct Alive<'k> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn reads_are_the_ops_that_change_nothing() {
+        let reads: Vec<DataOp> = DataOp::ALL
+            .into_iter()
+            .filter(|op| op.only_reads())
+            .collect();
+        // `history?len=5` sets the length: a change.
+        assert_eq!(reads, [DataOp::Var, DataOp::Watch, DataOp::Sem]);
+    }
 
     #[test]
     fn every_op_round_trips() {

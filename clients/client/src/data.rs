@@ -227,7 +227,7 @@ impl DataClient {
                 .options
                 .root
                 .parse_data(key)
-                .map_or(true, |k| k.op.only_reads(payload.is_some()));
+                .map_or(true, |k| k.op.only_reads());
         let answer = if held || params.iter().any(|(k, _)| *k == param::HOLD_MS) {
             rome_clock::idle(answer).await
         } else {

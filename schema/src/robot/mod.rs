@@ -339,6 +339,31 @@ mod tests {
     use crate::ErrorCode;
 
     #[test]
+    fn only_what_changes_nothing_is_a_read() {
+        for key in [
+            "rome/robot/r1/base/pose",
+            "rome/robot/r1/proximity/sonar",
+            "rome/robot/r1/camera/up/rows",
+            "rome/robot/r1/base/stats",
+            "rome/robot/r1/base/state",
+            "rome/robot/*/base/pose",
+        ] {
+            assert!(only_reads(key), "{key} only reads");
+        }
+        for key in [
+            "rome/robot/r1/base/go",
+            "rome/robot/r1/base/set-pose",
+            "rome/robot/r1/base/lock",
+            "rome/robot/r1/base/unlock",
+            "rome/robot/r1/proximity/timeout",
+            "rome/robot/r1/camera/up/grab",
+            "rome/robot/r1/base/no-such-command",
+        ] {
+            assert!(!only_reads(key), "{key} may change something");
+        }
+    }
+
+    #[test]
     fn robot_keys_round_trip() {
         let root = Root::default();
         let r1 = robot_name("r1").unwrap();

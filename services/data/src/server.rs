@@ -232,7 +232,7 @@ pub async fn run(
         // A key that does not parse is refused, which changes nothing.
         Inbox::<Own>::new("the data server", EVENT_QUEUE).reads(move |q| {
             root.parse_data(q.key_expr().as_str())
-                .map_or(true, |k| k.op.only_reads(q.payload().is_some()))
+                .map_or(true, |k| k.op.only_reads())
         })
     };
     let store = Arc::new(Mutex::new(store));
