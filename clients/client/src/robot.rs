@@ -377,13 +377,11 @@ impl RobotClient {
             // is answered at once (busy: the clock waits for the answer).
             let answer = replies.recv_async();
             let held = rome_clock::in_rounds() && !rome_schema::robot::only_reads(&key);
-            tracing::trace!(%key, now = ?rome_clock::now_ms(), "TMP request sent");
             let answer = if wait.is_zero() && !held {
                 rome_clock::busy(answer).await
             } else {
                 rome_clock::idle(answer).await
             };
-            tracing::trace!(%key, now = ?rome_clock::now_ms(), "TMP reply in");
             if let Ok(reply) = answer {
                 match reply.result() {
                     Ok(sample) => {
