@@ -44,17 +44,10 @@ pub enum Event<T> {
 
 /// A server's event queues. See the crate docs.
 pub struct Inbox<T> {
-    label: String,
-    capacity: usize,
-    tx: flume::Sender<Event<T>>,
+    queue: Arc<Queue<T>>,
     rx: flume::Receiver<Event<T>>,
     alive_tx: flume::Sender<Event<T>>,
     alive_rx: flume::Receiver<Event<T>>,
-    dropped: Arc<AtomicU64>,
-    /// Queries and puts queued or being handled: a callback may answer a
-    /// request itself only when this is 0, so nothing a client sent before
-    /// it is still on its way.
-    pending: Arc<AtomicUsize>,
     /// In a run split into processes, where requests wait for their round
     /// (made when the inbox is made within a lock-step participant).
     hold: Option<Arc<rome_clock::Hold<Event<T>>>>,
@@ -94,28 +87,24 @@ impl<T: Send + 'static> Inbox<T> {
     pub fn new(label: &str, capacity: usize) -> Self {
         let (tx, rx) = flume::bounded(capacity);
         let (alive_tx, alive_rx) = flume::unbounded();
-        let dropped = Arc::new(AtomicU64::new(0));
-        let pending = Arc::new(AtomicUsize::new(0));
+        let queue = Arc::new(Queue {
+            tx,
+            pending: AtomicUsize::new(0),
+            dropped: AtomicU64::new(0),
+            label: label.to_string(),
+            capacity,
+            refusal: busy(label, capacity, "waiting"),
+            runtime: tokio::runtime::Handle::current(),
+        });
         let hold = rome_clock::LockStep::current().map(|clock| {
-            let queue = Queue {
-                tx: tx.clone(),
-                pending: pending.clone(),
-                dropped: dropped.clone(),
-                label: label.to_string(),
-                capacity,
-                runtime: tokio::runtime::Handle::current(),
-            };
+            let queue = queue.clone();
             Arc::new(clock.hold(capacity, move |event| queue.push(event)))
         });
         Inbox {
-            label: label.to_string(),
-            capacity,
-            tx,
+            queue,
             rx,
             alive_tx,
             alive_rx,
-            dropped,
-            pending,
             hold,
             reads: Arc::new(|_| false),
         }
@@ -146,12 +135,9 @@ impl<T: Send + 'static> Inbox<T> {
         &self,
         answer_now: impl Fn(&Query) -> bool + Send + Sync + 'static,
     ) -> impl Fn(Query) + Send + Sync + 'static {
-        let tx = self.tx.clone();
-        let pending = self.pending.clone();
-        let runtime = tokio::runtime::Handle::current();
-        let refusal = busy(&self.label, self.capacity, "waiting");
+        let queue = self.queue.clone();
         let (hold, reads) = (self.hold.clone(), self.reads.clone());
-        let held_refusal = busy(&self.label, self.capacity, "waiting for their round");
+        let held_refusal = busy(&queue.label, queue.capacity, "waiting for their round");
         move |q| {
             let q = match hold.as_ref().filter(|h| h.active()) {
                 None => q,
@@ -163,22 +149,17 @@ impl<T: Send + 'static> Inbox<T> {
                         Held::Pass(Event::Query(q)) => q,
                         Held::Full(Event::Query(q)) => {
                             let e = held_refusal.clone();
-                            runtime.spawn(async move { reply_err(&q, &e).await });
+                            queue.runtime.spawn(async move { reply_err(&q, &e).await });
                             return;
                         }
                         _ => return,
                     }
                 }
             };
-            if pending.load(Ordering::SeqCst) == 0 && answer_now(&q) {
+            if queue.pending.load(Ordering::SeqCst) == 0 && answer_now(&q) {
                 return;
             }
-            pending.fetch_add(1, Ordering::SeqCst);
-            if let Err(flume::TrySendError::Full(Event::Query(q))) = tx.try_send(Event::Query(q)) {
-                pending.fetch_sub(1, Ordering::SeqCst);
-                let e = refusal.clone();
-                runtime.spawn(async move { reply_err(&q, &e).await });
-            }
+            queue.push(Event::Query(q));
         }
     }
 
@@ -186,15 +167,7 @@ impl<T: Send + 'static> Inbox<T> {
     /// counted when the queue is full (a put has no one to answer; a flood
     /// is reported at 1, 2, 4, 8 … drops, not echoed).
     pub fn on_put(&self) -> impl Fn(Sample) + Send + Sync + 'static {
-        let queue = Queue {
-            tx: self.tx.clone(),
-            pending: self.pending.clone(),
-            dropped: self.dropped.clone(),
-            label: self.label.clone(),
-            capacity: self.capacity,
-            runtime: tokio::runtime::Handle::current(),
-        };
-        let hold = self.hold.clone();
+        let (queue, hold) = (self.queue.clone(), self.hold.clone());
         move |s| {
             let s = match hold.as_ref().filter(|h| h.active()) {
                 None => s,
@@ -226,22 +199,22 @@ impl<T: Send + 'static> Inbox<T> {
     /// A sender of the server's own events into the bounded queue (send
     /// with `send_async` from a task: they must not be dropped).
     pub fn sender(&self) -> flume::Sender<Event<T>> {
-        self.tx.clone()
+        self.queue.tx.clone()
     }
 
-    /// One event from the bounded queue, counted off [`Inbox::pending`]
-    /// once handled.
+    /// One event from the bounded queue, counted off the queue's
+    /// `pending` once handled.
     async fn handle<H: Handler<T>>(&self, handler: &mut H, event: Event<T>) {
         let counted = matches!(event, Event::Query(_) | Event::Put(_));
         handler.event(event).await;
         if counted {
-            self.pending.fetch_sub(1, Ordering::SeqCst);
+            self.queue.pending.fetch_sub(1, Ordering::SeqCst);
         }
     }
 
     /// Plain puts dropped so far because the queue was full.
     pub fn dropped(&self) -> u64 {
-        self.dropped.load(Ordering::Relaxed)
+        self.queue.dropped.load(Ordering::Relaxed)
     }
 
     /// The event loop: runs until `shutdown` completes.
@@ -278,13 +251,18 @@ impl<T: Send + 'static> Inbox<T> {
     }
 }
 
-/// The bounded queue as a callback or a hand-over pushes into it.
+/// The bounded queue, as the callbacks and a hold's hand-over push into it.
 struct Queue<T> {
     tx: flume::Sender<Event<T>>,
-    pending: Arc<AtomicUsize>,
-    dropped: Arc<AtomicU64>,
+    /// Queries and puts queued or being handled: a callback may answer a
+    /// request itself only when this is 0, so nothing a client sent before
+    /// it is still on its way.
+    pending: AtomicUsize,
+    dropped: AtomicU64,
     label: String,
     capacity: usize,
+    /// The answer to a query that finds the queue full.
+    refusal: ErrorReply,
     runtime: tokio::runtime::Handle,
 }
 
@@ -300,7 +278,7 @@ impl<T: Send + 'static> Queue<T> {
         self.pending.fetch_sub(1, Ordering::SeqCst);
         match event {
             Event::Query(q) => {
-                let e = busy(&self.label, self.capacity, "waiting");
+                let e = self.refusal.clone();
                 self.runtime.spawn(async move { reply_err(&q, &e).await });
             }
             _ => {
