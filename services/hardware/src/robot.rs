@@ -451,16 +451,13 @@ pub fn start_lockstep_with(
             };
             match parties.next_round(release) {
                 Some(round) => {
-                    let at = (round.time_ms, round.round);
-                    here.set_round(at.0, at.1);
+                    here.set_round(round.time_ms, round.round);
                     match publish_clock(&session, &key, &round).await {
                         // The program is ending: nobody is waiting on it.
                         Err(_) if session.is_closed() => {}
                         Err(e) => tracing::warn!(%key, error = %e, "clock not published"),
                         Ok(()) => {}
                     }
-                    // A read stamped for this round is answered in it.
-                    here.hand_over(at, false).await;
                     true
                 }
                 // Alone: another look once what was handed over is done.

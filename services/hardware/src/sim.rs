@@ -52,6 +52,15 @@ const WATCHDOG: std::time::Duration = std::time::Duration::from_secs(60);
 /// locked, when the world has not stepped for [`WATCHDOG`] of wall time: a
 /// thread of its own, so that it speaks even when every task is stuck.
 /// It ends when `stop` is set.
+/// A round has begun (another of the instant, or a new instant's first):
+/// in a run split into processes, the reads stamped for it are answered
+/// in it, from the state the rounds before left.
+async fn pass_reads(clock: &rome_clock::LockStep) {
+    if clock.in_rounds() {
+        clock.hand_over(clock.round(), false).await;
+    }
+}
+
 fn watchdog(
     clock: &rome_clock::LockStep,
     world: &SimWorld,
@@ -214,6 +223,7 @@ impl SimWorld {
                 }
                 waited = std::time::Duration::ZERO;
                 if another_round().await {
+                    pass_reads(&clock).await;
                     continue;
                 }
                 // `on_step` hears the new time before any participant wakes
@@ -231,10 +241,7 @@ impl SimWorld {
                     .await;
                 // Someone became busy after all: it finishes first.
                 let Some(now) = stepped else { continue };
-                if clock.in_rounds() {
-                    // A read stamped for the new instant is answered in it.
-                    clock.hand_over((now, 0), false).await;
-                }
+                pass_reads(&clock).await;
                 let wait = pacer.wait(now);
                 steps += 1;
                 progress.store(steps, Ordering::Relaxed);
