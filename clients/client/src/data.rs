@@ -179,11 +179,7 @@ impl DataClient {
     /// The band requests travel in: the options', except in a lock-step
     /// run (see [`crate::robot::band`]).
     fn band(&self) -> Priority {
-        if rome_clock::is_lockstep() {
-            Priority::DEFAULT
-        } else {
-            self.inner.options.priority
-        }
+        crate::robot::lockstep_band(self.inner.options.priority)
     }
 
     fn key(&self, op: DataOp, name: &Name) -> String {

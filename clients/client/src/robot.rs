@@ -80,10 +80,16 @@ pub fn zenoh_priority(priority: u8) -> Priority {
 /// a parameter, which is what the servers go by, and the clock waits for
 /// every message whatever its band.
 pub fn band(priority: u8) -> Priority {
+    lockstep_band(zenoh_priority(priority))
+}
+
+/// `band`, unless this runs in a lock-step run, where it is the default
+/// band (see [`band`]).
+pub(crate) fn lockstep_band(band: Priority) -> Priority {
     if rome_clock::is_lockstep() {
         Priority::DEFAULT
     } else {
-        zenoh_priority(priority)
+        band
     }
 }
 
