@@ -311,16 +311,6 @@ impl<T: Send + 'static> Hold<T> {
         st.items.push((stamp, read, n, item));
         Held::Kept
     }
-
-    /// How many messages are kept.
-    pub fn len(&self) -> usize {
-        locked(&self.inner.state).items.len()
-    }
-
-    /// Whether none is.
-    pub fn is_empty(&self) -> bool {
-        self.len() == 0
-    }
 }
 
 impl<T: Send + 'static> Release for HoldInner<T> {
