@@ -11,6 +11,7 @@ use rome_hardware::device::{BaseDevice, BaseOp, BaseStatus, DeviceError};
 use rome_hardware::robot::{self, spawn_sim_robot, Rates, Running};
 use rome_hardware::sim::{SimWorld, Stepper};
 use rome_hardware::ServerConfig;
+use rome_schema::robot::lock::{LockInfo, LockRecord};
 use rome_schema::robot::Device;
 use rome_schema::{ErrorCode, Root};
 use rome_sim::{Noise, Sim, SimConfig};
@@ -573,6 +574,79 @@ async fn a_restarted_server_knows_the_holder_and_its_fence_from_the_storage() {
     let again = a.lock().await.unwrap();
     assert_eq!(again.fence(), fence + 1);
     assert_eq!(velocities(&rec), [1.0, 2.0]);
+}
+
+/// A storage slow to answer is asked again: the restarted server does not
+/// start with the lock free, which would make the holder's fence stale.
+#[tokio::test(flavor = "multi_thread", worker_threads = 4)]
+async fn a_restarted_server_asks_a_silent_storage_again_for_its_lock_record() {
+    let rec = Recorder::default();
+    let (session, port) = Rig::session().await;
+    let mut rig = Rig {
+        port,
+        state: Some(Duration::from_millis(20)),
+        session,
+        servers: Vec::new(),
+        _stepper: None,
+    };
+    // A storage that leaves the first query unanswered (held, so it is
+    // not finished either) and answers the next ones with a record.
+    let record = LockRecord {
+        holder: Some(LockInfo {
+            holder: "gone-1".into(),
+            fence: 41,
+        }),
+        last_fence: 41,
+        ttl_ms: 60_000,
+    };
+    let unanswered = Arc::new(Mutex::new(Vec::new()));
+    let held = unanswered.clone();
+    let storage = rig.peer_session().await;
+    let _queryable = storage
+        .declare_queryable(Root::default().store_all())
+        .callback(move |q: zenoh::query::Query| {
+            let mut held = held.lock().unwrap();
+            if held.is_empty() && !q.parameters().contains_key("probe") {
+                held.push(q);
+                return;
+            }
+            let key = q.key_expr().clone();
+            q.reply(key, rome_schema::encode(&record)).wait().unwrap();
+        })
+        .await
+        .unwrap();
+    // The server's session must know the storage before the server asks.
+    let probe = "rome/store/robot/r1/base/lock?probe";
+    let session = rig.session.clone();
+    eventually(Duration::from_secs(5), "the storage reached", || async {
+        let replies = session.get(probe).await.unwrap();
+        matches!(replies.recv_async().await, Ok(r) if r.result().is_ok())
+    })
+    .await;
+    rig.start_base(&rec).await;
+    assert_eq!(
+        unanswered.lock().unwrap().len(),
+        1,
+        "the first query was left unanswered"
+    );
+    let c = rig.client("c", 128).await;
+    let state = c.state().await.unwrap();
+    let s = state.next().await.unwrap().unwrap();
+    assert_eq!(
+        s.lock,
+        Some(LockInfo {
+            holder: "gone-1".into(),
+            fence: 41
+        }),
+        "the record from the second answer"
+    );
+    let err = plain_err(
+        &rig.peer_session().await,
+        "rome/robot/r1/base/go?fence=40",
+        r#"{"velocity_mm_s":3}"#,
+    )
+    .await;
+    assert_eq!(err["code"], "stale_fence");
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 4)]

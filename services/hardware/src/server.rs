@@ -41,6 +41,11 @@ const COUNTED_OPS: usize = 65_536;
 /// How often lapsed grants and overdue requests are swept.
 pub const SWEEP: Duration = Duration::from_millis(100);
 
+/// How long a server waits for the storage's answer about its lock
+/// record, and how many times it asks before starting with the lock free.
+const STORE_WAIT: Duration = Duration::from_secs(2);
+const STORE_ATTEMPTS: u32 = 3;
+
 /// A reply or publication body.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Body {
@@ -908,9 +913,27 @@ impl<S: Service> Server<S> {
     }
 
     /// Reads the lock state a previous run stored; without one, fences
-    /// start from the clock so they never repeat a lost run's.
+    /// start from the clock so they never repeat a lost run's. A storage
+    /// that is there but slow to answer (a loaded machine, a router far
+    /// away) is asked again: starting with the lock free would make the
+    /// holder's fence stale and let another client take the device.
     async fn restore_lock(&mut self) {
-        let record = self.stored().await;
+        let mut record = None;
+        for attempt in 1..=STORE_ATTEMPTS {
+            match self.stored().await {
+                Lookup::Found(r) => {
+                    record = Some(r);
+                    break;
+                }
+                Lookup::Nothing => break,
+                Lookup::Silent(why) if attempt < STORE_ATTEMPTS => {
+                    tracing::warn!(server = %self.config.label(), attempt, %why, "the storage did not answer for the lock record; asking again");
+                }
+                Lookup::Silent(why) => {
+                    tracing::error!(server = %self.config.label(), attempts = STORE_ATTEMPTS, %why, "the storage never answered for the lock record: the lock starts free, with fences above any a lost run could have granted");
+                }
+            }
+        }
         let clock = SystemTime::now()
             .duration_since(SystemTime::UNIX_EPOCH)
             .map_or(0, |d| d.as_millis() as u64);
@@ -932,7 +955,11 @@ impl<S: Service> Server<S> {
     /// go up; its holder comes back only if nothing was granted since),
     /// and it gets the lock record it may have missed.
     async fn storage_up(&mut self, storage: &str) {
-        if let Some(r) = self.stored().await {
+        let lookup = self.stored().await;
+        if let Lookup::Silent(why) = &lookup {
+            tracing::warn!(server = %self.config.label(), %storage, %why, "a storage came up but did not answer for the lock record");
+        }
+        if let Lookup::Found(r) = lookup {
             let newer = r.last_fence >= self.gate.last_fence();
             self.gate.raise(r.last_fence);
             if let (Some(holder), None, true) = (&r.holder, self.gate.holder(), newer) {
@@ -946,30 +973,57 @@ impl<S: Service> Server<S> {
     }
 
     /// The lock record in the storage, if one answers with a readable one.
-    async fn stored(&self) -> Option<LockRecord> {
+    async fn stored(&self) -> Lookup {
         let key = self
             .config
             .root
             .lock_store(&self.config.robot, &self.config.device);
-        let mut record: Option<LockRecord> = None;
-        if let Ok(replies) = self
+        let replies = match self
             .session
             .get(&key)
             .consolidation(ConsolidationMode::Latest)
-            .timeout(Duration::from_secs(1))
+            .timeout(STORE_WAIT)
             .await
         {
-            while let Ok(reply) = replies.recv_async().await {
-                if let Ok(sample) = reply.result() {
+            Ok(replies) => replies,
+            Err(e) => return Lookup::Silent(format!("the query could not be sent: {e}")),
+        };
+        let (mut record, mut silent) = (None, None);
+        while let Ok(reply) = replies.recv_async().await {
+            match reply.result() {
+                Ok(sample) => {
                     match decode::<LockRecord>(&sample.payload().to_bytes(), "lock record") {
                         Ok(r) => record = Some(r),
                         Err(e) => tracing::warn!(%key, error = %e, "stored lock state unreadable"),
                     }
                 }
+                // Zenoh ends a query that ran out of time with an error
+                // reply; a storage may answer with one too.
+                Err(e) => {
+                    silent = Some(format!(
+                        "{} (asked {key}, waited up to {:?})",
+                        String::from_utf8_lossy(&e.payload().to_bytes()),
+                        STORE_WAIT
+                    ))
+                }
             }
         }
-        record
+        match (record, silent) {
+            (Some(r), _) => Lookup::Found(r),
+            (None, Some(why)) => Lookup::Silent(why),
+            (None, None) => Lookup::Nothing,
+        }
     }
+}
+
+/// What asking the storage for a lock record found.
+enum Lookup {
+    /// A readable record.
+    Found(LockRecord),
+    /// Every storage answered, and none holds one (or none is running).
+    Nothing,
+    /// No complete answer: the query timed out or was refused (why).
+    Silent(String),
 }
 
 async fn reply(query: &Query, key: &str, body: Body) {
