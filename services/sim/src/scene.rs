@@ -59,6 +59,42 @@ impl Wall {
     }
 }
 
+/// What the sensors and bodies test of a wall, packed into one cache line
+/// and kept beside [`Scene::walls`] (same index): a beam that tries a wall
+/// reads 64 bytes, not the whole wall with its plates and posters.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[repr(align(64))]
+pub struct Line {
+    /// Start.
+    pub a: Point,
+    /// Unit vector from a to b.
+    pub dir: Vector,
+    /// Unit normal (see [`Wall::normal`]).
+    pub normal: Vector,
+    /// Length, mm.
+    pub len: f64,
+    /// The elevator whose door this is, or `u32::MAX`.
+    elevator: u32,
+    /// Whether bodies and cameras are stopped (not an opening).
+    solid: bool,
+    /// Whether sound and infrared are stopped (not an opening, not glass).
+    sounding: bool,
+}
+
+impl Line {
+    fn of(w: &Wall) -> Line {
+        Line {
+            a: w.a,
+            dir: w.dir,
+            normal: w.normal,
+            len: w.len,
+            elevator: w.elevator.map_or(u32::MAX, |e| e as u32),
+            solid: w.kind != EdgeKind::Opening,
+            sounding: w.kind != EdgeKind::Opening && w.kind != EdgeKind::Glass,
+        }
+    }
+}
+
 /// A ceiling light.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Lamp {
@@ -82,6 +118,8 @@ pub struct Elevator {
 pub struct Scene {
     /// Every wall, door, window, glass and elevator cabin wall.
     pub walls: Vec<Wall>,
+    /// The same walls as the sensors test them (same index).
+    pub lines: Vec<Line>,
     /// Corners that echo sound from any direction.
     pub reflectors: Vec<Point>,
     /// Ceiling lights.
@@ -95,8 +133,38 @@ pub struct Scene {
     lo: Point,
     cols: usize,
     rows: usize,
-    cells: Vec<Vec<u32>>,
-    reflector_cells: Vec<Vec<u32>>,
+    cells: Filed,
+    reflector_cells: Filed,
+}
+
+/// Indices filed by grid cell, all in one array: cell `c`'s are
+/// `items[start[c]..start[c + 1]]`. One allocation, read in order, where a
+/// vector per cell would cost a pointer chase per cell a beam visits.
+#[derive(Debug, Clone, Default)]
+struct Filed {
+    start: Vec<u32>,
+    items: Vec<u32>,
+}
+
+impl Filed {
+    fn new(lists: &[Vec<u32>]) -> Filed {
+        let mut start = Vec::with_capacity(lists.len() + 1);
+        let mut items = Vec::with_capacity(lists.iter().map(Vec::len).sum());
+        start.push(0);
+        for list in lists {
+            items.extend_from_slice(list);
+            start.push(items.len() as u32);
+        }
+        Filed { start, items }
+    }
+
+    /// Cell `c`'s indices; none for a cell outside the grid.
+    fn get(&self, c: usize) -> &[u32] {
+        match (self.start.get(c), self.start.get(c + 1)) {
+            (Some(&a), Some(&b)) => &self.items[a as usize..b as usize],
+            _ => &[],
+        }
+    }
 }
 
 /// Which sensor is asking: each sees different things.
@@ -190,8 +258,10 @@ impl Scene {
         let lo = lo - Vector::repeat(3.0 * CELL_MM);
         let cols = (((hi.x - lo.x) / CELL_MM).ceil() as usize + 4).max(1);
         let rows = (((hi.y - lo.y) / CELL_MM).ceil() as usize + 4).max(1);
+        let lines = walls.iter().map(Line::of).collect();
         let mut scene = Scene {
             walls,
+            lines,
             reflectors,
             lamps,
             metal,
@@ -200,25 +270,29 @@ impl Scene {
             lo,
             cols,
             rows,
-            cells: vec![Vec::new(); cols * rows],
-            reflector_cells: vec![Vec::new(); cols * rows],
+            cells: Filed::default(),
+            reflector_cells: Filed::default(),
         };
+        let mut cells = vec![Vec::new(); cols * rows];
+        let mut reflector_cells = vec![Vec::new(); cols * rows];
         for (i, w) in scene.walls.iter().enumerate() {
             let steps = (w.len / (CELL_MM / 4.0)).ceil().max(1.0) as usize;
             let mut last = usize::MAX;
             for k in 0..=steps {
                 let t = w.len * k as f64 / steps as f64;
                 let c = scene.cell_of(w.a + w.dir * t);
-                if c != last && !scene.cells[c].contains(&(i as u32)) {
-                    scene.cells[c].push(i as u32);
+                if c != last && !cells[c].contains(&(i as u32)) {
+                    cells[c].push(i as u32);
                 }
                 last = c;
             }
         }
         for (i, p) in scene.reflectors.iter().enumerate() {
             let c = scene.cell_of(*p);
-            scene.reflector_cells[c].push(i as u32);
+            reflector_cells[c].push(i as u32);
         }
+        scene.cells = Filed::new(&cells);
+        scene.reflector_cells = Filed::new(&reflector_cells);
         scene
     }
 
@@ -252,16 +326,16 @@ impl Scene {
 
     /// Whether a wall stops this sense, given which elevator doors are open.
     pub fn blocks(&self, wall: usize, sense: Sense, open: &[bool]) -> bool {
-        let w = &self.walls[wall];
-        if w.kind == EdgeKind::Opening {
-            return false;
-        }
-        if let Some(e) = w.elevator {
-            if open.get(e).copied().unwrap_or(false) {
-                return false;
-            }
-        }
-        !(sense == Sense::Sound && w.kind == EdgeKind::Glass)
+        let w = &self.lines[wall];
+        let stops = if sense == Sense::Sound {
+            w.sounding
+        } else {
+            w.solid
+        };
+        // An elevator's door lets everything through while it is open.
+        stops
+            && (w.elevator == u32::MAX
+                || !open.get(w.elevator as usize).copied().unwrap_or(false))
     }
 
     /// Indices of walls that may lie within `r` of `p` (a superset), sorted.
@@ -278,7 +352,7 @@ impl Scene {
         let (x1, y1) = self.cell_xy(p + Vector::repeat(r));
         for cy in y0..=y1 {
             for cx in x0..=x1 {
-                out.extend_from_slice(&self.cells[cy * self.cols + cx]);
+                out.extend_from_slice(self.cells.get(cy * self.cols + cx));
             }
         }
     }
@@ -286,12 +360,12 @@ impl Scene {
     /// Indices of the walls filed under grid cell `c` (row-major; see
     /// [`Scene::grid`]); none for a cell outside the grid.
     pub fn walls_in_cell(&self, c: usize) -> &[u32] {
-        self.cells.get(c).map_or(&[], Vec::as_slice)
+        self.cells.get(c)
     }
 
     /// Indices of the corner reflectors in grid cell `c`.
     pub fn reflectors_in_cell(&self, c: usize) -> &[u32] {
-        self.reflector_cells.get(c).map_or(&[], Vec::as_slice)
+        self.reflector_cells.get(c)
     }
 
     /// Indices of corner reflectors within the cells around `p` ± `r`.
@@ -301,7 +375,7 @@ impl Scene {
         let (x1, y1) = self.cell_xy(p + Vector::repeat(r));
         for cy in y0..=y1 {
             for cx in x0..=x1 {
-                out.extend_from_slice(&self.reflector_cells[cy * self.cols + cx]);
+                out.extend_from_slice(self.reflector_cells.get(cy * self.cols + cx));
             }
         }
     }
@@ -359,12 +433,12 @@ impl Scene {
         };
         let mut best: Option<(f64, usize, f64)> = None;
         loop {
-            for &wi in &self.cells[cy * self.cols + cx] {
+            for &wi in self.cells.get(cy * self.cols + cx) {
                 let wi = wi as usize;
                 if Some(wi) == skip || !self.blocks(wi, sense, open) {
                     continue;
                 }
-                let w = &self.walls[wi];
+                let w = &self.lines[wi];
                 if let Some((t, u)) = hit(from, d, w.a, w.dir, w.len) {
                     if t <= max && best.is_none_or(|(bt, _, _)| t < bt) {
                         best = Some((t, wi, u));
@@ -424,7 +498,7 @@ pub fn nearest_of(
     let mut best: Option<(f64, Point)> = None;
     for &wi in walls {
         let wi = wi as usize;
-        let w = &scene.walls[wi];
+        let w = &scene.lines[wi];
         // Cheap rejection before the door and glass checks.
         let side = (p - w.a).dot(&w.normal).abs();
         if side > r || best.is_some_and(|(bd, _)| side >= bd) {

@@ -358,7 +358,7 @@ fn wall_echo(
     if !scene.blocks(wi, Sense::Sound, open) {
         return None;
     }
-    let w = &scene.walls[wi];
+    let w = &scene.lines[wi];
     // The sensor must be on the side the wall faces it with.
     let side = (s - w.a).dot(&w.normal);
     let n = if side >= 0.0 { w.normal } else { -w.normal };
@@ -411,7 +411,7 @@ pub fn infrared(
     let reach = ROBOT_RADIUS_MM + IR_RANGE_MM;
     scene.walls_near_unsorted(at, reach, &mut scratch.walls);
     scratch.walls.retain(|&w| {
-        let wall = &scene.walls[w as usize];
+        let wall = &scene.lines[w as usize];
         (at - wall.a).dot(&wall.normal).abs() <= reach
             && scene.blocks(w as usize, Sense::Sound, open)
     });
@@ -437,7 +437,7 @@ pub fn infrared(
         let mut seen = turns[1..].iter().any(|&turn| {
             let r = turned(forward, turn);
             walls.iter().any(|&w| {
-                let w = &scene.walls[w as usize];
+                let w = &scene.lines[w as usize];
                 crate::scene::hit(s, r, w.a, w.dir, w.len).is_some_and(|(t, _)| t <= IR_RANGE_MM)
             })
         });
