@@ -834,6 +834,7 @@ fn bench_data_measures_the_tcp_floor_zenoh_and_redis_in_one_run() {
         let mut names = vec![
             "tcp ping-pong",
             "zenoh-queryable",
+            "zenoh pub/sub",
             "get",
             "set",
             "signal",
@@ -975,7 +976,14 @@ fn bench_data_reaches_its_far_end_over_a_unix_socket() {
         "--json",
     ]);
     let rows: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    for op in ["zenoh-queryable", "get", "set", "signal", "wait"] {
+    for op in [
+        "zenoh-queryable",
+        "zenoh pub/sub",
+        "get",
+        "set",
+        "signal",
+        "wait",
+    ] {
         let row = rows
             .as_array()
             .unwrap()

@@ -71,6 +71,7 @@ enum Op {
     RedisGet,
     RedisSet,
     Raw,
+    PubSub,
     Get,
     Set,
     Signal,
@@ -86,6 +87,7 @@ impl Op {
             Op::RedisGet => "redis GET",
             Op::RedisSet => "redis SET",
             Op::Raw => "zenoh-queryable",
+            Op::PubSub => "zenoh pub/sub",
             Op::Get => "get",
             Op::Set => "set",
             Op::Signal => "signal",
@@ -114,6 +116,10 @@ pub struct Row {
 }
 
 const RAW_KEY: &str = "rome-bench/raw";
+/// A client `i` puts on `PING/<i>`; the far end puts the same payload back
+/// on `PONG/<i>`: a round trip through pub/sub, with no query machinery.
+const PING: &str = "rome-bench/ping";
+const PONG: &str = "rome-bench/pong";
 
 /// A semaphore made with more units than any run takes.
 const PLENTY: &str = "bench-plenty";
@@ -127,6 +133,9 @@ struct Client {
     tcp: tokio::sync::Mutex<tokio::net::TcpStream>,
     /// A connection to redis-server, when it is installed.
     redis: Option<tokio::sync::Mutex<tokio::net::TcpStream>>,
+    /// The pub/sub round trip: where pings go, where pongs come, and the
+    /// last ping's number (a pong of an earlier, abandoned ping is skipped).
+    ping: ClientPing,
 }
 
 async fn once(client: &Client, op: Op) -> anyhow::Result<()> {
@@ -170,6 +179,22 @@ async fn once(client: &Client, op: Op) -> anyhow::Result<()> {
                 .await
                 .map_err(|e| anyhow::anyhow!("raw queryable did not answer: {e}"))?;
             anyhow::ensure!(reply.result().is_ok(), "raw queryable answered an error");
+        }
+        Op::PubSub => {
+            let (ping, pong, n) = &client.ping;
+            let n = n.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+            ping.put(n.to_le_bytes().to_vec())
+                .await
+                .map_err(|e| anyhow::anyhow!("{e}"))?;
+            loop {
+                let sample = pong
+                    .recv_async()
+                    .await
+                    .map_err(|e| anyhow::anyhow!("no pong: {e}"))?;
+                if sample.payload().to_bytes().as_ref() == n.to_le_bytes() {
+                    break;
+                }
+            }
         }
         Op::Get => {
             client.data.get("bench/x").await?;
@@ -323,7 +348,15 @@ pub async fn data_rows(args: &DataBench, progress: bool) -> anyhow::Result<Vec<R
     };
     let tcp_port = echo_server().await?;
     let redis = Redis::start()?;
-    let mut ops = vec![Op::Tcp, Op::Raw, Op::Get, Op::Set, Op::Signal, Op::Wait];
+    let mut ops = vec![
+        Op::Tcp,
+        Op::Raw,
+        Op::PubSub,
+        Op::Get,
+        Op::Set,
+        Op::Signal,
+        Op::Wait,
+    ];
     match &redis {
         Some(_) => {
             ops.insert(1, Op::RedisSet);
@@ -372,12 +405,14 @@ pub async fn data_rows(args: &DataBench, progress: bool) -> anyhow::Result<Vec<R
                 }
                 None => None,
             };
+            let ping = pinger(&session, i).await?;
             clients.push(Client {
                 session,
                 data,
                 disk,
                 tcp: tokio::sync::Mutex::new(tcp),
                 redis,
+                ping,
             });
         }
         clients[0].data.set("bench/x", &0).await?;
@@ -468,12 +503,58 @@ impl Far {
     }
 }
 
-/// A bare queryable and a data server on `session`.
+/// Client `i`'s side of the pub/sub round trip, once the far end answers
+/// its pings (until then a ping has nobody to reach, or its pong nobody
+/// to come back to).
+async fn pinger(session: &zenoh::Session, i: usize) -> anyhow::Result<ClientPing> {
+    let z = |e: zenoh::Error| anyhow::anyhow!("{e}");
+    let pong = session
+        .declare_subscriber(format!("{PONG}/{i}"))
+        .await
+        .map_err(z)?;
+    let ping = session
+        .declare_publisher(format!("{PING}/{i}"))
+        .await
+        .map_err(z)?;
+    let ready = Instant::now();
+    loop {
+        ping.put(b"hello".to_vec()).await.map_err(z)?;
+        if let Ok(Ok(_)) = tokio::time::timeout(Duration::from_millis(100), pong.recv_async()).await
+        {
+            break;
+        }
+        anyhow::ensure!(
+            ready.elapsed() < Duration::from_secs(10),
+            "the far end's pub/sub echo did not answer within 10 s"
+        );
+    }
+    Ok((ping, pong, std::sync::atomic::AtomicU64::new(0)))
+}
+
+type ClientPing = (
+    zenoh::pubsub::Publisher<'static>,
+    zenoh::pubsub::Subscriber<zenoh::handlers::FifoChannelHandler<zenoh::sample::Sample>>,
+    std::sync::atomic::AtomicU64,
+);
+
+/// A bare queryable, a pub/sub echo and a data server on `session`.
 async fn serve_on(session: zenoh::Session) -> anyhow::Result<(zenoh::Session, rome_data::Running)> {
     session
         .declare_queryable(RAW_KEY)
         .callback(|q| {
             let _ = q.reply(RAW_KEY, b"0".to_vec()).wait();
+        })
+        .background()
+        .await
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    let echo = session.clone();
+    session
+        .declare_subscriber(format!("{PING}/*"))
+        .callback(move |s| {
+            let Some(i) = s.key_expr().as_str().rsplit('/').next() else {
+                return;
+            };
+            let _ = echo.put(format!("{PONG}/{i}"), s.payload().clone()).wait();
         })
         .background()
         .await
