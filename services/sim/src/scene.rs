@@ -334,8 +334,7 @@ impl Scene {
         };
         // An elevator's door lets everything through while it is open.
         stops
-            && (w.elevator == u32::MAX
-                || !open.get(w.elevator as usize).copied().unwrap_or(false))
+            && (w.elevator == u32::MAX || !open.get(w.elevator as usize).copied().unwrap_or(false))
     }
 
     /// Indices of walls that may lie within `r` of `p` (a superset), sorted.
