@@ -131,7 +131,9 @@ pub async fn figures(args: &RobotBench, progress: bool) -> anyhow::Result<RobotF
         .map_or(0.0, |p| p.wall_heading_deg);
     sim.add_robot_at("r1", "301L", heading)?;
     let world = SimWorld::new(sim);
-    let stepper = world.start(None);
+    // Round trips are measured with the world at real time, as `rome sim`
+    // runs it; the scan stream below, with the world running flat out.
+    let stepper = world.start(Some(1.0));
     let rates = Rates {
         state: Some(Duration::from_millis(100)),
         scan: Some(Duration::from_millis(1)),
@@ -185,6 +187,8 @@ pub async fn figures(args: &RobotBench, progress: bool) -> anyhow::Result<RobotF
         rows.push(Row::from_latencies(p.name(), 1, lat, spent)?);
     }
     say("scan stream");
+    drop(stepper);
+    let stepper = world.start(None);
     let scans = r.scans().await?;
     let first = scans
         .next()
