@@ -106,6 +106,19 @@ pub enum Command {
     Soak(cmd::soak::Args),
 }
 
+/// The environment variable Zenoh reads its runtimes' layout from.
+pub const ZENOH_RUNTIME_ENV: &str = "ZENOH_RUNTIME";
+
+/// How `rome` lays out Zenoh's runtimes unless `ZENOH_RUNTIME` is set:
+/// reading links, running callbacks, accepting and managing links share
+/// one pool of two threads, and writing to links keeps a thread of its
+/// own (a callback waiting for room on a congested link must never hold
+/// up the thread that makes the room). Fewer threads than Zenoh's default
+/// (two for reading, one each for the rest) and fewer hand-overs between
+/// them: a fifth off a round trip on loopback (docs/benchmarks.md).
+pub const ZENOH_RUNTIME: &str =
+    "(rx: (handover: app), acc: (handover: app), net: (handover: app), app: (worker_threads: 2))";
+
 /// Runs a parsed command line and returns the process exit code.
 pub fn main(cli: Cli) -> ExitCode {
     let server = matches!(

@@ -4,5 +4,10 @@ use clap::Parser;
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
+    // Set before any thread starts (Zenoh reads it when it first starts a
+    // runtime); a `ZENOH_RUNTIME` of the user's own is left alone.
+    if std::env::var_os(rome_cli::ZENOH_RUNTIME_ENV).is_none() {
+        std::env::set_var(rome_cli::ZENOH_RUNTIME_ENV, rome_cli::ZENOH_RUNTIME);
+    }
     rome_cli::main(rome_cli::Cli::parse())
 }
