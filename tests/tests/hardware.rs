@@ -67,16 +67,22 @@ impl Rig {
         open_loopback_peer(&[]).await.unwrap()
     }
 
-    /// A recording base for robot `r1`, with a storage in another session.
-    async fn recorder(rec: &Recorder, storage: bool) -> Rig {
+    /// A session on a port of its own and no servers yet; servers started
+    /// on it publish their state every `state`.
+    async fn empty(state: Option<Duration>) -> Rig {
         let (session, port) = Self::session().await;
-        let mut rig = Rig {
+        Rig {
             port,
-            state: Some(Duration::from_millis(20)),
+            state,
             session,
             servers: Vec::new(),
             _stepper: None,
-        };
+        }
+    }
+
+    /// A recording base for robot `r1`, with a storage in another session.
+    async fn recorder(rec: &Recorder, storage: bool) -> Rig {
+        let mut rig = Self::empty(Some(Duration::from_millis(20))).await;
         if storage {
             let s = rig.peer_session().await;
             tokio::spawn(async move {
@@ -581,14 +587,7 @@ async fn a_restarted_server_knows_the_holder_and_its_fence_from_the_storage() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 4)]
 async fn a_restarted_server_asks_a_silent_storage_again_for_its_lock_record() {
     let rec = Recorder::default();
-    let (session, port) = Rig::session().await;
-    let mut rig = Rig {
-        port,
-        state: Some(Duration::from_millis(20)),
-        session,
-        servers: Vec::new(),
-        _stepper: None,
-    };
+    let mut rig = Rig::empty(Some(Duration::from_millis(20))).await;
     // A storage that leaves the first query unanswered (held, so it is
     // not finished either) and answers the next ones with a record.
     let record = LockRecord {
@@ -659,14 +658,7 @@ async fn virtual_coordinates_unwrap_16_bit_registers_both_ways() {
         .lock()
         .unwrap()
         .extend(path.iter().map(|mm| mm.rem_euclid(65_536) as u16 as i16));
-    let (session, port) = Rig::session().await;
-    let mut rig = Rig {
-        port,
-        state: None,
-        session,
-        servers: Vec::new(),
-        _stepper: None,
-    };
+    let mut rig = Rig::empty(None).await;
     // No state stream: every register value is read by a `pose` request.
     rig.start_base(&rec).await;
     let c = rig.client("c", 128).await;

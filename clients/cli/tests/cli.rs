@@ -806,6 +806,16 @@ fn echo_and_ls_show_a_fleets_traffic_and_rates() {
     sim.kill();
 }
 
+/// The Zenoh rows of `rome bench data`, beside the TCP floor and Redis.
+const DATA_OPS: [&str; 6] = [
+    "zenoh-queryable",
+    "zenoh pub/sub",
+    "get",
+    "set",
+    "signal",
+    "wait",
+];
+
 #[test]
 fn bench_data_measures_the_tcp_floor_zenoh_and_redis_in_one_run() {
     let out = offline_ok([
@@ -831,15 +841,8 @@ fn bench_data_measures_the_tcp_floor_zenoh_and_redis_in_one_run() {
         .is_ok();
     let mut want: Vec<String> = Vec::new();
     for n in [1, 2] {
-        let mut names = vec![
-            "tcp ping-pong",
-            "zenoh-queryable",
-            "zenoh pub/sub",
-            "get",
-            "set",
-            "signal",
-            "wait",
-        ];
+        let mut names = vec!["tcp ping-pong"];
+        names.extend(DATA_OPS);
         if redis {
             names.extend(["redis GET", "redis SET"]);
         }
@@ -976,14 +979,7 @@ fn bench_data_reaches_its_far_end_over_a_unix_socket() {
         "--json",
     ]);
     let rows: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    for op in [
-        "zenoh-queryable",
-        "zenoh pub/sub",
-        "get",
-        "set",
-        "signal",
-        "wait",
-    ] {
+    for op in DATA_OPS {
         let row = rows
             .as_array()
             .unwrap()
