@@ -48,10 +48,6 @@ const LOST_AFTER: std::time::Duration = std::time::Duration::from_secs(1);
 /// the watchdog reports the clock's state.
 const WATCHDOG: std::time::Duration = std::time::Duration::from_secs(60);
 
-/// A thread that reports the clock's state, and whether the world is
-/// locked, when the world has not stepped for [`WATCHDOG`] of wall time: a
-/// thread of its own, so that it speaks even when every task is stuck.
-/// It ends when `stop` is set.
 /// A round has begun (another of the instant, or a new instant's first):
 /// in a run split into processes, the reads stamped for it are answered
 /// in it, from the state the rounds before left.
@@ -61,6 +57,10 @@ async fn pass_reads(clock: &rome_clock::LockStep) {
     }
 }
 
+/// A thread that reports the clock's state, and whether the world is
+/// locked, when the world has not stepped for [`WATCHDOG`] of wall time: a
+/// thread of its own, so that it speaks even when every task is stuck.
+/// It ends when `stop` is set.
 fn watchdog(
     clock: &rome_clock::LockStep,
     world: &SimWorld,
