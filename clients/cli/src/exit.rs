@@ -4,6 +4,9 @@
 pub const OK: u8 = 0;
 /// Any error: the message on stderr says what.
 pub const ERROR: u8 = 1;
+/// The command line or the environment cannot be used (as for clap's
+/// usage errors): the message on stderr says what.
+pub const USAGE: u8 = 2;
 /// A semaphore unit was not taken (try-wait, or wait with --timeout).
 pub const NOT_ACQUIRED: u8 = 3;
 /// Stopped by Ctrl-C or SIGTERM.

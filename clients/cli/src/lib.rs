@@ -119,6 +119,43 @@ pub const ZENOH_RUNTIME_ENV: &str = "ZENOH_RUNTIME";
 pub const ZENOH_RUNTIME: &str =
     "(rx: (handover: app), acc: (handover: app), net: (handover: app), app: (worker_threads: 2))";
 
+/// Whether Zenoh can read the layout in `ZENOH_RUNTIME`; what is wrong
+/// with it if not. Zenoh reads the variable when it first starts a
+/// runtime and panics on a value it cannot parse; this reads it first,
+/// with the panic caught and its message kept, and starts no thread.
+pub fn check_zenoh_runtime() -> Result<(), String> {
+    let said = std::sync::Arc::new(std::sync::Mutex::new(String::new()));
+    let hook = std::panic::take_hook();
+    {
+        let said = said.clone();
+        std::panic::set_hook(Box::new(move |info| {
+            let text = info
+                .payload()
+                .downcast_ref::<String>()
+                .cloned()
+                .or_else(|| info.payload().downcast_ref::<&str>().map(|s| s.to_string()))
+                .unwrap_or_default();
+            if let Ok(mut s) = said.lock() {
+                *s = text;
+            }
+        }));
+    }
+    let read = std::panic::catch_unwind(|| {
+        let _ = &*zenoh_runtime::ZRUNTIME_PARAM;
+    });
+    std::panic::set_hook(hook);
+    match read {
+        Ok(()) => Ok(()),
+        Err(_) => {
+            let value = std::env::var(ZENOH_RUNTIME_ENV).unwrap_or_default();
+            let why = said.lock().map(|s| s.clone()).unwrap_or_default();
+            Err(format!(
+                "{ZENOH_RUNTIME_ENV}='{value}' is not a layout Zenoh can read ({why}); unset it for rome's own, or give Zenoh's RON form, e.g. '()' for Zenoh's defaults"
+            ))
+        }
+    }
+}
+
 /// Runs a parsed command line and returns the process exit code.
 pub fn main(cli: Cli) -> ExitCode {
     let server = matches!(

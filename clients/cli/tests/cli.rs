@@ -376,6 +376,25 @@ fn offline_ok<S: AsRef<std::ffi::OsStr>>(
     out
 }
 
+/// A `ZENOH_RUNTIME` Zenoh cannot parse is refused with a message naming
+/// it, before Zenoh starts (which would panic on it).
+#[test]
+fn an_unreadable_zenoh_runtime_is_an_error_not_a_panic() {
+    let out = Command::new(ROME)
+        .args(["data", "get", "x"])
+        .env("ZENOH_RUNTIME", "(app: (worker_threads: 2)")
+        .env("RUST_BACKTRACE", "0")
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("ZENOH_RUNTIME='(app: (worker_threads: 2)' is not a layout Zenoh can read"),
+        "{err}"
+    );
+    assert!(!err.contains("panicked"), "{err}");
+}
+
 /// Runs `rome` without a server; it must fail with exit 1. Returns stderr.
 fn offline_err<S: AsRef<std::ffi::OsStr>>(args: impl IntoIterator<Item = S>) -> String {
     let out = Command::new(ROME).args(args).output().unwrap();
