@@ -7,7 +7,9 @@
 //! is seen in that order and commits are published in commit order. The
 //! one exception is a request that finds nothing queued or being handled:
 //! a plain read (`var/<name>`, `sem/<name>`), and with the store in memory
-//! a `set` or a `signal`, is answered by the queryable's callback itself,
+//! a `set`, a `signal`, an `ack` or a `wait` that takes a unit at once (one
+//! that would be queued needs its query held, which the task does), is
+//! answered by the queryable's callback itself,
 //! under the store's lock, saving the trip through the loop (a change
 //! leaves its publication and grants to the task, ahead of anything
 //! queued); a request behind anything else takes its place in the queue.
@@ -642,15 +644,16 @@ struct Quick {
     root: Root,
     /// How many follow-ups are queued ([`Server::follows`]).
     queued: Arc<AtomicUsize>,
-    /// Changes too (`set`, `signal`), when the store is in memory: what is
-    /// left to do (publication, grants) goes to the event loop, ahead of
-    /// anything queued; and whether the loop's clock is a lock-step one.
+    /// Changes too (`set`, `signal`, a `wait` granted at once, `ack`), when
+    /// the store is in memory: what is left to do (publication, grants)
+    /// goes to the event loop, ahead of anything queued; and whether the
+    /// loop's clock is a lock-step one.
     writes: Option<(flume::Sender<Event>, bool)>,
 }
 
 impl Quick {
-    /// Answers a plain read (`var/<name>`, `sem/<name>`), a `set` or a
-    /// `signal`.
+    /// Answers a plain read (`var/<name>`, `sem/<name>`), a `set`, a
+    /// `signal`, a `wait` that takes a unit at once or an `ack`.
     fn answer(&self, query: &Query) -> bool {
         let key = query.key_expr().as_str();
         if key.contains('*') {
@@ -661,9 +664,22 @@ impl Quick {
         let applied = match Request::parse(&self.root, key, params, payload.as_deref()) {
             Ok(Request::Get(get)) => get.apply(&lock(&self.store)),
             Ok(Request::Read(read)) => read.apply(&lock(&self.store)),
-            Ok(request @ (Request::Set(_) | Request::Signal(_))) => match &self.writes {
+            Ok(
+                request @ (Request::Set(_)
+                | Request::Signal(_)
+                | Request::Wait(_)
+                | Request::Ack(_)),
+            ) => match &self.writes {
                 Some((first, lockstep)) if rome_clock::now_ms().is_some() == *lockstep => {
                     let mut store = lock(&self.store);
+                    // A wait that would be queued needs its query held,
+                    // which only the loop does; asked under the same lock
+                    // as the wait is applied, so the answer holds.
+                    if let Request::Wait(w) = &request {
+                        if !store.wait_answers_at_once(&w.name, w.ticket.as_deref()) {
+                            return false;
+                        }
+                    }
                     let mut applied = request.apply(&mut store, Instant::now());
                     // Queued under the store's lock, so changes made on
                     // two threads are followed up in their order; the
@@ -694,8 +710,9 @@ impl Quick {
                 rome_serve::reply_now(query, key, payload, Encoding::APPLICATION_JSON);
                 true
             }
-            // Reads, sets and signals always answer; were one not to, it
-            // is done all the same and must not be done again.
+            // What is answered here always answers (a wait that would be
+            // held was left to the loop above); were one not to, it is
+            // done all the same and must not be done again.
             Ok(_) => true,
             // A request that failed changed nothing: the loop answers it
             // with its error.

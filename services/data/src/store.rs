@@ -866,6 +866,23 @@ impl Store {
         Ok(self.wait_reply(name, &ticket, status))
     }
 
+    /// Whether [`Store::wait_undo`] on `name` with `ticket` would answer at
+    /// once (granted, or the reply of a wait already confirmed) rather than
+    /// queue the ticket and ask for its query to be held.
+    pub fn wait_answers_at_once(&self, name: &Name, ticket: Option<&str>) -> bool {
+        let Some(sem) = self.sems.get(name) else {
+            return false;
+        };
+        if let Some(t) = ticket.and_then(|t| self.tickets.get(t)) {
+            return t.sem == *name && matches!(t.state, TicketState::Granted { .. });
+        }
+        match ticket.and_then(|t| self.remembered.get(t)) {
+            Some(Remembered::Confirmed(_)) => true,
+            Some(_) => false,
+            None => sem.value > 0 && sem.queue.is_empty(),
+        }
+    }
+
     /// The server stopped holding a wait's query without a grant. An owned
     /// ticket keeps its place until `lapse_at` (the client asks again
     /// before then); an anonymous one leaves the queue (`timed_out`).
@@ -1422,6 +1439,62 @@ mod tests {
         s.sweep(t + DEFAULT_RETENTION, Duration::ZERO, |_| true);
         s.signal(&n("S"), Some("s1"), t).unwrap();
         assert_eq!(s.semaphore(&n("S")).unwrap().value, 2);
+    }
+
+    /// The data server answers a wait from the queryable's callback only
+    /// when [`Store::wait_answers_at_once`] says it will not be held: the
+    /// two must agree in every state a mix of requests can reach.
+    #[test]
+    fn a_wait_answers_at_once_exactly_when_the_predicate_says_so() {
+        let mut s = Store::new(4);
+        let t = Instant::now();
+        let sems = [n("A"), n("B")];
+        for sem in &sems {
+            s.create(sem, 1).unwrap();
+        }
+        // A fixed linear congruential sequence: the same mix every run.
+        let mut x: u64 = 0x2545_f491_4f6c_dd1d;
+        let mut next = |m: u64| {
+            x = x.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+            (x >> 33) % m
+        };
+        let (mut at_once, mut held, mut serial) = (0, 0, 0u64);
+        for _ in 0..5_000 {
+            // Mostly the last few tickets, sometimes a new one; a
+            // ticket's number says its semaphore.
+            serial += u64::from(next(3) == 0);
+            let number = serial.saturating_sub(next(4));
+            let (sem, ticket) = (&sems[(number % 2) as usize], format!("t{number}"));
+            let owner = ["o1", "o2"][next(2) as usize];
+            match next(12) {
+                0..=5 => {
+                    let anonymous = next(4) == 0;
+                    let ticket = (!anonymous).then_some(ticket.as_str());
+                    let said = s.wait_answers_at_once(sem, ticket);
+                    let r = s.wait(sem, ticket, Some(owner), t);
+                    let answered = matches!(&r, Ok(r) if r.status != WaitStatus::Pending);
+                    assert_eq!(said, answered, "wait {sem} {ticket:?}: {r:?}");
+                    if said {
+                        at_once += 1;
+                    } else if r.is_ok() {
+                        held += 1;
+                    }
+                }
+                6 => drop(s.signal(sem, None, t)),
+                7..=9 => drop(s.ack(sem, &ticket, t)),
+                10 => drop(s.cancel(sem, &ticket)),
+                _ => {
+                    if let Some(owner_gone) = [None, Some("o1"), Some("o2")][next(3) as usize] {
+                        s.owner_gone(owner_gone, t);
+                    }
+                }
+            }
+        }
+        // Both answers were given many times.
+        assert!(
+            at_once > 100 && held > 100,
+            "{at_once} at once, {held} held"
+        );
     }
 
     #[test]
