@@ -263,6 +263,50 @@ impl Drop for ChildGuard {
     }
 }
 
+/// A test's own directory for logs and files under the system's
+/// temporary directory: removed when dropped once the test has passed,
+/// kept (and its path printed) when the test is failing, to be read.
+#[derive(Debug)]
+pub struct TestDir(std::path::PathBuf);
+
+impl TestDir {
+    /// A new, empty directory named after `label`, this process and the
+    /// moment, so tests running side by side never share one.
+    pub fn new(label: &str) -> TestDir {
+        let nanos = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .unwrap_or_default()
+            .as_nanos();
+        let path = std::env::temp_dir().join(format!("{label}-{}-{nanos}", std::process::id()));
+        std::fs::create_dir_all(&path)
+            .unwrap_or_else(|e| panic!("cannot make {}: {e}", path.display()));
+        TestDir(path)
+    }
+
+    /// The directory.
+    pub fn path(&self) -> &std::path::Path {
+        &self.0
+    }
+}
+
+impl std::ops::Deref for TestDir {
+    type Target = std::path::Path;
+
+    fn deref(&self) -> &std::path::Path {
+        &self.0
+    }
+}
+
+impl Drop for TestDir {
+    fn drop(&mut self) {
+        if std::thread::panicking() {
+            eprintln!("the failed test's files are kept in {}", self.0.display());
+        } else {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
+}
+
 /// Starts `rome-test-peer` against the server on `port`
 /// (`peer!(port, ["planner", "--goals", "10"])`).
 #[macro_export]
@@ -327,4 +371,29 @@ pub fn python_venv(
         "{packages:?} installed but `{import_check}` fails"
     );
     dir.to_path_buf()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::TestDir;
+
+    #[test]
+    fn a_test_dir_goes_when_the_test_passes_and_stays_when_it_fails() {
+        let passed = TestDir::new("rome-testdir-passed");
+        let path = passed.to_path_buf();
+        std::fs::write(passed.join("log"), "x").unwrap();
+        drop(passed);
+        assert!(!path.exists(), "{} left behind", path.display());
+
+        let (tx, rx) = std::sync::mpsc::channel();
+        let failed = std::thread::spawn(move || {
+            let dir = TestDir::new("rome-testdir-failed");
+            tx.send(dir.to_path_buf()).unwrap();
+            panic!("a failing test");
+        });
+        assert!(failed.join().is_err());
+        let kept = rx.recv().unwrap();
+        assert!(kept.exists(), "{} was removed", kept.display());
+        std::fs::remove_dir_all(kept).unwrap();
+    }
 }

@@ -84,24 +84,16 @@ struct Deployment {
     _router: ChildGuard,
     _data: ChildGuard,
     _sim: ChildGuard,
+    /// Last, so the processes are gone before their files.
+    _root: rome_tests::TestDir,
 }
 
 async fn deploy() -> Deployment {
-    let dir = std::env::temp_dir().join(format!(
-        "rome-access-{}-{}",
-        std::process::id(),
-        std::time::SystemTime::now()
-            .duration_since(std::time::UNIX_EPOCH)
-            .unwrap_or_default()
-            .as_nanos()
-    ));
-    let _ = std::fs::remove_dir_all(&dir);
+    let root = rome_tests::TestDir::new("rome-access");
+    let dir = root.path().to_path_buf();
     let secrets = dir.join("secrets");
     let secrets_s = secrets.display().to_string();
-    let log = {
-        std::fs::create_dir_all(&dir).unwrap();
-        dir.join("rome.log")
-    };
+    let log = dir.join("rome.log");
     let made = Command::new(ROME)
         .args(["certs", &secrets_s])
         .output()
@@ -156,6 +148,7 @@ async fn deploy() -> Deployment {
         _router: router,
         _data: data,
         _sim: sim,
+        _root: root,
     }
 }
 

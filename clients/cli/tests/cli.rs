@@ -906,8 +906,7 @@ fn bench_mem_reads_the_servers_resident_memory() {
 
 #[test]
 fn bench_all_writes_every_figure_and_regenerates_only_the_marked_section() {
-    let dir = std::env::temp_dir().join(format!("rome-bench-all-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = rome_tests::TestDir::new("rome-bench-all");
     let (json, doc) = (dir.join("bench.json"), dir.join("doc.md"));
     let begin = "<!-- rome bench all: begin -->";
     let end = "<!-- rome bench all: end -->";

@@ -11,7 +11,7 @@
 #![allow(clippy::unwrap_used)]
 
 use rome_tests::ChildGuard;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::Duration;
 
@@ -33,16 +33,6 @@ struct Sent {
     priority: u8,
     command: String,
     outcome: String,
-}
-
-fn dir() -> PathBuf {
-    let d = std::env::temp_dir().join(format!(
-        "rome-colony-test-{}-{:?}",
-        std::process::id(),
-        std::thread::current().id()
-    ));
-    std::fs::create_dir_all(&d).unwrap();
-    d
 }
 
 /// `rome ARGS…` as a client of the server on `port`, its standard output
@@ -126,7 +116,7 @@ fn count(sent: &[Sent], module: &str, outcome: &str) -> usize {
 
 #[test]
 fn the_higher_behaviour_is_carried_out_while_it_applies_and_the_lower_resume() {
-    let d = dir();
+    let d = rome_tests::TestDir::new("rome-colony-test");
     let sim_log = d.join("sim.log");
     let _sim = rome_tests::spawn_logged(
         ROME,
@@ -242,8 +232,7 @@ fn server(dir: &Path, name: &str, args: &[&str]) -> (ChildGuard, u16) {
 /// semaphores; the robot goes out and back, judged by ground truth.
 #[test]
 fn two_layers_talking_only_through_the_data_server_drive_out_and_back() {
-    let d = dir().join("layers");
-    std::fs::create_dir_all(&d).unwrap();
+    let d = rome_tests::TestDir::new("rome-colony-layers");
     let (_ds, port) = server(
         &d,
         "data-server",

@@ -9,23 +9,9 @@
 
 use rome_client::net::NetOptions;
 use rome_tests::{listening_port, spawn_logged, ChildGuard};
-use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 const ROME: &str = env!("CARGO_BIN_EXE_rome");
-
-fn log_dir() -> PathBuf {
-    let dir = std::env::temp_dir().join(format!(
-        "rome-fuzz-test-{}-{}",
-        std::process::id(),
-        std::time::SystemTime::now()
-            .duration_since(std::time::UNIX_EPOCH)
-            .unwrap()
-            .as_nanos()
-    ));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
 
 fn logs(dir: &std::path::Path) -> String {
     rome_tests::tail_logs(dir, 6)
@@ -33,7 +19,7 @@ fn logs(dir: &std::path::Path) -> String {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn generated_garbage_from_the_network_breaks_no_server_and_no_client() {
-    let dir = log_dir();
+    let dir = rome_tests::TestDir::new("rome-fuzz-test");
     let mut procs: Vec<(String, ChildGuard)> = Vec::new();
     let ds_log = dir.join("data-server.log");
     procs.push((
