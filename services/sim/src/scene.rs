@@ -7,7 +7,7 @@ use rome_maps::model::EdgeKind;
 use rome_maps::{Map, World};
 
 /// Side of a grid cell, mm.
-const CELL_MM: f64 = 2_000.0;
+pub(crate) const CELL_MM: f64 = 2_000.0;
 /// How deep an elevator cabin is behind its door, mm.
 const CABIN_MM: f64 = 2_000.0;
 

@@ -77,7 +77,7 @@ const SECTION_MM: f64 = 2_000.0;
 /// How far the cells looked at reach beyond the beam, mm: walls are filed
 /// under the cells of points every quarter cell along them, so any point of
 /// a wall is within this of a cell it is filed under.
-const FILED_WITHIN_MM: f64 = 260.0;
+const FILED_WITHIN_MM: f64 = crate::scene::CELL_MM / 8.0 + 10.0;
 /// How far the cells looked at reach beyond the beam, mm: far enough for a
 /// wall's filing and for the centre of a robot whose disc enters the beam.
 const MARGIN_MM: f64 = if FILED_WITHIN_MM > ROBOT_RADIUS_MM + 10.0 {
