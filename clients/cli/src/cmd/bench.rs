@@ -224,35 +224,70 @@ async fn once(client: &Client, op: Op) -> anyhow::Result<()> {
     Ok(())
 }
 
-async fn measure(clients: &[Client], op: Op, span: Duration) -> anyhow::Result<Row> {
-    let run = |span: Duration| {
-        let deadline = Instant::now() + span;
-        async move {
-            let mut tasks = Vec::new();
-            for client in clients {
-                tasks.push(async move {
-                    let mut lat = Vec::new();
-                    while Instant::now() < deadline {
-                        let t = Instant::now();
-                        once(client, op).await?;
-                        lat.push(t.elapsed().as_micros() as u64);
-                    }
-                    Ok::<_, anyhow::Error>(lat)
-                });
+/// Slices each operation's time is cut into, the operations taking turns
+/// (here and in `rome bench robot`): a machine whose load drifts during the
+/// run weighs on all of them alike, so their ratios hold.
+pub(crate) const ROUNDS: u32 = 10;
+
+/// Every client runs `op` one request at a time for `span`: the round
+/// trips (µs) and the time they took together.
+async fn measure(
+    clients: &[Client],
+    op: Op,
+    span: Duration,
+) -> anyhow::Result<(Vec<u64>, Duration)> {
+    let deadline = Instant::now() + span;
+    let mut tasks = Vec::new();
+    for client in clients {
+        tasks.push(async move {
+            let mut lat = Vec::new();
+            while Instant::now() < deadline {
+                let t = Instant::now();
+                once(client, op).await?;
+                lat.push(t.elapsed().as_micros() as u64);
             }
-            let started = Instant::now();
-            let results = futures_join_all(tasks).await;
-            let elapsed = started.elapsed();
-            let mut all = Vec::new();
-            for r in results {
-                all.extend(r?);
-            }
-            Ok::<_, anyhow::Error>((all, elapsed))
+            Ok::<_, anyhow::Error>(lat)
+        });
+    }
+    let started = Instant::now();
+    let results = futures_join_all(tasks).await;
+    let elapsed = started.elapsed();
+    let mut all = Vec::new();
+    for r in results {
+        all.extend(r?);
+    }
+    Ok((all, elapsed))
+}
+
+/// Each of `ops` warmed up, then measured in [`ROUNDS`] turns of `span /
+/// ROUNDS`: one row per operation.
+async fn measure_all(
+    clients: &[Client],
+    ops: &[Op],
+    span: Duration,
+    mut say: impl FnMut(&str),
+) -> anyhow::Result<Vec<Row>> {
+    let n = clients.len();
+    for &op in ops {
+        say(&format!("warming up {} with {n} client(s)", op.name()));
+        measure(clients, op, span / 5).await?;
+    }
+    let mut taken: Vec<(Vec<u64>, Duration)> = vec![(Vec::new(), Duration::ZERO); ops.len()];
+    for round in 0..ROUNDS {
+        say(&format!(
+            "round {} of {ROUNDS} with {n} client(s)",
+            round + 1
+        ));
+        for (k, &op) in ops.iter().enumerate() {
+            let (lat, elapsed) = measure(clients, op, span / ROUNDS).await?;
+            taken[k].0.extend(lat);
+            taken[k].1 += elapsed;
         }
-    };
-    run(span / 5).await?; // warm-up
-    let (lat, elapsed) = run(span).await?;
-    Row::from_latencies(op.name(), clients.len(), lat, elapsed)
+    }
+    ops.iter()
+        .zip(taken)
+        .map(|(op, (lat, elapsed))| Row::from_latencies(op.name(), n, lat, elapsed))
+        .collect()
 }
 
 impl Row {
@@ -371,13 +406,14 @@ pub async fn data_rows(args: &DataBench, progress: bool) -> anyhow::Result<Vec<R
     let mut bar = progress.then(|| {
         crate::progress::Progress::bar(
             "bench data",
-            "measurements",
-            (args.clients.len() * ops.len()) as u64,
+            "steps",
+            (args.clients.len() * (ops.len() + ROUNDS as usize)) as u64,
         )
     });
+    let mut step = 0u64;
     for &n in &args.clients {
         if let Some(b) = &mut bar {
-            b.step(rows.len() as u64, &format!("opening {n} client session(s)"));
+            b.step(step, &format!("opening {n} client session(s)"));
         }
         let mut clients = Vec::new();
         for i in 0..n {
@@ -424,15 +460,14 @@ pub async fn data_rows(args: &DataBench, progress: bool) -> anyhow::Result<Vec<R
             .data
             .create_semaphore(PLENTY, u32::MAX as u64)
             .await?;
-        for &op in &ops {
+        let measured = measure_all(&clients, &ops, span, |what| {
             if let Some(b) = &mut bar {
-                b.step(
-                    rows.len() as u64,
-                    &format!("{} with {n} client(s), {:.1} s", op.name(), args.seconds),
-                );
+                b.step(step, what);
             }
-            rows.push(measure(&clients, op, span).await?);
-        }
+            step += 1;
+        })
+        .await?;
+        rows.extend(measured);
         for c in clients {
             let _ = c.session.close().await;
             if let Some((session, _)) = c.disk {

@@ -4,7 +4,7 @@
 //! scan's age when it reaches a subscriber (from the sonar ring's reading,
 //! stamped by the server, to the subscriber's hands).
 
-use crate::cmd::bench::Row;
+use crate::cmd::bench::{Row, ROUNDS};
 use rome_client::net::{open_loopback_peer, NetOptions};
 use rome_client::{RobotClient, RobotOptions};
 use rome_hardware::robot::{spawn_sim_robot, Rates};
@@ -101,11 +101,6 @@ impl Probe {
         Ok(())
     }
 }
-
-/// Slices each probe's time is cut into, the probes taking turns: a
-/// machine whose load drifts during the run weighs on all of them alike,
-/// so their ratios hold.
-const ROUNDS: u32 = 10;
 
 /// Runs the benchmark.
 pub async fn figures(args: &RobotBench, progress: bool) -> anyhow::Result<RobotFigures> {
