@@ -40,7 +40,6 @@ use serde::Serialize;
 use std::collections::hash_map::Entry;
 use std::collections::{HashMap, HashSet};
 use std::future::Future;
-use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
 use std::time::Duration;
 use zenoh::bytes::Encoding;
@@ -160,12 +159,45 @@ pub fn spawn(session: Session, config: ServerConfig) -> Running {
 enum Own {
     /// A held wait whose time is up.
     HoldOver { ticket: String, generation: u64 },
-    /// What a change answered from the queryable's callback leaves to do:
-    /// publish its commit to watchers and answer the waits it granted.
-    Follow {
-        commit: Option<Committed>,
-        grants: Vec<Grant>,
-    },
+    /// Follow-ups are queued ([`Follows`]): publish them in order.
+    Drain,
+}
+
+/// What a change answered from the queryable's callback leaves to do:
+/// publish its commit to watchers and answer the waits it granted.
+struct Follow {
+    commit: Option<Committed>,
+    grants: Vec<Grant>,
+}
+
+/// Follow-ups waiting for the task, in the order their changes were made:
+/// pushed to only with the store locked, and the task woken with
+/// [`Own::Drain`] after the change's answer has gone, so the wake-up
+/// costs the answer nothing.
+#[derive(Default)]
+struct Follows(Mutex<std::collections::VecDeque<Follow>>);
+
+impl Follows {
+    fn push(&self, follow: Follow) {
+        self.0
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .push_back(follow);
+    }
+
+    fn pop(&self) -> Option<Follow> {
+        self.0
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .pop_front()
+    }
+
+    fn is_empty(&self) -> bool {
+        self.0
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .is_empty()
+    }
 }
 
 type Event = rome_serve::Event<Own>;
@@ -185,10 +217,11 @@ struct Server {
     generation: u64,
     alive: HashSet<String>,
     events: flume::Sender<Event>,
-    /// The queue [`Own::Follow`] goes on, and how many are on it: counted
-    /// under the store's lock, so a commit made while one is queued can
-    /// be queued behind it instead of published ahead of it.
-    follows: (flume::Sender<Event>, Arc<AtomicUsize>),
+    /// Follow-ups of changes answered in the callback, and the queue
+    /// [`Own::Drain`] goes on (taken before any request): a commit made
+    /// while one is queued is queued behind it instead of published ahead
+    /// of it.
+    follows: (flume::Sender<Event>, Arc<Follows>),
     disk: Option<Disk>,
     /// Plain puts written to disk but not yet synced.
     unsynced: bool,
@@ -238,11 +271,11 @@ pub async fn run(
         })
     };
     let store = Arc::new(Mutex::new(store));
-    let follows = (inbox.first_sender(), Arc::new(AtomicUsize::new(0)));
+    let follows = (inbox.first_sender(), Arc::new(Follows::default()));
     let quick = Quick {
         store: store.clone(),
         root: root.clone(),
-        queued: follows.1.clone(),
+        follows: follows.1.clone(),
         // A write answered at once must already be on disk, and must be
         // stamped on the clock the event loop uses (in a lock-step run,
         // the simulated one, which a callback on a link's thread does not
@@ -309,12 +342,16 @@ impl Handler<Own> for Server {
             Event::Own(Own::HoldOver { ticket, generation }) => {
                 self.hold_over(ticket, generation).await
             }
-            Event::Own(Own::Follow { commit, grants }) => {
-                if let Some(commit) = commit {
-                    self.publish(&commit).await;
+            Event::Own(Own::Drain) => {
+                // Each follow-up is taken off the queue before it is
+                // published; nothing of the task's own can come between,
+                // and one more Drain than needed finds the queue empty.
+                while let Some(Follow { commit, grants }) = self.follows.1.pop() {
+                    if let Some(commit) = commit {
+                        self.publish(&commit).await;
+                    }
+                    self.answer_grants(grants).await;
                 }
-                self.answer_grants(grants).await;
-                self.follows.1.fetch_sub(1, Ordering::SeqCst);
             }
         }
     }
@@ -471,17 +508,17 @@ impl Server {
     /// now; `None` when a change answered from the callback is still
     /// waiting to be published: then `commit` is queued behind it.
     fn in_order(&self, commit: Committed) -> Option<Committed> {
-        let (queue, queued) = &self.follows;
-        if queued.load(Ordering::SeqCst) == 0 {
+        let (wake, follows) = &self.follows;
+        if follows.is_empty() {
             return Some(commit);
         }
-        queued.fetch_add(1, Ordering::SeqCst);
-        let follow = Own::Follow {
+        follows.push(Follow {
             commit: Some(commit),
             grants: Vec::new(),
-        };
-        // The queue is unbounded and its receiver lives as long as `self`.
-        let _ = queue.send(Event::Own(follow));
+        });
+        // The channel is unbounded and its receiver lives as long as
+        // `self`.
+        let _ = wake.send(Event::Own(Own::Drain));
         None
     }
 
@@ -642,8 +679,8 @@ fn lock(store: &Mutex<Store>) -> MutexGuard<'_, Store> {
 struct Quick {
     store: Arc<Mutex<Store>>,
     root: Root,
-    /// How many follow-ups are queued ([`Server::follows`]).
-    queued: Arc<AtomicUsize>,
+    /// Follow-ups queued for the task ([`Server::follows`]).
+    follows: Arc<Follows>,
     /// Changes too (`set`, `signal`, a `wait` granted at once, `ack`), when
     /// the store is in memory: what is left to do (publication, grants)
     /// goes to the event loop, ahead of anything queued; and whether the
@@ -661,6 +698,9 @@ impl Quick {
         }
         let params = Params::new(query.parameters().iter());
         let payload = query.payload().map(|p| p.to_bytes());
+        // Set when a follow-up was queued: the task is woken once the
+        // answer is on its way.
+        let mut wake = None;
         let applied = match Request::parse(&self.root, key, params, payload.as_deref()) {
             Ok(Request::Get(get)) => get.apply(&lock(&self.store)),
             Ok(Request::Read(read)) => read.apply(&lock(&self.store)),
@@ -688,12 +728,11 @@ impl Quick {
                     // is not woken for it.
                     if let Ok(a) = applied.as_mut() {
                         if a.commit.is_some() || !a.grants.is_empty() {
-                            let follow = Own::Follow {
+                            self.follows.push(Follow {
                                 commit: a.commit.take(),
                                 grants: std::mem::take(&mut a.grants),
-                            };
-                            self.queued.fetch_add(1, Ordering::SeqCst);
-                            let _ = first.send(Event::Own(follow));
+                            });
+                            wake = Some(first);
                         }
                     }
                     applied
@@ -702,7 +741,7 @@ impl Quick {
             },
             _ => return false,
         };
-        match applied {
+        let answered = match applied {
             Ok(crate::cmd::Applied {
                 reply: Some(payload),
                 ..
@@ -717,7 +756,11 @@ impl Quick {
             // A request that failed changed nothing: the loop answers it
             // with its error.
             Err(_) => false,
+        };
+        if let Some(task) = wake {
+            let _ = task.send(Event::Own(Own::Drain));
         }
+        answered
     }
 }
 
