@@ -826,8 +826,9 @@ fn echo_and_ls_show_a_fleets_traffic_and_rates() {
 }
 
 /// The Zenoh rows of `rome bench data`, beside the TCP floor and Redis.
-const DATA_OPS: [&str; 6] = [
+const DATA_OPS: [&str; 7] = [
     "zenoh-queryable",
+    "zenoh-queryable+body",
     "zenoh pub/sub",
     "get",
     "set",

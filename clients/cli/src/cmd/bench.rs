@@ -71,6 +71,7 @@ enum Op {
     RedisGet,
     RedisSet,
     Raw,
+    RawPayload,
     PubSub,
     Get,
     Set,
@@ -87,6 +88,7 @@ impl Op {
             Op::RedisGet => "redis GET",
             Op::RedisSet => "redis SET",
             Op::Raw => "zenoh-queryable",
+            Op::RawPayload => "zenoh-queryable+body",
             Op::PubSub => "zenoh pub/sub",
             Op::Get => "get",
             Op::Set => "set",
@@ -168,12 +170,18 @@ async fn once(client: &Client, op: Op) -> anyhow::Result<()> {
                 String::from_utf8_lossy(&b)
             );
         }
-        Op::Raw => {
-            let replies = client
-                .session
-                .get(RAW_KEY)
-                .await
-                .map_err(|e| anyhow::anyhow!("{e}"))?;
+        Op::Raw | Op::RawPayload => {
+            let mut get = client.session.get(RAW_KEY);
+            if op == Op::RawPayload {
+                // What a `set` of the benchmark carries: a JSON body and
+                // an op id.
+                get = client
+                    .session
+                    .get(format!("{RAW_KEY}?op=bench0.1"))
+                    .payload(b"1".to_vec())
+                    .encoding(zenoh::bytes::Encoding::APPLICATION_JSON);
+            }
+            let replies = get.await.map_err(|e| anyhow::anyhow!("{e}"))?;
             let reply = replies
                 .recv_async()
                 .await
@@ -386,6 +394,7 @@ pub async fn data_rows(args: &DataBench, progress: bool) -> anyhow::Result<Vec<R
     let mut ops = vec![
         Op::Tcp,
         Op::Raw,
+        Op::RawPayload,
         Op::PubSub,
         Op::Get,
         Op::Set,
