@@ -771,7 +771,7 @@ pub fn table(rows: &[Row]) -> String {
     let mut out = String::new();
     let _ = writeln!(
         out,
-        "{:16} {:>7} {:>10} {:>9} {:>9} {:>11} {:>9} {:>11}",
+        "{:20} {:>7} {:>10} {:>9} {:>9} {:>11} {:>9} {:>11}",
         "operation", "clients", "ops/s", "p50 µs", "p99 µs", "p50 vs raw", "vs tcp", "vs redis"
     );
     let p50 = |op: Op, clients: usize| {
@@ -787,7 +787,7 @@ pub fn table(rows: &[Row]) -> String {
     for row in rows {
         let _ = writeln!(
             out,
-            "{:16} {:>7} {:>10.0} {:>9} {:>9} {:>11} {:>9} {:>11}",
+            "{:20} {:>7} {:>10.0} {:>9} {:>9} {:>11} {:>9} {:>11}",
             row.op,
             row.clients,
             row.ops_per_s,
