@@ -171,16 +171,17 @@ async fn once(client: &Client, op: Op) -> anyhow::Result<()> {
             );
         }
         Op::Raw | Op::RawPayload => {
-            let mut get = client.session.get(RAW_KEY);
-            if op == Op::RawPayload {
+            let get = if op == Op::RawPayload {
                 // What a `set` of the benchmark carries: a JSON body and
                 // an op id.
-                get = client
+                client
                     .session
                     .get(format!("{RAW_KEY}?op=bench0.1"))
                     .payload(b"1".to_vec())
-                    .encoding(zenoh::bytes::Encoding::APPLICATION_JSON);
-            }
+                    .encoding(zenoh::bytes::Encoding::APPLICATION_JSON)
+            } else {
+                client.session.get(RAW_KEY)
+            };
             let replies = get.await.map_err(|e| anyhow::anyhow!("{e}"))?;
             let reply = replies
                 .recv_async()
