@@ -283,6 +283,12 @@ impl TestDir {
         TestDir(path)
     }
 
+    /// A directory made elsewhere (named, say, after a port learnt only
+    /// once a server runs), kept or removed in the same way.
+    pub fn adopt(path: std::path::PathBuf) -> TestDir {
+        TestDir(path)
+    }
+
     /// The directory.
     pub fn path(&self) -> &std::path::Path {
         &self.0

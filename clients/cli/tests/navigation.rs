@@ -26,20 +26,6 @@ fn log_dir(port: u16) -> std::path::PathBuf {
     dir
 }
 
-/// Removes `log_dir(port)` when dropped by a test that passed; a failing
-/// test's logs are kept to be read.
-struct Logs(u16);
-
-impl Drop for Logs {
-    fn drop(&mut self) {
-        if std::thread::panicking() {
-            eprintln!("logs kept in {}", log_dir(self.0).display());
-        } else {
-            let _ = std::fs::remove_dir_all(log_dir(self.0));
-        }
-    }
-}
-
 fn rome(port: u16, name: &str, args: &[&str], stdout: Stdio) -> ChildGuard {
     let log = std::fs::File::create(log_dir(port).join(format!("{name}.log"))).unwrap();
     let child = Command::new(ROME)
@@ -264,7 +250,7 @@ async fn arrived(port: u16, robot: &str, to: &str, mut p: ChildGuard) -> String 
 async fn two_robots_with_every_client_in_its_own_process_both_arrive() {
     let routes = [("r1", "302L", "A340R"), ("r2", "A302R", "A357L")];
     let (_data, port) = data_server();
-    let _logs = Logs(port);
+    let _logs = rome_tests::TestDir::adopt(log_dir(port));
     let _sim = sim(port, "eb3", &[routes[0].1, routes[1].1]);
     let mut crew = Vec::new();
     for (robot, _, _) in routes {
@@ -346,7 +332,7 @@ async fn a_robot_whose_clients_are_killed_inside_a_narrow_passage_stops_and_free
     // pass is blocked for real, which is for a person to clear.)
     let routes = [("r1", "303R", "A352L"), ("r2", "A353R", "301L")];
     let (_data, port) = data_server();
-    let _logs = Logs(port);
+    let _logs = rome_tests::TestDir::adopt(log_dir(port));
     let map = eb3_with_passage(port);
     let _sim = sim(port, &map, &[routes[0].1, routes[1].1]);
     let mut crews: Vec<Vec<ChildGuard>> = routes
@@ -464,7 +450,7 @@ async fn a_run_whose_data_server_is_killed_and_restarted_mid_route_still_arrives
             "--no-storage",
         ],
     );
-    let _logs = Logs(port);
+    let _logs = rome_tests::TestDir::adopt(log_dir(port));
     let state = log_dir(port).join("state");
     let _ = std::fs::remove_dir_all(&state);
     let state = state.display().to_string();
@@ -524,7 +510,7 @@ async fn a_lockstep_run_split_into_processes_is_the_same_run_as_in_one_process()
             "--in-memory",
         ],
     );
-    let _logs = Logs(port);
+    let _logs = rome_tests::TestDir::adopt(log_dir(port));
     let _sim = sim_with(port, "eb3", &[from], &["--lockstep", "--parties", "6"]);
     let crew = helpers_with(port, robot, "eb3", &["--sim-time"]);
     let planner = planner_with(port, "eb3", (robot, from, to), &["--sim-time"]);
