@@ -192,11 +192,18 @@ impl Follows {
             .pop_front()
     }
 
-    fn is_empty(&self) -> bool {
-        self.0
-            .lock()
-            .unwrap_or_else(PoisonError::into_inner)
-            .is_empty()
+    /// `commit` back if nothing is queued (it may be published now), or
+    /// queued behind what is.
+    fn queue_behind(&self, commit: Committed) -> Option<Committed> {
+        let mut queue = self.0.lock().unwrap_or_else(PoisonError::into_inner);
+        if queue.is_empty() {
+            return Some(commit);
+        }
+        queue.push_back(Follow {
+            commit: Some(commit),
+            grants: Vec::new(),
+        });
+        None
     }
 }
 
@@ -509,17 +516,13 @@ impl Server {
     /// waiting to be published: then `commit` is queued behind it.
     fn in_order(&self, commit: Committed) -> Option<Committed> {
         let (wake, follows) = &self.follows;
-        if follows.is_empty() {
-            return Some(commit);
+        let now = follows.queue_behind(commit);
+        if now.is_none() {
+            // The channel is unbounded and its receiver lives as long as
+            // `self`.
+            let _ = wake.send(Event::Own(Own::Drain));
         }
-        follows.push(Follow {
-            commit: Some(commit),
-            grants: Vec::new(),
-        });
-        // The channel is unbounded and its receiver lives as long as
-        // `self`.
-        let _ = wake.send(Event::Own(Own::Drain));
-        None
+        now
     }
 
     async fn publish(&self, commit: &Committed) {
