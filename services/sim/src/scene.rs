@@ -286,6 +286,19 @@ impl Scene {
                 }
                 last = c;
             }
+            // Points a quarter cell apart can step over the corner of a
+            // cell the wall clips: it is filed there too, so that a ray
+            // walking the cells it crosses meets every wall it hits.
+            let (x0, y0) = scene.cell_xy(w.a.inf(&w.b) - Vector::repeat(1.0));
+            let (x1, y1) = scene.cell_xy(w.a.sup(&w.b) + Vector::repeat(1.0));
+            for cy in y0..=y1 {
+                for cx in x0..=x1 {
+                    let c = cy * cols + cx;
+                    if !cells[c].contains(&(i as u32)) && scene.clips_cell(w.a, w.b, cx, cy) {
+                        cells[c].push(i as u32);
+                    }
+                }
+            }
         }
         for (i, p) in scene.reflectors.iter().enumerate() {
             let c = scene.cell_of(*p);
@@ -317,6 +330,35 @@ impl Scene {
             index((p.x - self.lo.x) / CELL_MM, self.cols),
             index((p.y - self.lo.y) / CELL_MM, self.rows),
         )
+    }
+
+    /// Whether the segment from `a` to `b` passes through cell (`cx`,
+    /// `cy`) or within a millimetre of it (Liang–Barsky clipping).
+    fn clips_cell(&self, a: Point, b: Point, cx: usize, cy: usize) -> bool {
+        let lo = self.lo + Vector::new(cx as f64, cy as f64) * CELL_MM - Vector::repeat(1.0);
+        let hi = lo + Vector::repeat(CELL_MM + 2.0);
+        let d = b - a;
+        let (mut t0, mut t1) = (0.0f64, 1.0f64);
+        for (p, q) in [
+            (-d.x, a.x - lo.x),
+            (d.x, hi.x - a.x),
+            (-d.y, a.y - lo.y),
+            (d.y, hi.y - a.y),
+        ] {
+            if p == 0.0 {
+                if q < 0.0 {
+                    return false;
+                }
+            } else {
+                let r = q / p;
+                if p < 0.0 {
+                    t0 = t0.max(r);
+                } else {
+                    t1 = t1.min(r);
+                }
+            }
+        }
+        t0 <= t1
     }
 
     fn cell_of(&self, p: Point) -> usize {
@@ -357,7 +399,8 @@ impl Scene {
     }
 
     /// Indices of the walls filed under grid cell `c` (row-major; see
-    /// [`Scene::grid`]); none for a cell outside the grid.
+    /// [`Scene::grid`]): every wall that passes through the cell or within
+    /// a millimetre of it; none for a cell outside the grid.
     pub fn walls_in_cell(&self, c: usize) -> &[u32] {
         self.cells.get(c)
     }
@@ -543,4 +586,104 @@ fn inside(q: &[Point; 4], p: Point) -> bool {
         }
     }
     true
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rng::Rng;
+
+    /// A ray walks only the cells it crosses: every wall it hits must be
+    /// filed under one of them, however the wall clips a cell.
+    #[test]
+    fn a_ray_finds_the_nearest_wall_of_the_whole_building() {
+        for name in ["eb3", "annex", "fig5_3"] {
+            rays_find_the_nearest_wall(name);
+        }
+    }
+
+    /// An octagonal room: walls at 45° to the grid, which cross cells
+    /// anywhere, clipping some by a corner.
+    const OCTAGON: &str = "map octagon
+ring room at 0 0 heading 0
+  node A -225
+  wall 7300
+  node B -225
+  wall 7300
+  node C -225
+  wall 7300
+  node D -225
+  wall 7300
+  node E -225
+  wall 7300
+  node F -225
+  wall 7300
+  node G -225
+  wall 7300
+  node H -225
+  wall 7300
+end
+";
+
+    #[test]
+    fn a_ray_across_any_piece_of_a_wall_meets_it() {
+        let map = rome_maps::parse::parse("octagon", OCTAGON).unwrap();
+        let scene = Scene::new(&map);
+        let open = vec![false; scene.elevators.len()];
+        let mut pieces = 0;
+        for (i, w) in scene.walls.iter().enumerate() {
+            // Every tenth of a millimetre of the wall but its ends, where
+            // the ray meets the next wall first.
+            let inner = w.len - 200.0;
+            let steps = (inner * 10.0) as usize;
+            for k in 0..=steps {
+                let at = w.a + w.dir * (100.0 + inner * k as f64 / steps as f64);
+                let from = at + w.normal * 50.0;
+                let got = scene.ray_dir(from, -w.normal, 100.0, Sense::Touch, &open, None);
+                assert!(
+                    got.is_some_and(|(t, _, _)| (t - 50.0).abs() < 1e-6),
+                    "wall {i} at {at:?}: {got:?}"
+                );
+                pieces += 1;
+            }
+        }
+        assert!(pieces > 500_000, "{pieces}");
+    }
+
+    fn rays_find_the_nearest_wall(name: &str) {
+        let map = rome_maps::load_named(name).unwrap();
+        let scene = Scene::new(&map);
+        let open = vec![false; scene.elevators.len()];
+        let spots: Vec<Point> = scene
+            .world
+            .positions
+            .values()
+            .map(|p| p.in_corridor())
+            .collect();
+        let mut rng = Rng::new(11);
+        let mut hits = 0;
+        for _ in 0..20_000 {
+            let base = spots[(rng.next_u64() % spots.len() as u64) as usize];
+            let from = base + Vector::new(rng.uniform() - 0.5, rng.uniform() - 0.5) * 6_000.0;
+            let d = direction(rng.uniform() * 360.0);
+            let max = rng.uniform() * 10_000.0;
+            for sense in [Sense::Sound, Sense::Touch] {
+                let want = (0..scene.walls.len())
+                    .filter(|&i| scene.blocks(i, sense, &open))
+                    .filter_map(|i| {
+                        let w = &scene.lines[i];
+                        hit(from, d, w.a, w.dir, w.len).map(|(t, _)| t)
+                    })
+                    .filter(|&t| t <= max)
+                    .min_by(f64::total_cmp);
+                let got = scene.ray_dir(from, d, max, sense, &open, None).map(|h| h.0);
+                assert_eq!(
+                    got, want,
+                    "{name}: ray from {from:?} along {d:?}, {max} mm, {sense:?}"
+                );
+                hits += usize::from(want.is_some());
+            }
+        }
+        assert!(hits > 10_000, "{name}: {hits} rays of 40 000 met a wall");
+    }
 }

@@ -74,17 +74,11 @@ pub const FIRING_ORDER: [usize; SONARS] = {
 /// How far apart the beam is walked, mm: nearer echoes are found before
 /// farther cells are looked at.
 const SECTION_MM: f64 = 2_000.0;
-/// How far the cells looked at reach beyond the beam, mm: walls are filed
-/// under the cells of points every quarter cell along them, so any point of
-/// a wall is within this of a cell it is filed under.
-const FILED_WITHIN_MM: f64 = crate::scene::CELL_MM / 8.0 + 10.0;
-/// How far the cells looked at reach beyond the beam, mm: far enough for a
-/// wall's filing and for the centre of a robot whose disc enters the beam.
-const MARGIN_MM: f64 = if FILED_WITHIN_MM > ROBOT_RADIUS_MM + 10.0 {
-    FILED_WITHIN_MM
-} else {
-    ROBOT_RADIUS_MM + 10.0
-};
+/// How far the cells looked at reach beyond the beam, mm: robots are filed
+/// by their centre, which may lie this far out of a beam their disc enters.
+/// Walls need no margin: each is filed under every cell it passes through
+/// (see [`Scene::walls_in_cell`]).
+const MARGIN_MM: f64 = ROBOT_RADIUS_MM + 10.0;
 
 /// cos and sin of [`SONAR_HALF_BEAM_DEG`] (7.5°), and cos of
 /// [`SONAR_MAX_INCIDENCE_DEG`](crate::spec::SONAR_MAX_INCIDENCE_DEG) (20°):
@@ -461,6 +455,7 @@ mod tests {
     #![allow(clippy::unwrap_used)]
 
     use super::*;
+    use crate::scene::hit;
     use crate::spec::SONAR_MAX_INCIDENCE_DEG;
 
     /// Every echo in the building tried, nothing culled: what [`fire`] must
@@ -504,18 +499,15 @@ mod tests {
         echoes.sort_by(|a, b| a.0.total_cmp(&b.0));
         for (range, wi, p) in echoes {
             let len = nalgebra::distance(&p, &s);
-            let skip = (wi < scene.walls.len()).then_some(wi);
-            if scene
-                .ray_dir(
-                    s,
-                    (p - s) / len,
-                    (len - 20.0).max(0.0),
-                    Sense::Sound,
-                    &open,
-                    skip,
-                )
-                .is_none()
-            {
+            // Every wall of the building that stops sound, no grid.
+            let dir = (p - s) / len;
+            let hidden = (0..scene.walls.len()).any(|h| {
+                let w = &scene.lines[h];
+                h != wi
+                    && scene.blocks(h, Sense::Sound, &open)
+                    && hit(s, dir, w.a, w.dir, w.len).is_some_and(|(t, _)| t <= len - 20.0)
+            });
+            if !hidden {
                 return range.clamp(SONAR_MIN_MM, f64::from(timeout)).round() as u16;
             }
         }
