@@ -463,12 +463,7 @@ mod tests {
         let (scene, open, quiet, mut rng) = eb3_quiet();
         let (w, h) = (96u32, 90u32);
         // Beside walls with plates, doors and plain stretches.
-        let spots: Vec<_> = scene
-            .world
-            .positions
-            .values()
-            .map(|p| p.in_corridor())
-            .collect();
+        let spots = crate::scene::corridor_spots(&scene);
         let mut kinds = std::collections::BTreeSet::new();
         for k in 0..120 {
             let at = spots[(k * 13) % spots.len()];

@@ -588,6 +588,18 @@ fn inside(q: &[Point; 4], p: Point) -> bool {
     true
 }
 
+/// Where tests put robots: a spot in the corridor beside each named
+/// position of the map.
+#[cfg(test)]
+pub(crate) fn corridor_spots(scene: &Scene) -> Vec<Point> {
+    scene
+        .world
+        .positions
+        .values()
+        .map(|p| p.in_corridor())
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -654,12 +666,7 @@ end
         let map = rome_maps::load_named(name).unwrap();
         let scene = Scene::new(&map);
         let open = vec![false; scene.elevators.len()];
-        let spots: Vec<Point> = scene
-            .world
-            .positions
-            .values()
-            .map(|p| p.in_corridor())
-            .collect();
+        let spots = corridor_spots(&scene);
         let mut rng = Rng::new(11);
         let mut hits = 0;
         for _ in 0..20_000 {

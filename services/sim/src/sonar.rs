@@ -581,12 +581,7 @@ mod tests {
         let map = rome_maps::load_named("eb3").unwrap();
         let scene = Scene::new(&map);
         let open = vec![false; scene.elevators.len()];
-        let spots: Vec<Point> = scene
-            .world
-            .positions
-            .values()
-            .map(|p| p.in_corridor())
-            .collect();
+        let spots = crate::scene::corridor_spots(&scene);
         let mut rng = Rng::new(7);
         let noise = Noise::none();
         let mut scratch = Scratch::default();
