@@ -278,25 +278,41 @@ async fn measure_all(
 ) -> anyhow::Result<Vec<Row>> {
     let n = clients.len();
     for &op in ops {
-        say(&format!("warming up {} with {n} client(s)", op.name()));
+        say(&format!("warming up {}", op.name()));
         measure(clients, op, span / 5).await?;
     }
-    let mut taken: Vec<(Vec<u64>, Duration)> = vec![(Vec::new(), Duration::ZERO); ops.len()];
-    for round in 0..ROUNDS {
-        say(&format!(
-            "round {} of {ROUNDS} with {n} client(s)",
-            round + 1
-        ));
-        for (k, &op) in ops.iter().enumerate() {
-            let (lat, elapsed) = measure(clients, op, span / ROUNDS).await?;
-            taken[k].0.extend(lat);
-            taken[k].1 += elapsed;
-        }
-    }
+    let taken = in_turns(ops.len(), span, &mut say, |k, slice| {
+        measure(clients, ops[k], slice)
+    })
+    .await?;
     ops.iter()
         .zip(taken)
         .map(|(op, (lat, elapsed))| Row::from_latencies(op.name(), n, lat, elapsed))
         .collect()
+}
+
+/// Operations `0..count` measured in [`ROUNDS`] turns of `span / ROUNDS`
+/// each, `slice(k, time)` measuring operation `k` for `time`: for each
+/// operation, all its round trips (µs) and the time they took together.
+pub(crate) async fn in_turns<Fut>(
+    count: usize,
+    span: Duration,
+    mut say: impl FnMut(&str),
+    mut slice: impl FnMut(usize, Duration) -> Fut,
+) -> anyhow::Result<Vec<(Vec<u64>, Duration)>>
+where
+    Fut: std::future::Future<Output = anyhow::Result<(Vec<u64>, Duration)>>,
+{
+    let mut taken = vec![(Vec::new(), Duration::ZERO); count];
+    for round in 0..ROUNDS {
+        say(&format!("round {} of {ROUNDS}", round + 1));
+        for (k, (lat, spent)) in taken.iter_mut().enumerate() {
+            let (more, elapsed) = slice(k, span / ROUNDS).await?;
+            lat.extend(more);
+            *spent += elapsed;
+        }
+    }
+    Ok(taken)
 }
 
 impl Row {
@@ -472,7 +488,7 @@ pub async fn data_rows(args: &DataBench, progress: bool) -> anyhow::Result<Vec<R
             .await?;
         let measured = measure_all(&clients, &ops, span, |what| {
             if let Some(b) = &mut bar {
-                b.step(step, what);
+                b.step(step, &format!("{what} with {n} client(s)"));
             }
             step += 1;
         })

@@ -4,7 +4,7 @@
 //! scan's age when it reaches a subscriber (from the sonar ring's reading,
 //! stamped by the server, to the subscriber's hands).
 
-use crate::cmd::bench::{Row, ROUNDS};
+use crate::cmd::bench::Row;
 use rome_client::net::{open_loopback_peer, NetOptions};
 use rome_client::{RobotClient, RobotOptions};
 use rome_hardware::robot::{spawn_sim_robot, Rates};
@@ -162,23 +162,21 @@ pub async fn figures(args: &RobotBench, progress: bool) -> anyhow::Result<RobotF
             p.once(&session, &r).await?;
         }
     }
-    let mut lat: Vec<Vec<u64>> = vec![Vec::new(); Probe::ALL.len()];
-    let mut spent = vec![Duration::ZERO; Probe::ALL.len()];
-    let slice = span / ROUNDS;
-    for round in 0..ROUNDS {
-        say(&format!("round {} of {ROUNDS}", round + 1));
-        for (k, p) in Probe::ALL.into_iter().enumerate() {
-            let started = Instant::now();
-            while started.elapsed() < slice {
-                let t = Instant::now();
-                p.once(&session, &r).await?;
-                lat[k].push(t.elapsed().as_micros() as u64);
-            }
-            spent[k] += started.elapsed();
+    let (session, robot) = (&session, &r);
+    let taken = crate::cmd::bench::in_turns(Probe::ALL.len(), span, say, |k, slice| async move {
+        let p = Probe::ALL[k];
+        let started = Instant::now();
+        let mut lat = Vec::new();
+        while started.elapsed() < slice {
+            let t = Instant::now();
+            p.once(session, robot).await?;
+            lat.push(t.elapsed().as_micros() as u64);
         }
-    }
+        Ok((lat, started.elapsed()))
+    })
+    .await?;
     let mut rows = Vec::new();
-    for ((p, lat), spent) in Probe::ALL.into_iter().zip(lat).zip(spent) {
+    for (p, (lat, spent)) in Probe::ALL.into_iter().zip(taken) {
         rows.push(Row::from_latencies(p.name(), 1, lat, spent)?);
     }
     say("scan stream");
