@@ -275,27 +275,16 @@ impl Scene {
         };
         let mut cells = vec![Vec::new(); cols * rows];
         let mut reflector_cells = vec![Vec::new(); cols * rows];
+        // Every cell a wall passes through, so that a ray walking the
+        // cells it crosses meets every wall it hits; each cell's walls in
+        // the walls' order.
         for (i, w) in scene.walls.iter().enumerate() {
-            let steps = (w.len / (CELL_MM / 4.0)).ceil().max(1.0) as usize;
-            let mut last = usize::MAX;
-            for k in 0..=steps {
-                let t = w.len * k as f64 / steps as f64;
-                let c = scene.cell_of(w.a + w.dir * t);
-                if c != last && !cells[c].contains(&(i as u32)) {
-                    cells[c].push(i as u32);
-                }
-                last = c;
-            }
-            // Points a quarter cell apart can step over the corner of a
-            // cell the wall clips: it is filed there too, so that a ray
-            // walking the cells it crosses meets every wall it hits.
             let (x0, y0) = scene.cell_xy(w.a.inf(&w.b) - Vector::repeat(1.0));
             let (x1, y1) = scene.cell_xy(w.a.sup(&w.b) + Vector::repeat(1.0));
             for cy in y0..=y1 {
                 for cx in x0..=x1 {
-                    let c = cy * cols + cx;
-                    if !cells[c].contains(&(i as u32)) && scene.clips_cell(w.a, w.b, cx, cy) {
-                        cells[c].push(i as u32);
+                    if scene.clips_cell(w.a, w.b, cx, cy) {
+                        cells[cy * cols + cx].push(i as u32);
                     }
                 }
             }
