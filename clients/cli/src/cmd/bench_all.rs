@@ -81,16 +81,33 @@ pub struct Target {
 }
 
 impl Target {
+    /// A target, met or not by `measured`.
+    fn new(what: String, measured: f64, aim: f64, at_most: bool, bare_zenoh: Option<f64>) -> Self {
+        let mut t = Target {
+            what,
+            measured,
+            aim,
+            at_most,
+            met: false,
+            bare_zenoh,
+        };
+        t.met = t.reaches(measured);
+        t
+    }
+
+    /// Whether the figure `x` meets the aim.
+    fn reaches(&self, x: f64) -> bool {
+        if self.at_most {
+            x <= self.aim
+        } else {
+            x >= self.aim
+        }
+    }
+
     /// Whether even the bare Zenoh queryable misses the aim, so that no
     /// server answering through a Zenoh query could meet it in this run.
     pub fn beyond_zenoh(&self) -> bool {
-        self.bare_zenoh.is_some_and(|b| {
-            if self.at_most {
-                b > self.aim
-            } else {
-                b < self.aim
-            }
-        })
+        self.bare_zenoh.is_some_and(|b| !self.reaches(b))
     }
 }
 
@@ -210,14 +227,7 @@ pub fn targets(data: &[Row], robot: &RobotFigures, sim: &[SimRow]) -> Vec<Target
     };
     let mut out = Vec::new();
     let mut at_most = |what: String, measured: f64, aim: f64, bare_zenoh: Option<f64>| {
-        out.push(Target {
-            what,
-            measured,
-            aim,
-            at_most: true,
-            met: measured <= aim,
-            bare_zenoh,
-        })
+        out.push(Target::new(what, measured, aim, true, bare_zenoh))
     };
     let clients: std::collections::BTreeSet<usize> = data.iter().map(|r| r.clients).collect();
     for &n in &clients {
@@ -257,14 +267,7 @@ pub fn targets(data: &[Row], robot: &RobotFigures, sim: &[SimRow]) -> Vec<Target
         );
     }
     let mut at_least = |what: String, measured: f64, aim: f64, bare_zenoh: Option<f64>| {
-        out.push(Target {
-            what,
-            measured,
-            aim,
-            at_most: false,
-            met: measured >= aim,
-            bare_zenoh,
-        })
+        out.push(Target::new(what, measured, aim, false, bare_zenoh))
     };
     for (ours, theirs) in [("get", "redis GET"), ("set", "redis SET")] {
         if let (Some(a), Some(b)) = (find(data, ours, 50), find(data, theirs, 50)) {
