@@ -121,30 +121,23 @@ const STEPPER: u64 = u64::MAX;
 
 impl Sched {
     /// `id` was woken: it waits for its turn (`waker` gets it polled).
-    fn ready(&self, id: u64, waker: Option<&Waker>) {
-        let next = {
-            let mut t = locked(&self.turn);
-            let slot = t.ready.entry(id).or_insert(None);
-            if let Some(w) = waker {
-                *slot = Some(w.clone());
-            }
-            if t.holder == Some(id) {
-                // Woken in its own turn: polled again at once if it keeps
-                // the turn (see [`compute`]), else when it comes round.
-                drop(t);
-                if let Some(w) = waker {
-                    w.wake_by_ref();
-                }
-                return;
-            }
-            if t.holder.is_some() || t.announced {
-                return;
-            }
-            grant(&mut t)
-        };
-        if let Some(w) = next {
-            w.wake();
+    /// Returns the waker to call once the caller's locks are let go.
+    #[must_use]
+    fn ready(&self, id: u64, waker: Option<&Waker>) -> Option<Waker> {
+        let mut t = locked(&self.turn);
+        let slot = t.ready.entry(id).or_insert(None);
+        if let Some(w) = waker {
+            *slot = Some(w.clone());
         }
+        if t.holder == Some(id) {
+            // Woken in its own turn: polled again at once if it keeps the
+            // turn (see [`compute`]), else when it comes round.
+            return waker.cloned();
+        }
+        if t.holder.is_some() || t.announced {
+            return None;
+        }
+        grant(&mut t)
     }
 
     /// Whether `id` holds the turn, or takes it now (nobody holds it and
@@ -221,7 +214,9 @@ impl Part {
         sched.activity.fetch_add(1, Ordering::AcqRel);
         let id = sched.next_part.fetch_add(1, Ordering::Relaxed);
         // A new participant waits for its first turn like a woken one.
-        sched.ready(id, None);
+        if let Some(w) = sched.ready(id, None) {
+            w.wake();
+        }
         let part = Arc::new(Part {
             sched: sched.clone(),
             id,
@@ -236,7 +231,10 @@ impl Part {
 
     /// Busy again (woken, or polled).
     fn wake(&self) {
-        let mut s = locked(&self.state);
+        self.wake_locked(&mut locked(&self.state));
+    }
+
+    fn wake_locked(&self, s: &mut PartState) {
         s.wakes += 1;
         if s.parked && !s.done {
             s.parked = false;
@@ -615,9 +613,23 @@ impl Wake for ParkWaker {
     }
 
     fn wake_by_ref(self: &Arc<Self>) {
-        self.part.wake();
-        // Polled when its turn comes.
-        self.part.sched.ready(self.part.id, Some(&self.inner));
+        let next = {
+            // Under the participant's own lock, which its end takes too: a
+            // waker left behind (in a channel, a timer) and called as the
+            // participant ends either comes first, and the end takes the
+            // turn back, or finds it ended. Given to an ended participant,
+            // the turn would never be passed on.
+            let mut s = locked(&self.part.state);
+            if s.done {
+                return;
+            }
+            self.part.wake_locked(&mut s);
+            // Polled when its turn comes.
+            self.part.sched.ready(self.part.id, Some(&self.inner))
+        };
+        if let Some(w) = next {
+            w.wake();
+        }
     }
 }
 
@@ -639,16 +651,16 @@ impl<F: Future> Future for Participant<F> {
             inner: cx.waker().clone(),
         }));
         let mut inner_cx = Context::from_waker(&waker);
-        let outer = CURRENT.with(|c| {
+        let mut outer = Restore(Some(CURRENT.with(|c| {
             c.borrow_mut().replace(Frame {
                 part: part.clone(),
                 idle: false,
                 busy: false,
                 hold: false,
             })
-        });
+        })));
         let polled = self.inner.as_mut().poll(&mut inner_cx);
-        let frame = CURRENT.with(|c| std::mem::replace(&mut *c.borrow_mut(), outer));
+        let frame = outer.now();
         match polled {
             Poll::Ready(v) => {
                 part.finish();
@@ -664,6 +676,28 @@ impl<F: Future> Future for Participant<F> {
                 }
                 Poll::Pending
             }
+        }
+    }
+}
+
+/// The frame a participant's poll replaced on its thread, put back when
+/// the poll ends, by panicking too: left behind, the frame of a panicked
+/// participant would make the next task polled on the thread take itself
+/// for that participant.
+struct Restore(Option<Option<Frame>>);
+
+impl Restore {
+    /// Puts the replaced frame back; the poll's own.
+    fn now(&mut self) -> Option<Frame> {
+        let outer = self.0.take().flatten();
+        CURRENT.with(|c| std::mem::replace(&mut *c.borrow_mut(), outer))
+    }
+}
+
+impl Drop for Restore {
+    fn drop(&mut self) {
+        if self.0.is_some() {
+            self.now();
         }
     }
 }
@@ -1444,6 +1478,55 @@ mod tests {
         assert_eq!(clock.try_advance(|| 250).await, Some(250));
         sleeper.await.unwrap();
         assert!(clock.describe().contains("0 sleeper(s)"));
+    }
+
+    /// A waker a participant left behind (in a channel, say) can be called
+    /// after the participant has ended, by a thread that took it just
+    /// before: the ended participant must not be given the turn, or nobody
+    /// would run again.
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn a_wake_after_a_participant_ended_gives_it_no_turn() {
+        let clock = LockStep::new(0);
+        let left = Arc::new(Mutex::new(None::<Waker>));
+        let keep = left.clone();
+        clock
+            .participate(
+                "gone",
+                std::future::poll_fn(move |cx| {
+                    *locked(&keep) = Some(cx.waker().clone());
+                    Poll::Ready(())
+                }),
+            )
+            .await;
+        let stale = locked(&left).take().expect("polled once");
+        stale.wake();
+        let after = tokio::spawn(clock.participate("after", async { 7 }));
+        // A failure detector, not synchronisation: the participant needs
+        // microseconds.
+        let got = tokio::time::timeout(Duration::from_secs(5), after).await;
+        assert_eq!(
+            got.ok().and_then(Result::ok),
+            Some(7),
+            "{}",
+            clock.describe()
+        );
+    }
+
+    /// A participant that panics leaves its thread as it found it: the
+    /// next task polled there is no participant.
+    #[tokio::test(flavor = "current_thread")]
+    async fn a_panicking_participant_leaves_no_trace_on_its_thread() {
+        let clock = LockStep::new(0);
+        let panicked = tokio::spawn(clock.participate("doomed", async {
+            assert!(is_lockstep());
+            panic!("a participant's bug");
+        }))
+        .await;
+        assert!(panicked.is_err_and(|e| e.is_panic()));
+        // The same thread (one-threaded runtime), outside any participant.
+        let after = tokio::spawn(async { is_lockstep() }).await.unwrap();
+        assert!(!after, "the panicked participant's frame was left behind");
+        assert_eq!(clock.busy(), 0);
     }
 
     #[tokio::test]
