@@ -1512,6 +1512,91 @@ mod tests {
         );
     }
 
+    /// Participants that wake one another through channels, are woken
+    /// from threads outside the clock and by their sleeps, and are
+    /// stopped from outside at any moment (a run's clients aborted at its
+    /// end): however a wake falls against an end, the clock goes on for
+    /// those still there. (The failure detector's limit is a minute; a
+    /// round takes milliseconds.)
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn wakes_from_everywhere_as_participants_are_stopped_never_stop_the_clock() {
+        const PARTS: usize = 16;
+        const SENDS: usize = 2_000;
+        for round in 0..20u64 {
+            let clock = LockStep::new(0);
+            let stepping = tokio::spawn(stepper(clock.clone(), u64::MAX));
+            let (senders, receivers): (Vec<_>, Vec<_>) = (0..PARTS)
+                .map(|_| tokio::sync::mpsc::unbounded_channel::<u64>())
+                .unzip();
+            let stop = Arc::new(std::sync::atomic::AtomicBool::new(false));
+            let outside = {
+                let (senders, stop) = (senders.clone(), stop.clone());
+                std::thread::spawn(move || {
+                    let mut x = round + 1;
+                    for _ in 0..SENDS {
+                        if stop.load(Ordering::Relaxed) {
+                            break;
+                        }
+                        x ^= x << 13;
+                        x ^= x >> 7;
+                        x ^= x << 17;
+                        // Passed on three times among the participants.
+                        let _ = senders[(x % PARTS as u64) as usize].send(3);
+                        std::thread::yield_now();
+                    }
+                })
+            };
+            let parts: Vec<_> = receivers
+                .into_iter()
+                .enumerate()
+                .map(|(i, mut rx)| {
+                    let all = senders.clone();
+                    tokio::spawn(clock.participate(&format!("p{i}"), async move {
+                        let mut x = i as u64 + 1;
+                        loop {
+                            tokio::select! {
+                                biased;
+                                got = idle(rx.recv()) => {
+                                    if let Some(hops @ 1..) = got {
+                                        x = x.wrapping_mul(6364136223846793005)
+                                            .wrapping_add(1442695040888963407);
+                                        let _ = all[(x >> 33) as usize % PARTS].send(hops - 1);
+                                    }
+                                }
+                                _ = sleep(Duration::from_millis(10)) => {}
+                            }
+                        }
+                    }))
+                })
+                .collect();
+            // Stopped one by one at moments of the wall clock's choosing.
+            let mut x = round * 31 + 7;
+            for p in &parts {
+                x = x.wrapping_mul(6364136223846793005).wrapping_add(1);
+                tokio::time::sleep(Duration::from_micros((x >> 33) % 500)).await;
+                p.abort();
+            }
+            for p in parts {
+                assert!(p.await.is_err_and(|e| e.is_cancelled()));
+            }
+            let after = tokio::spawn(clock.participate("after", async {
+                let from = now_ms().expect("in a participant");
+                sleep(Duration::from_millis(30)).await;
+                now_ms().expect("in a participant") - from
+            }));
+            let slept = tokio::time::timeout(Duration::from_secs(60), after).await;
+            stop.store(true, Ordering::Relaxed);
+            outside.join().unwrap();
+            stepping.abort();
+            assert_eq!(
+                slept.ok().and_then(Result::ok),
+                Some(30),
+                "round {round}: {}",
+                clock.describe()
+            );
+        }
+    }
+
     /// A participant that panics leaves its thread as it found it: the
     /// next task polled there is no participant.
     #[tokio::test(flavor = "current_thread")]
