@@ -178,11 +178,15 @@ struct Follow {
 struct Follows(Mutex<std::collections::VecDeque<Follow>>);
 
 impl Follows {
-    fn push(&self, follow: Follow) {
-        self.0
-            .lock()
-            .unwrap_or_else(PoisonError::into_inner)
-            .push_back(follow);
+    /// Queues `follow`; whether the queue was empty, so that the task
+    /// needs waking. Whenever the queue holds anything, a [`Own::Drain`]
+    /// is on its way or the task is draining (it pops until the queue is
+    /// empty, under the same lock), so one wake-up serves every follow-up
+    /// queued before the task gets to it.
+    fn push(&self, follow: Follow) -> bool {
+        let mut queue = self.0.lock().unwrap_or_else(PoisonError::into_inner);
+        queue.push_back(follow);
+        queue.len() == 1
     }
 
     fn pop(&self) -> Option<Follow> {
@@ -731,11 +735,13 @@ impl Quick {
                     // is not woken for it.
                     if let Ok(a) = applied.as_mut() {
                         if a.commit.is_some() || !a.grants.is_empty() {
-                            self.follows.push(Follow {
+                            let first_queued = self.follows.push(Follow {
                                 commit: a.commit.take(),
                                 grants: std::mem::take(&mut a.grants),
                             });
-                            wake = Some(first);
+                            if first_queued {
+                                wake = Some(first);
+                            }
                         }
                     }
                     applied
