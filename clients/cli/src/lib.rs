@@ -63,6 +63,8 @@ pub enum Command {
     Replay(cmd::replay::Args),
     /// Serve a live web page of the fleet: map, poses, trails, sonar, routes, blackboards, cameras.
     View(cmd::view::Args),
+    /// Serve the fleet's traffic live to Foxglove (its WebSocket protocol): every JSON key a channel.
+    Foxglove(cmd::foxglove::Args),
     /// Print any key's traffic (puts, deletes, liveliness, replies with --get), or its rates with --hz.
     Echo(cmd::echo::Args),
     /// Check and draw StickRep maps.
@@ -173,6 +175,7 @@ pub fn main(cli: Cli) -> ExitCode {
             cli.command,
             Command::Record(_)
                 | Command::View(_)
+                | Command::Foxglove(_)
                 | Command::Colony(cmd::colony::ColonyCmd::Behave(_))
         );
     let runtime = match tokio::runtime::Builder::new_multi_thread()
@@ -245,6 +248,7 @@ async fn run_command(cli: Cli) -> anyhow::Result<u8> {
         Command::Ls(args) => cmd::ls::run(&common, args).await,
         Command::Echo(args) => cmd::echo::run(&common, args).await,
         Command::View(args) => cmd::view::run(&common, args).await,
+        Command::Foxglove(args) => cmd::foxglove::run(&common, args).await,
         Command::Record(args) => cmd::record::run(&common, args).await,
         Command::Replay(args) => cmd::replay::run(&common, args).await,
         Command::Map(c) => cmd::map::run(c),

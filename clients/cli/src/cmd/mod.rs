@@ -12,6 +12,7 @@ pub mod data_server;
 pub mod demo;
 pub mod echo;
 pub mod experiment;
+pub mod foxglove;
 pub mod fuzz;
 pub mod ls;
 pub mod map;

@@ -289,7 +289,7 @@ impl<W: Write + Seek> Mcap<W> {
 }
 
 /// The schema's name: the message type the key carries, where known.
-fn schema_name(key: &str) -> String {
+pub(crate) fn schema_name(key: &str) -> String {
     let last = key.rsplit('/').next().unwrap_or(key);
     let known = match last {
         "state" => "BaseState",

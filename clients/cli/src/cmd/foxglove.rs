@@ -1,0 +1,709 @@
+//! `rome foxglove`: the fleet's traffic, live, in Foxglove, over Foxglove's
+//! WebSocket protocol (`foxglove.websocket.v1`), as `foxglove_bridge` does
+//! for ROS 2.
+//!
+//! ```text
+//! rome foxglove                               # ws://127.0.0.1:8765, every key under the root
+//! rome foxglove --port 0 'rome/robot/r1/**'   # a free port, said on stderr
+//! ```
+//!
+//! In Foxglove: *Open connection* → *Foxglove WebSocket* →
+//! `ws://127.0.0.1:8765`. Every key that carries JSON becomes a channel
+//! (topic: the key; encoding `json`; a JSON Schema taken from its first
+//! message, as `rome record` writes), advertised as soon as it is first
+//! heard, so Plot, Raw Messages and State Transitions panels work on any
+//! field. Other payloads (camera images, bytes) are not bridged: `rome
+//! view` shows the cameras, `rome record` keeps everything.
+//!
+//! What goes over the socket, after the protocol's specification:
+//!
+//! ```text
+//! server → client  text    {"op":"serverInfo",…}  {"op":"advertise","channels":[…]}
+//!                          {"op":"status","level":0|1|2,"message":…}
+//! client → server  text    {"op":"subscribe","subscriptions":[{"id":S,"channelId":C}]}
+//!                          {"op":"unsubscribe","subscriptionIds":[S]}
+//! server → client  binary  0x01, S (u32 LE), receive time in ns (u64 LE), the message
+//! ```
+//!
+//! A client's malformed or unknown request is answered with an error
+//! status naming what was wrong, and the connection goes on. A client too
+//! slow for the traffic misses messages, and is told how many.
+
+use crate::args::{CommonArgs, Side};
+use crate::exit;
+use anyhow::Context;
+use axum::extract::ws::{Message, WebSocket, WebSocketUpgrade};
+use axum::extract::State;
+use axum::response::Response;
+use axum::routing::get;
+use serde_json::{json, Value};
+use std::collections::{BTreeMap, HashMap};
+use std::sync::{Arc, Mutex, PoisonError};
+use std::time::SystemTime;
+use tokio::sync::broadcast;
+use zenoh::bytes::Encoding;
+use zenoh::pubsub::Subscriber;
+use zenoh::sample::{Sample, SampleKind};
+use zenoh::Session;
+
+/// The WebSocket subprotocol Foxglove asks for.
+pub const SUBPROTOCOL: &str = "foxglove.websocket.v1";
+/// The first byte of a binary frame carrying a message.
+pub const OP_MESSAGE_DATA: u8 = 0x01;
+/// Status levels of the protocol.
+const INFO: u8 = 0;
+const WARNING: u8 = 1;
+const ERROR: u8 = 2;
+/// Messages held for each connection before a slow one starts missing
+/// some.
+const BACKLOG: usize = 4096;
+/// Most subscriptions one connection may hold: a client's request never
+/// makes the bridge hold more than this.
+const MAX_SUBSCRIPTIONS: usize = 4096;
+/// Most channels: keys beyond this are not bridged (and said so once).
+const MAX_CHANNELS: usize = 10_000;
+
+/// Flags of `rome foxglove`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Key expressions to bridge [default: everything under the root, ROOT/**].
+    pub keys: Vec<String>,
+    /// The WebSocket port (0: any free one); Foxglove's default is 8765.
+    #[arg(long, default_value_t = 8765)]
+    pub port: u16,
+    /// The address to serve on (0.0.0.0 to let other hosts connect).
+    #[arg(long, default_value = "127.0.0.1")]
+    pub bind: std::net::IpAddr,
+}
+
+/// Serves the bridge until Ctrl-C.
+pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
+    let root = common.root()?;
+    let keys = if args.keys.is_empty() {
+        vec![format!("{}/**", root.as_str())]
+    } else {
+        args.keys.clone()
+    };
+    let session = common.open(Side::Client).await?;
+    let listener = tokio::net::TcpListener::bind((args.bind, args.port))
+        .await
+        .with_context(|| {
+            format!(
+                "cannot serve on {}:{} (is another rome foxglove there? try --port 0)",
+                args.bind, args.port
+            )
+        })?;
+    let at = listener.local_addr()?;
+    let bridge = Bridge::start(&session, &keys).await?;
+    eprintln!("{}tcp/{at}", rome_client::net::LISTENING);
+    eprintln!(
+        "rome foxglove: ws://{at} bridges {} (in Foxglove: Open connection, Foxglove WebSocket; Ctrl-C to stop)",
+        keys.join(", ")
+    );
+    serve(listener, bridge, exit::interrupted()).await?;
+    Ok(exit::OK)
+}
+
+/// Serves `bridge` on `listener` until `shutdown` completes.
+pub async fn serve(
+    listener: tokio::net::TcpListener,
+    bridge: Bridge,
+    shutdown: impl std::future::Future<Output = ()> + Send + 'static,
+) -> anyhow::Result<()> {
+    let app = axum::Router::new()
+        .route("/", get(upgrade))
+        .with_state(Arc::new(bridge));
+    axum::serve(listener, app)
+        .with_graceful_shutdown(shutdown)
+        .await
+        .context("the WebSocket server failed")
+}
+
+/// One channel: a key whose messages are JSON.
+#[derive(Debug, Clone)]
+struct Channel {
+    id: u32,
+    topic: String,
+    schema_name: String,
+    schema: String,
+}
+
+impl Channel {
+    fn advertised(&self) -> Value {
+        json!({
+            "id": self.id,
+            "topic": self.topic,
+            "encoding": "json",
+            "schemaName": self.schema_name,
+            "schema": self.schema,
+            "schemaEncoding": "jsonschema",
+        })
+    }
+}
+
+/// What every connection hears from the subscribers.
+#[derive(Debug, Clone)]
+enum Heard {
+    /// A key heard for the first time.
+    Channel(Arc<Channel>),
+    /// A message on a channel, with when it was heard (ns since the epoch).
+    Message {
+        channel: u32,
+        at_ns: u64,
+        data: Arc<[u8]>,
+    },
+}
+
+#[derive(Default)]
+struct Channels {
+    by_key: HashMap<String, Arc<Channel>>,
+    /// In the order they were made, for a client that connects later.
+    all: Vec<Arc<Channel>>,
+    /// Whether the limit on channels has been said.
+    full_said: bool,
+}
+
+/// The Zenoh side: subscribers that turn what they hear into channels and
+/// messages for every connection.
+pub struct Bridge {
+    channels: Arc<Mutex<Channels>>,
+    heard: broadcast::Sender<Heard>,
+    started_ns: u64,
+    _subscribers: Vec<Subscriber<()>>,
+}
+
+impl Bridge {
+    /// Subscribes to `keys` on `session`.
+    pub async fn start(session: &Session, keys: &[String]) -> anyhow::Result<Bridge> {
+        let channels = Arc::new(Mutex::new(Channels::default()));
+        let (heard, _) = broadcast::channel(BACKLOG);
+        let mut subscribers = Vec::new();
+        for key in keys {
+            let (channels, heard) = (channels.clone(), heard.clone());
+            let sub = session
+                .declare_subscriber(key.clone())
+                .callback(move |s| on_sample(&channels, &heard, &s))
+                .await
+                .map_err(|e| anyhow::anyhow!("cannot subscribe to '{key}': {e}"))?;
+            subscribers.push(sub);
+        }
+        Ok(Bridge {
+            channels,
+            heard,
+            started_ns: now_ns(),
+            _subscribers: subscribers,
+        })
+    }
+}
+
+/// On a subscriber's thread: a JSON message becomes a channel's message
+/// (and the channel, the first time); anything else is left out.
+fn on_sample(channels: &Mutex<Channels>, heard: &broadcast::Sender<Heard>, s: &Sample) {
+    if s.kind() == SampleKind::Delete {
+        return;
+    }
+    let e = s.encoding();
+    if *e != Encoding::APPLICATION_JSON && *e != Encoding::TEXT_JSON {
+        return;
+    }
+    let data = s.payload().to_bytes();
+    let key = s.key_expr().as_str();
+    let at_ns = now_ns();
+    // Under the lock, so that a channel is sent before its first message
+    // to every connection.
+    let mut c = channels.lock().unwrap_or_else(PoisonError::into_inner);
+    let channel = match c.by_key.get(key) {
+        Some(ch) => ch.id,
+        None => {
+            let Ok(first) = serde_json::from_slice::<Value>(&data) else {
+                // Not JSON after all: nothing to build a schema from yet.
+                return;
+            };
+            if c.all.len() >= MAX_CHANNELS {
+                if !c.full_said {
+                    c.full_said = true;
+                    tracing::warn!(
+                        key,
+                        "rome foxglove: {MAX_CHANNELS} channels already; keys heard from now on are not bridged"
+                    );
+                }
+                return;
+            }
+            let ch = Arc::new(Channel {
+                id: c.all.len() as u32 + 1,
+                topic: key.to_string(),
+                schema_name: super::record::schema_name(key),
+                schema: super::record::json_schema(&first).to_string(),
+            });
+            c.by_key.insert(key.to_string(), ch.clone());
+            c.all.push(ch.clone());
+            // Nobody connected is no error.
+            let _ = heard.send(Heard::Channel(ch.clone()));
+            ch.id
+        }
+    };
+    let _ = heard.send(Heard::Message {
+        channel,
+        at_ns,
+        data: Arc::from(&data[..]),
+    });
+}
+
+fn now_ns() -> u64 {
+    SystemTime::now()
+        .duration_since(SystemTime::UNIX_EPOCH)
+        .map_or(0, |d| u64::try_from(d.as_nanos()).unwrap_or(u64::MAX))
+}
+
+async fn upgrade(State(bridge): State<Arc<Bridge>>, ws: WebSocketUpgrade) -> Response {
+    ws.protocols([SUBPROTOCOL])
+        .on_upgrade(move |socket| connection(bridge, socket))
+}
+
+/// What a client asks for.
+#[derive(Debug, serde::Deserialize)]
+#[serde(tag = "op", rename_all = "camelCase")]
+enum Request {
+    Subscribe {
+        subscriptions: Vec<Subscription>,
+    },
+    Unsubscribe {
+        #[serde(rename = "subscriptionIds")]
+        subscription_ids: Vec<u32>,
+    },
+}
+
+#[derive(Debug, serde::Deserialize)]
+struct Subscription {
+    id: u32,
+    #[serde(rename = "channelId")]
+    channel_id: u32,
+}
+
+/// One client's subscriptions: channel → its subscription ids.
+#[derive(Default)]
+struct Subscribed {
+    by_channel: BTreeMap<u32, Vec<u32>>,
+    count: usize,
+}
+
+impl Subscribed {
+    /// Applies `text`, a client's request; a status to send back when
+    /// something in it was refused.
+    fn apply(&mut self, text: &str, known: impl Fn(u32) -> bool) -> Option<(u8, String)> {
+        let request: Request = match serde_json::from_str(text) {
+            Ok(r) => r,
+            Err(e) => return Some((
+                ERROR,
+                format!(
+                    "cannot take this request ({e}); this server takes subscribe and unsubscribe"
+                ),
+            )),
+        };
+        let mut refused = Vec::new();
+        match request {
+            Request::Subscribe { subscriptions } => {
+                for s in subscriptions {
+                    if !known(s.channel_id) {
+                        refused.push(format!("no channel {}", s.channel_id));
+                    } else if self.by_channel.values().any(|ids| ids.contains(&s.id)) {
+                        refused.push(format!("subscription {} is already in use", s.id));
+                    } else if self.count >= MAX_SUBSCRIPTIONS {
+                        refused.push(format!(
+                            "subscription {} is one more than the {MAX_SUBSCRIPTIONS} a client may hold",
+                            s.id
+                        ));
+                    } else {
+                        self.by_channel.entry(s.channel_id).or_default().push(s.id);
+                        self.count += 1;
+                    }
+                }
+            }
+            Request::Unsubscribe { subscription_ids } => {
+                for id in subscription_ids {
+                    let mut found = false;
+                    for ids in self.by_channel.values_mut() {
+                        if let Some(i) = ids.iter().position(|x| *x == id) {
+                            ids.swap_remove(i);
+                            found = true;
+                        }
+                    }
+                    self.by_channel.retain(|_, ids| !ids.is_empty());
+                    if found {
+                        self.count -= 1;
+                    } else {
+                        refused.push(format!("no subscription {id}"));
+                    }
+                }
+            }
+        }
+        (!refused.is_empty()).then(|| (ERROR, refused.join("; ")))
+    }
+}
+
+fn status(level: u8, message: &str) -> Message {
+    Message::Text(
+        json!({"op": "status", "level": level, "message": message})
+            .to_string()
+            .into(),
+    )
+}
+
+fn advertise(channels: &[Arc<Channel>]) -> Message {
+    let list: Vec<Value> = channels.iter().map(|c| c.advertised()).collect();
+    Message::Text(
+        json!({"op": "advertise", "channels": list})
+            .to_string()
+            .into(),
+    )
+}
+
+/// The binary frame of one message for subscription `sub`.
+fn message_frame(sub: u32, at_ns: u64, data: &[u8]) -> Message {
+    let mut frame = Vec::with_capacity(13 + data.len());
+    frame.push(OP_MESSAGE_DATA);
+    frame.extend_from_slice(&sub.to_le_bytes());
+    frame.extend_from_slice(&at_ns.to_le_bytes());
+    frame.extend_from_slice(data);
+    Message::Binary(frame.into())
+}
+
+/// One client, from its handshake until it goes.
+async fn connection(bridge: Arc<Bridge>, mut socket: WebSocket) {
+    // Listening before the snapshot: a channel made in between comes
+    // twice at most (once in each), never not at all.
+    let mut heard = bridge.heard.subscribe();
+    let (snapshot, known) = {
+        let c = bridge
+            .channels
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner);
+        (c.all.clone(), c.all.len() as u32)
+    };
+    let info = json!({
+        "op": "serverInfo",
+        "name": concat!("rome foxglove ", env!("CARGO_PKG_VERSION")),
+        "capabilities": [],
+        "supportedEncodings": [],
+        "metadata": {},
+        "sessionId": bridge.started_ns.to_string(),
+    });
+    if socket
+        .send(Message::Text(info.to_string().into()))
+        .await
+        .is_err()
+    {
+        return;
+    }
+    if !snapshot.is_empty() && socket.send(advertise(&snapshot)).await.is_err() {
+        return;
+    }
+    let mut advertised = known;
+    let mut subscribed = Subscribed::default();
+    loop {
+        tokio::select! {
+            biased;
+            from_client = socket.recv() => {
+                let reply = match from_client {
+                    None | Some(Err(_)) | Some(Ok(Message::Close(_))) => return,
+                    Some(Ok(Message::Text(text))) => {
+                        subscribed.apply(text.as_str(), |id| id >= 1 && id <= advertised)
+                    }
+                    Some(Ok(Message::Binary(_))) => Some((
+                        ERROR,
+                        "this server takes no binary requests (no client publishing)".to_string(),
+                    )),
+                    // Pings are answered by the socket itself.
+                    Some(Ok(_)) => None,
+                };
+                if let Some((level, message)) = reply {
+                    if socket.send(status(level, &message)).await.is_err() {
+                        return;
+                    }
+                }
+            }
+            next = heard.recv() => {
+                let out = match next {
+                    Ok(Heard::Channel(ch)) => {
+                        if ch.id <= advertised {
+                            continue;
+                        }
+                        advertised = ch.id;
+                        vec![advertise(&[ch])]
+                    }
+                    Ok(Heard::Message { channel, at_ns, data }) => subscribed
+                        .by_channel
+                        .get(&channel)
+                        .map(|subs| {
+                            subs.iter()
+                                .map(|&sub| message_frame(sub, at_ns, &data))
+                                .collect()
+                        })
+                        .unwrap_or_default(),
+                    Err(broadcast::error::RecvError::Lagged(n)) => {
+                        // Channels made meanwhile are advertised again from
+                        // the list, so none is missing.
+                        let missed: Vec<Arc<Channel>> = {
+                            let c = bridge.channels.lock().unwrap_or_else(PoisonError::into_inner);
+                            c.all.iter().skip(advertised as usize).cloned().collect()
+                        };
+                        let mut out = Vec::new();
+                        if let Some(last) = missed.last() {
+                            advertised = last.id;
+                            out.push(advertise(&missed));
+                        }
+                        out.push(status(
+                            WARNING,
+                            &format!("this connection was too slow and missed {n} message(s)"),
+                        ));
+                        out
+                    }
+                    Err(broadcast::error::RecvError::Closed) => {
+                        let _ = socket.send(status(INFO, "the bridge is stopping")).await;
+                        return;
+                    }
+                };
+                for m in out {
+                    if socket.send(m).await.is_err() {
+                        return;
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    use futures_util::{SinkExt, StreamExt};
+    use tokio_tungstenite::tungstenite::client::IntoClientRequest;
+    use tokio_tungstenite::tungstenite::Message as Ws;
+
+    type Client = tokio_tungstenite::WebSocketStream<
+        tokio_tungstenite::MaybeTlsStream<tokio::net::TcpStream>,
+    >;
+
+    /// The next frame, text parsed; the limit is a failure detector.
+    async fn next(client: &mut Client) -> Ws {
+        tokio::time::timeout(std::time::Duration::from_secs(20), client.next())
+            .await
+            .expect("nothing came from the bridge")
+            .expect("the bridge closed the connection")
+            .expect("a broken frame")
+    }
+
+    async fn next_text(client: &mut Client) -> Value {
+        match next(client).await {
+            Ws::Text(t) => serde_json::from_str(t.as_str()).expect("JSON"),
+            other => panic!("not text: {other:?}"),
+        }
+    }
+
+    /// Foxglove's side of the protocol against a bridge on an isolated
+    /// session: the handshake, channels known before and made after the
+    /// client came, a subscription's messages byte for byte, and bad
+    /// requests answered with what was wrong while the connection goes on.
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn foxglove_sees_every_json_key_as_a_channel_and_gets_what_it_subscribes_to() {
+        let session = zenoh::open(
+            rome_client::net::NetOptions::isolated()
+                .to_config()
+                .unwrap(),
+        )
+        .await
+        .unwrap();
+        let json = |v: &str| v.to_string();
+        session
+            .put("t/r1/state", json(r#"{"x":1.5,"moving":false}"#))
+            .encoding(Encoding::APPLICATION_JSON)
+            .await
+            .unwrap();
+        let bridge = Bridge::start(&session, &["t/**".to_string()])
+            .await
+            .unwrap();
+        // Heard before any client: a put on the same session reaches the
+        // subscriber before `put` returns.
+        session
+            .put("t/r1/state", json(r#"{"x":2.5,"moving":true}"#))
+            .encoding(Encoding::APPLICATION_JSON)
+            .await
+            .unwrap();
+        let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+        let at = listener.local_addr().unwrap();
+        let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
+        let server = tokio::spawn(serve(listener, bridge, async {
+            let _ = stopped.await;
+        }));
+
+        let mut request = format!("ws://{at}/").into_client_request().unwrap();
+        request
+            .headers_mut()
+            .insert("Sec-WebSocket-Protocol", SUBPROTOCOL.parse().unwrap());
+        let (mut client, response) = tokio_tungstenite::connect_async(request).await.unwrap();
+        assert_eq!(
+            response.headers()["sec-websocket-protocol"],
+            SUBPROTOCOL,
+            "the subprotocol Foxglove asks for is agreed"
+        );
+        let info = next_text(&mut client).await;
+        assert_eq!(info["op"], "serverInfo", "{info}");
+        let ad = next_text(&mut client).await;
+        assert_eq!(ad["op"], "advertise", "{ad}");
+        let state = &ad["channels"][0];
+        assert_eq!(state["topic"], "t/r1/state");
+        assert_eq!(state["encoding"], "json");
+        assert_eq!(state["schemaName"], "rome.BaseState");
+        let schema: Value = serde_json::from_str(state["schema"].as_str().unwrap()).unwrap();
+        assert_eq!(schema["properties"]["x"]["type"], "number", "{schema}");
+        let state_id = state["id"].as_u64().unwrap();
+
+        // Bad requests, each answered, and the connection goes on.
+        client.send(Ws::text("not json")).await.unwrap();
+        let s = next_text(&mut client).await;
+        assert_eq!(
+            (s["op"].as_str(), s["level"].as_u64()),
+            (Some("status"), Some(2))
+        );
+        assert!(
+            s["message"]
+                .as_str()
+                .unwrap()
+                .contains("cannot take this request"),
+            "{s}"
+        );
+        client
+            .send(Ws::text(
+                r#"{"op":"subscribe","subscriptions":[{"id":1,"channelId":99}]}"#,
+            ))
+            .await
+            .unwrap();
+        let s = next_text(&mut client).await;
+        assert_eq!(s["message"], "no channel 99", "{s}");
+
+        client
+            .send(Ws::text(format!(
+                r#"{{"op":"subscribe","subscriptions":[{{"id":7,"channelId":{state_id}}}]}}"#
+            )))
+            .await
+            .unwrap();
+        // Requests are taken in order: once this one's refusal is back,
+        // the subscription above is in place.
+        client
+            .send(Ws::text(r#"{"op":"unsubscribe","subscriptionIds":[404]}"#))
+            .await
+            .unwrap();
+        let s = next_text(&mut client).await;
+        assert_eq!(s["message"], "no subscription 404", "{s}");
+
+        // Bytes and a delete are not bridged; a new JSON key is advertised
+        // live; the subscribed key's message arrives as it was sent.
+        session
+            .put("t/r1/camera/up/frame", vec![0u8, 1, 2])
+            .encoding(Encoding::APPLICATION_OCTET_STREAM)
+            .await
+            .unwrap();
+        session.delete("t/r1/state").await.unwrap();
+        session
+            .put("t/r1/scan", json(r#"{"ranges":[1200,880]}"#))
+            .encoding(Encoding::APPLICATION_JSON)
+            .await
+            .unwrap();
+        let sent = r#"{"x":3.5,"moving":true}"#;
+        session
+            .put("t/r1/state", json(sent))
+            .encoding(Encoding::APPLICATION_JSON)
+            .await
+            .unwrap();
+        let ad = next_text(&mut client).await;
+        assert_eq!(ad["op"], "advertise", "{ad}");
+        let topics: Vec<&str> = ad["channels"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|c| c["topic"].as_str().unwrap())
+            .collect();
+        assert_eq!(topics, ["t/r1/scan"], "only the new JSON key");
+        let Ws::Binary(frame) = next(&mut client).await else {
+            panic!("the subscribed message did not come next");
+        };
+        assert_eq!(frame[0], OP_MESSAGE_DATA);
+        assert_eq!(u32::from_le_bytes(frame[1..5].try_into().unwrap()), 7);
+        let at_ns = u64::from_le_bytes(frame[5..13].try_into().unwrap());
+        assert!(at_ns > 1_600_000_000_000_000_000, "a receive time: {at_ns}");
+        assert_eq!(&frame[13..], sent.as_bytes());
+
+        let _ = stop.send(());
+        drop(client);
+        server.await.unwrap().unwrap();
+    }
+
+    #[test]
+    fn requests_are_applied_or_refused_with_what_was_wrong() {
+        let mut s = Subscribed::default();
+        let known = |id: u32| (1..=3).contains(&id);
+        assert_eq!(
+            s.apply(
+                r#"{"op":"subscribe","subscriptions":[{"id":7,"channelId":2},{"id":8,"channelId":2}]}"#,
+                known
+            ),
+            None
+        );
+        assert_eq!(s.by_channel[&2], vec![7, 8]);
+        let (level, m) = s
+            .apply(
+                r#"{"op":"subscribe","subscriptions":[{"id":7,"channelId":1},{"id":9,"channelId":99}]}"#,
+                known,
+            )
+            .unwrap();
+        assert_eq!(level, ERROR);
+        assert!(m.contains("subscription 7 is already in use"), "{m}");
+        assert!(m.contains("no channel 99"), "{m}");
+        let (_, m) = s.apply("not json", known).unwrap();
+        assert!(m.contains("cannot take this request"), "{m}");
+        let (_, m) = s
+            .apply(r#"{"op":"advertise","channels":[]}"#, known)
+            .unwrap();
+        assert!(m.contains("subscribe and unsubscribe"), "{m}");
+        // A number out of u32's range is refused, not wrapped.
+        assert!(s
+            .apply(
+                r#"{"op":"subscribe","subscriptions":[{"id":4294967296,"channelId":1}]}"#,
+                known
+            )
+            .is_some());
+        let (_, m) = s
+            .apply(r#"{"op":"unsubscribe","subscriptionIds":[8,5]}"#, known)
+            .unwrap();
+        assert_eq!(m, "no subscription 5");
+        assert_eq!(s.by_channel[&2], vec![7]);
+        assert_eq!(s.count, 1);
+    }
+
+    #[test]
+    fn a_subscription_beyond_the_limit_is_refused() {
+        let mut s = Subscribed::default();
+        let subs: Vec<String> = (0..MAX_SUBSCRIPTIONS as u32 + 2)
+            .map(|i| format!(r#"{{"id":{i},"channelId":1}}"#))
+            .collect();
+        let text = format!(
+            r#"{{"op":"subscribe","subscriptions":[{}]}}"#,
+            subs.join(",")
+        );
+        let (_, m) = s.apply(&text, |_| true).unwrap();
+        assert_eq!(s.count, MAX_SUBSCRIPTIONS);
+        assert!(
+            m.contains(&format!("subscription {MAX_SUBSCRIPTIONS} is one more")),
+            "{m}"
+        );
+    }
+
+    #[test]
+    fn a_message_frame_is_laid_out_as_the_protocol_says() {
+        let Message::Binary(b) = message_frame(0x0102_0304, 5, b"{}") else {
+            panic!("not binary");
+        };
+        assert_eq!(&b[..], &[1, 4, 3, 2, 1, 5, 0, 0, 0, 0, 0, 0, 0, b'{', b'}']);
+    }
+}
