@@ -293,12 +293,14 @@ impl Subscribed {
     fn apply(&mut self, text: &str, known: impl Fn(u32) -> bool) -> Option<(u8, String)> {
         let request: Request = match serde_json::from_str(text) {
             Ok(r) => r,
-            Err(e) => return Some((
-                ERROR,
-                format!(
+            Err(e) => {
+                return Some((
+                    ERROR,
+                    format!(
                     "cannot take this request ({e}); this server takes subscribe and unsubscribe"
                 ),
-            )),
+                ))
+            }
         };
         let mut refused = Vec::new();
         match request {
@@ -507,17 +509,11 @@ mod tests {
     /// requests answered with what was wrong while the connection goes on.
     #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
     async fn foxglove_sees_every_json_key_as_a_channel_and_gets_what_it_subscribes_to() {
-        let session = zenoh::open(
-            rome_client::net::NetOptions::isolated()
-                .to_config()
-                .unwrap(),
-        )
-        .await
-        .unwrap();
-        let json = |v: &str| v.to_string();
-        session
-            .put("t/r1/state", json(r#"{"x":1.5,"moving":false}"#))
-            .encoding(Encoding::APPLICATION_JSON)
+        let session = crate::cmd::isolated_session().await;
+        let put = |key: &'static str, text: &'static str| {
+            session.put(key, text).encoding(Encoding::APPLICATION_JSON)
+        };
+        put("t/r1/state", r#"{"x":1.5,"moving":false}"#)
             .await
             .unwrap();
         let bridge = Bridge::start(&session, &["t/**".to_string()])
@@ -525,9 +521,7 @@ mod tests {
             .unwrap();
         // Heard before any client: a put on the same session reaches the
         // subscriber before `put` returns.
-        session
-            .put("t/r1/state", json(r#"{"x":2.5,"moving":true}"#))
-            .encoding(Encoding::APPLICATION_JSON)
+        put("t/r1/state", r#"{"x":2.5,"moving":true}"#)
             .await
             .unwrap();
         let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
@@ -605,17 +599,9 @@ mod tests {
             .await
             .unwrap();
         session.delete("t/r1/state").await.unwrap();
-        session
-            .put("t/r1/scan", json(r#"{"ranges":[1200,880]}"#))
-            .encoding(Encoding::APPLICATION_JSON)
-            .await
-            .unwrap();
+        put("t/r1/scan", r#"{"ranges":[1200,880]}"#).await.unwrap();
         let sent = r#"{"x":3.5,"moving":true}"#;
-        session
-            .put("t/r1/state", json(sent))
-            .encoding(Encoding::APPLICATION_JSON)
-            .await
-            .unwrap();
+        put("t/r1/state", sent).await.unwrap();
         let ad = next_text(&mut client).await;
         assert_eq!(ad["op"], "advertise", "{ad}");
         let topics: Vec<&str> = ad["channels"]

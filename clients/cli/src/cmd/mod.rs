@@ -56,3 +56,13 @@ pub async fn connect_data(common: &CommonArgs, role: &str) -> anyhow::Result<Dat
         "cannot reach the data server (start one with `rome data-server`, or pass --connect)",
     )
 }
+
+/// A Zenoh session that talks to nobody (no listening, no scouting), for
+/// a command's tests in this process.
+#[cfg(test)]
+pub(crate) async fn isolated_session() -> zenoh::Session {
+    let config = rome_client::net::NetOptions::isolated()
+        .to_config()
+        .expect("an isolated session's configuration");
+    zenoh::open(config).await.expect("an isolated session")
+}

@@ -329,13 +329,7 @@ mod tests {
 
     #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
     async fn images_are_kept_as_they_came_and_deletes_as_deletes() {
-        let session = zenoh::open(
-            rome_client::net::NetOptions::isolated()
-                .to_config()
-                .unwrap(),
-        )
-        .await
-        .unwrap();
+        let session = crate::cmd::isolated_session().await;
         let dir = std::env::temp_dir().join(format!("rome-rec-unit-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let path = dir.join("x.mcap");
