@@ -104,6 +104,16 @@ impl CommonArgs {
         Ok(Root::new(self.root.as_str())?)
     }
 
+    /// `keys` as given, or everything under the root (`ROOT/**`) when
+    /// none is.
+    pub fn keys_or_all(&self, keys: &[String]) -> anyhow::Result<Vec<String>> {
+        Ok(if keys.is_empty() {
+            vec![format!("{}/**", self.root()?.as_str())]
+        } else {
+            keys.to_vec()
+        })
+    }
+
     /// Network options for this side, with the out-of-the-box defaults.
     pub fn net(&self, side: Side) -> NetOptions {
         let mut net = NetOptions {

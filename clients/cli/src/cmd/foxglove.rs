@@ -78,12 +78,7 @@ pub struct Args {
 
 /// Serves the bridge until Ctrl-C.
 pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
-    let root = common.root()?;
-    let keys = if args.keys.is_empty() {
-        vec![format!("{}/**", root.as_str())]
-    } else {
-        args.keys.clone()
-    };
+    let keys = common.keys_or_all(&args.keys)?;
     let session = common.open(Side::Client).await?;
     let listener = tokio::net::TcpListener::bind((args.bind, args.port))
         .await

@@ -62,12 +62,7 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
             "--duration must be a positive number of seconds, got {d}"
         );
     }
-    let root = common.root()?;
-    let keys = if args.keys.is_empty() {
-        vec![format!("{}/**", root.as_str())]
-    } else {
-        args.keys.clone()
-    };
+    let keys = common.keys_or_all(&args.keys)?;
     let session = common.open(Side::Client).await?;
     if !common.listen.is_empty() {
         // Where others reach it, with the port a `:0` endpoint was given.
