@@ -63,7 +63,7 @@ pub enum Command {
     Replay(cmd::replay::Args),
     /// Serve a live web page of the fleet: map, poses, trails, sonar, routes, blackboards, cameras.
     View(cmd::view::Args),
-    /// Serve the fleet's traffic live to Foxglove (its WebSocket protocol): every JSON key a channel.
+    /// Serve the fleet's traffic live to Foxglove (its WebSocket protocol): every JSON key a channel, cameras as images.
     Foxglove(cmd::foxglove::Args),
     /// Print any key's traffic (puts, deletes, liveliness, replies with --get), or its rates with --hz.
     Echo(cmd::echo::Args),

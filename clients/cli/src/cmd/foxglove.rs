@@ -12,8 +12,11 @@
 //! (topic: the key; encoding `json`; a JSON Schema taken from its first
 //! message, as `rome record` writes), advertised as soon as it is first
 //! heard, so Plot, Raw Messages and State Transitions panels work on any
-//! field. Other payloads (camera images, bytes) are not bridged: `rome
-//! view` shows the cameras, `rome record` keeps everything.
+//! field. Beside a camera's `…/camera/<camera>/frame` comes
+//! `…/camera/<camera>/image`, Foxglove's `CompressedImage` (PNG): while a
+//! client subscribes to it, the camera's last picture is fetched (`grab`)
+//! each time the camera says it grabbed one. Other bytes are not bridged
+//! (`rome record` keeps everything).
 //!
 //! What goes over the socket, after the protocol's specification:
 //!
@@ -37,7 +40,8 @@ use axum::extract::State;
 use axum::response::Response;
 use axum::routing::get;
 use serde_json::{json, Value};
-use std::collections::{BTreeMap, HashMap};
+use std::collections::{BTreeMap, BTreeSet, HashMap};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex, PoisonError};
 use std::time::SystemTime;
 use tokio::sync::broadcast;
@@ -114,14 +118,37 @@ pub async fn serve(
         .context("the WebSocket server failed")
 }
 
-/// One channel: a key whose messages are JSON.
-#[derive(Debug, Clone)]
+/// One channel: a key whose messages are JSON, or a camera's pictures.
+#[derive(Debug)]
 struct Channel {
     id: u32,
     topic: String,
     schema_name: String,
     schema: String,
+    /// For a camera's picture channel, where the pictures are fetched.
+    image: Option<Image>,
 }
+
+/// A camera's picture channel: a picture is asked for (`grab`, PNG) each
+/// time the camera says it grabbed one, while any client subscribes.
+#[derive(Debug)]
+struct Image {
+    /// The query that fetches the last picture.
+    grab: String,
+    /// The camera's key, the pictures' frame.
+    frame_id: String,
+    /// Subscriptions to the channel, over every connection.
+    watchers: AtomicUsize,
+    /// A picture is being fetched: the next waits until it is in.
+    fetching: AtomicBool,
+}
+
+/// Foxglove's `CompressedImage`, as a JSON Schema.
+const COMPRESSED_IMAGE_SCHEMA: &str = r#"{"title":"foxglove.CompressedImage","type":"object","properties":{"timestamp":{"type":"object","properties":{"sec":{"type":"integer","minimum":0},"nsec":{"type":"integer","minimum":0}}},"frame_id":{"type":"string"},"data":{"type":"string","contentEncoding":"base64"},"format":{"type":"string"}}}"#;
+/// Largest picture passed on, bytes: a bigger reply is not a camera's.
+const MAX_PICTURE: usize = 16 << 20;
+/// How long a picture may take to come.
+const GRAB_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(3);
 
 impl Channel {
     fn advertised(&self) -> Value {
@@ -152,10 +179,20 @@ enum Heard {
 #[derive(Default)]
 struct Channels {
     by_key: HashMap<String, Arc<Channel>>,
+    /// A camera's frame channel → its picture channel.
+    pictures: HashMap<u32, Arc<Channel>>,
     /// In the order they were made, for a client that connects later.
     all: Vec<Arc<Channel>>,
     /// Whether the limit on channels has been said.
     full_said: bool,
+}
+
+impl Channels {
+    /// The watchers of channel `id`, if it is a camera's pictures.
+    fn watchers(&self, id: u32) -> Option<&AtomicUsize> {
+        let ch = self.all.get(usize::try_from(id.checked_sub(1)?).ok()?)?;
+        ch.image.as_ref().map(|i| &i.watchers)
+    }
 }
 
 /// The Zenoh side: subscribers that turn what they hear into channels and
@@ -172,12 +209,17 @@ impl Bridge {
     pub async fn start(session: &Session, keys: &[String]) -> anyhow::Result<Bridge> {
         let channels = Arc::new(Mutex::new(Channels::default()));
         let (heard, _) = broadcast::channel(BACKLOG);
+        let fetch = Arc::new(Fetch {
+            session: session.clone(),
+            runtime: tokio::runtime::Handle::current(),
+            heard: heard.clone(),
+        });
         let mut subscribers = Vec::new();
         for key in keys {
-            let (channels, heard) = (channels.clone(), heard.clone());
+            let (channels, fetch) = (channels.clone(), fetch.clone());
             let sub = session
                 .declare_subscriber(key.clone())
-                .callback(move |s| on_sample(&channels, &heard, &s))
+                .callback(move |s| on_sample(&channels, &fetch, &s))
                 .await
                 .map_err(|e| anyhow::anyhow!("cannot subscribe to '{key}': {e}"))?;
             subscribers.push(sub);
@@ -191,9 +233,97 @@ impl Bridge {
     }
 }
 
+/// What fetches a camera's pictures.
+struct Fetch {
+    session: Session,
+    runtime: tokio::runtime::Handle,
+    heard: broadcast::Sender<Heard>,
+}
+
+impl Fetch {
+    /// Asks for the picture the camera has just grabbed, if anyone
+    /// watches `channel` and none is on its way already.
+    fn picture(&self, channel: &Arc<Channel>) {
+        let Some(image) = &channel.image else { return };
+        if image.watchers.load(Ordering::Acquire) == 0
+            || image.fetching.swap(true, Ordering::AcqRel)
+        {
+            return;
+        }
+        let (session, heard, channel) = (self.session.clone(), self.heard.clone(), channel.clone());
+        self.runtime.spawn(async move {
+            let Some(image) = &channel.image else { return };
+            match grab(&session, &image.grab).await {
+                Ok(png) => {
+                    let at_ns = now_ns();
+                    let _ = heard.send(Heard::Message {
+                        channel: channel.id,
+                        at_ns,
+                        data: compressed_image(&image.frame_id, at_ns, &png).into(),
+                    });
+                }
+                Err(e) => {
+                    tracing::debug!(key = %image.grab, error = %e, "rome foxglove: no picture")
+                }
+            }
+            image.fetching.store(false, Ordering::Release);
+        });
+    }
+}
+
+/// The picture `key` answers, as PNG bytes.
+async fn grab(session: &Session, key: &str) -> anyhow::Result<Vec<u8>> {
+    let replies = session
+        .get(key)
+        .timeout(GRAB_TIMEOUT)
+        .await
+        .map_err(|e| anyhow::anyhow!("cannot ask: {e}"))?;
+    let reply = replies
+        .recv_async()
+        .await
+        .map_err(|_| anyhow::anyhow!("no answer"))?;
+    match reply.result() {
+        Ok(s) if s.payload().len() > MAX_PICTURE => {
+            anyhow::bail!(
+                "a picture of {} bytes, more than {MAX_PICTURE}",
+                s.payload().len()
+            )
+        }
+        Ok(s) => Ok(s.payload().to_bytes().into_owned()),
+        Err(e) => anyhow::bail!("{}", String::from_utf8_lossy(&e.payload().to_bytes())),
+    }
+}
+
+/// Foxglove's `CompressedImage` of `png`, as JSON.
+fn compressed_image(frame_id: &str, at_ns: u64, png: &[u8]) -> Vec<u8> {
+    use base64::Engine;
+    json!({
+        "timestamp": {"sec": at_ns / 1_000_000_000, "nsec": at_ns % 1_000_000_000},
+        "frame_id": frame_id,
+        "format": "png",
+        "data": base64::engine::general_purpose::STANDARD.encode(png),
+    })
+    .to_string()
+    .into_bytes()
+}
+
+/// For a camera's frame key (`…/camera/<camera>/frame`), its picture
+/// query and the camera's key.
+fn camera_of(key: &str) -> Option<(String, String)> {
+    let (camera, last) = key.rsplit_once('/')?;
+    (last == "frame" && camera.rsplit('/').nth(1) == Some("camera")).then(|| {
+        (
+            format!("{camera}/grab?format=png;priority=64"),
+            camera.to_string(),
+        )
+    })
+}
+
 /// On a subscriber's thread: a JSON message becomes a channel's message
-/// (and the channel, the first time); anything else is left out.
-fn on_sample(channels: &Mutex<Channels>, heard: &broadcast::Sender<Heard>, s: &Sample) {
+/// (and the channel, the first time, with a picture channel beside a
+/// camera's frames); anything else is left out.
+fn on_sample(channels: &Mutex<Channels>, fetch: &Fetch, s: &Sample) {
+    let heard = &fetch.heard;
     if s.kind() == SampleKind::Delete {
         return;
     }
@@ -214,7 +344,7 @@ fn on_sample(channels: &Mutex<Channels>, heard: &broadcast::Sender<Heard>, s: &S
                 // Not JSON after all: nothing to build a schema from yet.
                 return;
             };
-            if c.all.len() >= MAX_CHANNELS {
+            if c.all.len() + 2 > MAX_CHANNELS {
                 if !c.full_said {
                     c.full_said = true;
                     tracing::warn!(
@@ -229,11 +359,29 @@ fn on_sample(channels: &Mutex<Channels>, heard: &broadcast::Sender<Heard>, s: &S
                 topic: key.to_string(),
                 schema_name: super::record::schema_name(key),
                 schema: super::record::json_schema(&first).to_string(),
+                image: None,
             });
             c.by_key.insert(key.to_string(), ch.clone());
             c.all.push(ch.clone());
             // Nobody connected is no error.
             let _ = heard.send(Heard::Channel(ch.clone()));
+            if let Some((grab, camera)) = camera_of(key) {
+                let picture = Arc::new(Channel {
+                    id: c.all.len() as u32 + 1,
+                    topic: format!("{camera}/image"),
+                    schema_name: "foxglove.CompressedImage".to_string(),
+                    schema: COMPRESSED_IMAGE_SCHEMA.to_string(),
+                    image: Some(Image {
+                        grab,
+                        frame_id: camera,
+                        watchers: AtomicUsize::new(0),
+                        fetching: AtomicBool::new(false),
+                    }),
+                });
+                c.pictures.insert(ch.id, picture.clone());
+                c.all.push(picture.clone());
+                let _ = heard.send(Heard::Channel(picture));
+            }
             ch.id
         }
     };
@@ -242,6 +390,11 @@ fn on_sample(channels: &Mutex<Channels>, heard: &broadcast::Sender<Heard>, s: &S
         at_ns,
         data: Arc::from(&data[..]),
     });
+    let picture = c.pictures.get(&channel).cloned();
+    drop(c);
+    if let Some(p) = picture {
+        fetch.picture(&p);
+    }
 }
 
 fn now_ns() -> u64 {
@@ -338,6 +491,50 @@ impl Subscribed {
     }
 }
 
+/// The channels one connection subscribes to, counted among their
+/// watchers while it does (a camera's pictures are fetched only while
+/// someone watches).
+struct Watching {
+    bridge: Arc<Bridge>,
+    channels: BTreeSet<u32>,
+}
+
+impl Watching {
+    fn update(&mut self, subscribed: &Subscribed) {
+        let now: BTreeSet<u32> = subscribed.by_channel.keys().copied().collect();
+        let added: Vec<u32> = now.difference(&self.channels).copied().collect();
+        let gone: Vec<u32> = self.channels.difference(&now).copied().collect();
+        self.count(&added, true);
+        self.count(&gone, false);
+        self.channels = now;
+    }
+
+    /// Counts this connection in (or out of) the watchers of `ids`.
+    fn count(&self, ids: &[u32], watching: bool) {
+        let c = self
+            .bridge
+            .channels
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner);
+        for &id in ids {
+            if let Some(w) = c.watchers(id) {
+                if watching {
+                    w.fetch_add(1, Ordering::AcqRel);
+                } else {
+                    w.fetch_sub(1, Ordering::AcqRel);
+                }
+            }
+        }
+    }
+}
+
+impl Drop for Watching {
+    fn drop(&mut self) {
+        let all: Vec<u32> = self.channels.iter().copied().collect();
+        self.count(&all, false);
+    }
+}
+
 fn status(level: u8, message: &str) -> Message {
     Message::Text(
         json!({"op": "status", "level": level, "message": message})
@@ -397,6 +594,10 @@ async fn connection(bridge: Arc<Bridge>, mut socket: WebSocket) {
     }
     let mut advertised = known;
     let mut subscribed = Subscribed::default();
+    let mut watching = Watching {
+        bridge: bridge.clone(),
+        channels: BTreeSet::new(),
+    };
     loop {
         tokio::select! {
             biased;
@@ -404,7 +605,10 @@ async fn connection(bridge: Arc<Bridge>, mut socket: WebSocket) {
                 let reply = match from_client {
                     None | Some(Err(_)) | Some(Ok(Message::Close(_))) => return,
                     Some(Ok(Message::Text(text))) => {
-                        subscribed.apply(text.as_str(), |id| id >= 1 && id <= advertised)
+                        let refused =
+                            subscribed.apply(text.as_str(), |id| id >= 1 && id <= advertised);
+                        watching.update(&subscribed);
+                        refused
                     }
                     Some(Ok(Message::Binary(_))) => Some((
                         ERROR,
@@ -477,6 +681,7 @@ mod tests {
     use futures_util::{SinkExt, StreamExt};
     use tokio_tungstenite::tungstenite::client::IntoClientRequest;
     use tokio_tungstenite::tungstenite::Message as Ws;
+    use zenoh::Wait;
 
     type Client = tokio_tungstenite::WebSocketStream<
         tokio_tungstenite::MaybeTlsStream<tokio::net::TcpStream>,
@@ -496,6 +701,56 @@ mod tests {
             Ws::Text(t) => serde_json::from_str(t.as_str()).expect("JSON"),
             other => panic!("not text: {other:?}"),
         }
+    }
+
+    /// A bridge served on a free loopback port.
+    struct Running {
+        stop: tokio::sync::oneshot::Sender<()>,
+        server: tokio::task::JoinHandle<anyhow::Result<()>>,
+    }
+
+    impl Running {
+        async fn stop(self, client: Client) {
+            let _ = self.stop.send(());
+            drop(client);
+            self.server.await.unwrap().unwrap();
+        }
+    }
+
+    /// Serves `bridge` and connects to it as Foxglove does, through the
+    /// handshake and the server's greeting.
+    async fn connect(bridge: Bridge) -> (Client, Running) {
+        let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+        let at = listener.local_addr().unwrap();
+        let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
+        let server = tokio::spawn(serve(listener, bridge, async {
+            let _ = stopped.await;
+        }));
+        let mut request = format!("ws://{at}/").into_client_request().unwrap();
+        request
+            .headers_mut()
+            .insert("Sec-WebSocket-Protocol", SUBPROTOCOL.parse().unwrap());
+        let (mut client, response) = tokio_tungstenite::connect_async(request).await.unwrap();
+        assert_eq!(
+            response.headers()["sec-websocket-protocol"],
+            SUBPROTOCOL,
+            "the subprotocol Foxglove asks for is agreed"
+        );
+        let info = next_text(&mut client).await;
+        assert_eq!(info["op"], "serverInfo", "{info}");
+        (client, Running { stop, server })
+    }
+
+    /// Sends `request`, then one the bridge refuses: requests are taken in
+    /// order, so once the refusal is back the first is in place.
+    async fn request(client: &mut Client, request: String) {
+        client.send(Ws::text(request)).await.unwrap();
+        client
+            .send(Ws::text(r#"{"op":"unsubscribe","subscriptionIds":[404]}"#))
+            .await
+            .unwrap();
+        let s = next_text(client).await;
+        assert_eq!(s["message"], "no subscription 404", "{s}");
     }
 
     /// Foxglove's side of the protocol against a bridge on an isolated
@@ -519,25 +774,7 @@ mod tests {
         put("t/r1/state", r#"{"x":2.5,"moving":true}"#)
             .await
             .unwrap();
-        let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
-        let at = listener.local_addr().unwrap();
-        let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
-        let server = tokio::spawn(serve(listener, bridge, async {
-            let _ = stopped.await;
-        }));
-
-        let mut request = format!("ws://{at}/").into_client_request().unwrap();
-        request
-            .headers_mut()
-            .insert("Sec-WebSocket-Protocol", SUBPROTOCOL.parse().unwrap());
-        let (mut client, response) = tokio_tungstenite::connect_async(request).await.unwrap();
-        assert_eq!(
-            response.headers()["sec-websocket-protocol"],
-            SUBPROTOCOL,
-            "the subprotocol Foxglove asks for is agreed"
-        );
-        let info = next_text(&mut client).await;
-        assert_eq!(info["op"], "serverInfo", "{info}");
+        let (mut client, running) = connect(bridge).await;
         let ad = next_text(&mut client).await;
         assert_eq!(ad["op"], "advertise", "{ad}");
         let state = &ad["channels"][0];
@@ -571,20 +808,11 @@ mod tests {
         let s = next_text(&mut client).await;
         assert_eq!(s["message"], "no channel 99", "{s}");
 
-        client
-            .send(Ws::text(format!(
-                r#"{{"op":"subscribe","subscriptions":[{{"id":7,"channelId":{state_id}}}]}}"#
-            )))
-            .await
-            .unwrap();
-        // Requests are taken in order: once this one's refusal is back,
-        // the subscription above is in place.
-        client
-            .send(Ws::text(r#"{"op":"unsubscribe","subscriptionIds":[404]}"#))
-            .await
-            .unwrap();
-        let s = next_text(&mut client).await;
-        assert_eq!(s["message"], "no subscription 404", "{s}");
+        request(
+            &mut client,
+            format!(r#"{{"op":"subscribe","subscriptions":[{{"id":7,"channelId":{state_id}}}]}}"#),
+        )
+        .await;
 
         // Bytes and a delete are not bridged; a new JSON key is advertised
         // live; the subscribed key's message arrives as it was sent.
@@ -615,9 +843,83 @@ mod tests {
         assert!(at_ns > 1_600_000_000_000_000_000, "a receive time: {at_ns}");
         assert_eq!(&frame[13..], sent.as_bytes());
 
-        let _ = stop.send(());
-        drop(client);
-        server.await.unwrap().unwrap();
+        running.stop(client).await;
+    }
+
+    /// A camera's frames bring a picture channel beside them; a picture
+    /// is asked for when the camera says it grabbed one, and only while a
+    /// client watches.
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn a_camera_is_seen_in_pictures_fetched_only_while_someone_watches() {
+        let session = crate::cmd::isolated_session().await;
+        let png = b"\x89PNG\r\n\x1a\na camera's picture".to_vec();
+        let asked = Arc::new(AtomicUsize::new(0));
+        let (answer, count) = (png.clone(), asked.clone());
+        let _camera = session
+            .declare_queryable("t/r1/camera/up/grab")
+            .callback(move |q| {
+                count.fetch_add(1, Ordering::AcqRel);
+                assert!(q.parameters().as_str().contains("format=png"));
+                let _ = q
+                    .reply(q.key_expr().clone(), answer.clone())
+                    .encoding(Encoding::IMAGE_PNG)
+                    .wait();
+            })
+            .await
+            .unwrap();
+        let bridge = Bridge::start(&session, &["t/**".to_string()])
+            .await
+            .unwrap();
+        let (mut client, running) = connect(bridge).await;
+        let frame = |n: u32| {
+            session
+                .put("t/r1/camera/up/frame", format!(r#"{{"frame":{n}}}"#))
+                .encoding(Encoding::APPLICATION_JSON)
+        };
+        // Handled by the bridge before `put` returns (one session).
+        frame(1).await.unwrap();
+        let mut ids = BTreeMap::new();
+        for _ in 0..2 {
+            let ad = next_text(&mut client).await;
+            for c in ad["channels"].as_array().unwrap() {
+                ids.insert(c["topic"].as_str().unwrap().to_string(), c.clone());
+            }
+        }
+        let image = &ids["t/r1/camera/up/image"];
+        assert_eq!(image["schemaName"], "foxglove.CompressedImage");
+        assert!(ids.contains_key("t/r1/camera/up/frame"));
+        assert_eq!(asked.load(Ordering::Acquire), 0, "nobody watched yet");
+
+        let id = image["id"].as_u64().unwrap();
+        request(
+            &mut client,
+            format!(r#"{{"op":"subscribe","subscriptions":[{{"id":3,"channelId":{id}}}]}}"#),
+        )
+        .await;
+        frame(2).await.unwrap();
+        let Ws::Binary(m) = next(&mut client).await else {
+            panic!("no picture");
+        };
+        assert_eq!(u32::from_le_bytes(m[1..5].try_into().unwrap()), 3);
+        let picture: Value = serde_json::from_slice(&m[13..]).unwrap();
+        assert_eq!(picture["format"], "png");
+        assert_eq!(picture["frame_id"], "t/r1/camera/up");
+        use base64::Engine;
+        let data = base64::engine::general_purpose::STANDARD
+            .decode(picture["data"].as_str().unwrap())
+            .unwrap();
+        assert_eq!(data, png);
+        assert!(picture["timestamp"]["sec"].as_u64().unwrap() > 1_600_000_000);
+        assert_eq!(asked.load(Ordering::Acquire), 1);
+
+        request(
+            &mut client,
+            r#"{"op":"unsubscribe","subscriptionIds":[3]}"#.to_string(),
+        )
+        .await;
+        frame(3).await.unwrap();
+        assert_eq!(asked.load(Ordering::Acquire), 1, "nobody watches any more");
+        running.stop(client).await;
     }
 
     #[test]
