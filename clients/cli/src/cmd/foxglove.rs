@@ -64,6 +64,9 @@ const BACKLOG: usize = 4096;
 /// Most subscriptions one connection may hold: a client's request never
 /// makes the bridge hold more than this.
 const MAX_SUBSCRIPTIONS: usize = 4096;
+/// Largest request a client may send, bytes (Foxglove's are a few
+/// hundred): a bigger one ends the connection.
+const MAX_REQUEST: usize = 1 << 20;
 /// Most channels: keys beyond this are not bridged (and said so once).
 const MAX_CHANNELS: usize = 10_000;
 
@@ -405,6 +408,7 @@ fn now_ns() -> u64 {
 
 async fn upgrade(State(bridge): State<Arc<Bridge>>, ws: WebSocketUpgrade) -> Response {
     ws.protocols([SUBPROTOCOL])
+        .max_message_size(MAX_REQUEST)
         .on_upgrade(move |socket| connection(bridge, socket))
 }
 
