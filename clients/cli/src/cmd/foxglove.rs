@@ -721,16 +721,27 @@ mod tests {
         }
     }
 
-    /// Serves `bridge` and connects to it as Foxglove does, through the
-    /// handshake and the server's greeting.
-    async fn connect(bridge: Bridge) -> (Client, Running) {
+    /// Serves `bridge` on a free loopback port; its URL.
+    async fn start(bridge: Bridge) -> (String, Running) {
         let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
         let at = listener.local_addr().unwrap();
         let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
         let server = tokio::spawn(serve(listener, bridge, async {
             let _ = stopped.await;
         }));
-        let mut request = format!("ws://{at}/").into_client_request().unwrap();
+        (format!("ws://{at}/"), Running { stop, server })
+    }
+
+    /// Serves `bridge` and connects to it as Foxglove does.
+    async fn connect(bridge: Bridge) -> (Client, Running) {
+        let (url, running) = start(bridge).await;
+        (greeted(&url).await, running)
+    }
+
+    /// A connection to `url` as Foxglove makes it, through the handshake
+    /// and the server's greeting.
+    async fn greeted(url: &str) -> Client {
+        let mut request = url.into_client_request().unwrap();
         request
             .headers_mut()
             .insert("Sec-WebSocket-Protocol", SUBPROTOCOL.parse().unwrap());
@@ -742,7 +753,7 @@ mod tests {
         );
         let info = next_text(&mut client).await;
         assert_eq!(info["op"], "serverInfo", "{info}");
-        (client, Running { stop, server })
+        client
     }
 
     /// Sends `request`, then one the bridge refuses: requests are taken in
@@ -924,6 +935,35 @@ mod tests {
         frame(3).await.unwrap();
         assert_eq!(asked.load(Ordering::Acquire), 1, "nobody watches any more");
         running.stop(client).await;
+    }
+
+    /// A request past the size limit ends that client's connection, and
+    /// the bridge goes on serving the next.
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn an_oversized_request_ends_only_its_own_connection() {
+        let session = crate::cmd::isolated_session().await;
+        let bridge = Bridge::start(&session, &["t/**".to_string()])
+            .await
+            .unwrap();
+        let (url, running) = start(bridge).await;
+        let mut big = greeted(&url).await;
+        let _ = big.send(Ws::text("x".repeat(MAX_REQUEST + 1))).await;
+        let ended = tokio::time::timeout(std::time::Duration::from_secs(20), async {
+            loop {
+                match big.next().await {
+                    None | Some(Err(_)) | Some(Ok(Ws::Close(_))) => return,
+                    Some(Ok(_)) => {}
+                }
+            }
+        })
+        .await;
+        assert!(
+            ended.is_ok(),
+            "the oversized request's connection stayed open"
+        );
+        // Greeted as the first was.
+        let next_client = greeted(&url).await;
+        running.stop(next_client).await;
     }
 
     #[test]
