@@ -22,6 +22,20 @@ use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 use zenoh::Session;
 
+/// Sends the warnings of the code under test to the test's own output,
+/// which the harness shows when the test fails: a lock-step watchdog's
+/// report of a clock that stopped, say. `RUST_LOG` overrides the level.
+/// Once per test binary; later calls do nothing.
+pub fn show_warnings_on_failure() {
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("warn"));
+    let _ = tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_test_writer()
+        .with_ansi(false)
+        .try_init();
+}
+
 /// A data server running in this test process on its own loopback port.
 pub struct TestServer {
     /// The port it listens on (127.0.0.1).

@@ -14,6 +14,7 @@ use rome_sim::Noise;
 use std::time::Duration;
 
 fn setup(limit_s: u64, jobs: usize) -> Setup {
+    rome_tests::show_warnings_on_failure();
     Setup {
         map: rome_maps::load_named("eb3").unwrap(),
         noise: Noise::default(),

@@ -12,6 +12,7 @@ fn eb3() -> rome_maps::Map {
 }
 
 async fn fleet(cfg: RunConfig, mut on: impl FnMut(&Event)) -> FleetReport {
+    rome_tests::show_warnings_on_failure();
     let mut cfg = cfg;
     cfg.limit = Duration::from_secs(20 * 60);
     let report = run::run_fleet(cfg, &mut |e| on(&e))

@@ -13,6 +13,7 @@ async fn drive(from: &str, to: &str, seed: u64) -> Report {
 }
 
 async fn drive_with(from: &str, to: &str, seed: u64, tweak: impl FnOnce(&mut RunConfig)) -> Report {
+    rome_tests::show_warnings_on_failure();
     let map = rome_maps::load_named("eb3").expect("eb3 loads");
     let mut cfg = RunConfig::new(map, from, to);
     cfg.seed = seed;
