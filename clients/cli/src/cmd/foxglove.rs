@@ -136,10 +136,8 @@ struct Channel {
 /// time the camera says it grabbed one, while any client subscribes.
 #[derive(Debug)]
 struct Image {
-    /// The query that fetches the last picture.
-    grab: String,
-    /// The camera's key, the pictures' frame.
-    frame_id: String,
+    /// The camera's key (`…/camera/<camera>`), the pictures' frame.
+    camera: String,
     /// Subscriptions to the channel, over every connection.
     watchers: AtomicUsize,
     /// A picture is being fetched: the next waits until it is in.
@@ -150,8 +148,6 @@ struct Image {
 const COMPRESSED_IMAGE_SCHEMA: &str = r#"{"title":"foxglove.CompressedImage","type":"object","properties":{"timestamp":{"type":"object","properties":{"sec":{"type":"integer","minimum":0},"nsec":{"type":"integer","minimum":0}}},"frame_id":{"type":"string"},"data":{"type":"string","contentEncoding":"base64"},"format":{"type":"string"}}}"#;
 /// Largest picture passed on, bytes: a bigger reply is not a camera's.
 const MAX_PICTURE: usize = 16 << 20;
-/// How long a picture may take to come.
-const GRAB_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(3);
 
 impl Channel {
     fn advertised(&self) -> Value {
@@ -256,44 +252,26 @@ impl Fetch {
         let (session, heard, channel) = (self.session.clone(), self.heard.clone(), channel.clone());
         self.runtime.spawn(async move {
             let Some(image) = &channel.image else { return };
-            match grab(&session, &image.grab).await {
+            match super::view::grab_png(&session, &image.camera).await {
+                Ok(png) if png.len() > MAX_PICTURE => tracing::debug!(
+                    camera = %image.camera,
+                    bytes = png.len(),
+                    "rome foxglove: a picture larger than {MAX_PICTURE} bytes, not passed on"
+                ),
                 Ok(png) => {
                     let at_ns = now_ns();
                     let _ = heard.send(Heard::Message {
                         channel: channel.id,
                         at_ns,
-                        data: compressed_image(&image.frame_id, at_ns, &png).into(),
+                        data: compressed_image(&image.camera, at_ns, &png).into(),
                     });
                 }
                 Err(e) => {
-                    tracing::debug!(key = %image.grab, error = %e, "rome foxglove: no picture")
+                    tracing::debug!(camera = %image.camera, error = %e, "rome foxglove: no picture")
                 }
             }
             image.fetching.store(false, Ordering::Release);
         });
-    }
-}
-
-/// The picture `key` answers, as PNG bytes.
-async fn grab(session: &Session, key: &str) -> anyhow::Result<Vec<u8>> {
-    let replies = session
-        .get(key)
-        .timeout(GRAB_TIMEOUT)
-        .await
-        .map_err(|e| anyhow::anyhow!("cannot ask: {e}"))?;
-    let reply = replies
-        .recv_async()
-        .await
-        .map_err(|_| anyhow::anyhow!("no answer"))?;
-    match reply.result() {
-        Ok(s) if s.payload().len() > MAX_PICTURE => {
-            anyhow::bail!(
-                "a picture of {} bytes, more than {MAX_PICTURE}",
-                s.payload().len()
-            )
-        }
-        Ok(s) => Ok(s.payload().to_bytes().into_owned()),
-        Err(e) => anyhow::bail!("{}", String::from_utf8_lossy(&e.payload().to_bytes())),
     }
 }
 
@@ -310,16 +288,11 @@ fn compressed_image(frame_id: &str, at_ns: u64, png: &[u8]) -> Vec<u8> {
     .into_bytes()
 }
 
-/// For a camera's frame key (`…/camera/<camera>/frame`), its picture
-/// query and the camera's key.
-fn camera_of(key: &str) -> Option<(String, String)> {
+/// For a camera's frame key (`…/camera/<camera>/frame`), the camera's
+/// key.
+fn camera_of(key: &str) -> Option<&str> {
     let (camera, last) = key.rsplit_once('/')?;
-    (last == "frame" && camera.rsplit('/').nth(1) == Some("camera")).then(|| {
-        (
-            format!("{camera}/grab?format=png;priority=64"),
-            camera.to_string(),
-        )
-    })
+    (last == "frame" && camera.rsplit('/').nth(1) == Some("camera")).then_some(camera)
 }
 
 /// On a subscriber's thread: a JSON message becomes a channel's message
@@ -368,15 +341,14 @@ fn on_sample(channels: &Mutex<Channels>, fetch: &Fetch, s: &Sample) {
             c.all.push(ch.clone());
             // Nobody connected is no error.
             let _ = heard.send(Heard::Channel(ch.clone()));
-            if let Some((grab, camera)) = camera_of(key) {
+            if let Some(camera) = camera_of(key) {
                 let picture = Arc::new(Channel {
                     id: c.all.len() as u32 + 1,
                     topic: format!("{camera}/image"),
                     schema_name: "foxglove.CompressedImage".to_string(),
                     schema: COMPRESSED_IMAGE_SCHEMA.to_string(),
                     image: Some(Image {
-                        grab,
-                        frame_id: camera,
+                        camera: camera.to_string(),
                         watchers: AtomicUsize::new(0),
                         fetching: AtomicBool::new(false),
                     }),

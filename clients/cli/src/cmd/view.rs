@@ -559,41 +559,69 @@ async fn camera(
     let Ok(cam) = rome_schema::Name::new(&cam) else {
         return bad("camera", &cam);
     };
-    let key = format!(
-        "{}/robot/{robot}/camera/{cam}/grab?format=png;wait_ms=2000;priority=64",
-        view.root.as_str()
-    );
-    let replies = match view.session.get(&key).timeout(Duration::from_secs(3)).await {
-        Ok(r) => r,
-        Err(e) => {
-            return (StatusCode::BAD_GATEWAY, format!("cannot ask {key}: {e}")).into_response()
-        }
-    };
-    match replies.recv_async().await {
-        Ok(reply) => match reply.result() {
-            Ok(s) => (
-                [
-                    (header::CONTENT_TYPE, "image/png"),
-                    (header::CACHE_CONTROL, "no-store"),
-                ],
-                s.payload().to_bytes().into_owned(),
-            )
-                .into_response(),
-            Err(e) => (
-                StatusCode::BAD_GATEWAY,
-                format!(
-                    "robot {robot} camera {cam}: {}",
-                    String::from_utf8_lossy(&e.payload().to_bytes())
-                ),
-            )
-                .into_response(),
-        },
-        Err(_) => (
+    let camera = format!("{}/robot/{robot}/camera/{cam}", view.root.as_str());
+    match grab_png(&view.session, &camera).await {
+        Ok(png) => (
+            [
+                (header::CONTENT_TYPE, "image/png"),
+                (header::CACHE_CONTROL, "no-store"),
+            ],
+            png,
+        )
+            .into_response(),
+        Err(e @ NoPicture::Ask(_)) => (StatusCode::BAD_GATEWAY, e.to_string()).into_response(),
+        Err(NoPicture::Refused(why)) => (
+            StatusCode::BAD_GATEWAY,
+            format!("robot {robot} camera {cam}: {why}"),
+        )
+            .into_response(),
+        Err(NoPicture::Silent) => (
             StatusCode::GATEWAY_TIMEOUT,
             format!(
                 "robot {robot} camera {cam} did not answer within 3 s (is it running? `rome ls`)"
             ),
         )
             .into_response(),
+    }
+}
+
+/// Why a camera gave no picture.
+#[derive(Debug)]
+pub(crate) enum NoPicture {
+    /// The query could not be sent (what went wrong, with the key).
+    Ask(String),
+    /// The camera server answered with an error.
+    Refused(String),
+    /// Nobody answered in time.
+    Silent,
+}
+
+impl std::fmt::Display for NoPicture {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            NoPicture::Ask(e) => write!(f, "{e}"),
+            NoPicture::Refused(why) => write!(f, "refused: {why}"),
+            NoPicture::Silent => write!(f, "no answer within 3 s"),
+        }
+    }
+}
+
+/// The last picture the camera at key `camera` (`ROOT/robot/R/camera/C`)
+/// grabbed, as PNG: asked at a low priority, waiting at most 2 s in the
+/// camera's queue and 3 s in all, so that the camera gives up on the
+/// request before the asker does.
+pub(crate) async fn grab_png(session: &Session, camera: &str) -> Result<Vec<u8>, NoPicture> {
+    let key = format!("{camera}/grab?format=png;wait_ms=2000;priority=64");
+    let replies = session
+        .get(&key)
+        .timeout(Duration::from_secs(3))
+        .await
+        .map_err(|e| NoPicture::Ask(format!("cannot ask {key}: {e}")))?;
+    let reply = replies.recv_async().await.map_err(|_| NoPicture::Silent)?;
+    match reply.result() {
+        Ok(s) => Ok(s.payload().to_bytes().into_owned()),
+        Err(e) => Err(NoPicture::Refused(
+            String::from_utf8_lossy(&e.payload().to_bytes()).into_owned(),
+        )),
     }
 }
