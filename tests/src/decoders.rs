@@ -10,9 +10,9 @@ use rome_hardware::base::Base;
 use rome_hardware::camera::Camera;
 use rome_hardware::proximity::Proximity;
 use rome_hardware::server::Service;
-use rome_hardware::sim::{SimBase, SimCamera, SimProximity, SimWorld};
 use rome_schema::robot::Device;
 use rome_schema::{Params, Root};
+use rome_sim_hardware::world::{SimBase, SimCamera, SimProximity, SimWorld};
 use std::sync::{Mutex, OnceLock};
 use std::time::Duration;
 

@@ -8,10 +8,11 @@
 
 use rome_client::net::{open_loopback_peer, NetOptions};
 use rome_client::{DataClient, DataOptions, RobotClient, RobotOptions};
-use rome_hardware::robot::{spawn_sim_robot, Rates, Running};
-use rome_hardware::sim::{SimWorld, Stepper};
+use rome_hardware::robot::{Rates, Running};
 use rome_schema::Root;
 use rome_sim::{Noise, Sim, SimConfig};
+use rome_sim_hardware::robot::spawn_sim_robot;
+use rome_sim_hardware::world::{SimWorld, Stepper};
 use rome_tests::relay::Relay;
 use std::time::{Duration, Instant};
 use zenoh::Session;

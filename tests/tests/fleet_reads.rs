@@ -7,11 +7,12 @@
 
 use rome_client::net::{open_loopback_peer, NetOptions};
 use rome_client::{RobotClient, RobotOptions};
-use rome_hardware::robot::{spawn_sim_robot, Rates, Running};
-use rome_hardware::sim::{SimWorld, Stepper};
+use rome_hardware::robot::{Rates, Running};
 use rome_schema::robot::{BaseState, PoseReply, SonarReply, WheelSpeedReply};
 use rome_schema::{decode, ErrorCode, ErrorReply, Root};
 use rome_sim::{Noise, Sim, SimConfig};
+use rome_sim_hardware::robot::spawn_sim_robot;
+use rome_sim_hardware::world::{SimWorld, Stepper};
 use std::collections::BTreeMap;
 use std::time::Duration;
 use zenoh::query::ConsolidationMode;

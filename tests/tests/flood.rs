@@ -10,10 +10,11 @@
 
 use rome_client::net::open_loopback_peer;
 use rome_client::{ClientError, DataClient, DataOptions, RobotClient, RobotOptions};
-use rome_hardware::robot::{spawn_sim_robot, Rates};
-use rome_hardware::sim::SimWorld;
+use rome_hardware::robot::Rates;
 use rome_schema::{ErrorCode, Root};
 use rome_sim::{Sim, SimConfig};
+use rome_sim_hardware::robot::spawn_sim_robot;
+use rome_sim_hardware::world::SimWorld;
 use std::future::Future;
 use std::time::Duration;
 

@@ -1,14 +1,16 @@
 //! A lock-step clock over the network: a message one follower sends
 //! another, after the sender had already finished with the instant, is
 //! still handled at the instant it was sent (the rounds of
-//! `rome_hardware::robot::Parties`).
+//! `rome_sim_hardware::lockstep::Parties`).
 
 use rome_client::net::{open_loopback_peer, NetOptions};
 use rome_client::robot::{RobotClient, RobotOptions};
-use rome_hardware::robot::{publish_clock, spawn_sim_robot, start_lockstep_with, Parties, Rates};
-use rome_hardware::sim::SimWorld;
+use rome_hardware::robot::Rates;
 use rome_schema::Root;
 use rome_sim::{Sim, SimConfig};
+use rome_sim_hardware::lockstep::{publish_clock, start_lockstep_with, Parties};
+use rome_sim_hardware::robot::spawn_sim_robot;
+use rome_sim_hardware::world::SimWorld;
 use std::time::Duration;
 
 const POKE: &str = "test/rounds/poke";
@@ -281,7 +283,7 @@ async fn start_when_joined(
     clock: &rome_clock::LockStep,
     parties: Parties,
     n: usize,
-) -> rome_hardware::sim::Stepper {
+) -> rome_sim_hardware::world::Stepper {
     let start = rome_schema::sim::Clock::instant(clock.now_ms(), true);
     let held = tokio::time::Instant::now();
     while parties.len() < n {

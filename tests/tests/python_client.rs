@@ -71,9 +71,9 @@ async fn python_client_drives_a_robot_from_docs_alone() {
     let mut sim = rome_sim::Sim::new(&map, rome_sim::SimConfig::default());
     let heading = sim.scene().world.position("301L").unwrap().wall_heading_deg;
     sim.add_robot_at("r1", "301L", heading).unwrap();
-    let world = rome_hardware::sim::SimWorld::new(sim);
+    let world = rome_sim_hardware::world::SimWorld::new(sim);
     let _stepper = world.start(Some(1.0));
-    let servers = rome_hardware::robot::spawn_sim_robot(
+    let servers = rome_sim_hardware::robot::spawn_sim_robot(
         &session,
         &rome_schema::Root::default(),
         &world,

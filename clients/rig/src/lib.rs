@@ -18,8 +18,7 @@
 use rome_client::net::NetOptions;
 use rome_client::sim::TruthClient;
 use rome_client::{DataClient, DataOptions, RobotClient, RobotOptions};
-use rome_hardware::robot::{spawn_sim_robot, spawn_truth, Rates};
-use rome_hardware::sim::SimWorld;
+use rome_hardware::robot::Rates;
 use rome_maps::geometry::Point;
 use rome_maps::{Map, Network, World};
 use rome_nav::board::{Board, Var};
@@ -33,6 +32,8 @@ use rome_nav::report::{Ended, Report};
 use rome_nav::NavError;
 use rome_schema::Root;
 use rome_sim::{Noise, Pose, Sim, SimConfig};
+use rome_sim_hardware::robot::{spawn_sim_robot, spawn_truth};
+use rome_sim_hardware::world::SimWorld;
 use std::time::{Duration, Instant};
 use tokio::sync::mpsc;
 
@@ -466,7 +467,7 @@ impl Rig {
         );
         let mut servers = vec![
             spawn_truth(&session, &root, &world, Some(scale(500.0))),
-            rome_hardware::robot::spawn_clock(
+            rome_sim_hardware::robot::spawn_clock(
                 &session,
                 &root,
                 &world,
@@ -921,7 +922,7 @@ async fn drive(
     cancelled: tokio::sync::oneshot::Receiver<String>,
 ) {
     let k = crew.k;
-    let start = rome_hardware::truth::truth_of(&world, crew.world_index);
+    let start = rome_sim_hardware::truth::truth_of(&world, crew.world_index);
     // Goals judged so far: a run given up still shows the modes it got to.
     let mut judged: Vec<Handed> = Vec::new();
     let failure = {
@@ -968,7 +969,7 @@ async fn drive(
     // A robot whose run ended stands still, so it does not drive on into
     // the others.
     let _ = crew.robot.stop(false).await;
-    let end = rome_hardware::truth::truth_of(&world, crew.world_index);
+    let end = rome_sim_hardware::truth::truth_of(&world, crew.world_index);
     let odometry = crew.robot.pose().await.ok().map(|p| Pose::from(&p).at);
     let mut report = Report::new(Ended {
         robot: crew.name.clone(),

@@ -18,12 +18,14 @@
 //! How this module is laid out: this file holds the keys, the shared
 //! parameters and priorities; the messages are grouped by device, each in
 //! its own file and re-exported here: [`base`], [`proximity`], [`camera`],
-//! and [`lock`] for the lock token the base and cameras share.
+//! and [`lock`] for the lock token the base and cameras share; [`body`]
+//! has the robot's physical figures.
 
 use crate::{keys::Name, ErrorReply, KeyError, Params, Root};
 use serde::Deserialize;
 
 pub mod base;
+pub mod body;
 pub mod camera;
 pub mod lock;
 pub mod proximity;

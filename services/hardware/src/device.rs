@@ -1,7 +1,7 @@
 //! One trait per device kind; a hardware server owns one device through it.
 //!
-//! The simulated backend ([`crate::sim`]) and the serial Pioneer backend
-//! ([`crate::serial`]) implement these, and tests can script their own.
+//! The serial Pioneer backend ([`crate::serial`]) and the simulated one
+//! (`rome-sim-hardware`) implement these, and tests can script their own.
 
 use rome_schema::robot::{Move, Turn, SONARS};
 use std::future::Future;

@@ -8,14 +8,14 @@
 //! - [`base`] (RServer, Table 4.1), [`proximity`] (PServer) and [`camera`]
 //!   (CServer): each device's commands, one `parse` and one `apply`.
 //! - [`vxy`]: virtual 32-bit coordinates over 16-bit registers (§4.6.3).
-//! - [`device`]: one trait per device kind; [`sim`] implements them on the
-//!   simulated world, [`serial`] for a Pioneer base over a serial line
-//!   (P2OS/ARCOS).
+//! - [`device`]: one trait per device kind; [`serial`] implements them for
+//!   a Pioneer base over a serial line (P2OS/ARCOS), and `rome-sim-hardware`
+//!   on the simulated world.
 //! - [`storage`]: a Zenoh storage in memory, for runs without a router.
-//! - [`truth`]: the simulator's ground truth (`<root>/sim/<robot>/truth`),
-//!   which navigation never reads.
-//! - [`robot`]: starts every server of a simulated robot, and the truth
-//!   server, each as its own task.
+//! - [`robot`]: starts a server as a task of its own.
+//!
+//! Nothing here knows the simulator: a robot computer that drives a real
+//! base links this crate alone.
 
 pub mod base;
 pub mod camera;
@@ -25,16 +25,14 @@ pub mod proximity;
 pub mod robot;
 pub mod serial;
 pub mod server;
-pub mod sim;
 pub mod storage;
-pub mod truth;
+pub mod vxy;
 
 /// A mutex's contents, also after a panic elsewhere while it was held:
 /// what a server keeps behind one is changed whole or not at all, so it
 /// stays usable.
-pub(crate) fn locked<T>(m: &std::sync::Mutex<T>) -> std::sync::MutexGuard<'_, T> {
+pub fn locked<T>(m: &std::sync::Mutex<T>) -> std::sync::MutexGuard<'_, T> {
     m.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
 }
-pub mod vxy;
 
 pub use server::{Body, ServerConfig, ServerError, Service};

@@ -210,7 +210,8 @@ pub enum ServerError {
     Config(String),
 }
 
-pub(crate) fn declare_err(what: &str, e: zenoh::Error) -> ServerError {
+/// A declaration on Zenoh (`what`) failed.
+pub fn declare_err(what: &str, e: zenoh::Error) -> ServerError {
     ServerError::Declare {
         what: what.to_string(),
         detail: e.to_string(),

@@ -7,7 +7,10 @@
 //! travels less than 32.768 m between two reads, which the servers' state
 //! stream (10 Hz by default) guarantees for any LABMATE or Pioneer speed.
 
-use rome_maps::geometry::{Isometry2, Point, UnitComplex};
+use nalgebra::{Isometry2, Point2, UnitComplex};
+
+/// A point, mm.
+type Point = Point2<f64>;
 
 /// One 16-bit register unwrapped into a wider count.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]

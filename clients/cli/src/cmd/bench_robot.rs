@@ -7,10 +7,11 @@
 use crate::cmd::bench::Row;
 use rome_client::net::{open_loopback_peer, NetOptions};
 use rome_client::{RobotClient, RobotOptions};
-use rome_hardware::robot::{spawn_sim_robot, Rates};
-use rome_hardware::sim::SimWorld;
+use rome_hardware::robot::Rates;
 use rome_schema::Root;
 use rome_sim::{Sim, SimConfig};
+use rome_sim_hardware::robot::spawn_sim_robot;
+use rome_sim_hardware::world::SimWorld;
 use serde::Serialize;
 use std::time::{Duration, Instant};
 use zenoh::Wait;

@@ -4,9 +4,10 @@
 use crate::args::CommonArgs;
 use crate::exit;
 use anyhow::Context;
-use rome_hardware::robot::{spawn_sim_robot, Rates};
-use rome_hardware::sim::SimWorld;
+use rome_hardware::robot::Rates;
 use rome_sim::{Noise, Sim, SimConfig};
+use rome_sim_hardware::robot::spawn_sim_robot;
+use rome_sim_hardware::world::SimWorld;
 use std::time::Duration;
 
 /// Flags of `rome sim`.
@@ -190,7 +191,7 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
         })
     });
     let spawn_servers = async {
-        let mut servers = vec![rome_hardware::robot::spawn_truth(
+        let mut servers = vec![rome_sim_hardware::robot::spawn_truth(
             &session,
             &root,
             &world,
@@ -205,7 +206,8 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
     let (mut servers, _stepper) = match &clock {
         Some(clock) => {
             let servers = clock.participate("rome sim", spawn_servers).await?;
-            let parties = rome_hardware::robot::Parties::follow(&session, &root, clock).await?;
+            let parties =
+                rome_sim_hardware::lockstep::Parties::follow(&session, &root, clock).await?;
             if args.parties > 0 {
                 eprintln!(
                     "rome sim: holding the clock until {} process(es) follow it (--sim-time)…",
@@ -218,7 +220,7 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
                 let interrupted = exit::interrupted();
                 tokio::pin!(interrupted);
                 while parties.len() < args.parties {
-                    rome_hardware::robot::publish_clock(&session, &root.sim_clock(), &start)
+                    rome_sim_hardware::lockstep::publish_clock(&session, &root.sim_clock(), &start)
                         .await
                         .map_err(|e| anyhow::anyhow!("cannot publish the clock: {e}"))?;
                     if parties.len() != said {
@@ -231,13 +233,14 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
                     }
                 }
             }
-            let stepper =
-                rome_hardware::robot::start_lockstep_with(&session, &root, &world, clock, parties);
+            let stepper = rome_sim_hardware::lockstep::start_lockstep_with(
+                &session, &root, &world, clock, parties,
+            );
             (servers, stepper)
         }
         None => {
             let mut servers = spawn_servers.await?;
-            servers.push(rome_hardware::robot::spawn_clock(
+            servers.push(rome_sim_hardware::robot::spawn_clock(
                 &session,
                 &root,
                 &world,

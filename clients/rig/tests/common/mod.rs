@@ -10,7 +10,7 @@ use rome_rig::{Rig, RunConfig};
 
 /// The rig, its stepping world, the heading of the route, and the
 /// planner's blackboard with its semaphores declared.
-pub async fn one_robot(speed: f64) -> (Rig, rome_hardware::sim::Stepper, f64, Board) {
+pub async fn one_robot(speed: f64) -> (Rig, rome_sim_hardware::world::Stepper, f64, Board) {
     let map = rome_maps::load_named("eb3").expect("eb3 loads");
     let world_map = World::from_map(&map);
     let network = Network::new(&map, &world_map);

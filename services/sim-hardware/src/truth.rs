@@ -4,8 +4,8 @@
 //! stream. It belongs to the world, not to any robot's hardware servers,
 //! and navigation never reads it.
 
-use crate::server::{declare_err, ServerError};
-use crate::sim::SimWorld;
+use crate::world::SimWorld;
+use rome_hardware::server::{declare_err, ServerError};
 use rome_schema::robot::robot_name;
 use rome_schema::sim::{ContactCount, Truth};
 use rome_schema::{encode, Root};

@@ -2,7 +2,7 @@
 //! thread at a chosen pace, and each robot's base, proximity subsystem and
 //! cameras as [`BaseDevice`], [`ProximityDevice`] and [`CameraDevice`].
 
-use crate::device::{
+use rome_hardware::device::{
     BaseDevice, BaseOp, BaseStatus, CameraDevice, DeviceError, Frame, Peek, ProximityDevice,
     RawScan,
 };
@@ -104,7 +104,7 @@ impl SimWorld {
 
     /// The world, locked (a device that panicked mid-step leaves it usable).
     pub fn lock(&self) -> MutexGuard<'_, Sim> {
-        crate::locked(&self.sim)
+        rome_hardware::locked(&self.sim)
     }
 
     /// The world, if nobody else has it right now (a step in progress).
@@ -166,7 +166,7 @@ impl SimWorld {
     /// As [`SimWorld::start_lockstep`], and each time every participant
     /// has settled, before the world steps, `another_round` is asked
     /// whether the present instant goes on (it resolves to true once it
-    /// has made someone busy again, as [`crate::robot::start_lockstep_with`]
+    /// has made someone busy again, as [`crate::lockstep::start_lockstep_with`]
     /// does with the next round): the clock then waits for them first.
     pub fn start_lockstep_rounds<R>(
         &self,

@@ -1,0 +1,139 @@
+//! A simulated robot's hardware servers, and the world's own: its ground
+//! truth and its clock, each in a task of this process.
+
+use crate::world::SimWorld;
+use rome_hardware::base::Base;
+use rome_hardware::camera::Camera;
+use rome_hardware::proximity::Proximity;
+use rome_hardware::robot::{spawn, Rates, Running};
+use rome_hardware::{ServerConfig, ServerError};
+use rome_schema::robot::Device;
+use rome_schema::{Name, Root};
+use std::time::Duration;
+use zenoh::Session;
+
+/// Serves the ground truth of every robot in `world` on
+/// `<root>/sim/<robot>/truth`, published every `period` (see [`crate::truth`]).
+pub fn spawn_truth(
+    session: &Session,
+    root: &Root,
+    world: &SimWorld,
+    period: Option<Duration>,
+) -> Running {
+    let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
+    let task = rome_clock::spawn(
+        "sim truth",
+        crate::truth::run(
+            session.clone(),
+            root.clone(),
+            world.clone(),
+            period,
+            async move {
+                let _ = stopped.await;
+            },
+        ),
+    );
+    Running::new("sim truth", stop, task)
+}
+
+/// Publishes `world`'s simulated time on `<root>/sim/clock` every
+/// `period` ([`rome_schema::sim::CLOCK_EVERY_MS`] of simulated time: in a
+/// lock-step run that is the period; otherwise pass it scaled to the
+/// wall-clock pace).
+pub fn spawn_clock(
+    session: &Session,
+    root: &Root,
+    world: &SimWorld,
+    period: Duration,
+    lockstep: bool,
+) -> Running {
+    let (stop, mut stopped) = tokio::sync::oneshot::channel::<()>();
+    let (session, key, world) = (session.clone(), root.sim_clock(), world.clone());
+    let task = rome_clock::spawn("sim clock", async move {
+        let mut tick = rome_clock::interval(period);
+        loop {
+            tokio::select! {
+                biased;
+                _ = rome_clock::idle(&mut stopped) => return Ok(()),
+                _ = tick.tick() => {
+                    let clock = rome_schema::sim::Clock::instant(world.lock().time_ms(), lockstep);
+                    let _ = crate::lockstep::publish_clock(&session, &key, &clock).await;
+                }
+            }
+        }
+    });
+    Running::new("sim clock", stop, task)
+}
+
+/// Starts the base, proximity and both camera servers of simulated robot
+/// `robot`, each in its own task.
+pub fn spawn_sim_robot(
+    session: &Session,
+    root: &Root,
+    world: &SimWorld,
+    robot: &str,
+    rates: Rates,
+) -> Result<Vec<Running>, ServerError> {
+    let sim_err = |e: rome_sim::SimError| ServerError::Config(e.to_string());
+    let mut out = Vec::new();
+    out.push(spawn(
+        session,
+        ServerConfig::new(root, robot, Device::Base)?,
+        Base::new(robot, world.base(robot).map_err(sim_err)?, rates.state),
+    ));
+    out.push(spawn(
+        session,
+        ServerConfig::new(root, robot, Device::Proximity)?,
+        Proximity::new(robot, world.proximity(robot).map_err(sim_err)?, rates.scan),
+    ));
+    for which in rome_sim::Camera::ALL {
+        let name = Name::new(which.name()).map_err(|e| ServerError::Config(e.to_string()))?;
+        out.push(spawn(
+            session,
+            ServerConfig::new(root, robot, Device::Camera(name))?,
+            Camera::new(
+                robot,
+                which.name(),
+                world.camera(robot, which).map_err(sim_err)?,
+                rates.camera,
+            ),
+        ));
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::world::SimWorld;
+    use rome_hardware::base::Base;
+    use rome_hardware::camera::Camera;
+    use rome_hardware::proximity::Proximity;
+    use rome_hardware::server::Service;
+    use std::time::Duration;
+
+    /// Clients and the servers' holds tell reads from changes by
+    /// `rome_schema::robot::READS`; each server lists its own reads: the
+    /// two must agree, or a read would be held as a change (or a change
+    /// let through as a read) in a run split into processes.
+    #[test]
+    fn every_read_a_server_lists_is_a_read_to_the_schema() {
+        let map = rome_maps::load_named("fig5_3").unwrap();
+        let mut sim = rome_sim::Sim::new(&map, rome_sim::SimConfig::default());
+        sim.add_robot_at("r1", "301L", 0.0).unwrap();
+        let world = SimWorld::new(sim);
+        let mut reads: Vec<&str> = Vec::new();
+        reads.extend(Base::new("r1", world.base("r1").unwrap(), None).reads());
+        reads.extend(Proximity::new("r1", world.proximity("r1").unwrap(), None).reads());
+        for which in rome_sim::Camera::ALL {
+            let camera = world.camera("r1", which).unwrap();
+            reads.extend(Camera::new("r1", which.name(), camera, Duration::from_secs(1)).reads());
+        }
+        assert!(reads.len() >= 8, "{reads:?}");
+        for read in reads {
+            assert!(
+                rome_schema::robot::READS.contains(&read),
+                "{read} is a read to its server but not in rome_schema::robot::READS"
+            );
+        }
+    }
+}
