@@ -7,9 +7,9 @@
 //! - [`mod@validate`]: the rules a map must keep (rings close, angles and
 //!   lengths agree, names are unique, lights lie on their edge, links are
 //!   sound), each broken rule reported with its line.
-//! - [`geometry`]: points, headings and poses on nalgebra, and a map turned
-//!   into world coordinates: wall segments, doors, ceiling lights, door
-//!   plates and named positions (`350R`).
+//! - [`geometry`]: points, headings and poses on nalgebra.
+//! - [`mod@world`]: a map turned into world coordinates: wall segments,
+//!   doors, ceiling lights, door plates and named positions (`350R`).
 //! - [`wire`]: the one place a pose meets the wire's `x_mm`, `y_mm`,
 //!   `heading_deg`.
 //! - [`route`]: shortest paths between named positions along the
@@ -29,12 +29,13 @@ pub mod render;
 pub mod route;
 pub mod validate;
 pub mod wire;
+pub mod world;
 
-pub use geometry::World;
 pub use model::Map;
 pub use parse::{parse, ParseError};
 pub use route::{Network, Route, RouteError};
 pub use validate::{validate, Problem};
+pub use world::World;
 
 /// The maps shipped with the project, built into the program so that it
 /// runs from any directory: `eb3` (the MSU Engineering Building's third

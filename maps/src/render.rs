@@ -4,8 +4,9 @@
 //! Both formats draw the same list of primitives ([`scene`]), so they
 //! cannot drift apart.
 
-use crate::geometry::{Point, World};
+use crate::geometry::Point;
 use crate::model::{EdgeKind, Map};
+use crate::world::World;
 use std::fmt::Write as _;
 
 /// An RGB colour.

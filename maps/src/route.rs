@@ -11,10 +11,9 @@
 //! (§7.2) thus add their waypoints, and a corridor shared by two rings (one
 //! ring on each side) is one corridor.
 
-use crate::geometry::{
-    direction, distance, heading_to as heading, intersect, normalize_deg, Point, World,
-};
+use crate::geometry::{direction, distance, heading_to as heading, normalize_deg, Point};
 use crate::model::{EdgeKind, Map};
+use crate::world::{intersect, World};
 
 /// A route between two positions.
 #[derive(Debug, Clone, PartialEq)]

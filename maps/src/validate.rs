@@ -1,8 +1,9 @@
 //! The rules a StickRep map must keep, each broken rule reported with the
 //! line it is on.
 
-use crate::geometry::{distance, trace, Trace};
+use crate::geometry::distance;
 use crate::model::{EdgeKind, Map};
+use crate::world::{trace, Trace};
 use std::collections::HashMap;
 use std::fmt;
 

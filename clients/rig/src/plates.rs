@@ -70,7 +70,7 @@ pub fn judge(report: &Report, world: &World) -> PlateRun {
 /// Judges `reports` against the plates the true track `trail` passed.
 pub fn judge_track(trail: &[Point], reports: &[PlateReport], world: &World) -> PlateRun {
     // Each passed plate with the trail index it was passed at.
-    let mut passed: Vec<(usize, &rome_maps::geometry::PlateAt)> = Vec::new();
+    let mut passed: Vec<(usize, &rome_maps::world::PlateAt)> = Vec::new();
     for p in &world.plates {
         let along_wall = direction(p.wall_heading_deg);
         // From some point of the track, facing along its next step, the
