@@ -273,19 +273,6 @@ pub struct RouteInfo {
     pub length_mm: f64,
 }
 
-impl RouteInfo {
-    /// The route of `plan`.
-    pub fn of(plan: &crate::plan::Plan) -> RouteInfo {
-        let stops = &plan.route.stops;
-        RouteInfo {
-            from: stops.first().cloned().unwrap_or_default(),
-            to: stops.last().cloned().unwrap_or_default(),
-            points: plan.route.points.iter().map(|p| [p.x, p.y]).collect(),
-            length_mm: plan.route.length_mm,
-        }
-    }
-}
-
 /// The goal a Navigator is carrying out (`GoalActive`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ActiveGoal {
@@ -350,18 +337,6 @@ impl Corridor {
     /// A point on the line of lights.
     pub fn at(&self) -> Point {
         Point::new(self.x_mm, self.y_mm)
-    }
-
-    /// The corridor of a plan step.
-    pub fn of(step: &crate::plan::Step) -> Corridor {
-        Corridor {
-            x_mm: step.from.x,
-            y_mm: step.from.y,
-            heading_deg: step.goal.direction_deg,
-            left_mm: step.walls_mm.map(|w| w.0),
-            right_mm: step.walls_mm.map(|w| w.1),
-            no_lights: step.goal.goal_type != crate::board::GoalType::L,
-        }
     }
 }
 

@@ -2,7 +2,7 @@
 //! sonar ring's geometry, the hallway model (safe threshold, keeping right
 //! of oncoming robots) and the walls fitted to the side sonars (§5.4).
 
-use crate::navigator::{
+use crate::drive::{
     Drive, NavConfig, FORWARD, JOG_RATE_DEG_S, KEEP_RIGHT_AHEAD_MM, KEEP_RIGHT_BEAR_DEG,
     KEEP_RIGHT_FOR_MM, ONCOMING_CLOSING, OPEN_ENOUGH_MM, ROBOT_CLEARANCE_MM, SAFE_START_MM, SONARS,
     SPACING,

@@ -8,7 +8,8 @@
 //!   (§5.3); [`planner`] runs it against a Navigator.
 //! - [`navigator`]: the deterministic state machine of §5.4 (Center-Hallway,
 //!   Corner; L-, D-, E-Goal; Check-Bumper, Check-Goal); [`hallway`] is
-//!   what its states steer by (sonar geometry, hallway model, wall fits).
+//!   what its states steer by (sonar geometry, hallway model, wall fits),
+//!   [`drive`] its settings and motion commands.
 //! - [`ctracker`]: ceiling-light tracking from three scan lines (§5.6).
 //! - [`himm`]: the local mapper's histogram grid and Hough transform for
 //!   heading correction (§5.5).
@@ -20,6 +21,7 @@
 
 pub mod board;
 pub mod ctracker;
+pub mod drive;
 pub mod hallway;
 pub mod himm;
 pub mod navigator;

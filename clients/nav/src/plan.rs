@@ -12,7 +12,7 @@
 //! (goal type `E`), the last one in a Dead-Reckoning segment (`D`); Tables
 //! 6.1–6.2 count E and C together as the corner column.
 
-use crate::board::{Goal, GoalType};
+use crate::board::{Corridor, Goal, GoalType, RouteInfo};
 use rome_maps::geometry::{direction, distance, heading_to, normalize_deg, Point};
 use rome_maps::{Network, Route, RouteError, World};
 
@@ -478,6 +478,35 @@ fn walls_beside(world: &World, from: Point, to: Point, heading_deg: f64) -> Opti
         right.extend(ray(world, p, heading_deg - 90.0, 5_000.0));
     }
     Some((median(left)?, median(right)?))
+}
+
+// The blackboard's forms of a plan: the board knows nothing of plans, a
+// plan knows how it is written on the board.
+impl RouteInfo {
+    /// The route of `plan`.
+    pub fn of(plan: &Plan) -> RouteInfo {
+        let stops = &plan.route.stops;
+        RouteInfo {
+            from: stops.first().cloned().unwrap_or_default(),
+            to: stops.last().cloned().unwrap_or_default(),
+            points: plan.route.points.iter().map(|p| [p.x, p.y]).collect(),
+            length_mm: plan.route.length_mm,
+        }
+    }
+}
+
+impl Corridor {
+    /// The corridor of a plan step.
+    pub fn of(step: &Step) -> Corridor {
+        Corridor {
+            x_mm: step.from.x,
+            y_mm: step.from.y,
+            heading_deg: step.goal.direction_deg,
+            left_mm: step.walls_mm.map(|w| w.0),
+            right_mm: step.walls_mm.map(|w| w.1),
+            no_lights: step.goal.goal_type != GoalType::L,
+        }
+    }
 }
 
 #[cfg(test)]

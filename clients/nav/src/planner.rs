@@ -21,31 +21,12 @@
 //! answers, the robot's ground truth for C and D segments.
 
 use crate::board::{Board, Corridor, Goal, GoalType, Sem, Var};
-use crate::ctracker::SegmentLog;
 use crate::plan::{PassageUse, Plan, Step};
 use crate::report::judge_step;
+pub use crate::report::Handed;
 use crate::NavError;
 use rome_client::sim::TruthClient;
 use rome_client::RobotClient;
-use rome_schema::sim::Truth;
-
-/// One goal as handed over, with what it turned into.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Handed {
-    /// Index in the plan.
-    pub index: usize,
-    /// The step, with the distance actually sent.
-    pub step: Step,
-    /// The Overshoot read after an L segment, mm.
-    pub overshoot_mm: Option<i64>,
-    /// What the CTracker saw, for an L segment.
-    pub track: Option<SegmentLog>,
-    /// Where the robot truly was when the goal was done, if a simulator
-    /// says.
-    pub truth: Option<Truth>,
-    /// Why the goal failed, judged from what happened.
-    pub failure: Option<String>,
-}
 
 /// What the Planner tells whoever watches.
 #[derive(Debug, Clone, Copy)]

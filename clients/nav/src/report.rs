@@ -21,12 +21,29 @@ use crate::board::{GoalType, HeadingFix, PlateReport};
 use crate::ctracker::SegmentLog;
 use crate::navigator::NavLog;
 use crate::plan::{ModeCount, Plan, Step};
-use crate::planner::Handed;
 use rome_maps::geometry::{direction, distance, Heading, Point, Pose};
 use rome_maps::render::{self, Rgb, Shape};
 use rome_maps::{Map, World};
 use rome_schema::sim::{ContactCount, Truth};
 use std::time::Duration;
+
+/// One goal as handed over, with what it turned into.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Handed {
+    /// Index in the plan.
+    pub index: usize,
+    /// The step, with the distance actually sent.
+    pub step: Step,
+    /// The Overshoot read after an L segment, mm.
+    pub overshoot_mm: Option<i64>,
+    /// What the CTracker saw, for an L segment.
+    pub track: Option<SegmentLog>,
+    /// Where the robot truly was when the goal was done, if a simulator
+    /// says.
+    pub truth: Option<Truth>,
+    /// Why the goal failed, judged from what happened.
+    pub failure: Option<String>,
+}
 
 /// How near the goal a run must end to have arrived, and how near its goal
 /// a D segment must stop, cm.

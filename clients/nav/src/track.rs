@@ -9,10 +9,10 @@
 //! the state stream and reads the pose at the reading's time from it,
 //! interpolated between the two states around it.
 
-use crate::navigator::Pose;
 use crate::NavError;
 use rome_client::RobotClient;
 use rome_maps::geometry::Heading;
+use rome_maps::geometry::Pose;
 use std::collections::VecDeque;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;

@@ -1,0 +1,111 @@
+//! How the Navigator drives: its settings, the motion commands it sends,
+//! and the sonar ring's geometry it steers by (Fig. 5.9, §5.4.1). Shared by
+//! the Navigator's control loop and its steering states ([`crate::hallway`]).
+
+use std::time::Duration;
+
+/// Sonars in a ring (Fig. 5.9): 12 ahead, 18 left, 6 right, 15° apart.
+pub const SONARS: usize = 24;
+/// The forward sonar.
+pub const FORWARD: usize = 12;
+/// Degrees between sonars.
+pub const SPACING: f64 = 15.0;
+/// The jog rate of the superimposed turn, degrees per second (§5.4.1).
+pub const JOG_RATE_DEG_S: f64 = 4.0;
+/// A reading along the hallway axis at least this long means the axis is
+/// open, mm.
+pub const OPEN_ENOUGH_MM: u32 = 3_000;
+/// The safe threshold at start, mm (§5.4.1).
+pub const SAFE_START_MM: f64 = 1_000.0;
+/// Something on the axis nearer than this makes the robot keep right, mm.
+pub const KEEP_RIGHT_AHEAD_MM: f64 = 4_500.0;
+/// The range ahead shrinking this much faster than the robot drives means
+/// it comes towards the robot (1: it stands still).
+pub const ONCOMING_CLOSING: f64 = 1.4;
+/// For how far after the last sighting the robot keeps right, mm.
+pub const KEEP_RIGHT_FOR_MM: f64 = 3_000.0;
+/// How far right of the axis a robot bears with no walls to steer by, degrees.
+pub const KEEP_RIGHT_BEAR_DEG: f64 = 8.0;
+/// A robot's radius, mm (a Pioneer-sized disc): sonar ranges start this
+/// far out from its middle.
+pub const ROBOT_RADIUS_MM: f64 = 380.0;
+/// A robot's radius with room to spare when keeping right, mm.
+pub const ROBOT_CLEARANCE_MM: f64 = ROBOT_RADIUS_MM + 300.0;
+
+/// How the Navigator drives.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NavConfig {
+    /// Cruising speed, mm/s.
+    pub cruise_mm_s: f64,
+    /// Speed leaving a corner, mm/s.
+    pub corner_mm_s: f64,
+    /// Period of Check-Bumper and Check-Goal, ms of robot time (3–5 s).
+    pub check_period_ms: u64,
+    /// In-place turns within [`NavConfig::busy_window_ms`] that count as
+    /// "too many": the safe threshold is halved.
+    pub busy_turns: usize,
+    /// Window for counting turns, ms.
+    pub busy_window_ms: u64,
+    /// Calm time after which the threshold grows by 25 %, ms.
+    pub calm_ms: u64,
+    /// Smallest safe threshold, mm.
+    pub safe_min_mm: f64,
+    /// Deceleration the base uses to stop, mm/s² (to stop on the goal).
+    pub stop_accel_mm_s2: f64,
+    /// Longest wait for a scan before the proximity server counts as gone.
+    pub scan_timeout: Duration,
+    /// Scans without a new goal after which a moving robot is stopped
+    /// (2 s of robot time at the sonar ring's 10 scans a second).
+    pub idle_scans: usize,
+    /// How long a read of the light count may go unanswered before the
+    /// robot is stopped: without it an L goal cannot tell when it ends.
+    pub blind_after: Duration,
+    /// Whether the base stops itself on a touch (Set Bumper) and
+    /// Check-Bumper looks as soon as a robot told to drive stands still.
+    /// Else, as the thesis' Navigator, a robot pushes on until
+    /// Check-Bumper's next periodic look, its wheels turning while its
+    /// body stands and its odometry counting what it never drove.
+    pub stop_on_contact: bool,
+    /// Whether a robot that ends a D goal more than 0.3 m across from the
+    /// goal's line (steering round people, say) steps sideways onto it.
+    pub onto_line: bool,
+}
+
+impl Default for NavConfig {
+    fn default() -> Self {
+        NavConfig {
+            cruise_mm_s: 400.0,
+            corner_mm_s: 250.0,
+            check_period_ms: 4_000,
+            busy_turns: 3,
+            busy_window_ms: 15_000,
+            calm_ms: 20_000,
+            safe_min_mm: 350.0,
+            // The base's own acceleration setting (Table 4.1), which it
+            // also brakes at: the simulator's 300 mm/s².
+            stop_accel_mm_s2: 300.0,
+            scan_timeout: Duration::from_secs(10),
+            idle_scans: 20,
+            blind_after: Duration::from_secs(1),
+            stop_on_contact: true,
+            onto_line: true,
+        }
+    }
+}
+
+/// A motion command, sent only when it differs from the last one.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Drive {
+    /// Straight on, holding the heading, mm/s.
+    Go(f64),
+    /// Superimposed turn, degrees per second counter-clockwise (the base's
+    /// jog is clockwise-positive; the sign is flipped when sent).
+    Jog(f64),
+    /// Stop and turn in place by degrees counter-clockwise, then go on.
+    Turn(f64),
+    /// Stand and turn slowly, degrees per second counter-clockwise (the
+    /// Corner state's stop-and-go).
+    Spin(f64),
+    /// Stand still.
+    Halt,
+}
