@@ -7,13 +7,14 @@
 //! returning, so no unit is lost or duplicated when replies go missing,
 //! the call times out, or the client dies.
 
+use crate::call::{self, refusal, selector, Answer, Waiting};
 use crate::ClientError;
 use rome_schema::data::{
     param, Committed, CreateReply, HistoryInfo, SemState, SetReply, SignalReply, TryWaitReply,
     WaitReply, WaitStatus, MAX_HOLD_MS,
 };
 use rome_schema::keys::DataOp;
-use rome_schema::{decode, encode, ErrorCode, ErrorReply, Name, Root};
+use rome_schema::{decode, encode, ErrorCode, Name, Root};
 use serde::de::DeserializeOwned;
 use serde::Serialize;
 use serde_json::Value;
@@ -21,11 +22,9 @@ use std::collections::HashMap;
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
-use zenoh::bytes::Encoding;
 use zenoh::liveliness::LivelinessToken;
 use zenoh::pubsub::Subscriber;
 use zenoh::qos::Priority;
-use zenoh::query::ConsolidationMode;
 use zenoh::sample::Sample;
 use zenoh::Session;
 
@@ -102,13 +101,6 @@ pub struct DataClient {
     inner: Arc<Inner>,
 }
 
-/// What a call expects back.
-enum Answer<T> {
-    Reply(T),
-    /// The server replied with an error.
-    Refused(ErrorReply),
-}
-
 impl DataClient {
     /// Declares this client alive and waits until the data server is seen.
     pub async fn connect(session: &Session, options: DataOptions) -> Result<Self, ClientError> {
@@ -179,7 +171,7 @@ impl DataClient {
     /// The band requests travel in: the options', except in a lock-step
     /// run (see [`crate::robot::band`]).
     fn band(&self) -> Priority {
-        crate::robot::lockstep_band(self.inner.options.priority)
+        call::lockstep_band(self.inner.options.priority)
     }
 
     fn key(&self, op: DataOp, name: &Name) -> String {
@@ -193,30 +185,11 @@ impl DataClient {
         params: &[(&str, String)],
         payload: Option<&[u8]>,
         timeout: Duration,
-    ) -> Result<Option<Answer<(String, Vec<u8>)>>, ClientError> {
-        let selector = selector(key, params);
-        let mut get = self
-            .inner
-            .session
-            .get(selector.as_str())
-            .timeout(timeout)
-            // One server answers each key: its reply is handed over as it
-            // arrives, not held until the server has finished with the
-            // query (Zenoh's default, to pick the latest of several).
-            .consolidation(ConsolidationMode::None)
-            .priority(self.band());
-        if let Some(p) = payload {
-            get = get.payload(p.to_vec()).encoding(Encoding::APPLICATION_JSON);
-        }
-        if let Some(stamp) = rome_clock::stamp() {
-            get = get.attachment(stamp.to_bytes().to_vec());
-        }
-        let replies = get.await.map_err(ClientError::zenoh)?;
+    ) -> Result<Option<Answer>, ClientError> {
         // In a lock-step run a held wait waits for another client (idle),
         // and so does a change that waits for its round to end in a run
         // split into processes; anything else is answered at once (busy:
         // the clock waits).
-        let answer = replies.recv_async();
         let held = rome_clock::in_rounds()
             && !self
                 .inner
@@ -224,25 +197,21 @@ impl DataClient {
                 .root
                 .parse_data(key)
                 .map_or(true, |k| k.op.only_reads());
-        let answer = if held || params.iter().any(|(k, _)| *k == param::HOLD_MS) {
-            rome_clock::idle(answer).await
+        let waiting = if held || params.iter().any(|(k, _)| *k == param::HOLD_MS) {
+            Waiting::Idle
         } else {
-            rome_clock::busy(answer).await
+            Waiting::Busy
         };
-        // Waits ride on the same receiver: the first reply is the answer.
-        match answer {
-            Ok(reply) => match reply.result() {
-                Ok(sample) => Ok(Some(Answer::Reply((
-                    sample.key_expr().as_str().to_string(),
-                    sample.payload().to_bytes().into_owned(),
-                )))),
-                Err(err) => match refusal(&err.payload().to_bytes())? {
-                    Some(e) => Ok(Some(Answer::Refused(e))),
-                    None => Ok(None),
-                },
-            },
-            Err(_) => Ok(None),
-        }
+        let selector = selector(key, params);
+        call::attempt(
+            &self.inner.session,
+            &selector,
+            payload,
+            timeout,
+            self.band(),
+            waiting,
+        )
+        .await
     }
 
     /// A call, retried on silence until `request_timeout`; safe because
@@ -282,7 +251,7 @@ impl DataClient {
             attempt_timeout =
                 (attempt_timeout * 2).min(o.max_attempt_timeout.max(o.attempt_timeout));
             match self.attempt(key, params, payload, this_attempt).await? {
-                Some(Answer::Reply((_, body))) => return Ok(decode(&body, what)?),
+                Some(Answer::Reply { body, .. }) => return Ok(decode(&body, what)?),
                 // Busy: the server took nothing in, so sending again is
                 // safe whatever the call; pause as for silence.
                 Some(Answer::Refused(e)) if e.code == ErrorCode::Busy => {
@@ -657,7 +626,7 @@ impl DataClient {
                     self.busy(&mut backoff, Duration::MAX).await
                 }
                 Some(Answer::Refused(e)) => return Err(ClientError::Server(e)),
-                Some(Answer::Reply((_, body))) => {
+                Some(Answer::Reply { body, .. }) => {
                     let reply: WaitReply = decode(&body, "wait reply")?;
                     match reply.status {
                         WaitStatus::Granted => {
@@ -709,30 +678,11 @@ impl DataClient {
     }
 }
 
-/// Zenoh's own payload of the error it reports when a query times out.
-const ZENOH_TIMEOUT: &[u8] = b"Timeout";
-
 /// How long a held wait in a lock-step run waits for its answer on the
 /// wall clock: the data server answers when the (simulated) hold ends,
 /// however long that takes in wall time (in another process following the
 /// same clock, a vanished data server is then noticed only after this).
 const LOCKSTEP_PATIENCE: Duration = Duration::from_secs(3_600);
-
-/// A server's error reply, or `None` for Zenoh's local timeout (silence).
-pub(crate) fn refusal(body: &[u8]) -> Result<Option<ErrorReply>, ClientError> {
-    if body == ZENOH_TIMEOUT {
-        return Ok(None);
-    }
-    Ok(Some(decode(body, "error reply")?))
-}
-
-pub(crate) fn selector(key: &str, params: &[(&str, String)]) -> String {
-    if params.is_empty() {
-        return key.to_string();
-    }
-    let joined: Vec<String> = params.iter().map(|(k, v)| format!("{k}={v}")).collect();
-    format!("{key}?{}", joined.join(";"))
-}
 
 /// A stream of committed writes (see [`DataClient::watch`]).
 pub struct Watch {

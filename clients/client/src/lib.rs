@@ -2,6 +2,8 @@
 //! function libraries (Fig. 4.8) on top of Zenoh.
 //!
 //! How this crate is laid out:
+//! - `call`: one query to a server (selector, band, lock-step stamp,
+//!   answer, refusal or silence), under both libraries' retry rules.
 //! - [`net`]: the one place network options become a `zenoh::Config`
 //!   (mode, connect, listen, multicast scouting, config file).
 //! - [`data`]: [`DataClient`], the data-server library of §4.6.1
@@ -32,6 +34,7 @@
 //! ```
 
 pub mod alive;
+mod call;
 pub mod data;
 pub mod error;
 mod inflight;

@@ -16,7 +16,7 @@
 //! carry the grant's fence and a task renews the grant; dropping the
 //! [`Lock`] releases it.
 
-use crate::data::{refusal, selector};
+use crate::call::{self, selector, Answer, Waiting};
 use crate::ClientError;
 use rome_schema::robot::{
     format_rows, param, robot_name, AdjustPose, Band, BaseState, BumperReply, Device, Done,
@@ -36,7 +36,6 @@ use zenoh::handlers::{RingChannel, RingChannelHandler};
 use zenoh::liveliness::LivelinessToken;
 use zenoh::pubsub::Subscriber;
 use zenoh::qos::Priority;
-use zenoh::query::ConsolidationMode;
 use zenoh::sample::Sample;
 use zenoh::Session;
 
@@ -80,17 +79,7 @@ pub fn zenoh_priority(priority: u8) -> Priority {
 /// a parameter, which is what the servers go by, and the clock waits for
 /// every message whatever its band.
 pub fn band(priority: u8) -> Priority {
-    lockstep_band(zenoh_priority(priority))
-}
-
-/// `band`, unless this runs in a lock-step run, where it is the default
-/// band (see [`band`]).
-pub(crate) fn lockstep_band(band: Priority) -> Priority {
-    if rome_clock::is_lockstep() {
-        Priority::DEFAULT
-    } else {
-        band
-    }
+    call::lockstep_band(zenoh_priority(priority))
 }
 
 /// How a [`RobotClient`] behaves.
@@ -360,48 +349,31 @@ impl RobotClient {
         let attempts = if acting { ACTING_ATTEMPTS } else { 1 };
         let mut attempt = 0;
         let mut pause = Duration::from_millis(100);
+        // In a lock-step run, a command queued behind another client's
+        // lock waits for that client (idle), and so does one that waits
+        // for its round to end in a run split into processes; any other
+        // is answered at once (busy: the clock waits for the answer).
+        let held = rome_clock::in_rounds() && !rome_schema::robot::only_reads(&key);
+        let waiting = if wait.is_zero() && !held {
+            Waiting::Busy
+        } else {
+            Waiting::Idle
+        };
         loop {
-            let mut get = self
-                .inner
-                .session
-                .get(selector.as_str())
-                .timeout(timeout)
-                // One server answers: its reply is handed over at once.
-                .consolidation(ConsolidationMode::None)
-                .priority(band(o.priority));
-            if let Some(p) = &payload {
-                get = get.payload(p.clone()).encoding(Encoding::APPLICATION_JSON);
-            }
-            if let Some(stamp) = rome_clock::stamp() {
-                get = get.attachment(stamp.to_bytes().to_vec());
-            }
             let tried = std::time::Instant::now();
-            let replies = get.await.map_err(ClientError::zenoh)?;
-            // In a lock-step run, a command queued behind another client's
-            // lock waits for that client (idle), and so does one that waits
-            // for its round to end in a run split into processes; any other
-            // is answered at once (busy: the clock waits for the answer).
-            let answer = replies.recv_async();
-            let held = rome_clock::in_rounds() && !rome_schema::robot::only_reads(&key);
-            let answer = if wait.is_zero() && !held {
-                rome_clock::busy(answer).await
-            } else {
-                rome_clock::idle(answer).await
-            };
-            if let Ok(reply) = answer {
-                match reply.result() {
-                    Ok(sample) => {
-                        return Ok((
-                            sample.payload().to_bytes().into_owned(),
-                            sample.encoding().clone(),
-                        ))
-                    }
-                    Err(err) => {
-                        if let Some(e) = refusal(&err.payload().to_bytes())? {
-                            return Err(ClientError::Server(e));
-                        }
-                    }
-                }
+            let answer = call::attempt(
+                &self.inner.session,
+                &selector,
+                payload.as_deref(),
+                timeout,
+                band(o.priority),
+                waiting,
+            )
+            .await?;
+            match answer {
+                Some(Answer::Reply { body, encoding }) => return Ok((body, encoding)),
+                Some(Answer::Refused(e)) => return Err(ClientError::Server(e)),
+                None => {}
             }
             // A silence that came at once: nobody serves the key right now
             // (a server or the router restarting, a link being rebuilt).

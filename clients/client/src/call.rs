@@ -1,0 +1,111 @@
+//! One query to a RoME server, as every client library sends it: the
+//! selector, the band, the lock-step stamp, how the lock-step clock counts
+//! the wait for the answer, and the answer told from a refusal and from
+//! silence. [`crate::data`] and [`crate::robot`] put their own retry rules
+//! around it (a data call retries until its deadline, a robot command
+//! only while its request id makes a repeat safe).
+
+use crate::ClientError;
+use rome_schema::{decode, ErrorReply};
+use std::time::Duration;
+use zenoh::bytes::Encoding;
+use zenoh::qos::Priority;
+use zenoh::query::ConsolidationMode;
+use zenoh::Session;
+
+/// The payload of the error reply Zenoh hands a querier itself when a
+/// query times out.
+const ZENOH_TIMEOUT: &[u8] = b"Timeout";
+
+/// What one query brought back.
+pub(crate) enum Answer {
+    /// The server's reply.
+    Reply {
+        /// Its bytes.
+        body: Vec<u8>,
+        /// Its encoding.
+        encoding: Encoding,
+    },
+    /// The server replied with an error.
+    Refused(ErrorReply),
+}
+
+/// How the lock-step clock counts the wait for an answer.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Waiting {
+    /// The server answers at once: the clock waits for the answer.
+    Busy,
+    /// The answer waits for another client or for the round's end: the
+    /// clock goes on without it.
+    Idle,
+}
+
+/// One query for `selector`; `Ok(None)` when nothing answered in `timeout`.
+pub(crate) async fn attempt(
+    session: &Session,
+    selector: &str,
+    payload: Option<&[u8]>,
+    timeout: Duration,
+    band: Priority,
+    waiting: Waiting,
+) -> Result<Option<Answer>, ClientError> {
+    let mut get = session
+        .get(selector)
+        .timeout(timeout)
+        // One server answers each key: its reply is handed over as it
+        // arrives, not held until the server has finished with the query
+        // (Zenoh's default, to pick the latest of several).
+        .consolidation(ConsolidationMode::None)
+        .priority(band);
+    if let Some(p) = payload {
+        get = get.payload(p.to_vec()).encoding(Encoding::APPLICATION_JSON);
+    }
+    if let Some(stamp) = rome_clock::stamp() {
+        get = get.attachment(stamp.to_bytes().to_vec());
+    }
+    let replies = get.await.map_err(ClientError::zenoh)?;
+    // Waits ride on the same receiver: the first reply is the answer.
+    let answer = replies.recv_async();
+    let answer = match waiting {
+        Waiting::Busy => rome_clock::busy(answer).await,
+        Waiting::Idle => rome_clock::idle(answer).await,
+    };
+    match answer {
+        Ok(reply) => match reply.result() {
+            Ok(sample) => Ok(Some(Answer::Reply {
+                body: sample.payload().to_bytes().into_owned(),
+                encoding: sample.encoding().clone(),
+            })),
+            Err(err) => Ok(refusal(&err.payload().to_bytes())?.map(Answer::Refused)),
+        },
+        Err(_) => Ok(None),
+    }
+}
+
+/// A server's error reply, or `None` for Zenoh's local timeout (silence).
+pub(crate) fn refusal(body: &[u8]) -> Result<Option<ErrorReply>, ClientError> {
+    if body == ZENOH_TIMEOUT {
+        return Ok(None);
+    }
+    Ok(Some(decode(body, "error reply")?))
+}
+
+/// A key with its selector parameters, `key?a=1;b=2`.
+pub(crate) fn selector(key: &str, params: &[(&str, String)]) -> String {
+    if params.is_empty() {
+        return key.to_string();
+    }
+    let joined: Vec<String> = params.iter().map(|(k, v)| format!("{k}={v}")).collect();
+    format!("{key}?{}", joined.join(";"))
+}
+
+/// `band`, unless this runs in a lock-step run, where every message goes
+/// in the default band: Zenoh keeps one sender's messages in order only
+/// within a band, and the clock's rounds rely on that order.
+pub(crate) fn lockstep_band(band: Priority) -> Priority {
+    if rome_clock::is_lockstep() {
+        Priority::DEFAULT
+    } else {
+        band
+    }
+}
