@@ -1,21 +1,32 @@
-//! The `rome` command-line program.
+//! The `rome` command-line program: it parses flags and hands them to the
+//! libraries that do the work.
 //!
 //! How this crate is laid out:
-//! - [`args`]: [`CommonArgs`](args::CommonArgs), the Zenoh flags shared by
-//!   every command (`--connect`, `--listen`, `--mode`, `--config`,
-//!   `--no-multicast`, `--root`), flattened into [`Cli`].
-//! - [`cmd`]: one module per command group (`data-server`, `data`, `sem`,
-//!   `ls`, `echo`, `view`, `record`, `replay`, `map`, `sim`, `pioneer`, `robot`, `storage`, `demo`, `bench`), each with a `run` taking parsed arguments.
-//! - [`exit`]: the exit codes, documented in `rome --help`.
-//! - [`progress`]: progress bars on a terminal, plain lines elsewhere.
+//! - [`Cli`] and [`Command`]: every command and its flags, with
+//!   [`CommonArgs`](args::CommonArgs) (the Zenoh and deployment flags,
+//!   from `rome-common`) flattened in.
+//! - [`cmd`]: the commands, grouped: `data` (data-server, data, sem),
+//!   `robot` (sim, pioneer, robot, storage), `nav` (planner, navigator,
+//!   ctracker, mapper, plfinder, demo, experiment, colony, map), `observe`
+//!   (ls, echo, record, replay, view, foxglove), `deploy` (router, certs)
+//!   and `tools` (bench, soak, fuzz).
+//! - [`main`] and [`run`]: the runtime, the interrupt, the lock-step clock
+//!   a command may follow, and the exit code.
+//!
+//! Cargo features, all on by default: `observe` (the observing tools, a
+//! web server and MCAP), `sim` (the simulator, `rome demo` and `rome
+//! experiment`; it takes `observe` along for `demo --record`), `tools`
+//! (benchmarks, soak, fuzz; they start `rome sim`, so `sim` too) and
+//! `router` (a Zenoh router with its plugins, and `rome certs`). With none
+//! of them `rome` is the robot-side program: the data server, the hardware
+//! servers of a real base, the navigation clients and the commands to them.
 //!
 //! `main` only parses flags and calls [`main`]; everything else is here so
 //! tests and benchmarks can call commands without a subprocess.
 
-pub mod args;
 pub mod cmd;
-pub mod exit;
-pub mod progress;
+
+pub use rome_common::{args, exit, out, progress};
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -48,64 +59,78 @@ pub struct Cli {
 #[derive(Debug, Subcommand)]
 pub enum Command {
     /// Run the data server (DServer): shared variables and semaphores.
-    DataServer(cmd::data_server::Args),
+    DataServer(cmd::data::server::Args),
     /// Read, write and watch shared variables.
     #[command(subcommand)]
-    Data(cmd::data::DataCmd),
+    Data(cmd::data::vars::DataCmd),
     /// Create, signal and wait on semaphores.
     #[command(subcommand)]
-    Sem(cmd::sem::SemCmd),
+    Sem(cmd::data::sem::SemCmd),
     /// List the live servers and clients, and each robot's devices with their stream rates.
-    Ls(cmd::ls::Args),
+    #[cfg(feature = "observe")]
+    Ls(cmd::observe::ls::Args),
     /// Record everything heard on some keys to an MCAP file (Ctrl-C to stop).
-    Record(cmd::record::Args),
+    #[cfg(feature = "observe")]
+    Record(cmd::observe::record::Args),
     /// Put an MCAP recording back on Zenoh with its original timing.
-    Replay(cmd::replay::Args),
+    #[cfg(feature = "observe")]
+    Replay(cmd::observe::replay::Args),
     /// Serve a live web page of the fleet: map, poses, trails, sonar, routes, blackboards, cameras.
-    View(cmd::view::Args),
+    #[cfg(feature = "observe")]
+    View(cmd::observe::view::Args),
     /// Serve the fleet's traffic live to Foxglove (its WebSocket protocol): every JSON key a channel, cameras as images.
-    Foxglove(cmd::foxglove::Args),
+    #[cfg(feature = "observe")]
+    Foxglove(cmd::observe::foxglove::Args),
     /// Print any key's traffic (puts, deletes, liveliness, replies with --get), or its rates with --hz.
-    Echo(cmd::echo::Args),
+    #[cfg(feature = "observe")]
+    Echo(cmd::observe::echo::Args),
     /// Check and draw StickRep maps.
     #[command(subcommand)]
-    Map(cmd::map::MapCmd),
+    Map(cmd::nav::map::MapCmd),
     /// Run a simulated world and every robot's base, proximity and camera servers.
-    Sim(cmd::sim::Args),
+    #[cfg(feature = "sim")]
+    Sim(cmd::robot::sim::Args),
     /// Run the base and proximity servers of a Pioneer robot on a serial line (P2OS).
-    Pioneer(cmd::pioneer::Args),
+    Pioneer(cmd::robot::pioneer::Args),
     /// Send commands to a robot's hardware servers (base, proximity, cameras).
-    Robot(cmd::robot::Args),
+    Robot(cmd::robot::commands::Args),
     /// Keep the servers' lock state in memory (a Zenoh storage on ROOT/store/**).
-    Storage(cmd::storage::Args),
+    Storage(cmd::robot::storage::Args),
     /// Run a Zenoh router with the storage manager and REST plugins built in.
-    Router(cmd::router::Args),
+    #[cfg(feature = "router")]
+    Router(cmd::deploy::router::Args),
     /// Make a deployment's TLS certificates and passwords (for --identity and --secrets).
-    Certs(cmd::certs::Args),
+    #[cfg(feature = "router")]
+    Certs(cmd::deploy::certs::Args),
     /// Run everything in one process: a simulated robot drives from room to room (no router, no configuration).
-    Demo(cmd::demo::Args),
+    #[cfg(feature = "sim")]
+    Demo(cmd::nav::demo::Args),
     /// Rerun Chapter 6's runs (Tables 6.1 and 6.2) in simulation, several at a time, and tabulate them beside the thesis'.
-    Experiment(cmd::experiment::Args),
+    #[cfg(feature = "sim")]
+    Experiment(cmd::nav::experiment::Args),
     /// Path Planner (§5.3): plan a route, register the robot at its start, hand goals to the Navigator.
-    Planner(cmd::nav::PlannerArgs),
+    Planner(cmd::nav::clients::PlannerArgs),
     /// Navigator (§5.4): carry out the Planner's goals with the Center-Hallway and Corner states.
-    Navigator(cmd::nav::NavigatorArgs),
+    Navigator(cmd::nav::clients::NavigatorArgs),
     /// Ceiling-light tracker, CTracker (§5.6): count the lights of each light-tracking segment.
-    Ctracker(cmd::nav::CTrackerArgs),
+    Ctracker(cmd::nav::clients::CTrackerArgs),
     /// Local mapper, HIMM (§5.5): sonar map and Hough transform to correct the heading.
-    Mapper(cmd::nav::RobotArg),
+    Mapper(cmd::nav::clients::RobotArg),
     /// Door-plate finder, PlFinder (§5.7): report the door plates the side camera sees.
-    Plfinder(cmd::nav::PlFinderArgs),
+    Plfinder(cmd::nav::clients::PlFinderArgs),
     /// Colony-style networks as prioritised clients (§4.8.2): module priorities and the equivalent program.
     #[command(subcommand)]
-    Colony(cmd::colony::ColonyCmd),
+    Colony(cmd::nav::colony::ColonyCmd),
     /// Measure round trips and throughput.
+    #[cfg(feature = "tools")]
     #[command(subcommand)]
-    Bench(cmd::bench::BenchCmd),
+    Bench(cmd::tools::bench::BenchCmd),
     /// Send generated garbage to every key of a running deployment and check that nothing broke.
-    Fuzz(cmd::fuzz::Args),
+    #[cfg(feature = "tools")]
+    Fuzz(cmd::tools::fuzz::Args),
     /// Chaos soak on loopback: robots, clients and data-server load while processes and links are killed at random; then check that nothing was lost.
-    Soak(cmd::soak::Args),
+    #[cfg(feature = "tools")]
+    Soak(cmd::tools::soak::Args),
 }
 
 /// The environment variable Zenoh reads its runtimes' layout from.
@@ -160,24 +185,10 @@ pub fn check_zenoh_runtime() -> Result<(), String> {
 
 /// Runs a parsed command line and returns the process exit code.
 pub fn main(cli: Cli) -> ExitCode {
-    let server = matches!(
-        cli.command,
-        Command::DataServer(_)
-            | Command::Sim(_)
-            | Command::Storage(_)
-            | Command::Pioneer(_)
-            | Command::Router(_)
-    );
+    let server = cli.command.is_server();
     cli.common.init_logging(server);
     // These end on the interrupt themselves, to finish what they write.
-    let own_interrupt = server
-        || matches!(
-            cli.command,
-            Command::Record(_)
-                | Command::View(_)
-                | Command::Foxglove(_)
-                | Command::Colony(cmd::colony::ColonyCmd::Behave(_))
-        );
+    let own_interrupt = server || cli.command.ends_on_interrupt();
     let runtime = match tokio::runtime::Builder::new_multi_thread()
         .enable_all()
         .build()
@@ -215,17 +226,7 @@ pub async fn run(cli: Cli) -> anyhow::Result<u8> {
         return run_command(cli).await;
     }
     anyhow::ensure!(
-        !matches!(
-            cli.command,
-            Command::Sim(_)
-                | Command::Demo(_)
-                | Command::Experiment(_)
-                | Command::Bench(_)
-                | Command::Soak(_)
-                | Command::Storage(_)
-                | Command::Pioneer(_)
-                | Command::Router(_)
-        ),
+        !cli.command.keeps_its_own_time(),
         "--sim-time is for the data server and the clients that follow a simulator (`rome sim` keeps the clock itself)"
     );
     let session = cli.common.open(args::Side::Client).await?;
@@ -239,35 +240,88 @@ pub async fn run(cli: Cli) -> anyhow::Result<u8> {
     out?
 }
 
+impl Command {
+    /// A server: it logs at info and takes the interrupt as its shutdown.
+    fn is_server(&self) -> bool {
+        match self {
+            Command::DataServer(_) | Command::Storage(_) | Command::Pioneer(_) => true,
+            #[cfg(feature = "sim")]
+            Command::Sim(_) => true,
+            #[cfg(feature = "router")]
+            Command::Router(_) => true,
+            _ => false,
+        }
+    }
+
+    /// A command that ends on the interrupt itself, to finish what it writes.
+    fn ends_on_interrupt(&self) -> bool {
+        match self {
+            Command::Colony(cmd::nav::colony::ColonyCmd::Behave(_)) => true,
+            #[cfg(feature = "observe")]
+            Command::Record(_) | Command::View(_) | Command::Foxglove(_) => true,
+            _ => false,
+        }
+    }
+
+    /// A command that keeps its own time (or none): `--sim-time` is not
+    /// for it.
+    fn keeps_its_own_time(&self) -> bool {
+        match self {
+            Command::Storage(_) | Command::Pioneer(_) => true,
+            #[cfg(feature = "sim")]
+            Command::Sim(_) | Command::Demo(_) | Command::Experiment(_) => true,
+            #[cfg(feature = "tools")]
+            Command::Bench(_) | Command::Soak(_) => true,
+            #[cfg(feature = "router")]
+            Command::Router(_) => true,
+            _ => false,
+        }
+    }
+}
+
 async fn run_command(cli: Cli) -> anyhow::Result<u8> {
     let common = cli.common;
     match cli.command {
-        Command::DataServer(args) => cmd::data_server::run(&common, args).await,
-        Command::Data(c) => cmd::data::run(&common, c).await,
-        Command::Sem(c) => cmd::sem::run(&common, c).await,
-        Command::Ls(args) => cmd::ls::run(&common, args).await,
-        Command::Echo(args) => cmd::echo::run(&common, args).await,
-        Command::View(args) => cmd::view::run(&common, args).await,
-        Command::Foxglove(args) => cmd::foxglove::run(&common, args).await,
-        Command::Record(args) => cmd::record::run(&common, args).await,
-        Command::Replay(args) => cmd::replay::run(&common, args).await,
-        Command::Map(c) => cmd::map::run(c),
-        Command::Sim(args) => cmd::sim::run(&common, args).await,
-        Command::Pioneer(args) => cmd::pioneer::run(&common, args).await,
-        Command::Robot(args) => cmd::robot::run(&common, args).await,
-        Command::Storage(args) => cmd::storage::run(&common, args).await,
-        Command::Router(args) => cmd::router::run(&common, args).await,
-        Command::Certs(args) => cmd::certs::run(args),
-        Command::Demo(args) => cmd::demo::run(&common, args).await,
-        Command::Experiment(args) => cmd::experiment::run(args).await,
-        Command::Colony(cmd) => cmd::colony::run(&common, cmd).await,
-        Command::Planner(args) => cmd::nav::planner(&common, args).await,
-        Command::Navigator(args) => cmd::nav::navigator(&common, args).await,
-        Command::Ctracker(args) => cmd::nav::ctracker(&common, args).await,
-        Command::Mapper(args) => cmd::nav::mapper(&common, args).await,
-        Command::Plfinder(args) => cmd::nav::plfinder(&common, args).await,
-        Command::Bench(c) => cmd::bench::run(&common, c).await,
-        Command::Fuzz(args) => cmd::fuzz::run(&common, args).await,
-        Command::Soak(args) => cmd::soak::run(&common, args).await,
+        Command::DataServer(args) => cmd::data::server::run(&common, args).await,
+        Command::Data(c) => cmd::data::vars::run(&common, c).await,
+        Command::Sem(c) => cmd::data::sem::run(&common, c).await,
+        #[cfg(feature = "observe")]
+        Command::Ls(args) => cmd::observe::ls::run(&common, args).await,
+        #[cfg(feature = "observe")]
+        Command::Echo(args) => cmd::observe::echo::run(&common, args).await,
+        #[cfg(feature = "observe")]
+        Command::View(args) => cmd::observe::view::run(&common, args).await,
+        #[cfg(feature = "observe")]
+        Command::Foxglove(args) => cmd::observe::foxglove::run(&common, args).await,
+        #[cfg(feature = "observe")]
+        Command::Record(args) => cmd::observe::record::run(&common, args).await,
+        #[cfg(feature = "observe")]
+        Command::Replay(args) => cmd::observe::replay::run(&common, args).await,
+        Command::Map(c) => cmd::nav::map::run(c),
+        #[cfg(feature = "sim")]
+        Command::Sim(args) => cmd::robot::sim::run(&common, args).await,
+        Command::Pioneer(args) => cmd::robot::pioneer::run(&common, args).await,
+        Command::Robot(args) => cmd::robot::commands::run(&common, args).await,
+        Command::Storage(args) => cmd::robot::storage::run(&common, args).await,
+        #[cfg(feature = "router")]
+        Command::Router(args) => cmd::deploy::router::run(&common, args).await,
+        #[cfg(feature = "router")]
+        Command::Certs(args) => cmd::deploy::certs::run(args),
+        #[cfg(feature = "sim")]
+        Command::Demo(args) => cmd::nav::demo::run(&common, args).await,
+        #[cfg(feature = "sim")]
+        Command::Experiment(args) => cmd::nav::experiment::run(args).await,
+        Command::Colony(c) => cmd::nav::colony::run(&common, c).await,
+        Command::Planner(args) => cmd::nav::clients::planner(&common, args).await,
+        Command::Navigator(args) => cmd::nav::clients::navigator(&common, args).await,
+        Command::Ctracker(args) => cmd::nav::clients::ctracker(&common, args).await,
+        Command::Mapper(args) => cmd::nav::clients::mapper(&common, args).await,
+        Command::Plfinder(args) => cmd::nav::clients::plfinder(&common, args).await,
+        #[cfg(feature = "tools")]
+        Command::Bench(c) => cmd::tools::bench::run(c).await,
+        #[cfg(feature = "tools")]
+        Command::Fuzz(args) => cmd::tools::fuzz::run(&common, args).await,
+        #[cfg(feature = "tools")]
+        Command::Soak(args) => cmd::tools::soak::run(&common, args).await,
     }
 }

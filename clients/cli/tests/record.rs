@@ -4,7 +4,7 @@
 
 #![allow(clippy::unwrap_used)]
 
-use rome_cli::cmd::replay::{load, Message};
+use rome_cli::cmd::observe::replay::{load, Message};
 use std::process::{Command, Stdio};
 
 const ROME: &str = env!("CARGO_BIN_EXE_rome");

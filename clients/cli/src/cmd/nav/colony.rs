@@ -379,7 +379,7 @@ async fn layer(common: &CommonArgs, args: LayerArgs) -> anyhow::Result<u8> {
         Which::Upper => "layer-upper",
         Which::Lower => "layer-lower",
     };
-    let ds = super::connect_data(common, role).await?;
+    let ds = rome_common::connect_data(common, role).await?;
     let names = Shared::of(&args.robot);
     // Either layer may start first: both create the semaphores (one that
     // exists is left as it is).

@@ -20,11 +20,11 @@
 //! `--listen`, `--connect` or `--config` it joins that network as a peer.
 
 use crate::args::{CommonArgs, Side};
-use crate::cmd::record::Recorder;
 use crate::exit;
 use anyhow::Context;
 use rome_nav::board::GoalType;
 use rome_nav::report::Report;
+use rome_observe::record::Recorder;
 use rome_rig::{self as run, Event, PassageState, RobotTick, RouteSpec, RunConfig};
 use rome_sim::Noise;
 use std::io::{IsTerminal, Write};
@@ -141,7 +141,7 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
     );
     let mut routes = routes(&args, &map)?;
     if let Some(v) = args.cruise {
-        super::check_cruise(v)?;
+        rome_common::check_cruise(v)?;
         for r in routes.iter_mut().filter(|r| r.cruise_mm_s.is_none()) {
             r.cruise_mm_s = Some(v);
         }

@@ -32,13 +32,13 @@
 //! status naming what was wrong, and the connection goes on. A client too
 //! slow for the traffic misses messages, and is told how many.
 
-use crate::args::{CommonArgs, Side};
-use crate::exit;
 use anyhow::Context;
 use axum::extract::ws::{Message, WebSocket, WebSocketUpgrade};
 use axum::extract::State;
 use axum::response::Response;
 use axum::routing::get;
+use rome_common::args::{CommonArgs, Side};
+use rome_common::exit;
 use serde_json::{json, Value};
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
@@ -252,7 +252,7 @@ impl Fetch {
         let (session, heard, channel) = (self.session.clone(), self.heard.clone(), channel.clone());
         self.runtime.spawn(async move {
             let Some(image) = &channel.image else { return };
-            match super::view::grab_png(&session, &image.camera).await {
+            match crate::view::grab_png(&session, &image.camera).await {
                 Ok(png) if png.len() > MAX_PICTURE => tracing::debug!(
                     camera = %image.camera,
                     bytes = png.len(),
@@ -333,8 +333,8 @@ fn on_sample(channels: &Mutex<Channels>, fetch: &Fetch, s: &Sample) {
             let ch = Arc::new(Channel {
                 id: c.all.len() as u32 + 1,
                 topic: key.to_string(),
-                schema_name: super::record::schema_name(key),
-                schema: super::record::json_schema(&first).to_string(),
+                schema_name: crate::record::schema_name(key),
+                schema: crate::record::json_schema(&first).to_string(),
                 image: None,
             });
             c.by_key.insert(key.to_string(), ch.clone());
@@ -746,7 +746,7 @@ mod tests {
     /// requests answered with what was wrong while the connection goes on.
     #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
     async fn foxglove_sees_every_json_key_as_a_channel_and_gets_what_it_subscribes_to() {
-        let session = crate::cmd::isolated_session().await;
+        let session = rome_common::isolated_session().await;
         let put = |key: &'static str, text: &'static str| {
             session.put(key, text).encoding(Encoding::APPLICATION_JSON)
         };
@@ -838,7 +838,7 @@ mod tests {
     /// client watches.
     #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
     async fn a_camera_is_seen_in_pictures_fetched_only_while_someone_watches() {
-        let session = crate::cmd::isolated_session().await;
+        let session = rome_common::isolated_session().await;
         let png = b"\x89PNG\r\n\x1a\na camera's picture".to_vec();
         let asked = Arc::new(AtomicUsize::new(0));
         let (answer, count) = (png.clone(), asked.clone());
@@ -913,7 +913,7 @@ mod tests {
     /// the bridge goes on serving the next.
     #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
     async fn an_oversized_request_ends_only_its_own_connection() {
-        let session = crate::cmd::isolated_session().await;
+        let session = rome_common::isolated_session().await;
         let bridge = Bridge::start(&session, &["t/**".to_string()])
             .await
             .unwrap();

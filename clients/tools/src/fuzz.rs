@@ -30,10 +30,10 @@
 //!
 //! Exit code 0 when every check holds, 1 otherwise.
 
-use crate::args::{CommonArgs, Side};
-use crate::exit;
 use anyhow::Context;
 use rome_client::alive;
+use rome_common::args::{CommonArgs, Side};
+use rome_common::exit;
 use rome_schema::{ErrorReply, Root};
 use rome_sim::rng::Rng;
 use std::collections::BTreeMap;

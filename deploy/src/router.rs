@@ -25,9 +25,9 @@
 //! whose power goes loses both). One file, one binary, no ABI to match.
 //! The storage manager stays linked for storages a `--config` file asks for.
 
-use crate::args::CommonArgs;
 use anyhow::Context;
 use rome_client::net::DEFAULT_PORT;
+use rome_common::args::CommonArgs;
 use zenoh::internal::plugins::PluginsManager;
 use zenoh::internal::runtime::RuntimeBuilder;
 
@@ -63,7 +63,7 @@ pub const STORE_FILE: &str = "router-store.redb";
 /// Builds the router's configuration: the common flags (mode router, and
 /// tcp/0.0.0.0:7447 when no endpoint is given) plus the plugins'.
 pub fn config(common: &CommonArgs, args: &Args) -> anyhow::Result<zenoh::Config> {
-    let mut net = common.net(crate::args::Side::Server);
+    let mut net = common.net(rome_common::args::Side::Server);
     if common.mode.is_none() {
         net.mode = Some("router".into());
     }
@@ -129,7 +129,7 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
     let file = match (args.no_storage, args.in_memory, &args.data_dir) {
         (true, _, _) | (_, true, _) => None,
         (_, _, Some(dir)) => Some(dir.join(STORE_FILE)),
-        (_, _, None) => Some(crate::args::default_data_dir(root.as_str())?.join(STORE_FILE)),
+        (_, _, None) => Some(rome_common::args::default_data_dir(root.as_str())?.join(STORE_FILE)),
     };
     let file = file
         .map(|path| rome_hardware::storage::StorageFile::open(&path))
@@ -212,7 +212,7 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
         records,
         if storage { "on" } else { "off" },
     );
-    crate::exit::interrupted().await;
+    rome_common::exit::interrupted().await;
     let _ = stop.send(());
     if let Some(store) = store {
         match store.await {

@@ -4,7 +4,7 @@
 //! scan's age when it reaches a subscriber (from the sonar ring's reading,
 //! stamped by the server, to the subscriber's hands).
 
-use crate::cmd::bench::Row;
+use crate::bench::data::Row;
 use rome_client::net::{open_loopback_peer, NetOptions};
 use rome_client::{RobotClient, RobotOptions};
 use rome_hardware::robot::Rates;
@@ -148,7 +148,7 @@ pub async fn figures(args: &RobotBench, progress: bool) -> anyhow::Result<RobotF
         tokio::time::sleep(Duration::from_millis(20)).await;
     }
     let bar = std::cell::RefCell::new(
-        progress.then(|| crate::progress::Progress::counter("bench robot", "measurements")),
+        progress.then(|| rome_common::progress::Progress::counter("bench robot", "measurements")),
     );
     let done = std::cell::Cell::new(0u64);
     let say = |what: &str| {
@@ -164,7 +164,7 @@ pub async fn figures(args: &RobotBench, progress: bool) -> anyhow::Result<RobotF
         }
     }
     let (session, robot) = (&session, &r);
-    let taken = crate::cmd::bench::in_turns(Probe::ALL.len(), span, say, |k, slice| async move {
+    let taken = crate::bench::data::in_turns(Probe::ALL.len(), span, say, |k, slice| async move {
         let p = Probe::ALL[k];
         let started = Instant::now();
         let mut lat = Vec::new();

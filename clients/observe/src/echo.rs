@@ -17,8 +17,8 @@
 //! Nothing a peer sends can end the command: a payload that does not
 //! decode is shown as bytes.
 
-use crate::args::{CommonArgs, Side};
-use crate::exit;
+use rome_common::args::{CommonArgs, Side};
+use rome_common::exit;
 use std::collections::BTreeMap;
 use std::time::{Duration, Instant, SystemTime};
 use zenoh::bytes::Encoding;
@@ -149,7 +149,7 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
             _ = tick.tick(), if args.hz => {
                 let now = Instant::now();
                 let table = rates.table(now, Duration::from_secs_f64(args.window), args.json);
-                crate::out!("{}", table.strip_suffix('\n').unwrap_or(&table));
+                rome_common::out!("{}", table.strip_suffix('\n').unwrap_or(&table));
                 rates.forget_before(now - Duration::from_secs_f64(args.window));
             }
             _ = &mut deadline => break,
@@ -187,15 +187,15 @@ async fn get(
                 errors += 1;
                 let body = e.payload().to_bytes();
                 if args.json {
-                    crate::out!(
+                    rome_common::out!(
                         "{}",
                         serde_json::json!({"time": now_ms(), "kind": "error", "key": key.as_str(),
                             "encoding": e.encoding().to_string(), "payload": value_of(&body)})
                     );
                 } else {
-                    crate::out!("{}  ERROR  {key}", clock(SystemTime::now()));
+                    rome_common::out!("{}  ERROR  {key}", clock(SystemTime::now()));
                     let text = indent(&pretty(&body, e.encoding()));
-                    crate::out!("{}", text.strip_suffix('\n').unwrap_or(&text));
+                    rome_common::out!("{}", text.strip_suffix('\n').unwrap_or(&text));
                 }
             }
         }
@@ -228,7 +228,7 @@ fn kind_of(s: &Sample) -> &'static str {
 fn print_sample(s: &Sample, kind: &str, json: bool) {
     let bytes = s.payload().to_bytes();
     if json {
-        crate::out!(
+        rome_common::out!(
             "{}",
             serde_json::json!({
                 "time": now_ms(),
@@ -247,16 +247,16 @@ fn print_sample(s: &Sample, kind: &str, json: bool) {
         s.key_expr().as_str()
     );
     if bytes.is_empty() {
-        crate::out!("{head}");
+        rome_common::out!("{head}");
         return;
     }
-    crate::out!(
+    rome_common::out!(
         "{head}  {}  {}",
         s.encoding(),
-        crate::progress::size(bytes.len() as u64)
+        rome_common::progress::size(bytes.len() as u64)
     );
     let text = indent(&pretty(&bytes, s.encoding()));
-    crate::out!("{}", text.strip_suffix('\n').unwrap_or(&text));
+    rome_common::out!("{}", text.strip_suffix('\n').unwrap_or(&text));
 }
 
 /// The payload as JSON if it is JSON, as text if UTF-8, else a summary.

@@ -13,9 +13,9 @@
 //! r1     camera/up   frame      2.00    104
 //! ```
 
-use crate::args::{CommonArgs, Side};
-use crate::cmd::echo::Rates;
-use crate::exit;
+use crate::echo::Rates;
+use rome_common::args::{CommonArgs, Side};
+use rome_common::exit;
 use std::time::{Duration, Instant};
 
 /// Flags of `rome ls`.

@@ -86,7 +86,7 @@ pub async fn run(args: Args) -> anyhow::Result<u8> {
         "--wall-limit-min must be a positive number of minutes, got {}",
         args.wall_limit_min
     );
-    super::check_cruise(args.cruise)?;
+    rome_common::check_cruise(args.cruise)?;
     let map = rome_maps::load_named(&args.map)?;
     let routes = match &args.routes {
         Some(path) => {

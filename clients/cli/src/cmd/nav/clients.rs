@@ -107,7 +107,7 @@ async fn connect(
     robot: &str,
     role: &str,
 ) -> anyhow::Result<(Board, RobotClient)> {
-    let ds = super::connect_data(common, role).await?;
+    let ds = rome_common::connect_data(common, role).await?;
     let session = common.open(Side::Client).await?;
     let root = common.root()?;
     // Clients may start before the robot's servers (any order works, as

@@ -134,7 +134,7 @@ async fn open_when_up(child: &mut Proc, what: &str, port: u16) -> anyhow::Result
 
 /// Measures; `progress` shows a bar on the terminal.
 pub async fn figures(args: &MemBench, progress: bool) -> anyhow::Result<MemFigures> {
-    let mut bar = progress.then(|| crate::progress::Progress::bar("bench mem", "steps", 4));
+    let mut bar = progress.then(|| rome_common::progress::Progress::bar("bench mem", "steps", 4));
     let mut step = |n: u64, what: &str| {
         if let Some(b) = &mut bar {
             b.step(n, what);

@@ -30,12 +30,12 @@
 //! Each robot has a world of its own so a robot that failed can be put
 //! back at its start by restarting its simulator.
 
-use crate::args::CommonArgs;
-use crate::exit;
 use anyhow::Context;
 use rome_client::net::NetOptions;
 use rome_client::relay::Relay;
 use rome_client::{DataClient, DataOptions};
+use rome_common::args::CommonArgs;
+use rome_common::exit;
 use rome_schema::robot::BaseState;
 use rome_sim::rng::Rng;
 use std::collections::BTreeMap;
@@ -1027,7 +1027,7 @@ async fn listening_port(log: &Path, within: Duration) -> anyhow::Result<u16> {
 }
 
 fn eb3_routes(n: usize) -> anyhow::Result<Vec<(String, String)>> {
-    let text = include_str!("../../../../maps/data/eb3.routes");
+    let text = include_str!("../../../maps/data/eb3.routes");
     let routes: Vec<(String, String)> = text
         .lines()
         .map(str::trim)

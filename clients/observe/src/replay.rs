@@ -16,11 +16,11 @@
 //! so. A message is put when its log time, measured from the first
 //! message's and divided by the rate, comes; lateness does not add up.
 
-use crate::args::{CommonArgs, Side};
-use crate::cmd::record::{META_ENCODING, META_KIND};
-use crate::exit;
-use crate::progress::Progress;
+use crate::record::{META_ENCODING, META_KIND};
 use anyhow::Context;
+use rome_common::args::{CommonArgs, Side};
+use rome_common::exit;
+use rome_common::progress::Progress;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 use zenoh::bytes::Encoding;

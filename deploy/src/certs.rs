@@ -192,5 +192,5 @@ pub fn run(args: Args) -> anyhow::Result<u8> {
         "credentials in {}; give each host ca.pem and its own NAME files, and the router users.txt",
         args.dir.display()
     );
-    Ok(crate::exit::OK)
+    Ok(rome_common::exit::OK)
 }

@@ -19,10 +19,10 @@
 //! The Markdown file keeps everything outside the lines
 //! `<!-- rome bench all: begin -->` and `<!-- rome bench all: end -->`.
 
-use crate::cmd::bench::{self, DataBench, Row};
-use crate::cmd::bench_mem::{self, MemBench, MemFigures};
-use crate::cmd::bench_robot::{self, RobotBench, RobotFigures};
-use crate::cmd::bench_sim::{self, SimBench, SimRow};
+use super::data::{self as bench, DataBench, Row};
+use super::mem::{self as bench_mem, MemBench, MemFigures};
+use super::robot::{self as bench_robot, RobotBench, RobotFigures};
+use super::sim::{self as bench_sim, SimBench, SimRow};
 use serde::Serialize;
 use std::path::PathBuf;
 

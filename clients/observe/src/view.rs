@@ -26,20 +26,20 @@
 //! to a page when it connects, after the last of each kind). Streams faster
 //! than a page can use are thinned to 20 messages a second per robot.
 
-use crate::args::{CommonArgs, Side};
-use crate::exit;
 use anyhow::Context;
 use axum::extract::{Path as UrlPath, State};
 use axum::http::{header, StatusCode};
 use axum::response::sse::{Event as SseEvent, KeepAlive, Sse};
 use axum::response::{IntoResponse, Response};
 use axum::routing::get;
+use rome_common::args::{CommonArgs, Side};
+use rome_common::exit;
 use rome_maps::geometry::Pose;
 use rome_maps::render::Shape;
+use rome_schema::robot::body::{sonar_bearing_deg, SONAR_MAX_MM};
 use rome_schema::robot::{BaseState, Scan};
 use rome_schema::sim::Truth;
 use rome_schema::Root;
-use rome_sim::spec::{sonar_bearing_deg, SONAR_MAX_MM};
 use serde_json::{json, Value};
 use std::collections::{BTreeMap, VecDeque};
 use std::sync::{Arc, Mutex};

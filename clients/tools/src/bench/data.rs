@@ -3,33 +3,11 @@
 //! loopback links, so the figures are a ratio, not a guess about the
 //! machine.
 
-use crate::args::CommonArgs;
-use crate::exit;
-use clap::Subcommand;
 use rome_client::net::{open_loopback_peer, NetOptions};
 use rome_client::{DataClient, DataOptions};
 use serde::Serialize;
 use std::time::{Duration, Instant};
 use zenoh::Wait;
-
-/// The `rome bench` commands.
-#[derive(Debug, Subcommand)]
-pub enum BenchCmd {
-    /// Data server get/set/signal vs a bare Zenoh queryable, on loopback.
-    Data(DataBench),
-    /// Simulated seconds per wall-clock second for 1..1000 robots on a map.
-    Sim(crate::cmd::bench_sim::SimBench),
-    /// Hardware-server round trips (pose, sonar, camera rows) and scan-stream rate.
-    Robot(crate::cmd::bench_robot::RobotBench),
-    /// Resident memory: a data server holding 100 000 variables, `rome sim --robots 100`.
-    Mem(crate::cmd::bench_mem::MemBench),
-    /// Every benchmark in one run: figures, ratios, targets, JSON, and the Markdown section.
-    All(crate::cmd::bench_all::AllBench),
-    /// The far end of `rome bench data`: a data server and a bare queryable
-    /// on one loopback port, printed on stdout; ends when stdin closes.
-    #[command(hide = true)]
-    Serve(ServeArgs),
-}
 
 /// Flags of `rome bench data`.
 #[derive(Debug, clap::Args)]
@@ -430,7 +408,7 @@ pub async fn data_rows(args: &DataBench, progress: bool) -> anyhow::Result<Vec<R
     }
     let mut rows = Vec::new();
     let mut bar = progress.then(|| {
-        crate::progress::Progress::bar(
+        rome_common::progress::Progress::bar(
             "bench data",
             "steps",
             (args.clients.len() * (ops.len() + ROUNDS as usize)) as u64,
@@ -625,7 +603,7 @@ async fn serve_on(session: zenoh::Session) -> anyhow::Result<(zenoh::Session, ro
 }
 
 /// `rome bench serve`: serves until stdin closes.
-async fn serve(args: ServeArgs) -> anyhow::Result<()> {
+pub async fn serve(args: ServeArgs) -> anyhow::Result<()> {
     let (session, port) = match &args.unix {
         None => open_loopback_peer(&[]).await?,
         Some(path) => {
@@ -656,56 +634,6 @@ async fn serve(args: ServeArgs) -> anyhow::Result<()> {
     server.stop().await?;
     let _ = session.close().await;
     Ok(())
-}
-
-/// Runs a `rome bench` command.
-pub async fn run(_common: &CommonArgs, cmd: BenchCmd) -> anyhow::Result<u8> {
-    match cmd {
-        BenchCmd::Data(args) => {
-            let rows = data_rows(&args, !args.json).await?;
-            if args.json {
-                println!("{}", serde_json::to_string_pretty(&rows)?);
-            } else {
-                print!("{}", table(&rows));
-            }
-        }
-        BenchCmd::Robot(args) => {
-            let figures = crate::cmd::bench_robot::figures(&args, !args.json).await?;
-            if args.json {
-                println!("{}", serde_json::to_string_pretty(&figures)?);
-            } else {
-                print!("{}", table(&figures.rows));
-                println!(
-                    "scan stream (world free-running): {:.0} scans/s, {} lost",
-                    figures.scans_per_s, figures.scans_lost
-                );
-            }
-        }
-        BenchCmd::Mem(args) => {
-            let f = crate::cmd::bench_mem::figures(&args, !args.json).await?;
-            if args.json {
-                println!("{}", serde_json::to_string_pretty(&f)?);
-            } else {
-                print!("{}", crate::cmd::bench_mem::table(&f));
-            }
-        }
-        BenchCmd::All(args) => crate::cmd::bench_all::run(&args).await?,
-        BenchCmd::Serve(args) => serve(args).await?,
-        BenchCmd::Sim(args) => {
-            let rows = tokio::task::spawn_blocking(move || {
-                let rows = crate::cmd::bench_sim::rows(&args);
-                (args, rows)
-            })
-            .await?;
-            let (args, rows) = (rows.0, rows.1?);
-            if args.json {
-                println!("{}", serde_json::to_string_pretty(&rows)?);
-            } else {
-                print!("{}", crate::cmd::bench_sim::table(&rows));
-            }
-        }
-    }
-    Ok(exit::OK)
 }
 
 /// A loopback TCP server that sends every byte back: the floor under any

@@ -15,10 +15,10 @@
 //! epoch; publish times are the sender's Zenoh timestamp where it set one.
 //! The `mcap` CLI (`mcap info run.mcap`) and Foxglove open the file.
 
-use crate::args::{CommonArgs, Side};
-use crate::exit;
-use crate::progress::Progress;
 use anyhow::Context;
+use rome_common::args::{CommonArgs, Side};
+use rome_common::exit;
+use rome_common::progress::Progress;
 use std::collections::{BTreeMap, HashMap};
 use std::io::{BufWriter, Seek, Write};
 use std::path::{Path, PathBuf};
@@ -140,7 +140,7 @@ impl Recorder {
                         let Some((sample, at)) = heard else { break };
                         writer.write(&sample, at)?;
                         if let Some(p) = &mut progress {
-                            let note = format!("{} channels, {}", writer.summary.channels, crate::progress::size(writer.summary.bytes));
+                            let note = format!("{} channels, {}", writer.summary.channels, rome_common::progress::size(writer.summary.bytes));
                             p.set(writer.summary.messages, &note);
                         }
                     }
@@ -324,7 +324,7 @@ mod tests {
 
     #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
     async fn images_are_kept_as_they_came_and_deletes_as_deletes() {
-        let session = crate::cmd::isolated_session().await;
+        let session = rome_common::isolated_session().await;
         let dir = std::env::temp_dir().join(format!("rome-rec-unit-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let path = dir.join("x.mcap");
@@ -347,7 +347,7 @@ mod tests {
         // writes out what it heard.
         let summary = rec.stop().await.unwrap();
         assert_eq!(summary.messages, 3);
-        let m = crate::cmd::replay::load(&path).unwrap();
+        let m = crate::replay::load(&path).unwrap();
         assert_eq!(m[0].key, "t/cam");
         assert_eq!(m[0].data, png);
         assert_eq!(m[0].encoding, Encoding::IMAGE_PNG);

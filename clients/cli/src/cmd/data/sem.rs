@@ -1,10 +1,10 @@
 //! `rome sem …`: semaphores. Thesis names with `$` work as they are
 //! (`$GoalData` is the semaphore `GoalData`).
 
-use super::connect_data;
 use crate::args::CommonArgs;
 use crate::exit;
 use clap::Subcommand;
+use rome_common::connect_data;
 use std::time::Duration;
 
 /// The `rome sem` commands.

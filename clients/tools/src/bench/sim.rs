@@ -162,7 +162,7 @@ pub fn rows(args: &SimBench) -> anyhow::Result<Vec<SimRow>> {
     let map = rome_maps::load_named(&args.map).map_err(|e| anyhow::anyhow!("{e}"))?;
     let mut out = Vec::new();
     let passes = if args.no_cameras { 1 } else { 2 };
-    let mut bar = crate::progress::Progress::bar(
+    let mut bar = rome_common::progress::Progress::bar(
         "bench sim",
         "measurements",
         (passes * args.robots.len()) as u64,

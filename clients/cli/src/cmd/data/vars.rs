@@ -1,10 +1,10 @@
 //! `rome data …`: shared variables.
 
-use super::connect_data;
 use crate::args::CommonArgs;
 use crate::exit;
 use anyhow::Context;
 use clap::Subcommand;
+use rome_common::connect_data;
 use serde_json::Value;
 
 /// The `rome data` commands.

@@ -1,0 +1,3 @@
+//! Deploying: `rome router` and `rome certs`, modules of [`rome_deploy`].
+
+pub use rome_deploy::{certs, router};

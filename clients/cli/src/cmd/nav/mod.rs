@@ -1,0 +1,16 @@
+//! Navigation: Chapter 5's clients, Chapter 6's runs and the maps.
+//!
+//! - [`clients`]: `rome planner|navigator|ctracker|mapper|plfinder`, each
+//!   client a process of its own.
+//! - [`demo`] and [`experiment`]: everything in one process, one run or
+//!   Chapter 6's tables (cargo feature `sim`).
+//! - [`colony`]: §4.8.2's colony-style networks as prioritised clients.
+//! - [`map`]: `rome map check|render|route`.
+
+pub mod clients;
+pub mod colony;
+#[cfg(feature = "sim")]
+pub mod demo;
+#[cfg(feature = "sim")]
+pub mod experiment;
+pub mod map;

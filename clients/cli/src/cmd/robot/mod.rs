@@ -1,0 +1,13 @@
+//! The hardware servers (§4.6.2–4.6.4) and the commands to them.
+//!
+//! - [`sim`]: `rome sim`, a simulated world and every robot's servers
+//!   (cargo feature `sim`).
+//! - [`pioneer`]: `rome pioneer`, a Pioneer base on a serial line.
+//! - [`commands`]: `rome robot`, one command to a robot's servers.
+//! - [`storage`]: `rome storage`, the servers' lock records in memory.
+
+pub mod commands;
+pub mod pioneer;
+#[cfg(feature = "sim")]
+pub mod sim;
+pub mod storage;
