@@ -54,7 +54,7 @@ impl BaseDevice for Recorder {
 }
 
 /// Servers on their own loopback port, reached by client sessions.
-struct Rig {
+struct Harness {
     port: u16,
     state: Option<Duration>,
     session: Session,
@@ -62,7 +62,7 @@ struct Rig {
     _stepper: Option<Stepper>,
 }
 
-impl Rig {
+impl Harness {
     /// A peer session on a loopback port of its own, and that port.
     async fn session() -> (Session, u16) {
         open_loopback_peer(&[]).await.unwrap()
@@ -70,9 +70,9 @@ impl Rig {
 
     /// A session on a port of its own and no servers yet; servers started
     /// on it publish their state every `state`.
-    async fn empty(state: Option<Duration>) -> Rig {
+    async fn empty(state: Option<Duration>) -> Harness {
         let (session, port) = Self::session().await;
-        Rig {
+        Harness {
             port,
             state,
             session,
@@ -82,7 +82,7 @@ impl Rig {
     }
 
     /// A recording base for robot `r1`, with a storage in another session.
-    async fn recorder(rec: &Recorder, storage: bool) -> Rig {
+    async fn recorder(rec: &Recorder, storage: bool) -> Harness {
         let mut rig = Self::empty(Some(Duration::from_millis(20))).await;
         if storage {
             let s = rig.peer_session().await;
@@ -112,7 +112,7 @@ impl Rig {
     }
 
     /// Robot r1 on the Figure 5.3 map, all its servers, world at real time.
-    async fn sim(camera: Duration) -> Rig {
+    async fn sim(camera: Duration) -> Harness {
         let (session, port) = Self::session().await;
         let map = rome_maps::load_named("fig5_3").unwrap();
         let mut sim = Sim::new(
@@ -133,7 +133,7 @@ impl Rig {
             camera,
         };
         let servers = spawn_sim_robot(&session, &Root::default(), &world, "r1", rates).unwrap();
-        let rig = Rig {
+        let rig = Harness {
             port,
             state: rates.state,
             session,
@@ -198,7 +198,7 @@ fn velocities(rec: &Recorder) -> Vec<f64> {
 #[tokio::test(flavor = "multi_thread", worker_threads = 4)]
 async fn a_held_lock_postpones_others_who_are_then_served_by_priority() {
     let rec = Recorder::default();
-    let rig = Rig::recorder(&rec, false).await;
+    let rig = Harness::recorder(&rec, false).await;
     let holder = rig.client("holder", 128).await;
     let lock = holder.lock().await.unwrap();
 
@@ -228,7 +228,7 @@ async fn a_held_lock_postpones_others_who_are_then_served_by_priority() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 4)]
 async fn stale_fences_are_refused_and_queued_requests_time_out_with_a_reason() {
     let rec = Recorder::default();
-    let rig = Rig::recorder(&rec, false).await;
+    let rig = Harness::recorder(&rec, false).await;
     let a = rig.client("a", 128).await;
     let lock = a.lock().await.unwrap();
     let fence = lock.fence();
@@ -264,7 +264,7 @@ async fn stale_fences_are_refused_and_queued_requests_time_out_with_a_reason() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 4)]
 async fn a_suppressing_command_keeps_lower_priorities_off_until_it_lapses() {
     let rec = Recorder::default();
-    let rig = Rig::recorder(&rec, false).await;
+    let rig = Harness::recorder(&rec, false).await;
     let s = rig.peer_session().await;
     let go = |v: f64| format!("{{\"velocity_mm_s\":{v}}}");
     // The dominant module: priority 200, suppressing for 60 s.
@@ -331,7 +331,7 @@ async fn a_suppressing_command_keeps_lower_priorities_off_until_it_lapses() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 4)]
 async fn a_killed_holder_loses_the_lock_within_three_seconds() {
     let rec = Recorder::default();
-    let rig = Rig::recorder(&rec, false).await;
+    let rig = Harness::recorder(&rec, false).await;
     let mut holder = peer!(rig.port, ["locker", "--robot", "r1"]);
     let stdout = holder.0.as_mut().unwrap().stdout.take().unwrap();
     let line = tokio::task::spawn_blocking(move || {
@@ -367,7 +367,7 @@ async fn a_killed_holder_loses_the_lock_within_three_seconds() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 4)]
 async fn a_repeated_request_id_is_answered_again_without_acting_twice() {
     let rec = Recorder::default();
-    let rig = Rig::recorder(&rec, false).await;
+    let rig = Harness::recorder(&rec, false).await;
     let s = rig.peer_session().await;
     let go = |op: &'static str, v: u32| {
         let s = s.clone();
@@ -412,7 +412,7 @@ async fn a_repeated_request_id_is_answered_again_without_acting_twice() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 4)]
 async fn a_full_queue_behind_a_lock_answers_busy_and_serves_the_rest_afterwards() {
     let rec = Recorder::default();
-    let rig = Rig::recorder(&rec, false).await;
+    let rig = Harness::recorder(&rec, false).await;
     let holder = rig.client("holder", 128).await;
     let lock = holder.lock().await.unwrap();
     let cap = rome_hardware::server::EVENT_QUEUE;
@@ -448,7 +448,7 @@ async fn a_full_queue_behind_a_lock_answers_busy_and_serves_the_rest_afterwards(
 #[tokio::test(flavor = "multi_thread", worker_threads = 4)]
 async fn a_base_set_moving_by_a_client_that_goes_away_is_stopped() {
     let rec = Recorder::default();
-    let rig = Rig::recorder(&rec, false).await;
+    let rig = Harness::recorder(&rec, false).await;
     let moves = |rec: &Recorder| -> Vec<BaseOp> { rec.ops.lock().unwrap().clone() };
     let stops = |rec: &Recorder| {
         moves(rec)
@@ -499,7 +499,7 @@ async fn a_base_set_moving_by_a_client_that_goes_away_is_stopped() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 4)]
 async fn a_cut_off_holder_loses_the_lock_within_three_seconds() {
     let rec = Recorder::default();
-    let rig = Rig::recorder(&rec, false).await;
+    let rig = Harness::recorder(&rec, false).await;
     let relay = rome_tests::relay::Relay::start(
         ([127, 0, 0, 1], 0).into(),
         ([127, 0, 0, 1], rig.port).into(),
@@ -535,7 +535,7 @@ async fn a_cut_off_holder_loses_the_lock_within_three_seconds() {
 async fn unlocking_a_lock_a_restarted_server_forgot_is_not_an_error() {
     // No storage: the new server starts with the lock free.
     let rec = Recorder::default();
-    let mut rig = Rig::recorder(&rec, false).await;
+    let mut rig = Harness::recorder(&rec, false).await;
     let a = rig.client("a", 128).await;
     let lock = a.lock().await.unwrap();
     rig.servers.pop().unwrap().stop().await.unwrap();
@@ -552,7 +552,7 @@ async fn unlocking_a_lock_a_restarted_server_forgot_is_not_an_error() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 4)]
 async fn a_restarted_server_knows_the_holder_and_its_fence_from_the_storage() {
     let rec = Recorder::default();
-    let mut rig = Rig::recorder(&rec, true).await;
+    let mut rig = Harness::recorder(&rec, true).await;
     let a = rig.client("a", 128).await;
     let lock = a.lock().await.unwrap();
     let fence = lock.fence();
@@ -588,7 +588,7 @@ async fn a_restarted_server_knows_the_holder_and_its_fence_from_the_storage() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 4)]
 async fn a_restarted_server_asks_a_silent_storage_again_for_its_lock_record() {
     let rec = Recorder::default();
-    let mut rig = Rig::empty(Some(Duration::from_millis(20))).await;
+    let mut rig = Harness::empty(Some(Duration::from_millis(20))).await;
     // A storage that leaves the first query unanswered (held, so it is
     // not finished either) and answers the next ones with a record.
     let record = LockRecord {
@@ -659,7 +659,7 @@ async fn virtual_coordinates_unwrap_16_bit_registers_both_ways() {
         .lock()
         .unwrap()
         .extend(path.iter().map(|mm| mm.rem_euclid(65_536) as u16 as i16));
-    let mut rig = Rig::empty(None).await;
+    let mut rig = Harness::empty(None).await;
     // No state stream: every register value is read by a `pose` request.
     rig.start_base(&rec).await;
     let c = rig.client("c", 128).await;
@@ -702,7 +702,7 @@ async fn plain(
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 4)]
 async fn every_base_command_as_plain_zenoh_json_and_bad_input_named() {
-    let rig = Rig::sim(Duration::from_millis(500)).await;
+    let rig = Harness::sim(Duration::from_millis(500)).await;
     // A plain Zenoh session built by hand: no RoME code on this side.
     let mut config = zenoh::Config::default();
     config.insert_json5("mode", r#""client""#).unwrap();
@@ -877,7 +877,7 @@ async fn every_base_command_as_plain_zenoh_json_and_bad_input_named() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 4)]
 async fn camera_rows_come_in_one_request_and_a_lock_freezes_grabbing() {
-    let rig = Rig::sim(Duration::from_millis(100)).await;
+    let rig = Harness::sim(Duration::from_millis(100)).await;
     let c = rig.client("tracker", 128).await;
     let size = c.camera_size("up").await.unwrap();
     assert_eq!((size.width, size.height), (512, 482));
@@ -919,7 +919,7 @@ async fn camera_rows_come_in_one_request_and_a_lock_freezes_grabbing() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 4)]
 async fn one_server_killed_leaves_the_others_serving() {
-    let mut rig = Rig::sim(Duration::from_millis(500)).await;
+    let mut rig = Harness::sim(Duration::from_millis(500)).await;
     let c = rig.client("c", 128).await;
     let side = rig.servers.pop().unwrap();
     assert!(side.label().contains("side"));
@@ -953,13 +953,13 @@ async fn one_server_killed_leaves_the_others_serving() {
     c.camera_size("up").await.unwrap();
 }
 
-async fn c_session(rig: &Rig) -> Session {
+async fn c_session(rig: &Harness) -> Session {
     NetOptions::loopback_client(rig.port).open().await.unwrap()
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 4)]
 async fn the_scan_stream_follows_the_sonar_period_and_timeouts_cap_ranges() {
-    let rig = Rig::sim(Duration::from_millis(500)).await;
+    let rig = Harness::sim(Duration::from_millis(500)).await;
     let c = rig.client("c", 128).await;
     let scans = c.scans().await.unwrap();
     let first = scans.next().await.unwrap().unwrap();
@@ -986,7 +986,7 @@ async fn the_scan_stream_follows_the_sonar_period_and_timeouts_cap_ranges() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 4)]
 async fn a_short_scan_published_by_anyone_is_skipped_by_readers() {
-    let rig = Rig::sim(Duration::from_millis(500)).await;
+    let rig = Harness::sim(Duration::from_millis(500)).await;
     let c = rig.client("reader", 128).await;
     let scans = c.scans().await.unwrap();
     let first = scans.next().await.unwrap().unwrap();
@@ -1083,7 +1083,7 @@ async fn in_lock_step_a_grant_and_a_queued_request_last_simulated_time() {
     // long the world stands still by the wall clock, its lock and its
     // queue wait for simulated time to pass.
     let clock = rome_clock::LockStep::new(0);
-    let (session, _) = Rig::session().await;
+    let (session, _) = Harness::session().await;
     let rec = Recorder::default();
     let config = ServerConfig::new(&Root::default(), "r1", Device::Base).unwrap();
     let _server = {
@@ -1094,7 +1094,7 @@ async fn in_lock_step_a_grant_and_a_queued_request_last_simulated_time() {
             })
             .await
     };
-    let rig = Rig {
+    let rig = Harness {
         port: 0,
         state: None,
         session: session.clone(),
@@ -1164,7 +1164,7 @@ async fn a_read_sent_right_behind_commands_sees_them_carried_out() {
     // A plain read is answered from the queryable's callback when nothing
     // is queued or being handled; one that arrives while set-poses sent
     // just before it are still in the queue must wait its turn.
-    let rig = Rig::sim(Duration::from_millis(500)).await;
+    let rig = Harness::sim(Duration::from_millis(500)).await;
     let z = rig.peer_session().await;
     let k = |c: &str| format!("rome/robot/r1/base/{c}");
     for round in 0..40i64 {
@@ -1201,7 +1201,7 @@ async fn a_read_sent_right_behind_commands_sees_them_carried_out() {
 async fn a_read_waits_behind_a_held_lock_like_any_request() {
     // The quick path for reads must not pass another client's lock: the
     // read waits in the queue until the lock goes, or times out there.
-    let rig = Rig::sim(Duration::from_millis(500)).await;
+    let rig = Harness::sim(Duration::from_millis(500)).await;
     let z = rig.peer_session().await;
     let pose = "rome/robot/r1/base/pose";
     // Served at once while nobody holds the lock.

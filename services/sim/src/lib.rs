@@ -14,6 +14,7 @@
 //!   sideways one (walls, doors, plates with digits, posters, glass bricks).
 //! - [`world`]: [`Sim`], the running world: robots, bumpers, wheel slip
 //!   (worse on metal), elevators, simulated time in fixed steps.
+//! - [`people`]: people walking the corridors to and fro.
 //! - [`pace`]: simulated time as fast as possible or at a multiple of real
 //!   time.
 //! - [`rng`]: the seeded generator that makes a run repeatable.
@@ -32,6 +33,7 @@
 pub mod camera;
 pub mod drive;
 pub mod pace;
+pub mod people;
 pub mod rng;
 pub mod scene;
 pub mod sonar;

@@ -22,10 +22,10 @@
 use crate::args::{CommonArgs, Side};
 use crate::exit;
 use anyhow::Context;
+use rome_harness::{self as run, Event, PassageState, RobotTick, RouteSpec, RunConfig};
 use rome_nav::board::GoalType;
 use rome_nav::report::Report;
 use rome_observe::record::Recorder;
-use rome_rig::{self as run, Event, PassageState, RobotTick, RouteSpec, RunConfig};
 use rome_sim::Noise;
 use std::io::{IsTerminal, Write};
 use std::path::PathBuf;

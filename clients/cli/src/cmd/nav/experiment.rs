@@ -17,7 +17,7 @@
 
 use crate::progress::Progress;
 use anyhow::Context;
-use rome_rig::experiment::{self, Outcome, Setup};
+use rome_harness::experiment::{self, Outcome, Setup};
 use rome_sim::Noise;
 use std::path::PathBuf;
 use std::time::Duration;
@@ -92,18 +92,18 @@ pub async fn run(args: Args) -> anyhow::Result<u8> {
         Some(path) => {
             let text = std::fs::read_to_string(path)
                 .with_context(|| format!("cannot read the routes file {}", path.display()))?;
-            Some(rome_rig::parse_routes(&path.display().to_string(), &text)?)
+            Some(rome_harness::parse_routes(&path.display().to_string(), &text)?)
         }
         None if args.map == "eb3" && args.plates => Some(
-            rome_rig::plates::TABLE_6_3
+            rome_harness::plates::TABLE_6_3
                 .iter()
-                .map(|(from, to)| rome_rig::RouteSpec::new("r1", from, to))
+                .map(|(from, to)| rome_harness::RouteSpec::new("r1", from, to))
                 .collect(),
         ),
         None if args.plates => anyhow::bail!("--plates runs Table 6.3's routes, which are on eb3"),
         None if args.map == "eb3" => None,
         None => match rome_maps::builtin::routes(&args.map) {
-            Some(text) => Some(rome_rig::parse_routes(
+            Some(text) => Some(rome_harness::parse_routes(
                 &format!("{} routes (built in)", args.map),
                 text,
             )?),
@@ -178,19 +178,19 @@ pub async fn run(args: Args) -> anyhow::Result<u8> {
         .filter_map(|o| o.report.as_ref().ok())
         .collect();
     let world = rome_maps::World::from_map(&setup.map);
-    let plate_rows: Vec<(String, rome_rig::plates::PlateRun)> = outcomes
+    let plate_rows: Vec<(String, rome_harness::plates::PlateRun)> = outcomes
         .iter()
         .filter_map(|o| {
             let r = o.report.as_ref().ok()?;
             let name = format!("{}: {}", o.trial.no, o.trial.path());
-            Some((name, rome_rig::plates::judge(r, &world)))
+            Some((name, rome_harness::plates::judge(r, &world)))
         })
         .collect();
     let summary = format!(
         "{}\n\n## Confidence (§6.3)\n\n{}\n## Door plates (§6.2, Tables 6.3 and 6.6)\n\n{}",
         experiment::summary(&outcomes),
-        rome_rig::confidence::markdown(&reports),
-        rome_rig::plates::markdown(&plate_rows)
+        rome_harness::confidence::markdown(&reports),
+        rome_harness::plates::markdown(&plate_rows)
     );
     println!("{md}\n{summary}");
     let md_path = args.out.join("runs.md");

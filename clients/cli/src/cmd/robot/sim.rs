@@ -117,7 +117,7 @@ pub fn world(args: &Args) -> anyhow::Result<(Sim, Vec<String>)> {
                 .with_context(|| format!("cannot place {name} at {pos}"))?;
             names.push(name);
         }
-        rome_rig::add_people(&mut sim, &map, args.people as usize, args.seed)?;
+        sim.add_people(&map, args.people as usize, args.seed)?;
         return Ok((sim, names));
     }
     let mut spots: Vec<(String, f64)> = sim
@@ -148,7 +148,7 @@ pub fn world(args: &Args) -> anyhow::Result<(Sim, Vec<String>)> {
         args.map,
         names.len()
     );
-    rome_rig::add_people(&mut sim, &map, args.people as usize, args.seed)?;
+    sim.add_people(&map, args.people as usize, args.seed)?;
     Ok((sim, names))
 }
 

@@ -3,8 +3,8 @@
 //! robots taking turns through a narrow passage, and a run whose mode is
 //! made to fail and is reported failed.
 
+use rome_harness::{self as run, Event, FleetReport, PassageState, RouteSpec, RunConfig};
 use rome_nav::report::Report;
-use rome_rig::{self as run, Event, FleetReport, PassageState, RouteSpec, RunConfig};
 use std::time::Duration;
 
 fn eb3() -> rome_maps::Map {

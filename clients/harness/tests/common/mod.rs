@@ -3,14 +3,14 @@
 
 use rome_client::net::NetOptions;
 use rome_client::{DataClient, DataOptions};
+use rome_harness::{Harness, RunConfig};
 use rome_maps::{Network, World};
 use rome_nav::board::Board;
 use rome_nav::plan::Plan;
-use rome_rig::{Rig, RunConfig};
 
 /// The rig, its stepping world, the heading of the route, and the
 /// planner's blackboard with its semaphores declared.
-pub async fn one_robot(speed: f64) -> (Rig, rome_sim_hardware::world::Stepper, f64, Board) {
+pub async fn one_robot(speed: f64) -> (Harness, rome_sim_hardware::world::Stepper, f64, Board) {
     let map = rome_maps::load_named("eb3").expect("eb3 loads");
     let world_map = World::from_map(&map);
     let network = Network::new(&map, &world_map);
@@ -20,7 +20,7 @@ pub async fn one_robot(speed: f64) -> (Rig, rome_sim_hardware::world::Stepper, f
     // These tests step the world themselves, against the wall clock.
     cfg.lockstep = false;
     cfg.speed = Some(speed);
-    let rig = Rig::start(&cfg, &[("r1".to_string(), plan)], NetOptions::isolated())
+    let rig = Harness::start(&cfg, &[("r1".to_string(), plan)], NetOptions::isolated())
         .await
         .expect("the rig starts");
     let stepper = rig.world.start(Some(speed));

@@ -4,8 +4,8 @@
 //! within a metre of its goal, having carried out every mode its plan
 //! needs (the L / C / D columns of Tables 6.1–6.2).
 
+use rome_harness::{self as run, RunConfig};
 use rome_nav::report::Report;
-use rome_rig::{self as run, RunConfig};
 use std::time::Duration;
 
 async fn drive(from: &str, to: &str, seed: u64) -> Report {

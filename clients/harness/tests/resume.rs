@@ -5,12 +5,12 @@
 mod common;
 
 use rome_client::{DataClient, DataOptions, RobotClient, RobotOptions};
+use rome_harness::Harness;
 use rome_nav::board::{Board, Goal, GoalType, Sem};
 use rome_nav::navigator::{NavConfig, Navigator};
-use rome_rig::Rig;
 use std::time::{Duration, Instant};
 
-async fn navigator(rig: &Rig) -> tokio::task::JoinHandle<Result<(), rome_nav::NavError>> {
+async fn navigator(rig: &Harness) -> tokio::task::JoinHandle<Result<(), rome_nav::NavError>> {
     let ds = DataClient::connect(&rig.session, DataOptions::new("navigator"))
         .await
         .expect("navigator data client");

@@ -3,13 +3,13 @@
 
 #![allow(clippy::unwrap_used)]
 
+use rome_harness::experiment::{self, Setup, Trial, CHAPTER6};
+use rome_harness::RouteSpec;
 use rome_maps::{Network, World};
 use rome_nav::board::GoalType;
 use rome_nav::navigator::NavConfig;
 use rome_nav::plan::Plan;
 use rome_nav::report::Report;
-use rome_rig::experiment::{self, Setup, Trial, CHAPTER6};
-use rome_rig::RouteSpec;
 use rome_sim::Noise;
 use std::time::Duration;
 
@@ -177,7 +177,7 @@ fn every_annex_route_is_planned_and_the_west_corridor_has_no_light_segment() {
     let world = World::from_map(&map);
     let network = Network::new(&map, &world);
     let routes =
-        rome_rig::parse_routes("annex", rome_maps::builtin::routes("annex").unwrap()).unwrap();
+        rome_harness::parse_routes("annex", rome_maps::builtin::routes("annex").unwrap()).unwrap();
     assert_eq!(routes.len(), 10);
     for r in &routes {
         Plan::new(&world, &network, &r.from, &r.to)
@@ -298,7 +298,7 @@ async fn the_annex_narrow_lightless_corridor_is_driven_and_the_plates_after_it_r
             .unwrap()
     };
     let five = run(5);
-    let plates = rome_rig::plates::judge(five, &world);
+    let plates = rome_harness::plates::judge(five, &world);
     assert_eq!(plates.detected, ["201", "203", "205", "207"], "{plates:?}");
     assert!(plates.false_reports.is_empty(), "{plates:?}");
     // Run 4 drives the lightless west corridor's whole length: mapped as
@@ -306,7 +306,7 @@ async fn the_annex_narrow_lightless_corridor_is_driven_and_the_plates_after_it_r
     // placed where they are (the odometry had drifted 3 m, all four
     // missed and reported as unnamed).
     let four = run(4);
-    let plates = rome_rig::plates::judge(four, &world);
+    let plates = rome_harness::plates::judge(four, &world);
     assert_eq!(
         plates.detected,
         ["223", "201", "203", "205", "291"],

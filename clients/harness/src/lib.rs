@@ -5,7 +5,7 @@
 //! and they drive at the same time. The result is a row of Table 6.1 per
 //! robot, judged by ground truth, and one picture of every trajectory.
 //!
-//! How this crate is laid out: [`Rig`] starts the servers and the
+//! How this crate is laid out: [`Harness`] starts the servers and the
 //! simulated world; [`run`] and [`run_fleet`] add each robot's clients
 //! from `rome-nav` and judge the run with its `report` module;
 //! [`experiment`] reruns Chapter 6's runs many at a time and tabulates
@@ -395,8 +395,8 @@ impl FleetReport {
 /// The world side of a run: the simulated robots put down at their plans'
 /// starts facing their routes, their hardware servers, the ground-truth
 /// server and a data server, on one Zenoh session. The world does not step
-/// until [`SimWorld::start`] is called on [`Rig::world`].
-pub struct Rig {
+/// until [`SimWorld::start`] is called on [`Harness::world`].
+pub struct Harness {
     /// The session the servers use.
     pub session: zenoh::Session,
     /// The simulated world.
@@ -407,7 +407,7 @@ pub struct Rig {
     data: Option<rome_data::Running>,
 }
 
-impl Rig {
+impl Harness {
     /// Builds the world for `plans` (robot name, plan) and starts the
     /// servers on a session opened with `net`; returns once every server
     /// is alive.
@@ -415,7 +415,7 @@ impl Rig {
         cfg: &RunConfig,
         plans: &[(String, Plan)],
         net: NetOptions,
-    ) -> Result<Rig, NavError> {
+    ) -> Result<Harness, NavError> {
         if let Some(speed) = cfg.speed.filter(|s| !(s.is_finite() && *s > 0.0)) {
             return Err(NavError::Config(format!(
                 "the simulation speed must be a positive number, got {speed}"
@@ -437,7 +437,8 @@ impl Rig {
                 .map_err(|e| NavError::Config(e.to_string()))?;
             index.push(i);
         }
-        add_people(&mut sim, &cfg.map, cfg.people, cfg.seed)?;
+        sim.add_people(&cfg.map, cfg.people, cfg.seed)
+            .map_err(|e| NavError::Config(e.to_string()))?;
         for name in &cfg.covered {
             let i = sim
                 .index(name)
@@ -495,7 +496,7 @@ impl Rig {
         }
         rome_client::alive::await_server(&session, &root, "sim", "truth", Duration::from_secs(10))
             .await?;
-        Ok(Rig {
+        Ok(Harness {
             session,
             world,
             index,
@@ -525,84 +526,6 @@ impl Rig {
         self.stop_data_server().await;
         let _ = self.session.close().await;
     }
-}
-
-/// Puts `n` people in the corridors of `map`, chosen with `seed`: each
-/// walks to and fro at 1.0–1.4 m/s between two turning spaces in sight of
-/// each other at least 8 m apart, to the right of the corridor's centre
-/// line (where the robots drive) as far as the corridor allows (at most
-/// 1.4 m), starting at least 3 m from every robot.
-pub fn add_people(sim: &mut Sim, map: &Map, n: usize, seed: u64) -> Result<(), NavError> {
-    if n == 0 {
-        return Ok(());
-    }
-    let world = World::from_map(map);
-    let network = Network::new(map, &world);
-    let points = network.waypoints();
-    let mut legs = Vec::new();
-    for (i, &a) in points.iter().enumerate() {
-        for &b in &points[i + 1..] {
-            if rome_maps::geometry::distance(a, b) >= 8_000.0 && network.clear(a, b) {
-                legs.push((a, b));
-            }
-        }
-    }
-    if legs.is_empty() {
-        return Err(NavError::Config(format!(
-            "the map '{}' has no corridor of 8 m or more for people to walk",
-            map.name
-        )));
-    }
-    let mut rng = rome_sim::rng::Rng::new(seed ^ 0x7065_6f70_6c65);
-    let starts: Vec<Point> = (0..sim.robots().len())
-        .map(|i| sim.robot(i).pose.at)
-        .collect();
-    let mut placed = 0;
-    let mut tries = 0;
-    while placed < n && tries < 1_000 * n {
-        tries += 1;
-        let k = (rng.next_u64() % legs.len() as u64) as usize;
-        let (mut a, mut b) = legs[k];
-        if rng.chance(0.5) {
-            std::mem::swap(&mut a, &mut b);
-        }
-        let along = (b - a).normalize();
-        // Keep right (of the direction walked), as far as the corridor
-        // lets a person of a robot's girth walk clear of its wall.
-        let side = rome_maps::geometry::Vector::new(along.y, -along.x);
-        // The simulator's own ray: what a body would touch (walls, doors,
-        // glass; not openings).
-        let free = [0.25, 0.5, 0.75]
-            .iter()
-            .map(|f| {
-                sim.scene()
-                    .ray_dir(
-                        a + (b - a) * *f,
-                        side,
-                        5_000.0,
-                        rome_sim::scene::Sense::Touch,
-                        &[],
-                        None,
-                    )
-                    .map_or(f64::INFINITY, |(d, _, _)| d)
-            })
-            .fold(f64::INFINITY, f64::min);
-        let offset = (free - rome_sim::spec::ROBOT_RADIUS_MM - 50.0).clamp(0.0, 1_400.0);
-        let right = side * offset;
-        let (from, to) = (a + right, b + right);
-        let start = from + (to - from) * rng.uniform();
-        if starts
-            .iter()
-            .any(|s| rome_maps::geometry::distance(*s, start) < 3_000.0)
-        {
-            continue;
-        }
-        let i = sim.add_walker(from, to, 1_000.0 + 400.0 * rng.uniform());
-        let w = &mut sim.walkers_mut()[i];
-        w.at = start;
-        placed += 1;
-    }
-    Ok(())
 }
 
 /// Runs one robot from its start to its goal; `progress` hears what
@@ -689,7 +612,7 @@ async fn run_all(
         });
         plans.push((r.robot.clone(), plan));
     }
-    let rig = Rig::start(&cfg, &plans, cfg.net.clone()).await?;
+    let rig = Harness::start(&cfg, &plans, cfg.net.clone()).await?;
     let session = rig.session.clone();
     let root = Root::default();
 
