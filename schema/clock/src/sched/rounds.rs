@@ -21,7 +21,8 @@
 //! from the state the last hand-over left: it waits only until the rounds
 //! before its own have been seen, and is answered in its round.
 
-use crate::{locked, LockStep, Sched, STEPPER};
+use crate::sched::{current, locked, Sched, STEPPER};
+use crate::LockStep;
 use std::sync::atomic::Ordering;
 use std::sync::{Arc, Mutex, Weak};
 
@@ -208,7 +209,7 @@ impl LockStep {
 
     /// The clock of the participant running on this thread.
     pub fn current() -> Option<LockStep> {
-        crate::current().map(|p| LockStep {
+        current().map(|p| LockStep {
             sched: p.sched.clone(),
         })
     }
@@ -217,7 +218,7 @@ impl LockStep {
 /// A stamp for a message sent now from a participant of a clock split
 /// into rounds; `None` elsewhere (nothing to stamp).
 pub fn stamp() -> Option<Stamp> {
-    let part = crate::current()?;
+    let part = current()?;
     let mut r = locked(&part.sched.rounds);
     if !r.on {
         return None;
@@ -235,7 +236,7 @@ pub fn stamp() -> Option<Stamp> {
 /// request that changes something is then answered only once its round
 /// is over, which the participant must not wait for busy.
 pub fn in_rounds() -> bool {
-    crate::current().is_some_and(|p| locked(&p.sched.rounds).on)
+    current().is_some_and(|p| locked(&p.sched.rounds).on)
 }
 
 /// Messages to one server, kept until their round allows them in; see the
