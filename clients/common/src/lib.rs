@@ -1,7 +1,7 @@
 //! What every `rome` command shares, whichever crate holds it.
 //!
 //! How this crate is laid out:
-//! - [`args`]: [`CommonArgs`](args::CommonArgs), the Zenoh and deployment
+//! - [`args`]: [`CommonArgs`], the Zenoh and deployment
 //!   flags of every command (`--connect`, `--listen`, `--mode`, `--config`,
 //!   `--no-multicast`, `--root`, `--identity` …), turned into network
 //!   options in one place.

@@ -6,8 +6,10 @@
 //! robot, judged by ground truth, and one picture of every trajectory.
 //!
 //! How this crate is laid out: [`Harness`] starts the servers and the
-//! simulated world; [`run`] and [`run_fleet`] add each robot's clients
-//! from `rome-nav` and judge the run with its `report` module;
+//! simulated world; [`run`] and [`run_fleet`] add each robot's crew
+//! (`rome_nav::crew`) and judge the run with `rome-nav`'s `report` module,
+//! telling whoever watches through [`events`]; [`routes`] reads and picks
+//! the robots' routes;
 //! [`experiment`] reruns Chapter 6's runs many at a time and tabulates
 //! them beside the thesis' (`rome experiment`); [`confidence`] is §6.3's
 //! automaton, its probabilities estimated from those runs. It
@@ -22,12 +24,13 @@ use rome_hardware::robot::Rates;
 use rome_maps::geometry::Point;
 use rome_maps::{Map, Network, World};
 use rome_nav::board::{Board, Var};
-use rome_nav::ctracker::{CTracker, TrackConfig};
-use rome_nav::himm::{Himm, HimmConfig};
-use rome_nav::navigator::{NavConfig, NavLog, Navigator};
+use rome_nav::crew::{Member, Reports};
+use rome_nav::ctracker::TrackConfig;
+use rome_nav::himm::HimmConfig;
+use rome_nav::navigator::{NavConfig, NavLog};
 use rome_nav::plan::Plan;
 use rome_nav::planner::{self, Handed, Progress};
-use rome_nav::plfinder::{PlConfig, PlFinder};
+use rome_nav::plfinder::PlConfig;
 use rome_nav::report::{Ended, Report};
 use rome_nav::NavError;
 use rome_schema::Root;
@@ -38,153 +41,14 @@ use std::time::{Duration, Instant};
 use tokio::sync::mpsc;
 
 pub mod confidence;
+pub mod events;
 pub mod experiment;
 pub mod plates;
+pub mod routes;
 
+pub use events::{Event, FleetReport, PassageState, RobotTick};
 pub use rome_nav::report::ARRIVED_CM;
-
-/// One robot's route.
-#[derive(Debug, Clone, PartialEq)]
-pub struct RouteSpec {
-    /// The robot's name (`r1`).
-    pub robot: String,
-    /// Start position (`350R`).
-    pub from: String,
-    /// Goal position (`376L`).
-    pub to: String,
-    /// The robot's cruising speed, mm/s, if not the Navigator's default.
-    pub cruise_mm_s: Option<f64>,
-    /// Positions the route goes through in order (the long way round).
-    pub via: Vec<String>,
-}
-
-impl RouteSpec {
-    /// Robot `robot` from `from` to `to` at the default speed.
-    pub fn new(robot: &str, from: &str, to: &str) -> RouteSpec {
-        RouteSpec {
-            robot: robot.into(),
-            from: from.into(),
-            to: to.into(),
-            cruise_mm_s: None,
-            via: Vec::new(),
-        }
-    }
-}
-
-/// Reads a routes file: one `FROM TO [SPEED] [via POS…]` a line (SPEED
-/// the cruising speed in mm/s; the route goes through the `via` positions
-/// in order; blank lines and `#` comments skipped); robot k is named `rk`.
-pub fn parse_routes(file: &str, text: &str) -> Result<Vec<RouteSpec>, NavError> {
-    let mut out = Vec::new();
-    for (i, line) in text.lines().enumerate() {
-        let line = line.split('#').next().unwrap_or("").trim();
-        if line.is_empty() {
-            continue;
-        }
-        let all: Vec<&str> = line.split_whitespace().collect();
-        let (words, via) = match all.iter().position(|w| *w == "via") {
-            Some(k) if k + 1 < all.len() => (&all[..k], &all[k + 1..]),
-            Some(_) => {
-                return Err(NavError::Config(format!(
-                    "{file}:{}: 'via' needs one position or more after it, got '{line}'",
-                    i + 1
-                )))
-            }
-            None => (&all[..], &[][..]),
-        };
-        let (from, to, speed) = match *words {
-            [from, to] => (from, to, None),
-            [from, to, speed] => (from, to, Some(speed)),
-            _ => {
-                return Err(NavError::Config(format!(
-                    "{file}:{}: expected 'FROM TO', 'FROM TO SPEED' (like '350R 376L 300') and 'via POS…' after either, got '{line}'",
-                    i + 1
-                )))
-            }
-        };
-        let cruise_mm_s = match speed {
-            None => None,
-            Some(w) => match w.parse::<f64>() {
-                Ok(v) if v > 0.0 && v <= 1_000.0 => Some(v),
-                _ => {
-                    return Err(NavError::Config(format!(
-                        "{file}:{}: speed '{w}' must be a number of mm/s in 0..=1000",
-                        i + 1
-                    )))
-                }
-            },
-        };
-        out.push(RouteSpec {
-            robot: format!("r{}", out.len() + 1),
-            from: from.into(),
-            to: to.into(),
-            cruise_mm_s,
-            via: via.iter().map(|v| (*v).to_string()).collect(),
-        });
-    }
-    if out.is_empty() {
-        return Err(NavError::Config(format!(
-            "{file}: no routes (one 'FROM TO' a line)"
-        )));
-    }
-    Ok(out)
-}
-
-/// Adds routes picked with `seed` to `routes` until there are `n`: door
-/// jambs at least 20 m apart with a plan between them, each robot starting
-/// at least 2 m from every other.
-pub fn pick_routes(
-    map: &Map,
-    mut routes: Vec<RouteSpec>,
-    n: usize,
-    seed: u64,
-) -> Result<Vec<RouteSpec>, NavError> {
-    let world = World::from_map(map);
-    let network = Network::new(map, &world);
-    // Door jambs only (`350R`), not ring nodes (`outer.NW`).
-    let doors: Vec<(&String, Point)> = world
-        .positions
-        .iter()
-        .filter(|(name, _)| !name.contains('.'))
-        .map(|(name, p)| (name, p.in_corridor()))
-        .collect();
-    let start_of = |name: &str| {
-        world
-            .position(name)
-            .map(|p| p.in_corridor())
-            .unwrap_or(Point::new(f64::NAN, f64::NAN))
-    };
-    let mut state = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
-    let mut next = |m: usize| {
-        state = state
-            .wrapping_mul(6_364_136_223_846_793_005)
-            .wrapping_add(1_442_695_040_888_963_407);
-        ((state >> 33) % m.max(1) as u64) as usize
-    };
-    let mut tries = 0;
-    while routes.len() < n && tries < 200 * n && doors.len() >= 2 {
-        tries += 1;
-        let (from, a) = doors[next(doors.len())];
-        let (to, b) = doors[next(doors.len())];
-        let clear = routes
-            .iter()
-            .all(|r| rome_maps::geometry::distance(start_of(&r.from), a) >= 2_000.0);
-        if !clear || rome_maps::geometry::distance(a, b) < 20_000.0 {
-            continue;
-        }
-        if Plan::new(&world, &network, from, to).is_ok() {
-            routes.push(RouteSpec::new(&format!("r{}", routes.len() + 1), from, to));
-        }
-    }
-    if routes.len() < n {
-        return Err(NavError::Config(format!(
-            "the map '{}' has routes for only {} robot(s) starting apart; give --routes",
-            map.name,
-            routes.len()
-        )));
-    }
-    Ok(routes)
-}
+pub use routes::{parse_routes, pick_routes, RouteSpec};
 
 /// What to run.
 #[derive(Debug, Clone)]
@@ -280,117 +144,6 @@ impl RunConfig {
 /// Simulated time per real time of a run against the wall clock with no
 /// speed given.
 pub const DEFAULT_WALL_SPEED: f64 = 4.0;
-
-/// Something to show while the robots drive; `robot` is the index in the
-/// configuration's routes.
-#[derive(Debug, Clone)]
-pub enum Event {
-    /// A robot's plan, before anything moves.
-    Planned {
-        /// Which robot.
-        robot: usize,
-        /// Its plan.
-        plan: Plan,
-    },
-    /// A goal handed to a Navigator.
-    Goal {
-        /// Which robot.
-        robot: usize,
-        /// The goal.
-        handed: Handed,
-    },
-    /// A goal done and judged.
-    Judged {
-        /// Which robot.
-        robot: usize,
-        /// The goal, with its verdict.
-        handed: Handed,
-    },
-    /// A robot waits for, holds or has left a narrow passage.
-    Passage {
-        /// Which robot.
-        robot: usize,
-        /// The passage.
-        passage: String,
-        /// What it is doing there.
-        state: PassageState,
-    },
-    /// A robot's run ended (arrived, failed or given up).
-    Finished {
-        /// Which robot.
-        robot: usize,
-        /// Its report.
-        report: Box<Report>,
-    },
-    /// The servers are up and the world is about to step: the run's
-    /// session, for whoever wants to listen in (a recorder, a viewer).
-    Started {
-        /// The session every server and client of the run shares.
-        session: zenoh::Session,
-    },
-    /// Once a simulated second or so: where every robot truly is.
-    Tick {
-        /// Simulated time since the start, s.
-        time_s: f64,
-        /// Each robot, in order.
-        robots: Vec<RobotTick>,
-    },
-}
-
-/// Where a robot is with a narrow passage.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum PassageState {
-    /// Stopped, waiting for it to be free.
-    Waiting,
-    /// Holding it (going through).
-    Holding,
-    /// Gave it back.
-    Left,
-}
-
-/// One robot's state in a [`Event::Tick`].
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct RobotTick {
-    /// True pose.
-    pub pose: Pose,
-    /// Distance truly driven, mm.
-    pub travelled_mm: f64,
-    /// How far odometry is from the truth, mm.
-    pub odometry_error_mm: f64,
-    /// Whether its run has ended.
-    pub finished: bool,
-}
-
-/// The outcome of a whole run: one report per robot, in order.
-#[derive(Debug, Clone)]
-pub struct FleetReport {
-    /// Each robot's run.
-    pub robots: Vec<Report>,
-    /// Wall-clock time of the whole run.
-    pub wall_time: Duration,
-}
-
-impl FleetReport {
-    /// The table: a header and one row per robot.
-    pub fn table(&self) -> String {
-        let mut out = Report::header();
-        for (i, r) in self.robots.iter().enumerate() {
-            out.push('\n');
-            out.push_str(&r.row(i + 1));
-        }
-        out
-    }
-
-    /// Every starred entry's reason.
-    pub fn reasons(&self) -> Vec<String> {
-        self.robots.iter().flat_map(Report::reasons).collect()
-    }
-
-    /// Every trajectory on the map, as PNG bytes.
-    pub fn picture(&self, map: &Map, world: &World, width_px: u32) -> Vec<u8> {
-        rome_nav::report::fleet_picture(&self.robots, map, world, width_px)
-    }
-}
 
 /// The world side of a run: the simulated robots put down at their plans'
 /// starts facing their routes, their hardware servers, the ground-truth
@@ -624,48 +377,37 @@ async fn run_all(
     for (k, (name, plan)) in plans.iter().enumerate() {
         let (board, robot) = connect(&session, name, "planner").await?;
         let truth = TruthClient::new(&session, &root, name)?;
-        {
-            let (board, robot) = connect(&session, name, "navigator").await?;
-            let mut nav_cfg = cfg.nav.clone();
-            if let Some(v) = cfg.routes[k].cruise_mm_s {
-                nav_cfg.cruise_mm_s = v;
-            }
-            let (ntx, mut nrx) = mpsc::unbounded_channel::<NavLog>();
-            let fwd = nav_tx.clone();
-            tokio::spawn(async move {
-                while let Some(log) = nrx.recv().await {
-                    let _ = fwd.send((k, log));
-                }
-            });
-            tasks.spawn(rome_clock::wrap(&format!("{name} navigator"), async move {
-                let r = Navigator::new(robot, board, nav_cfg)
-                    .run_reporting(&ntx)
-                    .await;
-                (k, r.map(|_| "navigator"))
-            }));
+        let mut nav_cfg = cfg.nav.clone();
+        if let Some(v) = cfg.routes[k].cruise_mm_s {
+            nav_cfg.cruise_mm_s = v;
         }
-        {
-            let (board, robot) = connect(&session, name, "ctracker").await?;
-            let track = cfg.track.clone();
-            tasks.spawn(rome_clock::wrap(&format!("{name} ctracker"), async move {
-                let r = CTracker::new(robot, board, track).run(None).await;
-                (k, r.map(|_| "ctracker"))
-            }));
-        }
+        let mut members = vec![
+            Member::Navigator(nav_cfg),
+            Member::CTracker(cfg.track.clone()),
+        ];
         if cfg.himm {
-            let (board, robot) = connect(&session, name, "mapper").await?;
-            let himm = cfg.himm_cfg.clone();
-            tasks.spawn(rome_clock::wrap(&format!("{name} mapper"), async move {
-                let r = Himm::new(robot, board, himm).run().await;
-                (k, r.map(|_| "mapper"))
-            }));
+            members.push(Member::Mapper(cfg.himm_cfg.clone()));
         }
         if cfg.plfinder {
-            let (board, robot) = connect(&session, name, "plfinder").await?;
-            let pl = PlConfig::with_map(&world_map);
-            tasks.spawn(rome_clock::wrap(&format!("{name} plfinder"), async move {
-                let r = PlFinder::new(robot, board, pl).run().await;
-                (k, r.map(|_| "plfinder"))
+            members.push(Member::PlFinder(PlConfig::with_map(&world_map)));
+        }
+        for member in members {
+            let role = member.role();
+            let (board, robot) = connect(&session, name, role).await?;
+            let mut reports = Reports::default();
+            if let Member::Navigator(_) = member {
+                let (ntx, mut nrx) = mpsc::unbounded_channel::<NavLog>();
+                let fwd = nav_tx.clone();
+                tokio::spawn(async move {
+                    while let Some(log) = nrx.recv().await {
+                        let _ = fwd.send((k, log));
+                    }
+                });
+                reports.nav = Some(ntx);
+            }
+            tasks.spawn(rome_clock::wrap(&format!("{name} {role}"), async move {
+                let r = member.run(robot, board, reports).await;
+                (k, r.map(|_| role))
             }));
         }
         crews.push(Crew {

@@ -10,6 +10,8 @@
 //!   Corner; L-, D-, E-Goal; Check-Bumper, Check-Goal); [`hallway`] is
 //!   what its states steer by (sonar geometry, hallway model, wall fits),
 //!   [`drive`] its settings and motion commands.
+//! - [`crew`]: a robot's crew (Navigator, CTracker, mapper, plate finder),
+//!   started one way in one process or in many.
 //! - [`ctracker`]: ceiling-light tracking from three scan lines (§5.6).
 //! - [`himm`]: the local mapper's histogram grid and Hough transform for
 //!   heading correction (§5.5).
@@ -20,6 +22,7 @@
 //!   the base's state stream, so readings are placed right over a slow link.
 
 pub mod board;
+pub mod crew;
 pub mod ctracker;
 pub mod drive;
 pub mod hallway;

@@ -3,7 +3,7 @@
 //! a chaos soak, and a fuzzer of every key a peer can reach.
 //!
 //! How this crate is laid out, a module per `rome` command:
-//! - [`bench`]: `rome bench data|robot|sim|mem|all`, each figure beside a
+//! - [`mod@bench`]: `rome bench data|robot|sim|mem|all`, each figure beside a
 //!   reference measured in the same run.
 //! - [`soak`]: `rome soak`, robots and data-server load while processes and
 //!   links are killed at random; then what a user relies on is checked.

@@ -154,8 +154,8 @@ pub fn now_ms() -> Option<u64> {
     current().map(|p| p.sched.now_ms.load(Ordering::Acquire))
 }
 
-/// A party of a [`LockStep`] clock in another process; see
-/// [`LockStep::external`].
+/// A party of a [`LockStep`](crate::LockStep) clock in another process; see
+/// [`LockStep::external`](crate::LockStep::external).
 pub struct External {
     pub(crate) sched: Arc<Sched>,
     pub(crate) state: Arc<ExternalState>,

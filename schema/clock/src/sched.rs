@@ -58,7 +58,7 @@ pub(crate) struct Turn {
     /// each polled (none until its task is first polled).
     pub(crate) ready: BTreeMap<u64, Option<Waker>>,
     /// A new time has been heard and not yet moved to: no participant
-    /// takes the turn until the clock has (see [`LockStep::announce`]).
+    /// takes the turn until the clock has (see [`LockStep::announce`](crate::LockStep::announce)).
     pub(crate) announced: bool,
 }
 

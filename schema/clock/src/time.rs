@@ -12,7 +12,6 @@ use std::time::Duration;
 
 /// A sleep in simulated time within a participant, in tokio's time
 /// elsewhere.
-
 pub struct Sleep {
     kind: SleepKind,
 }

@@ -5,7 +5,7 @@ use crate::drive::{Drive, Odometry, Registers};
 use crate::rng::Rng;
 use crate::scene::{self, Scene};
 use crate::sonar::{self, Body};
-use crate::spec::{SimConfig, IR_RANGE_MM, ROBOT_RADIUS_MM, SONARS, SONAR_MAX_MM};
+use crate::spec::{SimConfig, ROBOT_RADIUS_MM, SONARS, SONAR_MAX_MM};
 use image::GrayImage;
 use rome_maps::geometry::{pt, Heading, Point, Vector};
 use rome_maps::Map;
@@ -44,6 +44,7 @@ pub enum SimError {
 
 /// The true pose of a robot: the one pose type of the project.
 pub use rome_maps::geometry::Pose;
+mod sense;
 
 /// The bumpers.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -499,179 +500,6 @@ impl Sim {
         while self.time_ms < end {
             self.step();
         }
-    }
-
-    /// Fires those of robot `i`'s sonars whose turn in the ring's cycle of
-    /// `period` ms came during the last `dt_ms`: one after another in
-    /// [`sonar::FIRING_ORDER`], evenly spread over the cycle, each from where
-    /// the robot is when it fires. The infrared is read as a cycle begins;
-    /// [`Robot::sonar_at_ms`] moves on when a cycle ends.
-    fn fire_due(&mut self, i: usize, period: u64, dt_ms: u64) {
-        let into = self.time_ms % period;
-        let r = &mut self.robots[i];
-        let (at, heading) = (r.pose.at, r.pose.heading.deg());
-        let forward = r.pose.heading.unit();
-        for (k, &sonar) in sonar::FIRING_ORDER.iter().enumerate() {
-            let fires_at = k as u64 * period / SONARS as u64;
-            if (into + period - fires_at) % period >= dt_ms {
-                continue;
-            }
-            r.sonar[sonar] = sonar::fire(
-                &self.scene,
-                &self.open,
-                at,
-                forward,
-                sonar,
-                sonar::Others::Cells {
-                    start: &self.cell_start,
-                    bodies: &self.cell_bodies,
-                },
-                r.timeouts[sonar],
-                &self.config.noise,
-                &mut r.rng,
-                &mut self.scratch,
-            );
-            if k == 0 {
-                let mut near = std::mem::take(&mut self.near);
-                near.clear();
-                let (start, bodies) = (&self.cell_start, &self.cell_bodies);
-                let (cols, _) = self.scene.grid();
-                let reach = ROBOT_RADIUS_MM * 2.0 + IR_RANGE_MM;
-                let (x0, y0) = self.scene.cell_xy(at - Vector::repeat(reach));
-                let (x1, y1) = self.scene.cell_xy(at + Vector::repeat(reach));
-                for cy in y0..=y1 {
-                    for cx in x0..=x1 {
-                        let c = cy * cols + cx;
-                        near.extend(
-                            bodies[start[c] as usize..start[c + 1] as usize]
-                                .iter()
-                                .filter(|b| b.at != at),
-                        );
-                    }
-                }
-                r.infrared = sonar::infrared(
-                    &self.scene,
-                    &self.open,
-                    at,
-                    heading,
-                    &near,
-                    &mut self.scratch,
-                );
-                self.near = near;
-            }
-            if k == SONARS - 1 {
-                r.scan = r.sonar;
-                r.sonar_at_ms = self.time_ms;
-            }
-        }
-    }
-
-    /// Fires all of robot `i`'s sonars at once and reads its infrared now.
-    pub fn sense(&mut self, i: usize) {
-        if !self.cells_fresh {
-            self.rebuild_cells();
-        }
-        let mut others = std::mem::take(&mut self.near);
-        self.bodies_near(i, SONAR_MAX_MM + 2.0 * ROBOT_RADIUS_MM, &mut others);
-        let r = &mut self.robots[i];
-        let at = r.pose.at;
-        r.sonar = sonar::scan(
-            &self.scene,
-            &self.open,
-            at,
-            r.pose.heading.deg(),
-            &others,
-            &r.timeouts,
-            &self.config.noise,
-            &mut r.rng,
-            &mut self.scratch,
-        );
-        r.infrared = sonar::infrared(
-            &self.scene,
-            &self.open,
-            at,
-            r.pose.heading.deg(),
-            &others,
-            &mut self.scratch,
-        );
-        r.scan = r.sonar;
-        r.sonar_at_ms = self.time_ms;
-        self.near = others;
-    }
-
-    /// Covers one of robot `i`'s cameras: from now on it sees only black
-    /// (a fault to inject, to see a run fail the way a blind robot would).
-    pub fn cover_camera(&mut self, i: usize, which: Camera) {
-        self.robots[i].covered |= Self::camera_bit(which);
-    }
-
-    fn camera_bit(which: Camera) -> u8 {
-        match which {
-            Camera::Up => 1,
-            Camera::Side => 2,
-        }
-    }
-
-    /// Grabs both of robot `i`'s cameras now.
-    pub fn grab(&mut self, i: usize) {
-        self.grab_camera(i, Camera::Up);
-        self.grab_camera(i, Camera::Side);
-    }
-
-    /// Grabs one of robot `i`'s cameras now and returns the image (also
-    /// kept in the robot's `up` or `side`).
-    ///
-    /// A frame's pixel noise follows from the robot, the camera and the
-    /// instant alone, not from a generator the motion also draws on: grabs
-    /// asked for in any order, or twice, or not at all, change nothing else
-    /// in the world (a run repeats whatever order two servers' requests
-    /// arrive in).
-    pub fn grab_camera(&mut self, i: usize, which: Camera) -> GrayImage {
-        // The people the sideways camera could see.
-        let people: Vec<Point> = match which {
-            Camera::Side => {
-                let at = self.robots[i].pose.at;
-                self.walkers
-                    .iter()
-                    .map(|w| w.at)
-                    .filter(|p| nalgebra::distance(p, &at) < camera::SIDE_RANGE_MM)
-                    .collect()
-            }
-            Camera::Up => Vec::new(),
-        };
-        let r = &mut self.robots[i];
-        let mut frame = Rng::new(
-            r.camera_seed
-                ^ self.time_ms.wrapping_mul(0x9E37_79B9_7F4A_7C15)
-                ^ (u64::from(Self::camera_bit(which)) << 56),
-        );
-        let at = r.pose.at;
-        let size = self.config.image_size;
-        let px = &self.pixel_noise;
-        let image = if r.covered & Self::camera_bit(which) != 0 {
-            GrayImage::new(size.0, size.1)
-        } else {
-            match which {
-                Camera::Up => {
-                    camera::up_image(&self.scene, at, r.pose.heading.deg(), size, px, &mut frame)
-                }
-                Camera::Side => camera::side_image(
-                    &self.scene,
-                    &self.open,
-                    at,
-                    r.pose.heading.deg(),
-                    &people,
-                    size,
-                    px,
-                    &mut frame,
-                ),
-            }
-        };
-        match which {
-            Camera::Up => r.up = Some(image.clone()),
-            Camera::Side => r.side = Some(image.clone()),
-        }
-        image
     }
 
     fn rebuild_cells(&mut self) {

@@ -1,6 +1,7 @@
 //! Tests of `store`.
 
 use super::*;
+use rome_schema::data::WaitStatus;
 use serde_json::json;
 
 fn n(s: &str) -> Name {

@@ -16,12 +16,13 @@ use anyhow::Context;
 use rome_client::sim::TruthClient;
 use rome_client::{RobotClient, RobotOptions};
 use rome_nav::board::{Board, GoalType};
-use rome_nav::ctracker::{CTracker, TrackConfig};
-use rome_nav::himm::{Himm, HimmConfig};
-use rome_nav::navigator::{NavConfig, Navigator};
+use rome_nav::crew::{Member, Reports};
+use rome_nav::ctracker::TrackConfig;
+use rome_nav::himm::HimmConfig;
+use rome_nav::navigator::NavConfig;
 use rome_nav::plan::Plan;
 use rome_nav::planner::{self, Progress};
-use rome_nav::plfinder::{PlConfig, PlFinder};
+use rome_nav::plfinder::PlConfig;
 use rome_nav::report::{Ended, Report, ARRIVED_CM};
 
 /// The robot a client works for.
@@ -303,7 +304,9 @@ pub async fn navigator(common: &CommonArgs, args: NavigatorArgs) -> anyhow::Resu
         "navigator for robot '{}': waiting for goals",
         args.robot.robot
     );
-    Navigator::new(robot, board, cfg).run().await?;
+    Member::Navigator(cfg)
+        .run(robot, board, Reports::default())
+        .await?;
     Ok(exit::OK)
 }
 
@@ -320,7 +323,9 @@ pub async fn ctracker(common: &CommonArgs, args: CTrackerArgs) -> anyhow::Result
         cfg.cameras.len(),
         cfg.cameras
     );
-    CTracker::new(robot, board, cfg).run(None).await?;
+    Member::CTracker(cfg)
+        .run(robot, board, Reports::default())
+        .await?;
     Ok(exit::OK)
 }
 
@@ -328,7 +333,9 @@ pub async fn ctracker(common: &CommonArgs, args: CTrackerArgs) -> anyhow::Result
 pub async fn mapper(common: &CommonArgs, args: RobotArg) -> anyhow::Result<u8> {
     let (board, robot) = connect(common, &args.robot, "mapper").await?;
     println!("local mapper (HIMM) for robot '{}'", args.robot);
-    Himm::new(robot, board, HimmConfig::default()).run().await?;
+    Member::Mapper(HimmConfig::default())
+        .run(robot, board, Reports::default())
+        .await?;
     Ok(exit::OK)
 }
 
@@ -345,6 +352,8 @@ pub async fn plfinder(common: &CommonArgs, args: PlFinderArgs) -> anyhow::Result
         "plate finder for robot '{}' on camera '{}'",
         args.robot.robot, cfg.camera
     );
-    PlFinder::new(robot, board, cfg).run().await?;
+    Member::PlFinder(cfg)
+        .run(robot, board, Reports::default())
+        .await?;
     Ok(exit::OK)
 }
