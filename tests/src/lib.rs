@@ -4,6 +4,8 @@
 //!
 //! How this crate is laid out:
 //! - this file: the helpers;
+//! - [`house`]: the source tree's shape checked: file lengths, imports
+//!   between files, the crates' arrows;
 //! - [`decoders`]: every decoder of network input behind one signature,
 //!   for `fuzz/` and `tests/decoders.rs`;
 //! - [`relay`]: re-exported from `rome_client`: a TCP relay standing for a
@@ -13,6 +15,7 @@
 //! - `tests/`: the tests, one file per subject.
 
 pub mod decoders;
+pub mod house;
 /// The TCP relay, now part of the client library.
 pub use rome_client::relay;
 
