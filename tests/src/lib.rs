@@ -396,6 +396,39 @@ pub fn python_venv(
     dir.to_path_buf()
 }
 
+/// A simulated world on built-in map `map` with `robots` (name, position),
+/// each put down at its position facing along its wall: the start of
+/// every test that drives robots through their servers.
+pub fn world(
+    map: &str,
+    config: rome_sim::SimConfig,
+    robots: &[(&str, &str)],
+) -> rome_sim_hardware::SimWorld {
+    let map = rome_maps::load_named(map).expect("a built-in map");
+    let mut sim = rome_sim::Sim::new(&map, config);
+    for (robot, at) in robots {
+        let heading = sim
+            .scene()
+            .world
+            .position(at)
+            .expect("the position is on the map")
+            .wall_heading_deg;
+        sim.add_robot_at(robot, at, heading)
+            .expect("the robot put down");
+    }
+    rome_sim_hardware::SimWorld::new(sim)
+}
+
+/// The simulator's settings for a test that checks servers, not sensing:
+/// no noise, and cameras that grab only when asked.
+pub fn quiet() -> rome_sim::SimConfig {
+    rome_sim::SimConfig {
+        noise: rome_sim::Noise::none(),
+        camera_period_ms: 0,
+        ..rome_sim::SimConfig::default()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::TestDir;

@@ -10,9 +10,8 @@ use rome_client::net::{open_loopback_peer, NetOptions};
 use rome_client::{DataClient, DataOptions, RobotClient, RobotOptions};
 use rome_hardware::robot::{Rates, Running};
 use rome_schema::Root;
-use rome_sim::{Noise, Sim, SimConfig};
 use rome_sim_hardware::robot::spawn_sim_robot;
-use rome_sim_hardware::world::{SimWorld, Stepper};
+use rome_sim_hardware::world::Stepper;
 use rome_tests::relay::Relay;
 use std::time::{Duration, Instant};
 use zenoh::Session;
@@ -30,18 +29,7 @@ struct Link {
 
 async fn link() -> Link {
     let (near, port) = open_loopback_peer(&[]).await.unwrap();
-    let map = rome_maps::load_named("fig5_3").unwrap();
-    let mut sim = Sim::new(
-        &map,
-        SimConfig {
-            noise: Noise::none(),
-            camera_period_ms: 0,
-            ..SimConfig::default()
-        },
-    );
-    let heading = sim.scene().world.position("301L").unwrap().wall_heading_deg;
-    sim.add_robot_at("r1", "301L", heading).unwrap();
-    let world = SimWorld::new(sim);
+    let world = rome_tests::world("fig5_3", rome_tests::quiet(), &[("r1", "301L")]);
     let stepper = world.start(Some(1.0));
     let rates = Rates {
         state: Some(Duration::from_millis(50)),

@@ -10,9 +10,8 @@ use rome_client::{RobotClient, RobotOptions};
 use rome_hardware::robot::{Rates, Running};
 use rome_schema::robot::{BaseState, PoseReply, SonarReply, WheelSpeedReply};
 use rome_schema::{decode, ErrorCode, ErrorReply, Root};
-use rome_sim::{Noise, Sim, SimConfig};
 use rome_sim_hardware::robot::spawn_sim_robot;
-use rome_sim_hardware::world::{SimWorld, Stepper};
+use rome_sim_hardware::world::Stepper;
 use std::collections::BTreeMap;
 use std::time::Duration;
 use zenoh::query::ConsolidationMode;
@@ -29,20 +28,7 @@ struct Fleet {
 
 async fn fleet() -> Fleet {
     let (session, port) = open_loopback_peer(&[]).await.unwrap();
-    let map = rome_maps::load_named("eb3").unwrap();
-    let mut sim = Sim::new(
-        &map,
-        SimConfig {
-            noise: Noise::none(),
-            camera_period_ms: 0,
-            ..SimConfig::default()
-        },
-    );
-    for (robot, at) in ROBOTS {
-        let heading = sim.scene().world.position(at).unwrap().wall_heading_deg;
-        sim.add_robot_at(robot, at, heading).unwrap();
-    }
-    let world = SimWorld::new(sim);
+    let world = rome_tests::world("eb3", rome_tests::quiet(), &ROBOTS);
     let stepper = world.start(Some(1.0));
     let rates = Rates {
         state: Some(Duration::from_millis(50)),

@@ -13,9 +13,8 @@ use rome_hardware::ServerConfig;
 use rome_schema::robot::lock::{LockInfo, LockRecord};
 use rome_schema::robot::Device;
 use rome_schema::{ErrorCode, Root};
-use rome_sim::{Noise, Sim, SimConfig};
 use rome_sim_hardware::robot::spawn_sim_robot;
-use rome_sim_hardware::world::{SimWorld, Stepper};
+use rome_sim_hardware::world::Stepper;
 use rome_tests::{eventually, peer};
 use std::collections::VecDeque;
 use std::io::BufRead;
@@ -114,18 +113,7 @@ impl Harness {
     /// Robot r1 on the Figure 5.3 map, all its servers, world at real time.
     async fn sim(camera: Duration) -> Harness {
         let (session, port) = Self::session().await;
-        let map = rome_maps::load_named("fig5_3").unwrap();
-        let mut sim = Sim::new(
-            &map,
-            SimConfig {
-                noise: Noise::none(),
-                camera_period_ms: 0,
-                ..SimConfig::default()
-            },
-        );
-        let heading = sim.scene().world.position("301L").unwrap().wall_heading_deg;
-        sim.add_robot_at("r1", "301L", heading).unwrap();
-        let world = SimWorld::new(sim);
+        let world = rome_tests::world("fig5_3", rome_tests::quiet(), &[("r1", "301L")]);
         let stepper = world.start(Some(1.0));
         let rates = Rates {
             state: Some(Duration::from_millis(50)),

@@ -190,16 +190,7 @@ async fn commands_two_processes_send_one_base_at_one_instant_are_served_in_the_s
 async fn speed_left(slow: Slow) -> f64 {
     let root = Root::default();
     let (hub, port) = open_loopback_peer(&[]).await.expect("hub on loopback");
-    let map = rome_maps::load_named("fig5_3").expect("built-in map");
-    let mut sim = Sim::new(&map, SimConfig::default());
-    let heading = sim
-        .scene()
-        .world
-        .position("301L")
-        .expect("301L on the map")
-        .wall_heading_deg;
-    sim.add_robot_at("r1", "301L", heading).expect("r1 placed");
-    let world = SimWorld::new(sim);
+    let world = rome_tests::world("fig5_3", SimConfig::default(), &[("r1", "301L")]);
     let clock = rome_clock::LockStep::new(world.lock().time_ms());
     let rates = Rates {
         state: Some(Duration::from_millis(100)),

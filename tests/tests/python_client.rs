@@ -67,11 +67,7 @@ async fn python_client_drives_a_robot_from_docs_alone() {
         .await
         .unwrap();
     let (session, port) = open_loopback_peer(&[]).await.unwrap();
-    let map = rome_maps::load_named("fig5_3").unwrap();
-    let mut sim = rome_sim::Sim::new(&map, rome_sim::SimConfig::default());
-    let heading = sim.scene().world.position("301L").unwrap().wall_heading_deg;
-    sim.add_robot_at("r1", "301L", heading).unwrap();
-    let world = rome_sim_hardware::world::SimWorld::new(sim);
+    let world = rome_tests::world("fig5_3", rome_sim::SimConfig::default(), &[("r1", "301L")]);
     let _stepper = world.start(Some(1.0));
     let servers = rome_sim_hardware::robot::spawn_sim_robot(
         &session,

@@ -18,6 +18,7 @@
 //!   the shutdown future completes.
 //! - [`reply`], [`reply_err`], [`busy`]: answers, with failures to send
 //!   logged rather than returned (the asker may be gone).
+//! - [`Undeclared`]: a server that could not declare itself on Zenoh.
 
 use rome_clock::Held;
 use rome_schema::{encode, ErrorCode, ErrorReply};
@@ -338,5 +339,26 @@ pub async fn reply_err(query: &Query, e: &ErrorReply) {
         .await
     {
         tracing::warn!(error = %err, "error reply failed");
+    }
+}
+
+/// A server could not declare something on Zenoh (a queryable, a
+/// subscriber, a liveliness token): every server's first way to fail.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("could not declare {what}: {detail}")]
+pub struct Undeclared {
+    /// What was being declared.
+    pub what: String,
+    /// Zenoh's error.
+    pub detail: String,
+}
+
+impl Undeclared {
+    /// `what` could not be declared, for the reason in `e`.
+    pub fn new(what: &str, e: zenoh::Error) -> Undeclared {
+        Undeclared {
+            what: what.to_string(),
+            detail: e.to_string(),
+        }
     }
 }

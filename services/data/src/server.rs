@@ -104,13 +104,8 @@ impl Default for ServerConfig {
 #[derive(Debug, thiserror::Error)]
 pub enum ServerError {
     /// A Zenoh declaration failed.
-    #[error("could not declare {what}: {detail}")]
-    Declare {
-        /// What was being declared.
-        what: String,
-        /// Zenoh's error.
-        detail: String,
-    },
+    #[error(transparent)]
+    Declare(#[from] rome_serve::Undeclared),
     /// The state file could not be opened or read.
     #[error(transparent)]
     Disk(#[from] DiskError),
@@ -239,10 +234,7 @@ struct Server {
 }
 
 fn declare_err(what: &str, e: zenoh::Error) -> ServerError {
-    ServerError::Declare {
-        what: what.to_string(),
-        detail: e.to_string(),
-    }
+    ServerError::Declare(rome_serve::Undeclared::new(what, e))
 }
 
 /// Runs the data server on `session` until `shutdown` completes.

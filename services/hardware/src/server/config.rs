@@ -49,13 +49,8 @@ impl ServerConfig {
 #[derive(Debug, thiserror::Error)]
 pub enum ServerError {
     /// A Zenoh declaration failed.
-    #[error("could not declare {what}: {detail}")]
-    Declare {
-        /// What was being declared.
-        what: String,
-        /// Zenoh's error.
-        detail: String,
-    },
+    #[error(transparent)]
+    Declare(#[from] rome_serve::Undeclared),
     /// Another server already owns this device.
     #[error("{label} is already served (liveliness token '{key}'): each device has one server")]
     AlreadyServed {
@@ -71,8 +66,5 @@ pub enum ServerError {
 
 /// A declaration on Zenoh (`what`) failed.
 pub fn declare_err(what: &str, e: zenoh::Error) -> ServerError {
-    ServerError::Declare {
-        what: what.to_string(),
-        detail: e.to_string(),
-    }
+    ServerError::Declare(rome_serve::Undeclared::new(what, e))
 }
