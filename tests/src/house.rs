@@ -578,3 +578,6 @@ pub fn mermaid(crates: &BTreeMap<String, Crate>) -> String {
     }
     out
 }
+
+#[cfg(test)]
+mod tests;

@@ -1213,3 +1213,33 @@ async fn a_read_waits_behind_a_held_lock_like_any_request() {
     lock.unlock().await.unwrap();
     waiting.await.unwrap().unwrap();
 }
+
+/// Clients and the servers' holds tell reads from changes by
+/// `rome_schema::robot::READS`; each server lists its own reads: the two
+/// must agree, or a read would be held as a change (or a change let
+/// through as a read) in a run split into processes.
+#[test]
+fn every_read_a_server_lists_is_a_read_to_the_schema() {
+    use rome_hardware::base::Base;
+    use rome_hardware::camera::Camera;
+    use rome_hardware::proximity::Proximity;
+    use rome_hardware::server::Service;
+    let map = rome_maps::load_named("fig5_3").unwrap();
+    let mut sim = rome_sim::Sim::new(&map, rome_sim::SimConfig::default());
+    sim.add_robot_at("r1", "301L", 0.0).unwrap();
+    let world = rome_sim_hardware::SimWorld::new(sim);
+    let mut reads: Vec<&str> = Vec::new();
+    reads.extend(Base::new("r1", world.base("r1").unwrap(), None).reads());
+    reads.extend(Proximity::new("r1", world.proximity("r1").unwrap(), None).reads());
+    for which in rome_sim::Camera::ALL {
+        let camera = world.camera("r1", which).unwrap();
+        reads.extend(Camera::new("r1", which.name(), camera, Duration::from_secs(1)).reads());
+    }
+    assert!(reads.len() >= 8, "{reads:?}");
+    for read in reads {
+        assert!(
+            rome_schema::robot::READS.contains(&read),
+            "{read} is a read to its server but not in rome_schema::robot::READS"
+        );
+    }
+}

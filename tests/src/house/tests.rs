@@ -3,8 +3,8 @@
 //! without the simulator, and docs/architecture.md's picture of the
 //! crates as they are (`ROME_BLESS=1` writes it anew).
 
-use rome_tests::house::{self, MAX_LINES};
-use rome_tests::TestDir;
+use crate::house::{self, MAX_LINES};
+use crate::TestDir;
 use std::path::{Path, PathBuf};
 
 fn root() -> PathBuf {
@@ -51,7 +51,7 @@ fn the_hardware_servers_build_without_the_simulator() {
 }
 
 /// The text between docs/architecture.md's markers.
-const BEGIN: &str = "<!-- crates: begin (tests/tests/house.rs writes this) -->\n";
+const BEGIN: &str = "<!-- crates: begin (tests/src/house/tests.rs writes this) -->\n";
 const END: &str = "<!-- crates: end -->";
 
 #[test]
@@ -71,7 +71,7 @@ fn the_architecture_picture_shows_the_crates_as_they_are() {
     }
     assert_eq!(
         now, block,
-        "docs/architecture.md's picture is not the crates' (ROME_BLESS=1 cargo test -p rome-tests --test house writes it)"
+        "docs/architecture.md's picture is not the crates' (ROME_BLESS=1 cargo test -p rome-tests --lib house writes it)"
     );
 }
 
