@@ -5,9 +5,14 @@
 //! acknowledged write carries a payload, the JSON value itself. Replies are
 //! JSON objects, grouped below by the request that causes them. A failed
 //! request is answered with an [`ErrorReply`](crate::ErrorReply) instead.
+//!
+//! The requests themselves, each defined once with its encoding and its
+//! parsing, are in [`request`].
 
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
+
+pub mod request;
 
 /// Selector parameter names, shared by the server and every client.
 pub mod param {

@@ -6,6 +6,7 @@
 //! An input is split at its first two newlines into a key, selector
 //! parameters and a payload, so one byte string drives all three.
 
+use rome_data::cmd::Apply;
 use rome_hardware::base::Base;
 use rome_hardware::camera::Camera;
 use rome_hardware::proximity::Proximity;
@@ -43,7 +44,8 @@ pub fn data_request(bytes: &[u8]) {
     static STORE: OnceLock<Mutex<rome_data::Store>> = OnceLock::new();
     let (key, params, payload) = split(bytes);
     let root = Root::default();
-    let Ok(request) = rome_data::cmd::Request::parse(&root, &key, Params::parse(&params), payload)
+    let Ok(request) =
+        rome_schema::data::request::Request::parse(&root, &key, Params::parse(&params), payload)
     else {
         return;
     };

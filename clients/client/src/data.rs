@@ -9,12 +9,14 @@
 
 use crate::call::{self, refusal, selector, Answer, Waiting};
 use crate::ClientError;
+use rome_schema::data::request::{
+    Ack, Cancel, Command, Create, Get, History, Read, Set, Signal, TryWait, Wait,
+};
 use rome_schema::data::{
-    param, Committed, CreateReply, HistoryInfo, SemState, SetReply, SignalReply, TryWaitReply,
-    WaitReply, WaitStatus, MAX_HOLD_MS,
+    Committed, CreateReply, HistoryInfo, SemState, SignalReply, WaitStatus, MAX_HOLD_MS,
 };
 use rome_schema::keys::DataOp;
-use rome_schema::{decode, encode, ErrorCode, Name, Root};
+use rome_schema::{decode, ErrorCode, Name, Root};
 use serde::de::DeserializeOwned;
 use serde::Serialize;
 use serde_json::Value;
@@ -181,6 +183,7 @@ impl DataClient {
     /// One query attempt; `Ok(None)` when nothing answered in `timeout`.
     async fn attempt(
         &self,
+        op: DataOp,
         key: &str,
         params: &[(&str, String)],
         payload: Option<&[u8]>,
@@ -190,14 +193,8 @@ impl DataClient {
         // and so does a change that waits for its round to end in a run
         // split into processes; anything else is answered at once (busy:
         // the clock waits).
-        let held = rome_clock::in_rounds()
-            && !self
-                .inner
-                .options
-                .root
-                .parse_data(key)
-                .map_or(true, |k| k.op.only_reads());
-        let waiting = if held || params.iter().any(|(k, _)| *k == param::HOLD_MS) {
+        let held = rome_clock::in_rounds() && !op.only_reads();
+        let waiting = if held || op == DataOp::Wait {
             Waiting::Idle
         } else {
             Waiting::Busy
@@ -214,10 +211,24 @@ impl DataClient {
         .await
     }
 
+    /// A request, sent as its schema type encodes it; what it answers is
+    /// decoded as that type's reply.
+    async fn request<C: Command>(&self, command: &C) -> Result<C::Reply, ClientError> {
+        let what = match C::OP {
+            DataOp::Var => format!("value of '{}'", command.name()),
+            op => format!("{} reply", op.chunk()),
+        };
+        let key = command.key(&self.inner.options.root);
+        let payload = command.payload();
+        self.call(C::OP, &key, &command.params(), payload.as_deref(), &what)
+            .await
+    }
+
     /// A call, retried on silence until `request_timeout`; safe because
     /// every state-changing call carries an id.
     async fn call<T: DeserializeOwned>(
         &self,
+        op: DataOp,
         key: &str,
         params: &[(&str, String)],
         payload: Option<&[u8]>,
@@ -250,7 +261,7 @@ impl DataClient {
             // longer instead of abandoning every one at the same point.
             attempt_timeout =
                 (attempt_timeout * 2).min(o.max_attempt_timeout.max(o.attempt_timeout));
-            match self.attempt(key, params, payload, this_attempt).await? {
+            match self.attempt(op, key, params, payload, this_attempt).await? {
                 Some(Answer::Reply { body, .. }) => return Ok(decode(&body, what)?),
                 // Busy: the server took nothing in, so sending again is
                 // safe whatever the call; pause as for silence.
@@ -320,18 +331,13 @@ impl DataClient {
         name: &str,
         value: &(impl Serialize + ?Sized),
     ) -> Result<u64, ClientError> {
-        let name = Name::new(name)?;
-        let payload = encode(value);
-        let params = [(param::OP, self.next_id())];
-        let reply: SetReply = self
-            .call(
-                &self.key(DataOp::Set, &name),
-                &params,
-                Some(&payload),
-                "set reply",
-            )
-            .await?;
-        Ok(reply.seq)
+        let set = Set {
+            name: Name::new(name)?,
+            value: serde_json::to_value(value)
+                .map_err(|e| ClientError::Value(format!("'{name}': {e}")))?,
+            op: Some(self.next_id()),
+        };
+        Ok(self.request(&set).await?.seq)
     }
 
     /// Reads a variable's current value (`DataGetValue(DS, "PosX", 0)`).
@@ -342,18 +348,7 @@ impl DataClient {
     /// Reads the value `back` writes ago (`DataGetValue(DS, "PosX", -back)`).
     pub async fn get_back(&self, name: &str, back: u32) -> Result<Value, ClientError> {
         let name = Name::new(name)?;
-        let params: Vec<(&str, String)> = if back == 0 {
-            Vec::new()
-        } else {
-            vec![(param::BACK, back.to_string())]
-        };
-        self.call(
-            &self.key(DataOp::Var, &name),
-            &params,
-            None,
-            &format!("value of '{name}'"),
-        )
-        .await
+        self.request(&Get { name, back }).await
     }
 
     /// Reads a variable's current value as `T`.
@@ -371,26 +366,17 @@ impl DataClient {
     /// Sets how many values a variable keeps (`DataSetHistory(DS, "PosX", N)`).
     pub async fn set_history(&self, name: &str, len: u32) -> Result<HistoryInfo, ClientError> {
         let name = Name::new(name)?;
-        let params = [(param::LEN, len.to_string())];
-        self.call(
-            &self.key(DataOp::History, &name),
-            &params,
-            None,
-            "history reply",
-        )
+        self.request(&History {
+            name,
+            len: Some(len),
+        })
         .await
     }
 
     /// A variable's history length, stored count and commit number.
     pub async fn history(&self, name: &str) -> Result<HistoryInfo, ClientError> {
         let name = Name::new(name)?;
-        self.call(
-            &self.key(DataOp::History, &name),
-            &[],
-            None,
-            "history reply",
-        )
-        .await
+        self.request(&History { name, len: None }).await
     }
 
     /// Every variable the server knows, sorted by name.
@@ -478,9 +464,13 @@ impl DataClient {
         // Zenoh keeps a link's messages in order: once this read is
         // answered, the subscription declared before it has reached the
         // server. What the read finds does not matter.
-        let probe = self.key(DataOp::Var, &Name::new(WATCH_PROBE)?);
+        let probe = Get {
+            name: Name::new(WATCH_PROBE)?,
+            back: 0,
+        };
+        let key = probe.key(&self.inner.options.root);
         let _ = self
-            .attempt(&probe, &[], None, self.inner.options.request_timeout)
+            .attempt(Get::OP, &key, &[], None, self.inner.options.request_timeout)
             .await;
         Ok(Watch {
             subscriber,
@@ -499,14 +489,7 @@ impl DataClient {
         value: u64,
     ) -> Result<CreateReply, ClientError> {
         let name = Name::semaphore(name)?;
-        let params = [(param::VALUE, value.to_string())];
-        self.call(
-            &self.key(DataOp::Create, &name),
-            &params,
-            None,
-            "create reply",
-        )
-        .await
+        self.request(&Create { name, value }).await
     }
 
     /// up() (`DataSignal(DS, "$XYZ")`).
@@ -521,41 +504,27 @@ impl DataClient {
 
     /// up(), giving back this client's undo unit when `undo`.
     async fn up(&self, name: &str, undo: bool) -> Result<SignalReply, ClientError> {
-        let name = Name::semaphore(name)?;
-        let mut params = vec![(param::OP, self.next_id())];
-        if undo {
-            params.push((param::OWNER, self.inner.owner.clone()));
-            params.push((param::UNDO, "true".to_string()));
-        }
-        self.call(
-            &self.key(DataOp::Signal, &name),
-            &params,
-            None,
-            "signal reply",
-        )
-        .await
+        let signal = Signal {
+            name: Name::semaphore(name)?,
+            op: Some(self.next_id()),
+            undo_owner: undo.then(|| self.inner.owner.clone()),
+        };
+        self.request(&signal).await
     }
 
     /// Non-blocking down(): whether a unit was taken.
     pub async fn try_wait(&self, name: &str) -> Result<bool, ClientError> {
-        let name = Name::semaphore(name)?;
-        let params = [(param::OP, self.next_id())];
-        let reply: TryWaitReply = self
-            .call(
-                &self.key(DataOp::TryWait, &name),
-                &params,
-                None,
-                "try-wait reply",
-            )
-            .await?;
-        Ok(reply.acquired)
+        let try_wait = TryWait {
+            name: Name::semaphore(name)?,
+            op: Some(self.next_id()),
+        };
+        Ok(self.request(&try_wait).await?.acquired)
     }
 
     /// A semaphore's value and queue length.
     pub async fn semaphore(&self, name: &str) -> Result<SemState, ClientError> {
         let name = Name::semaphore(name)?;
-        self.call(&self.key(DataOp::Sem, &name), &[], None, "semaphore state")
-            .await
+        self.request(&Read { name }).await
     }
 
     /// Every semaphore, sorted by name.
@@ -605,14 +574,13 @@ impl DataClient {
                 .unwrap_or(o.hold)
                 .min(o.hold)
                 .min(Duration::from_millis(MAX_HOLD_MS));
-            let mut params = vec![
-                (param::TICKET, ticket.clone()),
-                (param::OWNER, self.inner.owner.clone()),
-                (param::HOLD_MS, hold.as_millis().to_string()),
-            ];
-            if undo {
-                params.push((param::UNDO, "true".to_string()));
-            }
+            let wait = Wait {
+                name: name.clone(),
+                ticket: Some(ticket.clone()),
+                owner: Some(self.inner.owner.clone()),
+                hold,
+                undo,
+            };
             let tried = Instant::now();
             // A hold is simulated time in a lock-step run, which may go
             // slower than the wall clock: the server answers when it ends.
@@ -621,13 +589,16 @@ impl DataClient {
             } else {
                 hold + o.max_attempt_timeout
             };
-            match self.attempt(&key, &params, None, patience).await? {
+            match self
+                .attempt(Wait::OP, &key, &wait.params(), None, patience)
+                .await?
+            {
                 Some(Answer::Refused(e)) if e.code == ErrorCode::Busy => {
                     self.busy(&mut backoff, Duration::MAX).await
                 }
                 Some(Answer::Refused(e)) => return Err(ClientError::Server(e)),
                 Some(Answer::Reply { body, .. }) => {
-                    let reply: WaitReply = decode(&body, "wait reply")?;
+                    let reply: <Wait as Command>::Reply = decode(&body, "wait reply")?;
                     match reply.status {
                         WaitStatus::Granted => {
                             if self.confirm(&name, &ticket).await? {
@@ -652,25 +623,20 @@ impl DataClient {
 
     /// Confirms a grant; `false` if the server had taken it back.
     async fn confirm(&self, name: &Name, ticket: &str) -> Result<bool, ClientError> {
-        let params = [(param::TICKET, ticket.to_string())];
-        let reply: WaitReply = self
-            .call(&self.key(DataOp::Ack, name), &params, None, "ack reply")
-            .await?;
-        Ok(reply.status == WaitStatus::Confirmed)
+        let ack = Ack {
+            name: name.clone(),
+            ticket: ticket.to_string(),
+        };
+        Ok(self.request(&ack).await?.status == WaitStatus::Confirmed)
     }
 
     /// Cancels a wait at its deadline; takes the unit if it came meanwhile.
     async fn give_up(&self, name: &Name, ticket: &str) -> Result<bool, ClientError> {
-        let params = [(param::TICKET, ticket.to_string())];
-        let reply: WaitReply = self
-            .call(
-                &self.key(DataOp::Cancel, name),
-                &params,
-                None,
-                "cancel reply",
-            )
-            .await?;
-        match reply.status {
+        let cancel = Cancel {
+            name: name.clone(),
+            ticket: ticket.to_string(),
+        };
+        match self.request(&cancel).await?.status {
             WaitStatus::Granted => self.confirm(name, ticket).await,
             WaitStatus::Confirmed => Ok(true),
             _ => Ok(false),

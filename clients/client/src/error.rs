@@ -25,6 +25,10 @@ pub enum ClientError {
     /// A reply could not be decoded: the server speaks another version.
     #[error("unexpected reply: {0}")]
     Decode(#[from] DecodeError),
+    /// A value to write cannot be written as JSON (a map with keys that
+    /// are not strings …); nothing was sent.
+    #[error("cannot write the value as JSON: {0}")]
+    Value(String),
     /// Zenoh itself failed (bad configuration, session closed …).
     #[error("zenoh: {0}")]
     Zenoh(String),

@@ -18,15 +18,18 @@
 
 use crate::call::{self, selector, Answer, Waiting};
 use crate::ClientError;
+use rome_schema::robot::command::{
+    Command, Grab, ReadBumper, ReadIr, ReadMode, ReadPose, ReadSize, ReadSonar, ReadSpeed,
+    ReadWheelSpeed, ReleaseLock, Rows, TakeLock,
+};
 use rome_schema::robot::{
     format_rows, param, robot_name, AdjustPose, Band, BaseState, BumperReply, Device, Done,
     FrameInfo, Go, IrReply, Jog, LockGrant, MaxRange, ModeReply, Move, PoseReply, Scan, SetBumper,
-    SetPose, SetTimeout, SizeReply, SonarReply, SpeedReply, Stop, TimeoutReply, Turn, Unlocked,
+    SetPose, SetTimeout, SizeReply, SonarReply, SpeedReply, Stop, TimeoutReply, Turn,
     WheelSpeedReply, DEFAULT_LOCK_TTL_MS, DEFAULT_PRIORITY, SONARS,
 };
-use rome_schema::{decode, encode, ErrorCode, Name, Root};
+use rome_schema::{decode, ErrorCode, Name, Root};
 use serde::de::DeserializeOwned;
-use serde::Serialize;
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
@@ -45,19 +48,6 @@ static NEXT_CLIENT: AtomicU64 = AtomicU64::new(1);
 
 /// How often a command that acts is sent at most when no reply comes.
 pub const ACTING_ATTEMPTS: u32 = 3;
-
-/// Commands that change something on the device: each carries a request id.
-const ACTING: &[&str] = &[
-    "move",
-    "turn",
-    "go",
-    "jog",
-    "stop",
-    "set-pose",
-    "adjust-pose",
-    "set-bumper",
-    "timeout",
-];
 
 static NEXT_OP: AtomicU64 = AtomicU64::new(1);
 
@@ -187,11 +177,7 @@ impl Lock {
         self.client.forget(&self.device, fence);
         let (client, device) = (self.client.clone(), self.device.clone());
         async move {
-            let params = [(param::FENCE, fence.to_string())];
-            match client
-                .json::<Unlocked>(&device, "unlock", &params, None::<&()>, false)
-                .await
-            {
+            match client.json(&device, &ReleaseLock { fence }, false).await {
                 Ok(_) => Ok(()),
                 // The lock is no longer this client's (a server restarted,
                 // or the grant lapsed): there is nothing left to release.
@@ -278,25 +264,26 @@ impl RobotClient {
         }
     }
 
-    /// One query; the reply's bytes and encoding.
-    async fn raw(
+    /// One command, sent as its schema type encodes it, with the
+    /// parameters every command carries; the reply's bytes and encoding.
+    async fn raw<C: Command>(
         &self,
         device: &Device,
-        command: &str,
-        extra: &[(&str, String)],
-        payload: Option<Vec<u8>>,
+        command: &C,
         queued: bool,
     ) -> Result<(Vec<u8>, Encoding), ClientError> {
         let o = &self.inner.options;
-        let key = o.root.robot(&self.inner.robot, device, command);
-        let mut params: Vec<(&str, String)> = extra.to_vec();
+        let key = o.root.robot(&self.inner.robot, device, C::NAME);
+        let payload = command.payload();
+        let mut params = command.params();
+        let explicit_fence = params.iter().any(|(k, _)| *k == param::FENCE);
         if o.priority != DEFAULT_PRIORITY {
             params.push((param::PRIORITY, o.priority.to_string()));
         }
         if o.deadman {
             params.push((param::CLIENT, self.inner.owner.clone()));
         }
-        let acting = ACTING.contains(&command);
+        let acting = C::ACTS;
         if acting {
             let n = NEXT_OP.fetch_add(1, Ordering::Relaxed);
             params.push((param::OP, format!("{}-{n}", self.inner.owner)));
@@ -305,7 +292,7 @@ impl RobotClient {
             }
         }
         let holds = self.fence(device);
-        if let (Some(f), false) = (holds, extra.iter().any(|(k, _)| *k == param::FENCE)) {
+        if let (Some(f), false) = (holds, explicit_fence) {
             params.push((param::FENCE, f.to_string()));
         }
         let wait = if queued && holds.is_none() {
@@ -367,26 +354,19 @@ impl RobotClient {
         Err(no_reply(device, key, started.elapsed()))
     }
 
-    async fn json<T: DeserializeOwned>(
+    /// One command whose reply is JSON, decoded as the command's reply.
+    async fn json<C: Command>(
         &self,
         device: &Device,
-        command: &str,
-        params: &[(&str, String)],
-        body: Option<&(impl Serialize + ?Sized)>,
+        command: &C,
         queued: bool,
-    ) -> Result<T, ClientError> {
-        let (bytes, _) = self
-            .raw(device, command, params, body.map(|b| encode(b)), queued)
-            .await?;
-        Ok(decode(&bytes, &format!("'{command}' reply"))?)
+    ) -> Result<C::Reply, ClientError> {
+        let (bytes, _) = self.raw(device, command, queued).await?;
+        Ok(decode(&bytes, &format!("'{}' reply", C::NAME))?)
     }
 
-    async fn base<T: DeserializeOwned>(
-        &self,
-        command: &str,
-        body: Option<&(impl Serialize + ?Sized)>,
-    ) -> Result<T, ClientError> {
-        self.json(&Device::Base, command, &[], body, true).await
+    async fn base<C: Command>(&self, command: &C) -> Result<C::Reply, ClientError> {
+        self.json(&Device::Base, command, true).await
     }
 
     // ----- base (RServer, Table 4.1) ---------------------------------------
@@ -404,7 +384,7 @@ impl RobotClient {
             velocity_mm_s,
             accel_mm_s2,
         };
-        self.base("move", Some(&m)).await
+        self.base(&m).await
     }
 
     /// `RobotTurn`: turn by `degrees`, positive clockwise.
@@ -419,27 +399,27 @@ impl RobotClient {
             velocity_deg_s,
             accel_deg_s2,
         };
-        self.base("turn", Some(&t)).await
+        self.base(&t).await
     }
 
     /// `RobotGo`: Go mode at a velocity.
     pub async fn go(&self, velocity_mm_s: f64) -> Result<Done, ClientError> {
-        self.base("go", Some(&Go { velocity_mm_s })).await
+        self.base(&Go { velocity_mm_s }).await
     }
 
     /// `RobotJog`: Jog mode at a turn rate, positive clockwise.
     pub async fn jog(&self, rate_deg_s: f64) -> Result<Done, ClientError> {
-        self.base("jog", Some(&Jog { rate_deg_s })).await
+        self.base(&Jog { rate_deg_s }).await
     }
 
     /// `RobotStop`: at once (`emergency`) or gradually.
     pub async fn stop(&self, emergency: bool) -> Result<Done, ClientError> {
-        self.base("stop", Some(&Stop { emergency })).await
+        self.base(&Stop { emergency }).await
     }
 
     /// `RobotGetPos`: the pose in virtual 32-bit coordinates.
     pub async fn pose(&self) -> Result<PoseReply, ClientError> {
-        self.base("pose", None::<&()>).await
+        self.base(&ReadPose).await
     }
 
     /// `RobotSetPos`: sets the position registers.
@@ -454,7 +434,7 @@ impl RobotClient {
             y_mm,
             heading_deg,
         };
-        self.base("set-pose", Some(&p)).await
+        self.base(&p).await
     }
 
     /// `RobotAdjPos`: adds to the position and heading.
@@ -469,32 +449,32 @@ impl RobotClient {
             dy_mm,
             dheading_deg,
         };
-        self.base("adjust-pose", Some(&a)).await
+        self.base(&a).await
     }
 
     /// `RobotGetBumper`: the bumper status.
     pub async fn bumper(&self) -> Result<BumperReply, ClientError> {
-        self.base("bumper", None::<&()>).await
+        self.base(&ReadBumper).await
     }
 
     /// `RobotSetBumper`: watch (stop on contact) or ignore the bumpers.
     pub async fn set_bumper(&self, watch: bool) -> Result<Done, ClientError> {
-        self.base("set-bumper", Some(&SetBumper { watch })).await
+        self.base(&SetBumper { watch }).await
     }
 
     /// `RobotGetSpeed`: the velocity setting.
     pub async fn speed(&self) -> Result<SpeedReply, ClientError> {
-        self.base("speed", None::<&()>).await
+        self.base(&ReadSpeed).await
     }
 
     /// `RobotGetWSpeed`: the mean wheel speed.
     pub async fn wheel_speed(&self) -> Result<WheelSpeedReply, ClientError> {
-        self.base("wheel-speed", None::<&()>).await
+        self.base(&ReadWheelSpeed).await
     }
 
     /// `RobotGetMode`: the operating mode.
     pub async fn mode(&self) -> Result<ModeReply, ClientError> {
-        self.base("mode", None::<&()>).await
+        self.base(&ReadMode).await
     }
 
     /// `RobotLock`: waits for the base's lock token (in the queue like any
@@ -512,14 +492,12 @@ impl RobotClient {
 
     /// `ProxReadSonar`: the 24 sonar ranges, mm.
     pub async fn sonar(&self) -> Result<SonarReply, ClientError> {
-        self.json(&Device::Proximity, "sonar", &[], None::<&()>, true)
-            .await
+        self.json(&Device::Proximity, &ReadSonar, true).await
     }
 
     /// `ProxReadInfraRed`: 24 infrared slots, 1 = something near.
     pub async fn infrared(&self) -> Result<IrReply, ClientError> {
-        self.json(&Device::Proximity, "ir", &[], None::<&()>, true)
-            .await
+        self.json(&Device::Proximity, &ReadIr, true).await
     }
 
     /// `ProxSetTimeout`: each sonar's maximum range, mm.
@@ -527,8 +505,7 @@ impl RobotClient {
         let body = SetTimeout {
             max_mm: MaxRange::Each(max_mm.to_vec()),
         };
-        self.json(&Device::Proximity, "timeout", &[], Some(&body), true)
-            .await
+        self.json(&Device::Proximity, &body, true).await
     }
 
     /// Subscribes to the scan stream.
@@ -544,14 +521,13 @@ impl RobotClient {
 
     /// `CameraGetSize`.
     pub async fn camera_size(&self, camera: &str) -> Result<SizeReply, ClientError> {
-        self.json(&Self::camera(camera)?, "size", &[], None::<&()>, true)
-            .await
+        self.json(&Self::camera(camera)?, &ReadSize, true).await
     }
 
     /// `CameraGrab`: the last image the server grabbed.
     pub async fn camera_grab(&self, camera: &str) -> Result<Image, ClientError> {
         let (bytes, encoding) = self
-            .raw(&Self::camera(camera)?, "grab", &[], None, true)
+            .raw(&Self::camera(camera)?, &Grab { png: false }, true)
             .await?;
         image(bytes, &encoding)
     }
@@ -560,10 +536,10 @@ impl RobotClient {
     /// A reply that does not carry exactly the rows asked for, in order,
     /// is an error, so `row(k)` is the `k`-th row asked for.
     pub async fn camera_rows(&self, camera: &str, rows: &[u32]) -> Result<Image, ClientError> {
-        let params = [(param::ROWS, format_rows(rows))];
-        let (bytes, encoding) = self
-            .raw(&Self::camera(camera)?, "rows", &params, None, true)
-            .await?;
+        let ask = Rows {
+            rows: rows.to_vec(),
+        };
+        let (bytes, encoding) = self.raw(&Self::camera(camera)?, &ask, true).await?;
         let img = image(bytes, &encoding)?;
         if img.rows != rows {
             return Err(ClientError::Server(rome_schema::ErrorReply::new(
@@ -592,13 +568,12 @@ impl RobotClient {
 
     async fn lock_device(&self, device: Device) -> Result<Lock, ClientError> {
         let o = &self.inner.options;
-        let params = [
-            (param::OWNER, self.inner.owner.clone()),
-            (param::TTL_MS, o.lock_ttl.as_millis().to_string()),
-        ];
-        let grant: LockGrant = self
-            .json(&device, "lock", &params, None::<&()>, true)
-            .await?;
+        let take = TakeLock {
+            owner: Some(self.inner.owner.clone()),
+            ttl_ms: Some(o.lock_ttl.as_millis() as u64),
+            renew: None,
+        };
+        let grant = self.json(&device, &take, true).await?;
         self.fences().insert(device.path(), grant.fence);
         let renew = tokio::spawn(renew(self.clone(), device.clone(), grant.fence, o.lock_ttl));
         Ok(Lock {
@@ -646,13 +621,12 @@ async fn renew(client: RobotClient, device: Device, fence: u64, ttl: Duration) {
     let every = ttl / 3;
     loop {
         rome_clock::sleep(every).await;
-        let params = [
-            (param::OWNER, client.inner.owner.clone()),
-            (param::FENCE, fence.to_string()),
-        ];
-        let renewed: Result<LockGrant, ClientError> = client
-            .json(&device, "lock", &params, None::<&()>, false)
-            .await;
+        let take = TakeLock {
+            owner: Some(client.inner.owner.clone()),
+            ttl_ms: None,
+            renew: Some(fence),
+        };
+        let renewed = client.json(&device, &take, false).await;
         match renewed {
             Ok(_) => {}
             Err(e) if e.code() == Some(ErrorCode::StaleFence) => {

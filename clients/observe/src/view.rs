@@ -611,7 +611,12 @@ impl std::fmt::Display for NoPicture {
 /// camera's queue and 3 s in all, so that the camera gives up on the
 /// request before the asker does.
 pub(crate) async fn grab_png(session: &Session, camera: &str) -> Result<Vec<u8>, NoPicture> {
-    let key = format!("{camera}/grab?format=png;wait_ms=2000;priority=64");
+    use rome_schema::robot::{command::Command, command::Grab, param};
+    let mut params = Grab { png: true }.params();
+    params.push((param::WAIT_MS, "2000".into()));
+    params.push((param::PRIORITY, "64".into()));
+    let params: Vec<String> = params.iter().map(|(k, v)| format!("{k}={v}")).collect();
+    let key = format!("{camera}/{}?{}", Grab::NAME, params.join(";"));
     let replies = session
         .get(&key)
         .timeout(Duration::from_secs(3))

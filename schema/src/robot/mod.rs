@@ -19,7 +19,8 @@
 //! parameters and priorities; the messages are grouped by device, each in
 //! its own file and re-exported here: [`base`], [`proximity`], [`camera`],
 //! and [`lock`] for the lock token the base and cameras share; [`body`]
-//! has the robot's physical figures.
+//! has the robot's physical figures. [`command`] defines every command
+//! once, with its key chunk, payload and reply, for both ends.
 
 use crate::{keys::Name, ErrorReply, KeyError, Params, Root};
 use serde::Deserialize;
@@ -27,6 +28,7 @@ use serde::Deserialize;
 pub mod base;
 pub mod body;
 pub mod camera;
+pub mod command;
 pub mod lock;
 pub mod proximity;
 

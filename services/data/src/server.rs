@@ -29,7 +29,7 @@
 //! them, and they come no faster than peers can come and go. The queues and
 //! the loop are `rome_serve`'s, shared with the hardware servers.
 
-use crate::cmd::{Params, Request};
+use crate::cmd::{Apply, Params, Request};
 use crate::store::{Disk, DiskError, Flush, Grant, Store};
 use rome_clock::Instant;
 use rome_schema::data::{Committed, Rejected, WaitReply, WaitStatus, DEFAULT_HISTORY};
@@ -701,8 +701,8 @@ impl Quick {
         // answer is on its way.
         let mut wake = None;
         let applied = match Request::parse(&self.root, key, params, payload.as_deref()) {
-            Ok(Request::Get(get)) => get.apply(&lock(&self.store)),
-            Ok(Request::Read(read)) => read.apply(&lock(&self.store)),
+            Ok(Request::Get(get)) => get.apply(&mut lock(&self.store), Instant::now()),
+            Ok(Request::Read(read)) => read.apply(&mut lock(&self.store), Instant::now()),
             Ok(
                 request @ (Request::Set(_)
                 | Request::Signal(_)

@@ -28,30 +28,32 @@ use crate::device::{BaseDevice, BaseOp, BaseStatus, DeviceError};
 use crate::locked;
 use crate::server::{Body, QuickRead, Service};
 use crate::vxy::{Pose32, Pose32Target, VirtualPose};
+use rome_schema::robot::command::{
+    parse_payload, Command, ReadBumper, ReadMode, ReadPose, ReadSpeed, ReadWheelSpeed,
+};
 use rome_schema::robot::{
     AdjustPose, BaseState, BumperReply, Done, Go, Jog, LockInfo, ModeReply, Move, PoseReply,
     SetBumper, SetPose, SpeedReply, Stop, Turn, WheelSpeedReply,
 };
-use rome_schema::{decode, ErrorCode, ErrorReply, Params};
-use serde::de::DeserializeOwned;
+use rome_schema::{ErrorCode, ErrorReply, Params};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 /// The base server's commands (lock and unlock come with every lockable server).
 pub const COMMANDS: &[&str] = &[
-    "move",
-    "turn",
-    "go",
-    "jog",
-    "stop",
-    "pose",
-    "set-pose",
-    "adjust-pose",
-    "bumper",
-    "set-bumper",
-    "speed",
-    "wheel-speed",
-    "mode",
+    Move::NAME,
+    Turn::NAME,
+    Go::NAME,
+    Jog::NAME,
+    Stop::NAME,
+    ReadPose::NAME,
+    SetPose::NAME,
+    AdjustPose::NAME,
+    ReadBumper::NAME,
+    SetBumper::NAME,
+    ReadSpeed::NAME,
+    ReadWheelSpeed::NAME,
+    ReadMode::NAME,
 ];
 
 /// A parsed base command.
@@ -97,11 +99,11 @@ enum Read {
 impl Read {
     fn of(command: &str) -> Option<Read> {
         Some(match command {
-            "pose" => Read::Pose,
-            "bumper" => Read::Bumper,
-            "speed" => Read::Speed,
-            "wheel-speed" => Read::WheelSpeed,
-            "mode" => Read::Mode,
+            ReadPose::NAME => Read::Pose,
+            ReadBumper::NAME => Read::Bumper,
+            ReadSpeed::NAME => Read::Speed,
+            ReadWheelSpeed::NAME => Read::WheelSpeed,
+            ReadMode::NAME => Read::Mode,
             _ => return None,
         })
     }
@@ -185,41 +187,6 @@ fn device_error(e: DeviceError) -> ErrorReply {
     }
 }
 
-/// Decodes a command's JSON payload strictly, naming the command.
-pub(crate) fn payload<T: DeserializeOwned>(
-    command: &str,
-    payload: Option<&[u8]>,
-    example: &str,
-) -> Result<T, ErrorReply> {
-    let bytes = payload.filter(|p| !p.is_empty()).ok_or_else(|| {
-        ErrorReply::new(
-            ErrorCode::BadJson,
-            format!("'{command}' needs a JSON payload such as {example}"),
-        )
-    })?;
-    decode(bytes, &format!("'{command}' payload")).map_err(|e| {
-        let text = e.to_string();
-        let code = if text.contains("invalid type") || text.contains("missing field") {
-            ErrorCode::WrongType
-        } else {
-            ErrorCode::BadJson
-        };
-        ErrorReply::new(code, format!("{text}; expected {example}"))
-    })
-}
-
-fn finite(command: &str, fields: &[(&str, f64)]) -> Result<(), ErrorReply> {
-    for (name, v) in fields {
-        if !v.is_finite() {
-            return Err(ErrorReply::new(
-                ErrorCode::OutOfRange,
-                format!("'{command}': {name} must be a finite number"),
-            ));
-        }
-    }
-    Ok(())
-}
-
 impl<D: BaseDevice> Service for Base<D> {
     type Cmd = BaseCmd;
 
@@ -232,7 +199,13 @@ impl<D: BaseDevice> Service for Base<D> {
     }
 
     fn reads(&self) -> &'static [&'static str] {
-        &["pose", "speed", "wheel-speed", "mode", "bumper"]
+        &[
+            ReadPose::NAME,
+            ReadSpeed::NAME,
+            ReadWheelSpeed::NAME,
+            ReadMode::NAME,
+            ReadBumper::NAME,
+        ]
     }
 
     fn parse(
@@ -251,71 +224,28 @@ impl<D: BaseDevice> Service for Base<D> {
             }
         };
         Ok(match command {
-            "move" => {
-                let m: Move =
-                    payload(command, body, r#"{"distance_mm":2000,"velocity_mm_s":300}"#)?;
-                finite(
-                    command,
-                    &[
-                        ("distance_mm", m.distance_mm),
-                        ("velocity_mm_s", m.velocity_mm_s),
-                        ("accel_mm_s2", m.accel_mm_s2),
-                    ],
-                )?;
-                BaseCmd::Op(BaseOp::Move(m))
-            }
-            "turn" => {
-                let t: Turn = payload(command, body, r#"{"degrees":90}"#)?;
-                finite(
-                    command,
-                    &[
-                        ("degrees", t.degrees),
-                        ("velocity_deg_s", t.velocity_deg_s),
-                        ("accel_deg_s2", t.accel_deg_s2),
-                    ],
-                )?;
-                BaseCmd::Op(BaseOp::Turn(t))
-            }
-            "go" => {
-                let g: Go = payload(command, body, r#"{"velocity_mm_s":400}"#)?;
-                finite(command, &[("velocity_mm_s", g.velocity_mm_s)])?;
-                BaseCmd::Op(BaseOp::Go(g.velocity_mm_s))
-            }
-            "jog" => {
-                let j: Jog = payload(command, body, r#"{"rate_deg_s":-4}"#)?;
-                finite(command, &[("rate_deg_s", j.rate_deg_s)])?;
-                BaseCmd::Op(BaseOp::Jog(j.rate_deg_s))
-            }
-            "stop" => {
+            Move::NAME => BaseCmd::Op(BaseOp::Move(parse_payload(body)?)),
+            Turn::NAME => BaseCmd::Op(BaseOp::Turn(parse_payload(body)?)),
+            Go::NAME => BaseCmd::Op(BaseOp::Go(parse_payload::<Go>(body)?.velocity_mm_s)),
+            Jog::NAME => BaseCmd::Op(BaseOp::Jog(parse_payload::<Jog>(body)?.rate_deg_s)),
+            Stop::NAME => {
+                // A stop without a payload is a gradual one.
                 let s: Stop = match body {
-                    Some(b) if !b.is_empty() => payload(command, body, r#"{"emergency":true}"#)?,
+                    Some(b) if !b.is_empty() => parse_payload(body)?,
                     _ => Stop::default(),
                 };
                 BaseCmd::Op(BaseOp::Stop(s.emergency))
             }
-            "set-pose" => {
-                let p: SetPose = payload(command, body, r#"{"x_mm":0,"y_mm":0,"heading_deg":90}"#)?;
-                finite(command, &[("heading_deg", p.heading_deg)])?;
-                BaseCmd::SetPose(p)
+            SetPose::NAME => BaseCmd::SetPose(parse_payload(body)?),
+            AdjustPose::NAME => BaseCmd::AdjustPose(parse_payload(body)?),
+            SetBumper::NAME => {
+                BaseCmd::Op(BaseOp::SetBumper(parse_payload::<SetBumper>(body)?.watch))
             }
-            "adjust-pose" => {
-                let a: AdjustPose = payload(
-                    command,
-                    body,
-                    r#"{"dx_mm":-120,"dy_mm":0,"dheading_deg":1.5}"#,
-                )?;
-                finite(command, &[("dheading_deg", a.dheading_deg)])?;
-                BaseCmd::AdjustPose(a)
-            }
-            "set-bumper" => {
-                let s: SetBumper = payload(command, body, r#"{"watch":true}"#)?;
-                BaseCmd::Op(BaseOp::SetBumper(s.watch))
-            }
-            "pose" => no_payload(BaseCmd::Pose)?,
-            "bumper" => no_payload(BaseCmd::Bumper)?,
-            "speed" => no_payload(BaseCmd::Speed)?,
-            "wheel-speed" => no_payload(BaseCmd::WheelSpeed)?,
-            "mode" => no_payload(BaseCmd::Mode)?,
+            ReadPose::NAME => no_payload(BaseCmd::Pose)?,
+            ReadBumper::NAME => no_payload(BaseCmd::Bumper)?,
+            ReadSpeed::NAME => no_payload(BaseCmd::Speed)?,
+            ReadWheelSpeed::NAME => no_payload(BaseCmd::WheelSpeed)?,
+            ReadMode::NAME => no_payload(BaseCmd::Mode)?,
             other => {
                 return Err(ErrorReply::new(
                     ErrorCode::UnknownKey,

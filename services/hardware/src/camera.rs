@@ -15,6 +15,7 @@
 use crate::device::{CameraDevice, Frame};
 use crate::locked;
 use crate::server::{Body, QuickRead, Service};
+use rome_schema::robot::command::{Command, Grab, ReadSize, Rows};
 pub use rome_schema::robot::MAX_ROWS;
 use rome_schema::robot::{format_rows, param, parse_rows, FrameInfo, Gray8, LockInfo, SizeReply};
 use rome_schema::{ErrorCode, ErrorReply, Params};
@@ -23,7 +24,7 @@ use std::time::Duration;
 use zenoh::bytes::Encoding;
 
 /// The camera server's commands.
-pub const COMMANDS: &[&str] = &["size", "grab", "rows"];
+pub const COMMANDS: &[&str] = &[ReadSize::NAME, Grab::NAME, Rows::NAME];
 /// The thesis' grab period.
 pub const DEFAULT_PERIOD: Duration = Duration::from_millis(500);
 /// Longest row list a reply can describe (as ranges), characters: the rest
@@ -206,7 +207,7 @@ impl<D: CameraDevice> Service for Camera<D> {
     }
 
     fn reads(&self) -> &'static [&'static str] {
-        &["size"]
+        &[ReadSize::NAME]
     }
 
     fn parse(
@@ -216,26 +217,19 @@ impl<D: CameraDevice> Service for Camera<D> {
         _body: Option<&[u8]>,
     ) -> Result<CameraCmd, ErrorReply> {
         match command {
-            "size" => {
+            ReadSize::NAME => {
                 params.finish(command, &["priority", "fence", "wait_ms", "client", "op"])?;
                 Ok(CameraCmd::Size)
             }
-            "grab" => {
-                let format = params.take_id(param::FORMAT)?;
+            Grab::NAME => {
+                let grab = Grab::parse(&mut params)?;
                 params.finish(
                     command,
                     &["format", "priority", "fence", "wait_ms", "client", "op"],
                 )?;
-                match format.as_deref() {
-                    None | Some("raw") => Ok(CameraCmd::Grab { png: false }),
-                    Some("png") => Ok(CameraCmd::Grab { png: true }),
-                    Some(other) => Err(ErrorReply::new(
-                        ErrorCode::BadParameter,
-                        format!("'grab': format must be 'raw' or 'png', got '{other}'"),
-                    )),
-                }
+                Ok(CameraCmd::Grab { png: grab.png })
             }
-            "rows" => {
+            Rows::NAME => {
                 let (_, height) = self.device.size();
                 let rows = rows_param(params, height)?;
                 Ok(CameraCmd::Rows(rows))
@@ -271,7 +265,7 @@ impl<D: CameraDevice> Service for Camera<D> {
     fn quick(&self) -> Option<QuickRead> {
         let (last, (_, height)) = (self.last.clone(), self.device.size());
         Some(Arc::new(move |command: &str, params: Params| {
-            if command != "rows" {
+            if command != Rows::NAME {
                 return None;
             }
             let rows = rows_param(params, height).ok()?;

@@ -8,9 +8,9 @@
 //! rome/robot/<robot>/proximity/scan      published for every new scan
 //! ```
 
-use crate::base::payload;
 use crate::device::{DeviceError, ProximityDevice, RawScan};
 use crate::server::{Body, QuickRead, Service};
+use rome_schema::robot::command::{parse_payload, Command, ReadIr, ReadSonar};
 use rome_schema::robot::{
     IrReply, LockInfo, MaxRange, Scan, SetTimeout, SonarReply, TimeoutReply, SONARS,
 };
@@ -18,7 +18,7 @@ use rome_schema::{ErrorCode, ErrorReply, Params};
 use std::time::Duration;
 
 /// The proximity server's commands.
-pub const COMMANDS: &[&str] = &["sonar", "ir", "timeout"];
+pub const COMMANDS: &[&str] = &[ReadSonar::NAME, ReadIr::NAME, SetTimeout::NAME];
 /// The longest maximum range a sonar can be given, mm (its physical reach).
 pub const MAX_RANGE_MM: u32 = 10_000;
 /// The shortest, mm (inside the transducer's ring-down nothing is heard).
@@ -127,7 +127,7 @@ impl<D: ProximityDevice> Service for Proximity<D> {
     }
 
     fn reads(&self) -> &'static [&'static str] {
-        &["sonar", "ir"]
+        &[ReadSonar::NAME, ReadIr::NAME]
     }
 
     fn parse(
@@ -138,10 +138,10 @@ impl<D: ProximityDevice> Service for Proximity<D> {
     ) -> Result<ProxCmd, ErrorReply> {
         params.finish(command, &["priority", "wait_ms", "client", "op"])?;
         match command {
-            "sonar" => Ok(ProxCmd::Sonar),
-            "ir" => Ok(ProxCmd::Ir),
-            "timeout" => {
-                let t: SetTimeout = payload(command, body, r#"{"max_mm":5000}"#)?;
+            ReadSonar::NAME => Ok(ProxCmd::Sonar),
+            ReadIr::NAME => Ok(ProxCmd::Ir),
+            SetTimeout::NAME => {
+                let t: SetTimeout = parse_payload(body)?;
                 Ok(ProxCmd::Timeout(ranges(t.max_mm)?))
             }
             other => Err(ErrorReply::new(
@@ -175,8 +175,8 @@ impl<D: ProximityDevice> Service for Proximity<D> {
         Some(std::sync::Arc::new(move |command: &str, params: Params| {
             params.finish(command, &[]).ok()?;
             let read = match command {
-                "sonar" => Read::Sonar,
-                "ir" => Read::Ir,
+                ReadSonar::NAME => Read::Sonar,
+                ReadIr::NAME => Read::Ir,
                 _ => return None,
             };
             Some(read_body(read, peek()?))

@@ -11,9 +11,9 @@
 
 use crate::gate::{Admit, Gate, Holder};
 use rome_clock::Instant;
-use rome_schema::robot::{
-    param, LockGrant, LockInfo, Meta, Unlocked, DEFAULT_LOCK_TTL_MS, LOCK_TTL_RANGE_MS,
-};
+use rome_schema::robot::command::{Command, ReleaseLock, TakeLock};
+use rome_schema::robot::Stop;
+use rome_schema::robot::{param, LockGrant, LockInfo, Meta, Unlocked, DEFAULT_LOCK_TTL_MS};
 use rome_schema::{encode, ErrorCode, ErrorReply, Params};
 use rome_serve::{reply_err, Handler, Inbox, Periods};
 use std::collections::{HashMap, VecDeque};
@@ -375,22 +375,16 @@ impl<S: Service> Server<S> {
     ) -> Result<Op<S::Cmd>, ErrorReply> {
         let lockable = self.service.lockable();
         match command {
-            "lock" if lockable => {
-                let owner = params
-                    .take_id(param::OWNER)?
-                    .unwrap_or_else(|| "anonymous".into());
-                let (lo, hi) = LOCK_TTL_RANGE_MS;
-                let ttl = params
-                    .take_int(param::TTL_MS, i128::from(lo), i128::from(hi))?
-                    .map_or(DEFAULT_LOCK_TTL_MS, |t| t as u64);
-                params.finish("lock", &[param::OWNER, param::TTL_MS])?;
+            TakeLock::NAME if lockable => {
+                let lock = TakeLock::parse(&mut params, fence)?;
+                params.finish(TakeLock::NAME, &[param::OWNER, param::TTL_MS])?;
                 Ok(Op::Lock {
-                    owner,
-                    ttl: Duration::from_millis(ttl),
+                    owner: lock.owner.unwrap_or_else(|| "anonymous".into()),
+                    ttl: Duration::from_millis(lock.ttl_ms.unwrap_or(DEFAULT_LOCK_TTL_MS)),
                 })
             }
-            "unlock" if lockable => {
-                params.finish("unlock", &[param::FENCE])?;
+            ReleaseLock::NAME if lockable => {
+                params.finish(ReleaseLock::NAME, &[param::FENCE])?;
                 let fence = fence.ok_or_else(|| {
                     ErrorReply::new(
                         ErrorCode::BadParameter,
@@ -404,7 +398,7 @@ impl<S: Service> Server<S> {
                 if !known.contains(&command) {
                     let mut all: Vec<&str> = known.to_vec();
                     if lockable {
-                        all.extend(["lock", "unlock"]);
+                        all.extend([TakeLock::NAME, ReleaseLock::NAME]);
                     }
                     return Err(ErrorReply::new(
                         ErrorCode::UnknownKey,
@@ -554,7 +548,7 @@ impl<S: Service> Server<S> {
         }
         let mut others: Vec<&str> = self.service.commands().to_vec();
         if self.service.lockable() {
-            others.extend(["lock", "unlock"]);
+            others.extend([TakeLock::NAME, ReleaseLock::NAME]);
         }
         others.extend(self.last.keys().copied());
         let hit: Vec<&str> = others.into_iter().filter(|c| matches(c)).collect();
@@ -653,7 +647,7 @@ impl<S: Service> Server<S> {
                     self.gate
                         .suppress(p.priority, p.client.clone(), suppress, now);
                 }
-                if result.is_ok() && (moving || p.command == "stop") {
+                if result.is_ok() && (moving || p.command == Stop::NAME) {
                     // A command without a client id leaves nobody to watch:
                     // the device is no longer tied to the last one's life.
                     self.mover = if moving { p.client.clone() } else { None };

@@ -1,27 +1,12 @@
-use super::{Applied, Params};
+use super::{Applied, Apply};
 use crate::store::Store;
-use rome_schema::{ErrorReply, Name};
+use rome_clock::Instant;
+use rome_schema::data::request::Read;
+use rome_schema::ErrorReply;
 
-/// Reads a semaphore's value and queue length.
-///
-/// ```text
-/// get rome/data/sem/GoalData   -> {"name":"GoalData","value":0,"waiters":1}
-/// ```
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Read {
-    /// The semaphore.
-    pub name: Name,
-}
-
-impl Read {
-    /// Takes no parameters.
-    pub fn parse(name: Name, params: Params) -> Result<Self, ErrorReply> {
-        params.finish("sem", &[])?;
-        Ok(Read { name })
-    }
-
-    /// Reads the state.
-    pub fn apply(self, store: &Store) -> Result<Applied, ErrorReply> {
+impl Apply for Read {
+    /// Reads the semaphore's state.
+    fn apply(self, store: &mut Store, _: Instant) -> Result<Applied, ErrorReply> {
         Ok(Applied::reply(&store.semaphore(&self.name)?))
     }
 }

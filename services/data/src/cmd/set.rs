@@ -1,66 +1,12 @@
-use super::{Applied, Params};
+use super::{Applied, Apply};
 use crate::store::Store;
 use rome_clock::Instant;
-use rome_schema::data::{param, MAX_VALUE_BYTES};
-use rome_schema::{decode, ErrorCode, ErrorReply, Name};
-use serde_json::Value;
+use rome_schema::data::request::Set;
+use rome_schema::ErrorReply;
 
-/// Acknowledged write: the reply comes after the value is committed, so
-/// the writer's next read sees it (read-your-writes). A plain Zenoh `put`
-/// on `var/<name>` writes too, without a reply.
-///
-/// ```text
-/// get rome/data/set/PosX?op=c7-12  payload: 4  -> {"name":"PosX","seq":12}
-/// ```
-///
-/// `op` makes a retry safe: the same id is committed once.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Set {
-    /// The variable.
-    pub name: Name,
-    /// The new value: any JSON.
-    pub value: Value,
-    /// Idempotency id.
-    pub op: Option<String>,
-}
-
-/// Decodes a variable's value from a payload, naming the variable on error.
-pub fn value_from_payload(name: &Name, payload: Option<&[u8]>) -> Result<Value, ErrorReply> {
-    let bytes = payload.unwrap_or_default();
-    if bytes.is_empty() {
-        return Err(ErrorReply::new(
-            ErrorCode::BadJson,
-            format!("writing '{name}' needs a JSON value as payload (for example 4, \"text\" or {{\"x_mm\":1}}); the payload is empty"),
-        ));
-    }
-    if bytes.len() > MAX_VALUE_BYTES {
-        return Err(ErrorReply::new(
-            ErrorCode::OutOfRange,
-            format!(
-                "value of '{name}' is {} bytes; the limit is {MAX_VALUE_BYTES} (bulk data belongs to the camera servers, not the data server)",
-                bytes.len()
-            ),
-        ));
-    }
-    decode(bytes, &format!("value of '{name}'"))
-        .map_err(|e| ErrorReply::new(ErrorCode::BadJson, e.to_string()))
-}
-
-impl Set {
-    /// Parses the payload and `op`.
-    pub fn parse(
-        name: Name,
-        mut params: Params,
-        payload: Option<&[u8]>,
-    ) -> Result<Self, ErrorReply> {
-        let op = params.take_id(param::OP)?;
-        params.finish("set", &[param::OP])?;
-        let value = value_from_payload(&name, payload)?;
-        Ok(Set { name, value, op })
-    }
-
-    /// Commits the write.
-    pub fn apply(self, store: &mut Store, now: Instant) -> Result<Applied, ErrorReply> {
+impl Apply for Set {
+    /// Commits the write; the commit is published on `watch/<name>`.
+    fn apply(self, store: &mut Store, now: Instant) -> Result<Applied, ErrorReply> {
         let written = store.set(&self.name, self.value, self.op.as_deref(), now)?;
         let mut applied = Applied::reply(&written.reply);
         applied.commit = written.commit;

@@ -1,0 +1,90 @@
+use super::Command;
+use crate::data::{param, WaitReply, DEFAULT_HOLD_MS, MAX_HOLD_MS};
+use crate::keys::DataOp;
+use crate::{ErrorReply, Name, Params};
+use std::time::Duration;
+
+/// Blocking down() (the thesis' `DataWait(DS, "$XYZ")`): answered
+/// `granted` as soon as a unit is the ticket's, or `pending` after
+/// `hold_ms` (the client asks again with the same ticket, keeping its
+/// place in the queue).
+///
+/// ```text
+/// get rome/data/wait/XYZ?ticket=c7-15;owner=c7;hold_ms=10000
+///     -> {"name":"XYZ","ticket":"c7-15","status":"granted"}
+///     -> {"name":"XYZ","ticket":"c7-15","status":"pending","position":2}
+/// get rome/data/wait/XYZ?hold_ms=3000        (anonymous, e.g. from z_get)
+///     -> {"name":"XYZ","ticket":"anon-4","status":"timed_out"}
+/// ```
+///
+/// With an `owner` (the last chunk of the client's liveliness token
+/// `rome/alive/client/<role>/<owner>`) a grant is provisional until
+/// `ack`; if the owner disappears first, its place is dropped and the
+/// unit goes back. An anonymous wait's grant is final, and it leaves the
+/// queue when its hold runs out.
+///
+/// With `undo=true` (owner required) the confirmed unit stays on the
+/// owner's account: it comes back by itself when the owner is gone, unless
+/// the owner gave it back first with `signal?owner=…;undo=true`.
+///
+/// ```text
+/// get rome/data/wait/passage/J?ticket=c7-16;owner=c7;undo=true
+/// ```
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Wait {
+    /// The semaphore.
+    pub name: Name,
+    /// The wait's identity across retries.
+    pub ticket: Option<String>,
+    /// The waiting client's liveliness id.
+    pub owner: Option<String>,
+    /// How long the server may hold the query.
+    pub hold: Duration,
+    /// The unit stays on the owner's account until given back.
+    pub undo: bool,
+}
+
+impl Command for Wait {
+    const OP: DataOp = DataOp::Wait;
+    type Reply = WaitReply;
+
+    fn name(&self) -> &Name {
+        &self.name
+    }
+
+    fn params(&self) -> Vec<(&'static str, String)> {
+        let mut params = Vec::with_capacity(4);
+        if let Some(ticket) = &self.ticket {
+            params.push((param::TICKET, ticket.clone()));
+        }
+        if let Some(owner) = &self.owner {
+            params.push((param::OWNER, owner.clone()));
+        }
+        params.push((param::HOLD_MS, self.hold.as_millis().to_string()));
+        if self.undo {
+            params.push((param::UNDO, "true".to_string()));
+        }
+        params
+    }
+
+    /// Parses `ticket`, `owner`, `hold_ms` and `undo`.
+    fn parse(name: Name, mut params: Params, _: Option<&[u8]>) -> Result<Self, ErrorReply> {
+        let ticket = params.take_id(param::TICKET)?;
+        let owner = params.take_id(param::OWNER)?;
+        let hold_ms = params
+            .take_int(param::HOLD_MS, 0, i128::from(MAX_HOLD_MS))?
+            .map_or(DEFAULT_HOLD_MS, |v| v as u64);
+        let undo = params.take_bool(param::UNDO)?;
+        params.finish(
+            "wait",
+            &[param::TICKET, param::OWNER, param::HOLD_MS, param::UNDO],
+        )?;
+        Ok(Wait {
+            name,
+            ticket,
+            owner,
+            hold: Duration::from_millis(hold_ms),
+            undo,
+        })
+    }
+}
