@@ -36,6 +36,7 @@
 use crate::ClientError;
 use rome_schema::sim::{Clock, ClockAck};
 use rome_schema::{decode, encode, Root};
+use rome_serve::parties::Heard::{Answered, Joined, Left};
 use std::collections::{HashMap, HashSet};
 use std::future::Future;
 use std::time::Duration;
@@ -289,70 +290,43 @@ impl Heard {
     async fn follow(session: &Session, root: &Root, me: &str) -> Result<Heard, ClientError> {
         let state: std::sync::Arc<std::sync::Mutex<HeardState>> = Default::default();
         let changed = std::sync::Arc::new(tokio::sync::Notify::new());
-        let acks = {
+        let subscribers = {
             let (state, changed, me) = (state.clone(), changed.clone(), me.to_string());
-            session
-                .declare_subscriber(root.sim_clock_acks())
-                .callback(move |s| {
-                    let key = s.key_expr().as_str();
-                    let id = key.rsplit('/').next().unwrap_or(key);
-                    if id == me {
-                        return;
-                    }
-                    let ack: ClockAck = match decode(&s.payload().to_bytes(), "clock ack") {
-                        Ok(a) => a,
-                        Err(e) => {
-                            tracing::warn!(%key, error = %e, "clock acknowledgement skipped");
+            rome_serve::parties::follow(session, root, move |heard| {
+                let mut st = lock(&state);
+                match heard {
+                    Answered(id, _) if id == me => return,
+                    Answered(id, ack) => {
+                        let at = (ack.time_ms, ack.round);
+                        if !st.answered.contains_key(id) && st.answered.len() >= MAX_PARTIES {
+                            // Anyone can publish on the key: a flood of
+                            // made-up ids must not grow this without end.
                             return;
                         }
-                    };
-                    let mut st = lock(&state);
-                    let at = (ack.time_ms, ack.round);
-                    if !st.answered.contains_key(id) && st.answered.len() >= MAX_PARTIES {
-                        // Anyone can publish on the key: a flood of made-up
-                        // ids must not grow this without end.
-                        return;
+                        let latest = st.answered.entry(id.to_string()).or_insert(at);
+                        *latest = (*latest).max(at);
                     }
-                    let latest = st.answered.entry(id.to_string()).or_insert(at);
-                    *latest = (*latest).max(at);
-                    drop(st);
-                    changed.notify_waiters();
-                })
-                .await
-                .map_err(ClientError::zenoh)?
-        };
-        let members = {
-            let (state, changed) = (state.clone(), changed.clone());
-            session
-                .liveliness()
-                .declare_subscriber(root.sim_clock_parties())
-                .history(true)
-                .callback(move |s| {
-                    let key = s.key_expr().as_str();
-                    let id = key.rsplit('/').next().unwrap_or(key).to_string();
-                    let mut st = lock(&state);
-                    match s.kind() {
-                        zenoh::sample::SampleKind::Put => {
-                            st.gone.remove(&id);
+                    Joined(id) => {
+                        st.gone.remove(id);
+                    }
+                    Left(id) => {
+                        st.answered.remove(id);
+                        if st.gone.len() < MAX_PARTIES {
+                            st.gone.insert(id.to_string());
                         }
-                        zenoh::sample::SampleKind::Delete => {
-                            st.answered.remove(&id);
-                            if st.gone.len() < MAX_PARTIES {
-                                st.gone.insert(id);
-                            }
-                        }
-                    };
-                    drop(st);
-                    changed.notify_waiters();
-                })
-                .await
-                .map_err(ClientError::zenoh)?
+                    }
+                }
+                drop(st);
+                changed.notify_waiters();
+            })
+            .await
+            .map_err(ClientError::zenoh)?
         };
         Ok(Heard {
             me: me.to_string(),
             state,
             changed,
-            _subscribers: (acks, members),
+            _subscribers: subscribers,
         })
     }
 

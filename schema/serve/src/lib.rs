@@ -1,7 +1,7 @@
 //! What every RoME server (the data server, each hardware server) does
 //! alike on the Zenoh side, so it is written once.
 //!
-//! How this crate is laid out (one file):
+//! How this crate is laid out:
 //! - [`Inbox`]: a server's event queues. Zenoh callbacks run on a link's
 //!   receive path (or on the task of a client in the same session), so
 //!   they never wait: requests and puts go to a bounded queue, and a query
@@ -19,6 +19,10 @@
 //! - [`reply`], [`reply_err`], [`busy`]: answers, with failures to send
 //!   logged rather than returned (the asker may be gone).
 //! - [`Undeclared`]: a server that could not declare itself on Zenoh.
+//! - [`parties`]: the processes that follow a lock-step clock, as the
+//!   clock's driver and every party hear them.
+
+pub mod parties;
 
 use rome_clock::Held;
 use rome_schema::{encode, ErrorCode, ErrorReply};

@@ -5,6 +5,7 @@ use crate::world::{SimWorld, Stepper};
 use rome_hardware::server::declare_err;
 use rome_hardware::{locked, ServerError};
 use rome_schema::Root;
+use rome_serve::parties::Heard;
 use std::collections::HashMap;
 use std::sync::Arc;
 use zenoh::Session;
@@ -73,69 +74,46 @@ impl Parties {
         clock: &rome_clock::LockStep,
     ) -> Result<Parties, ServerError> {
         let inner: Arc<std::sync::Mutex<PartyMap>> = Arc::default();
-        let members = {
+        let subscribers = {
             let (inner, clock) = (inner.clone(), clock.clone());
-            session
-                .liveliness()
-                .declare_subscriber(root.sim_clock_parties())
-                .history(true)
-                .callback(move |s| {
-                    let key = s.key_expr().as_str();
-                    let id = key.rsplit('/').next().unwrap_or(key).to_string();
-                    let mut all = locked(&inner);
-                    match s.kind() {
-                        zenoh::sample::SampleKind::Put => {
-                            tracing::info!(party = %id, "a process follows the lock-step clock");
-                            let party = Party {
-                                clock: clock.external(&format!("process {id}")),
-                                expected: None,
-                                worked: true,
-                                holding: false,
-                            };
-                            all.parties.insert(id, party);
-                        }
-                        zenoh::sample::SampleKind::Delete => {
-                            tracing::info!(party = %id, "a process no longer follows the lock-step clock");
-                            let was = all.parties.remove(&id);
-                            if was.is_some_and(|p| p.expected.is_some()) && all.left.len() < 4096 {
-                                all.left.push(id);
-                            }
-                        }
-                    }
-                })
-                .await
-                .map_err(|e| declare_err("the clock parties' liveliness subscriber", e))?
-        };
-        let acks = {
-            let inner = inner.clone();
-            session
-                .declare_subscriber(root.sim_clock_acks())
-                .callback(move |s| {
-                    let key = s.key_expr().as_str();
-                    let id = key.rsplit('/').next().unwrap_or(key);
-                    let ack: rome_schema::sim::ClockAck =
-                        match rome_schema::decode(&s.payload().to_bytes(), "clock ack") {
-                            Ok(a) => a,
-                            Err(e) => {
-                                tracing::warn!(%key, error = %e, "clock acknowledgement skipped");
-                                return;
-                            }
+            rome_serve::parties::follow(session, root, move |heard| {
+                let mut all = locked(&inner);
+                match heard {
+                    Heard::Joined(id) => {
+                        tracing::info!(party = %id, "a process follows the lock-step clock");
+                        let party = Party {
+                            clock: clock.external(&format!("process {id}")),
+                            expected: None,
+                            worked: true,
+                            holding: false,
                         };
-                    tracing::trace!(party = %id, time_ms = ack.time_ms, round = ack.round, worked = ack.worked, "answer heard");
-                    if let Some(party) = locked(&inner).parties.get_mut(id) {
-                        if party.expected == Some((ack.time_ms, ack.round)) {
-                            party.worked = ack.worked;
-                            party.holding = ack.holding;
-                            party.clock.done();
+                        all.parties.insert(id.to_string(), party);
+                    }
+                    Heard::Left(id) => {
+                        tracing::info!(party = %id, "a process no longer follows the lock-step clock");
+                        let was = all.parties.remove(id);
+                        if was.is_some_and(|p| p.expected.is_some()) && all.left.len() < 4096 {
+                            all.left.push(id.to_string());
                         }
                     }
-                })
-                .await
-                .map_err(|e| declare_err("the clock acknowledgement subscriber", e))?
+                    Heard::Answered(id, ack) => {
+                        tracing::trace!(party = %id, time_ms = ack.time_ms, round = ack.round, worked = ack.worked, "answer heard");
+                        if let Some(party) = all.parties.get_mut(id) {
+                            if party.expected == Some((ack.time_ms, ack.round)) {
+                                party.worked = ack.worked;
+                                party.holding = ack.holding;
+                                party.clock.done();
+                            }
+                        }
+                    }
+                }
+            })
+            .await
+            .map_err(|e| declare_err("the clock parties' subscribers", e))?
         };
         Ok(Parties {
             inner,
-            _subscribers: Arc::new((members, acks)),
+            _subscribers: Arc::new(subscribers),
         })
     }
 
