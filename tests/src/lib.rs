@@ -211,9 +211,85 @@ pub fn spawn_listening(
     (guard, port, logs)
 }
 
+/// A client session on the far side of a link to `port` on loopback that
+/// delays every message by `delay` each way: the relay standing for the
+/// link (pause or cut it to test drop-outs) and the session.
+pub async fn far_session(port: u16, delay: Duration) -> (relay::Relay, Session) {
+    let relay = relay::Relay::start(
+        ([127, 0, 0, 1], 0).into(),
+        ([127, 0, 0, 1], port).into(),
+        delay,
+    )
+    .await
+    .expect("the relay starts on loopback");
+    let session = NetOptions::loopback_client(relay.addr.port())
+        .open()
+        .await
+        .expect("a session opens through the relay");
+    (relay, session)
+}
+
+/// The walls of EB3's corridor N (the new wing's middle corridor, x = 60 m
+/// between rings B and C), as (ring, edge) of `map`: where the tests mark
+/// a narrow passage.
+pub fn corridor_n_walls(map: &rome_maps::Map) -> Vec<(usize, usize)> {
+    rome_maps::World::from_map(map)
+        .segments
+        .iter()
+        .filter(|s| {
+            (s.a.x - 60_000.0).abs() < 1_500.0
+                && (s.b.x - 60_000.0).abs() < 1_500.0
+                && s.a.y.min(s.b.y) > 8_000.0
+                && s.a.y.max(s.b.y) < 54_000.0
+        })
+        .map(|s| (s.ring, s.edge))
+        .collect()
+}
+
+/// The flags of a `rome` program on loopback, listening on a port the
+/// system picks (it says which in its log), without multicast scouting.
+pub const LOOPBACK: [&str; 3] = ["--no-multicast", "--listen", "tcp/127.0.0.1:0"];
+
+/// `rome data-server --in-memory` on loopback ([`LOOPBACK`]).
+pub const DATA_SERVER: [&str; 5] = [
+    LOOPBACK[0],
+    LOOPBACK[1],
+    LOOPBACK[2],
+    "data-server",
+    "--in-memory",
+];
+
+/// `rome router` on loopback ([`LOOPBACK`]) with no REST port and no
+/// storage.
+pub const ROUTER: [&str; 7] = [
+    LOOPBACK[0],
+    LOOPBACK[1],
+    LOOPBACK[2],
+    "router",
+    "--rest-port",
+    "none",
+    "--no-storage",
+];
+
+/// The flags of a `rome` program on loopback ([`LOOPBACK`]) joined to the
+/// one listening on `port`, then `rest` (the command and its flags).
+pub fn joined_to(port: u16, rest: &[&str]) -> Vec<String> {
+    let endpoint = format!("tcp/127.0.0.1:{port}");
+    LOOPBACK
+        .iter()
+        .chain(&["--connect", &endpoint])
+        .chain(rest)
+        .map(|s| s.to_string())
+        .collect()
+}
+
 /// Starts `exe ARGS` with no input or output, its stderr appended to
 /// `log` (to read when a test fails); killed when the guard is dropped.
-pub fn spawn_logged(exe: &str, args: &[&str], log: &std::path::Path) -> ChildGuard {
+pub fn spawn_logged<S: AsRef<std::ffi::OsStr>>(
+    exe: &str,
+    args: &[S],
+    log: &std::path::Path,
+) -> ChildGuard {
     let log = std::fs::OpenOptions::new()
         .create(true)
         .append(true)

@@ -6,7 +6,7 @@
 
 #![allow(clippy::unwrap_used)]
 
-use rome_client::net::{open_loopback_peer, NetOptions};
+use rome_client::net::open_loopback_peer;
 use rome_client::{DataClient, DataOptions, RobotClient, RobotOptions};
 use rome_hardware::robot::{Rates, Running};
 use rome_schema::Root;
@@ -37,17 +37,7 @@ async fn link() -> Link {
     };
     let servers = spawn_sim_robot(&near, &Root::default(), &world, "r1", rates).unwrap();
     let data = rome_data::spawn(near.clone(), rome_data::ServerConfig::default());
-    let relay = Relay::start(
-        ([127, 0, 0, 1], 0).into(),
-        ([127, 0, 0, 1], port).into(),
-        Duration::from_millis(20),
-    )
-    .await
-    .unwrap();
-    let far = NetOptions::loopback_client(relay.addr.port())
-        .open()
-        .await
-        .unwrap();
+    let (relay, far) = rome_tests::far_session(port, Duration::from_millis(20)).await;
     Link {
         near,
         far,

@@ -488,17 +488,7 @@ async fn a_base_set_moving_by_a_client_that_goes_away_is_stopped() {
 async fn a_cut_off_holder_loses_the_lock_within_three_seconds() {
     let rec = Recorder::default();
     let rig = Harness::recorder(&rec, false).await;
-    let relay = rome_tests::relay::Relay::start(
-        ([127, 0, 0, 1], 0).into(),
-        ([127, 0, 0, 1], rig.port).into(),
-        Duration::ZERO,
-    )
-    .await
-    .unwrap();
-    let far = NetOptions::loopback_client(relay.addr.port())
-        .open()
-        .await
-        .unwrap();
+    let (relay, far) = rome_tests::far_session(rig.port, Duration::ZERO).await;
     let holder = RobotClient::connect(&far, "r1", RobotOptions::new("far"))
         .await
         .unwrap();

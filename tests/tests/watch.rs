@@ -252,17 +252,7 @@ async fn commits_beyond_the_backlog_are_counted_as_missed() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_commit_made_just_after_watch_returns_is_seen_over_a_slow_link() {
     let server = TestServer::start().await;
-    let relay = rome_tests::relay::Relay::start(
-        ([127, 0, 0, 1], 0).into(),
-        ([127, 0, 0, 1], server.port).into(),
-        Duration::from_millis(150),
-    )
-    .await
-    .unwrap();
-    let far = rome_client::net::NetOptions::loopback_client(relay.addr.port())
-        .open()
-        .await
-        .unwrap();
+    let (_relay, far) = rome_tests::far_session(server.port, Duration::from_millis(150)).await;
     let watcher = rome_client::DataClient::connect(&far, rome_client::DataOptions::new("watcher"))
         .await
         .unwrap();

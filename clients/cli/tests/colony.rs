@@ -233,32 +233,10 @@ fn server(dir: &Path, name: &str, args: &[&str]) -> (ChildGuard, u16) {
 #[test]
 fn two_layers_talking_only_through_the_data_server_drive_out_and_back() {
     let d = rome_tests::TestDir::new("rome-colony-layers");
-    let (_ds, port) = server(
-        &d,
-        "data-server",
-        &[
-            "--no-multicast",
-            "--listen",
-            "tcp/127.0.0.1:0",
-            "data-server",
-            "--in-memory",
-        ],
-    );
-    let endpoint = format!("tcp/127.0.0.1:{port}");
+    let (_ds, port) = server(&d, "data-server", &rome_tests::DATA_SERVER);
     let _sim = rome_tests::spawn_logged(
         ROME,
-        &[
-            "--no-multicast",
-            "--listen",
-            "tcp/127.0.0.1:0",
-            "--connect",
-            &endpoint,
-            "sim",
-            "--map",
-            "fig5_3",
-            "--speed",
-            "4",
-        ],
+        &rome_tests::joined_to(port, &["sim", "--map", "fig5_3", "--speed", "4"]),
         &d.join("sim.log"),
     );
     let layer = |which: &str| {

@@ -88,6 +88,18 @@ fn client_options() -> DataOptions {
     }
 }
 
+/// A client of the data server on `port`, ready for [`stream`]: `seq`
+/// keeps every write, `count` exists.
+async fn writer(port: u16) -> (zenoh::Session, DataClient) {
+    let session = NetOptions::loopback_client(port).open().await.unwrap();
+    let data = DataClient::connect(&session, client_options())
+        .await
+        .unwrap();
+    data.set_history("seq", 100_000).await.unwrap();
+    data.create_semaphore("count", 0).await.unwrap();
+    (session, data)
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn acknowledged_state_survives_sigkill_of_the_data_server() {
     let dir = scratch("durable-data");
@@ -107,12 +119,7 @@ async fn acknowledged_state_survives_sigkill_of_the_data_server() {
     let ep = format!("tcp/127.0.0.1:{port}");
     server_args[2] = &ep;
 
-    let session = NetOptions::loopback_client(port).open().await.unwrap();
-    let data = DataClient::connect(&session, client_options())
-        .await
-        .unwrap();
-    data.set_history("seq", 100_000).await.unwrap();
-    data.create_semaphore("count", 0).await.unwrap();
+    let (session, data) = writer(port).await;
     data.create_semaphore("gate", 0).await.unwrap();
     // A waiter queued before the kills keeps its place through them.
     let waiter = {
@@ -171,15 +178,7 @@ async fn acknowledged_state_survives_sigkill_of_the_data_server() {
 async fn clients_ride_through_a_router_killed_and_restarted() {
     let dir = scratch("durable-router");
     let log = dir.join("rome.log");
-    let mut router_args = [
-        "--no-multicast",
-        "-l",
-        "tcp/127.0.0.1:0",
-        "router",
-        "--rest-port",
-        "none",
-        "--no-storage",
-    ];
+    let mut router_args = rome_tests::ROUTER;
     let mut router = rome(&router_args, &log);
     let port = rome_tests::listening_port(&log, Duration::from_secs(60));
     let router_ep = format!("tcp/127.0.0.1:{port}");
@@ -198,12 +197,7 @@ async fn clients_ride_through_a_router_killed_and_restarted() {
         ],
         &log,
     );
-    let session = NetOptions::loopback_client(port).open().await.unwrap();
-    let data = DataClient::connect(&session, client_options())
-        .await
-        .unwrap();
-    data.set_history("seq", 100_000).await.unwrap();
-    data.create_semaphore("count", 0).await.unwrap();
+    let (_session, data) = writer(port).await;
 
     let acked = Arc::new(AtomicU64::new(0));
     let stop = Arc::new(AtomicBool::new(false));

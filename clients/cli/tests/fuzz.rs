@@ -24,32 +24,11 @@ async fn generated_garbage_from_the_network_breaks_no_server_and_no_client() {
     let ds_log = dir.join("data-server.log");
     procs.push((
         "data-server".into(),
-        spawn_logged(
-            ROME,
-            &[
-                "--no-multicast",
-                "--listen",
-                "tcp/127.0.0.1:0",
-                "data-server",
-                "--in-memory",
-            ],
-            &ds_log,
-        ),
+        spawn_logged(ROME, &rome_tests::DATA_SERVER, &ds_log),
     ));
     let port = listening_port(&ds_log, Duration::from_secs(60));
     let endpoint = format!("tcp/127.0.0.1:{port}");
-    let sim = [
-        "--no-multicast",
-        "--listen",
-        "tcp/127.0.0.1:0",
-        "--connect",
-        &endpoint,
-        "sim",
-        "--robots",
-        "1",
-        "--at",
-        "350R",
-    ];
+    let sim = rome_tests::joined_to(port, &["sim", "--robots", "1", "--at", "350R"]);
     procs.push(("sim".into(), spawn_logged(ROME, &sim, &dir.join("sim.log"))));
     for role in ["navigator", "ctracker", "mapper", "plfinder"] {
         let args = [

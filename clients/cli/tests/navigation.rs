@@ -79,16 +79,7 @@ fn server(name: &str, args: &[&str]) -> (ChildGuard, u16) {
 
 /// `rome data-server` on a port of the system's choosing, and that port.
 fn data_server() -> (ChildGuard, u16) {
-    server(
-        "data-server",
-        &[
-            "--no-multicast",
-            "--listen",
-            "tcp/127.0.0.1:0",
-            "data-server",
-            "--in-memory",
-        ],
-    )
+    server("data-server", &rome_tests::DATA_SERVER)
 }
 
 /// `rome sim` with a robot at each of `at`, joined to the data server,
@@ -103,34 +94,17 @@ const SEED: &str = "4";
 /// `rome sim` with a robot at each of `at`, joined to the data server,
 /// seed [`SEED`], with `pace` (`--speed 4`, `--lockstep` …).
 fn sim_with(port: u16, map: &str, at: &[&str], pace: &[&str]) -> ChildGuard {
-    let endpoint = format!("tcp/127.0.0.1:{port}");
     let robots = at.len().to_string();
     let at = at.join(",");
-    rome(
+    let mut args = rome_tests::joined_to(
         port,
-        "sim",
         &[
-            "--no-multicast",
-            "--listen",
-            "tcp/127.0.0.1:0",
-            "--connect",
-            &endpoint,
-            "sim",
-            "--map",
-            map,
-            "--robots",
-            &robots,
-            "--at",
-            &at,
-            "--seed",
-            SEED,
-        ]
-        .iter()
-        .chain(pace)
-        .copied()
-        .collect::<Vec<_>>(),
-        Stdio::null(),
-    )
+            "sim", "--map", map, "--robots", &robots, "--at", &at, "--seed", SEED,
+        ],
+    );
+    args.extend(pace.iter().map(|s| s.to_string()));
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    rome(port, "sim", &args, Stdio::null())
 }
 
 /// A robot's four helper clients, each a process: navigator, ctracker,
@@ -281,20 +255,13 @@ async fn two_robots_with_every_client_in_its_own_process_both_arrive() {
 /// narrow passage `N`, written to a file as a user would.
 fn eb3_with_passage(port: u16) -> String {
     let map = rome_maps::load_named("eb3").unwrap();
-    let world = rome_maps::World::from_map(&map);
     let mut lines: Vec<String> = rome_maps::builtin::EB3.lines().map(String::from).collect();
     let mut tagged = 0;
-    for s in &world.segments {
-        let along_n = (s.a.x - 60_000.0).abs() < 1_500.0
-            && (s.b.x - 60_000.0).abs() < 1_500.0
-            && s.a.y.min(s.b.y) > 8_000.0
-            && s.a.y.max(s.b.y) < 54_000.0;
-        if along_n {
-            let line = map.rings[s.ring].edges[s.edge].line;
-            if !lines[line - 1].contains("passage=") {
-                lines[line - 1].push_str(" passage=N");
-                tagged += 1;
-            }
+    for (ring, edge) in rome_tests::corridor_n_walls(&map) {
+        let line = map.rings[ring].edges[edge].line;
+        if !lines[line - 1].contains("passage=") {
+            lines[line - 1].push_str(" passage=N");
+            tagged += 1;
         }
     }
     assert!(tagged >= 2, "corridor N's walls: {tagged} edges");
@@ -438,18 +405,7 @@ async fn a_robot_whose_clients_are_killed_inside_a_narrow_passage_stops_and_free
 async fn a_run_whose_data_server_is_killed_and_restarted_mid_route_still_arrives() {
     // As deployed: a router in the middle, a durable data server beside it.
     let route = ("r1", "350R", "376L");
-    let (_router, port) = server(
-        "router",
-        &[
-            "--no-multicast",
-            "-l",
-            "tcp/127.0.0.1:0",
-            "router",
-            "--rest-port",
-            "none",
-            "--no-storage",
-        ],
-    );
+    let (_router, port) = server("router", &rome_tests::ROUTER);
     let _logs = rome_tests::TestDir::adopt(log_dir(port));
     let state = log_dir(port).join("state");
     let _ = std::fs::remove_dir_all(&state);

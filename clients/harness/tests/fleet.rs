@@ -105,21 +105,17 @@ async fn a_robot_catching_up_with_a_slower_one_arrives_and_so_does_the_slow_one(
 /// rings B and C) marked as a narrow passage.
 fn eb3_with_passage() -> rome_maps::Map {
     let mut map = eb3();
-    let world = rome_maps::World::from_map(&map);
-    let mut tagged = 0;
-    for s in &world.segments {
-        let along_n = (s.a.x - 60_000.0).abs() < 1_500.0
-            && (s.b.x - 60_000.0).abs() < 1_500.0
-            && s.a.y.min(s.b.y) > 8_000.0
-            && s.a.y.max(s.b.y) < 54_000.0;
-        if along_n {
-            map.rings[s.ring].edges[s.edge]
-                .tags
-                .insert("passage".into(), "N".into());
-            tagged += 1;
-        }
+    let walls = rome_tests::corridor_n_walls(&map);
+    assert!(
+        walls.len() >= 4,
+        "corridor N's walls: {} edges",
+        walls.len()
+    );
+    for (ring, edge) in walls {
+        map.rings[ring].edges[edge]
+            .tags
+            .insert("passage".into(), "N".into());
     }
-    assert!(tagged >= 4, "corridor N's walls: {tagged} edges");
     map
 }
 
