@@ -183,6 +183,51 @@ pub fn check_zenoh_runtime() -> Result<(), String> {
     }
 }
 
+/// The commands a build may leave out, each with the cargo feature that
+/// brings it (all on by default; a robot-side build has none of them).
+pub const OPTIONAL_COMMANDS: &[(&str, &str, bool)] = &[
+    ("ls", "observe", cfg!(feature = "observe")),
+    ("record", "observe", cfg!(feature = "observe")),
+    ("replay", "observe", cfg!(feature = "observe")),
+    ("view", "observe", cfg!(feature = "observe")),
+    ("foxglove", "observe", cfg!(feature = "observe")),
+    ("echo", "observe", cfg!(feature = "observe")),
+    ("sim", "sim", cfg!(feature = "sim")),
+    ("demo", "sim", cfg!(feature = "sim")),
+    ("experiment", "sim", cfg!(feature = "sim")),
+    ("router", "router", cfg!(feature = "router")),
+    ("certs", "router", cfg!(feature = "router")),
+    ("bench", "tools", cfg!(feature = "tools")),
+    ("fuzz", "tools", cfg!(feature = "tools")),
+    ("soak", "tools", cfg!(feature = "tools")),
+];
+
+/// Parses the command line as clap does, except that a command this build
+/// left out is named as such, with the feature that brings it back,
+/// instead of being called unknown.
+pub fn parse() -> Cli {
+    use clap::error::{ContextKind, ContextValue, ErrorKind};
+    use clap::Parser;
+    let e = match Cli::try_parse() {
+        Ok(cli) => return cli,
+        Err(e) => e,
+    };
+    if e.kind() == ErrorKind::InvalidSubcommand {
+        if let Some(ContextValue::String(name)) = e.get(ContextKind::InvalidSubcommand) {
+            if let Some((_, feature, _)) =
+                OPTIONAL_COMMANDS.iter().find(|(n, _, on)| n == name && !on)
+            {
+                eprintln!(
+                    "error: '{name}' is not in this build of rome: it comes with the cargo feature '{feature}' \
+                     (cargo install --path clients/cli --features {feature}, or the default build)"
+                );
+                std::process::exit(i32::from(exit::USAGE));
+            }
+        }
+    }
+    e.exit()
+}
+
 /// Runs a parsed command line and returns the process exit code.
 pub fn main(cli: Cli) -> ExitCode {
     let server = cli.command.is_server();

@@ -1,6 +1,5 @@
 //! The `rome` program: parses flags and hands over to [`rome_cli::run`].
 
-use clap::Parser;
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
@@ -13,5 +12,5 @@ fn main() -> ExitCode {
         eprintln!("error: {e}");
         return ExitCode::from(rome_cli::exit::USAGE);
     }
-    rome_cli::main(rome_cli::Cli::parse())
+    rome_cli::main(rome_cli::parse())
 }

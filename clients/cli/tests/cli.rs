@@ -1008,3 +1008,19 @@ fn bench_data_reaches_its_far_end_over_a_unix_socket() {
         assert!(row["samples"].as_u64().unwrap() > 0, "{row}");
     }
 }
+
+/// The commands a build may leave out are rome's commands exactly when
+/// their feature is on, so what the program says of a missing one (the
+/// feature that brings it) stays true.
+#[test]
+fn the_commands_a_build_may_leave_out_are_there_with_their_feature() {
+    use clap::CommandFactory;
+    let cli = rome_cli::Cli::command();
+    for (name, feature, on) in rome_cli::OPTIONAL_COMMANDS {
+        assert_eq!(
+            cli.find_subcommand(name).is_some(),
+            *on,
+            "'{name}' and the feature '{feature}'"
+        );
+    }
+}
