@@ -8,36 +8,19 @@ import json
 import sys
 import time
 
-import zenoh
+from checks import Tally, first_reply, session
 
-port = int(sys.argv[1])
-conf = zenoh.Config()
-conf.insert_json5("mode", '"peer"')
-conf.insert_json5("connect/endpoints", json.dumps([f"tcp/127.0.0.1:{port}"]))
-conf.insert_json5("listen/endpoints", '["tcp/127.0.0.1:0"]')
-conf.insert_json5("scouting/multicast/enabled", "false")
-z = zenoh.open(conf)
-
-passed, failed = 0, 0
-
-
-def check(what, ok, detail=""):
-    global passed, failed
-    if ok:
-        passed += 1
-        print(f"ok    {what}")
-    else:
-        failed += 1
-        print(f"FAIL  {what} {detail}")
+z = session(int(sys.argv[1]), "peer")
+tally = Tally()
+check = tally.check
 
 
 def ask(selector, payload=None):
     """The first reply: ('ok', json) or ('err', json)."""
-    for reply in z.get(selector, payload=payload, timeout=10.0):
-        if reply.ok is not None:
-            return "ok", json.loads(reply.ok.payload.to_string())
-        return "err", json.loads(reply.err.payload.to_string())
-    return "none", None
+    kind, body = first_reply(z, selector, payload)
+    if kind == "ok":
+        return kind, json.loads(body.payload.to_string())
+    return kind, body
 
 
 # The server is there when its liveliness token is.
@@ -88,6 +71,4 @@ check("unknown semaphore is refused", status == "err" and reply["code"] == "unkn
 tokens = [str(r.ok.key_expr) for r in z.liveliness().get("rome/alive/**") if r.ok is not None]
 check("liveliness lists the data server", any(t.startswith("rome/alive/server/data/") for t in tokens), tokens)
 
-z.close()
-print(f"python client: {passed} passed, {failed} failed")
-sys.exit(1 if failed else 0)
+tally.finish(z, "python client: ")

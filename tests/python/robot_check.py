@@ -7,35 +7,16 @@ Prints one line per check and a closing 'N passed, M failed'.
 import json
 import sys
 
-import zenoh
+from checks import Tally, first_reply, session
 
-port = int(sys.argv[1])
-conf = zenoh.Config()
-conf.insert_json5("mode", '"client"')
-conf.insert_json5("connect/endpoints", json.dumps([f"tcp/127.0.0.1:{port}"]))
-conf.insert_json5("scouting/multicast/enabled", "false")
-z = zenoh.open(conf)
-
-passed, failed = 0, 0
-
-
-def check(what, ok, detail=""):
-    global passed, failed
-    if ok:
-        passed += 1
-        print(f"ok    {what}")
-    else:
-        failed += 1
-        print(f"FAIL  {what} {detail}")
+z = session(int(sys.argv[1]), "client")
+tally = Tally()
+check = tally.check
 
 
 def ask(selector, payload=None):
-    """The first reply: ('ok', body) or ('err', error object)."""
-    for r in z.get(selector, payload=payload, timeout=10.0):
-        if r.ok:
-            return "ok", r.ok
-        return "err", json.loads(r.err.payload.to_string())
-    return "none", None
+    """The first reply: ('ok', sample) or ('err', error object)."""
+    return first_reply(z, selector, payload)
 
 
 def js(selector, payload=None):
@@ -86,6 +67,4 @@ while len(got) < 3 and time.time() < deadline:
     time.sleep(0.05)
 check("scan stream", len(got) >= 3 and got[-1]["seq"] > got[0]["seq"], len(got))
 
-print(f"{passed} passed, {failed} failed")
-z.close()
-sys.exit(1 if failed else 0)
+tally.finish(z, "")

@@ -246,6 +246,27 @@ pub fn corridor_n_walls(map: &rome_maps::Map) -> Vec<(usize, usize)> {
         .collect()
 }
 
+/// Waits until `count` different liveliness tokens matching `key` are
+/// alive (those already there count), at most 10 s for each.
+pub async fn await_alive(session: &Session, key: &str, count: usize) {
+    let sub = session
+        .liveliness()
+        .declare_subscriber(key)
+        .history(true)
+        .await
+        .expect("a liveliness subscriber on loopback");
+    let mut seen = std::collections::HashSet::new();
+    while seen.len() < count {
+        let token = tokio::time::timeout(Duration::from_secs(10), sub.recv_async())
+            .await
+            .unwrap_or_else(|_| panic!("{count} tokens on {key} within 10 s each; saw {seen:?}"))
+            .expect("the subscriber is open");
+        if token.kind() == zenoh::sample::SampleKind::Put {
+            seen.insert(token.key_expr().to_string());
+        }
+    }
+}
+
 /// The flags of a `rome` program on loopback, listening on a port the
 /// system picks (it says which in its log), without multicast scouting.
 pub const LOOPBACK: [&str; 3] = ["--no-multicast", "--listen", "tcp/127.0.0.1:0"];

@@ -39,20 +39,7 @@ async fn fleet() -> Fleet {
     for (robot, _) in ROBOTS {
         servers.extend(spawn_sim_robot(&session, &Root::default(), &world, robot, rates).unwrap());
     }
-    let sub = session
-        .liveliness()
-        .declare_subscriber("rome/alive/server/robot/**")
-        .history(true)
-        .await
-        .unwrap();
-    let mut seen = std::collections::HashSet::new();
-    while seen.len() < servers.len() {
-        let s = tokio::time::timeout(Duration::from_secs(10), sub.recv_async())
-            .await
-            .expect("every server alive")
-            .unwrap();
-        seen.insert(s.key_expr().to_string());
-    }
+    rome_tests::await_alive(&session, "rome/alive/server/robot/**", servers.len()).await;
     Fleet {
         port,
         _session: session,

@@ -136,17 +136,7 @@ impl Harness {
 
     async fn await_alive(&self, device: &str) {
         let key = format!("rome/alive/server/robot/r1/{device}");
-        let sub = self
-            .session
-            .liveliness()
-            .declare_subscriber(&key)
-            .history(true)
-            .await
-            .unwrap();
-        tokio::time::timeout(Duration::from_secs(10), sub.recv_async())
-            .await
-            .expect("server alive")
-            .unwrap();
+        rome_tests::await_alive(&self.session, &key, 1).await
     }
 
     async fn peer_session(&self) -> Session {

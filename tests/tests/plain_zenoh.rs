@@ -41,16 +41,7 @@ async fn all(session: &Session, selector: &str) -> Vec<(String, Value)> {
 }
 
 async fn server_seen(session: &Session) {
-    let sub = session
-        .liveliness()
-        .declare_subscriber("rome/alive/server/data/*")
-        .history(true)
-        .await
-        .unwrap();
-    tokio::time::timeout(Duration::from_secs(10), sub.recv_async())
-        .await
-        .expect("data server token seen")
-        .unwrap();
+    rome_tests::await_alive(session, "rome/alive/server/data/*", 1).await
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

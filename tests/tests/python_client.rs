@@ -78,18 +78,7 @@ async fn python_client_drives_a_robot_from_docs_alone() {
     )
     .unwrap();
     // All four servers are up before the script asks anything.
-    let alive = session
-        .liveliness()
-        .declare_subscriber("rome/alive/server/robot/r1/**")
-        .history(true)
-        .await
-        .unwrap();
-    for _ in 0..4 {
-        tokio::time::timeout(std::time::Duration::from_secs(10), alive.recv_async())
-            .await
-            .unwrap()
-            .unwrap();
-    }
+    rome_tests::await_alive(&session, "rome/alive/server/robot/r1/**", 4).await;
     run_script(python, "robot_check.py", port).await;
     for s in servers {
         s.stop().await.unwrap();

@@ -12,6 +12,38 @@
 //! are passed over; any other unknown parameter is an error, so `?bak=2` is
 //! not silently read as `back=0`.
 
+/// Defines a request: its doc comment and derives, its type name, the
+/// operation its key names, its reply, what its name is the name of, its
+/// own fields (after `name`), and the rest of its [`Command`]: how it is
+/// encoded (`params`, `payload`) and parsed (`parse`).
+macro_rules! request {
+    (
+        $(#[$meta:meta])*
+        $ty:ident: $op:ident -> $reply:ty, $what:literal {
+            $($(#[$field_meta:meta])* pub $field:ident: $field_ty:ty,)*
+        }
+        $($command:tt)*
+    ) => {
+        $(#[$meta])*
+        pub struct $ty {
+            #[doc = $what]
+            pub name: $crate::Name,
+            $($(#[$field_meta])* pub $field: $field_ty,)*
+        }
+
+        impl $crate::data::request::Command for $ty {
+            const OP: $crate::keys::DataOp = $crate::keys::DataOp::$op;
+            type Reply = $reply;
+
+            fn name(&self) -> &$crate::Name {
+                &self.name
+            }
+
+            $($command)*
+        }
+    };
+}
+
 mod ack;
 mod cancel;
 mod create;

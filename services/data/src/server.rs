@@ -701,8 +701,9 @@ impl Quick {
         // answer is on its way.
         let mut wake = None;
         let applied = match Request::parse(&self.root, key, params, payload.as_deref()) {
-            Ok(Request::Get(get)) => get.apply(&mut lock(&self.store), Instant::now()),
-            Ok(Request::Read(read)) => read.apply(&mut lock(&self.store), Instant::now()),
+            Ok(request @ (Request::Get(_) | Request::Read(_))) => {
+                request.apply(&mut lock(&self.store), Instant::now())
+            }
             Ok(
                 request @ (Request::Set(_)
                 | Request::Signal(_)

@@ -1,30 +1,20 @@
-use super::{required_ticket, Command};
+use super::required_ticket;
 use crate::data::{param, WaitReply};
-use crate::keys::DataOp;
 use crate::{ErrorReply, Name, Params};
 
-/// Confirms a granted wait: the unit is the client's for good.
-///
-/// ```text
-/// get rome/data/ack/XYZ?ticket=c7-15   -> {"name":"XYZ","ticket":"c7-15","status":"confirmed"}
-/// ```
-///
-/// `unknown` means the grant was taken back (the owner was seen gone):
-/// the client holds no unit and must wait again.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Ack {
-    /// The semaphore.
-    pub name: Name,
-    /// The granted wait.
-    pub ticket: String,
-}
-
-impl Command for Ack {
-    const OP: DataOp = DataOp::Ack;
-    type Reply = WaitReply;
-
-    fn name(&self) -> &Name {
-        &self.name
+request! {
+    /// Confirms a granted wait: the unit is the client's for good.
+    ///
+    /// ```text
+    /// get rome/data/ack/XYZ?ticket=c7-15   -> {"name":"XYZ","ticket":"c7-15","status":"confirmed"}
+    /// ```
+    ///
+    /// `unknown` means the grant was taken back (the owner was seen gone):
+    /// the client holds no unit and must wait again.
+    #[derive(Debug, Clone, PartialEq, Eq)]
+    Ack: Ack -> WaitReply, "The semaphore." {
+        /// The granted wait.
+        pub ticket: String,
     }
 
     fn params(&self) -> Vec<(&'static str, String)> {

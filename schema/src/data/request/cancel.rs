@@ -1,30 +1,20 @@
-use super::{required_ticket, Command};
+use super::required_ticket;
 use crate::data::{param, WaitReply};
-use crate::keys::DataOp;
 use crate::{ErrorReply, Name, Params};
 
-/// Gives up a queued wait.
-///
-/// ```text
-/// get rome/data/cancel/XYZ?ticket=c7-15   -> {"name":"XYZ","ticket":"c7-15","status":"cancelled"}
-/// ```
-///
-/// If the unit was granted in the meantime the answer is `granted`: the
-/// client must take it (and `ack`) instead of losing it.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Cancel {
-    /// The semaphore.
-    pub name: Name,
-    /// The wait to give up.
-    pub ticket: String,
-}
-
-impl Command for Cancel {
-    const OP: DataOp = DataOp::Cancel;
-    type Reply = WaitReply;
-
-    fn name(&self) -> &Name {
-        &self.name
+request! {
+    /// Gives up a queued wait.
+    ///
+    /// ```text
+    /// get rome/data/cancel/XYZ?ticket=c7-15   -> {"name":"XYZ","ticket":"c7-15","status":"cancelled"}
+    /// ```
+    ///
+    /// If the unit was granted in the meantime the answer is `granted`: the
+    /// client must take it (and `ack`) instead of losing it.
+    #[derive(Debug, Clone, PartialEq, Eq)]
+    Cancel: Cancel -> WaitReply, "The semaphore." {
+        /// The wait to give up.
+        pub ticket: String,
     }
 
     fn params(&self) -> Vec<(&'static str, String)> {

@@ -1,30 +1,19 @@
-use super::Command;
 use crate::data::{param, CreateReply, MAX_SEMAPHORE_VALUE};
-use crate::keys::DataOp;
 use crate::{ErrorCode, ErrorReply, Name, Params};
 
-/// Creates a semaphore with an initial value
-/// (the thesis' `DataCreateSemaphore(DS, "$XYZ", 1)`).
-///
-/// ```text
-/// get rome/data/create/XYZ?value=1   -> {"name":"XYZ","created":true,"value":1}
-/// ```
-///
-/// Creating one that exists changes nothing and answers `created: false`.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Create {
-    /// The semaphore.
-    pub name: Name,
-    /// Its initial value.
-    pub value: u64,
-}
-
-impl Command for Create {
-    const OP: DataOp = DataOp::Create;
-    type Reply = CreateReply;
-
-    fn name(&self) -> &Name {
-        &self.name
+request! {
+    /// Creates a semaphore with an initial value
+    /// (the thesis' `DataCreateSemaphore(DS, "$XYZ", 1)`).
+    ///
+    /// ```text
+    /// get rome/data/create/XYZ?value=1   -> {"name":"XYZ","created":true,"value":1}
+    /// ```
+    ///
+    /// Creating one that exists changes nothing and answers `created: false`.
+    #[derive(Debug, Clone, PartialEq, Eq)]
+    Create: Create -> CreateReply, "The semaphore." {
+        /// Its initial value.
+        pub value: u64,
     }
 
     fn params(&self) -> Vec<(&'static str, String)> {

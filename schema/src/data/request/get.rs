@@ -1,32 +1,21 @@
-use super::Command;
 use crate::data::{param, MAX_HISTORY};
-use crate::keys::DataOp;
 use crate::{ErrorReply, Name, Params};
 use serde_json::Value;
 
-/// Reads a variable's value, or an older one from its history
-/// (the thesis' `DataGetValue(DS, "PosX", -N)`).
-///
-/// ```text
-/// get rome/data/var/PosX            -> 4
-/// get rome/data/var/PosX?back=2     -> 2     (the value two writes ago)
-/// ```
-///
-/// The reply payload is the JSON value itself, exactly as written.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Get {
-    /// The variable.
-    pub name: Name,
-    /// Steps back in the history; 0 is the current value.
-    pub back: u32,
-}
-
-impl Command for Get {
-    const OP: DataOp = DataOp::Var;
-    type Reply = Value;
-
-    fn name(&self) -> &Name {
-        &self.name
+request! {
+    /// Reads a variable's value, or an older one from its history
+    /// (the thesis' `DataGetValue(DS, "PosX", -N)`).
+    ///
+    /// ```text
+    /// get rome/data/var/PosX            -> 4
+    /// get rome/data/var/PosX?back=2     -> 2     (the value two writes ago)
+    /// ```
+    ///
+    /// The reply payload is the JSON value itself, exactly as written.
+    #[derive(Debug, Clone, PartialEq, Eq)]
+    Get: Var -> Value, "The variable." {
+        /// Steps back in the history; 0 is the current value.
+        pub back: u32,
     }
 
     fn params(&self) -> Vec<(&'static str, String)> {

@@ -1,29 +1,18 @@
-use super::Command;
 use crate::data::{param, HistoryInfo, MAX_HISTORY};
-use crate::keys::DataOp;
 use crate::{ErrorReply, Name, Params};
 
-/// Reads or sets how many values a variable keeps
-/// (the thesis' `DataSetHistory(DS, "PosX", N)`).
-///
-/// ```text
-/// get rome/data/history/PosX         -> {"name":"PosX","len":16,"stored":3,"seq":3}
-/// get rome/data/history/PosX?len=5   -> {"name":"PosX","len":5,"stored":3,"seq":3}
-/// ```
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct History {
-    /// The variable.
-    pub name: Name,
-    /// The new length, if setting.
-    pub len: Option<u32>,
-}
-
-impl Command for History {
-    const OP: DataOp = DataOp::History;
-    type Reply = HistoryInfo;
-
-    fn name(&self) -> &Name {
-        &self.name
+request! {
+    /// Reads or sets how many values a variable keeps
+    /// (the thesis' `DataSetHistory(DS, "PosX", N)`).
+    ///
+    /// ```text
+    /// get rome/data/history/PosX         -> {"name":"PosX","len":16,"stored":3,"seq":3}
+    /// get rome/data/history/PosX?len=5   -> {"name":"PosX","len":5,"stored":3,"seq":3}
+    /// ```
+    #[derive(Debug, Clone, PartialEq, Eq)]
+    History: History -> HistoryInfo, "The variable." {
+        /// The new length, if setting.
+        pub len: Option<u32>,
     }
 
     fn params(&self) -> Vec<(&'static str, String)> {

@@ -1,25 +1,14 @@
-use super::Command;
 use crate::data::SemState;
-use crate::keys::DataOp;
 use crate::{ErrorReply, Name, Params};
 
-/// Reads a semaphore's value and queue length.
-///
-/// ```text
-/// get rome/data/sem/GoalData   -> {"name":"GoalData","value":0,"waiters":1}
-/// ```
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Read {
-    /// The semaphore.
-    pub name: Name,
-}
-
-impl Command for Read {
-    const OP: DataOp = DataOp::Sem;
-    type Reply = SemState;
-
-    fn name(&self) -> &Name {
-        &self.name
+request! {
+    /// Reads a semaphore's value and queue length.
+    ///
+    /// ```text
+    /// get rome/data/sem/GoalData   -> {"name":"GoalData","value":0,"waiters":1}
+    /// ```
+    #[derive(Debug, Clone, PartialEq, Eq)]
+    Read: Sem -> SemState, "The semaphore." {
     }
 
     fn params(&self) -> Vec<(&'static str, String)> {

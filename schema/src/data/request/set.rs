@@ -1,26 +1,40 @@
-use super::Command;
 use crate::data::{param, SetReply, MAX_VALUE_BYTES};
-use crate::keys::DataOp;
 use crate::{decode, encode, ErrorCode, ErrorReply, Name, Params};
 use serde_json::Value;
 
-/// Acknowledged write: the reply comes after the value is committed, so
-/// the writer's next read sees it (read-your-writes). A plain Zenoh `put`
-/// on `var/<name>` writes too, without a reply.
-///
-/// ```text
-/// get rome/data/set/PosX?op=c7-12  payload: 4  -> {"name":"PosX","seq":12}
-/// ```
-///
-/// `op` makes a retry safe: the same id is committed once.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Set {
-    /// The variable.
-    pub name: Name,
-    /// The new value: any JSON.
-    pub value: Value,
-    /// Idempotency id.
-    pub op: Option<String>,
+request! {
+    /// Acknowledged write: the reply comes after the value is committed, so
+    /// the writer's next read sees it (read-your-writes). A plain Zenoh `put`
+    /// on `var/<name>` writes too, without a reply.
+    ///
+    /// ```text
+    /// get rome/data/set/PosX?op=c7-12  payload: 4  -> {"name":"PosX","seq":12}
+    /// ```
+    ///
+    /// `op` makes a retry safe: the same id is committed once.
+    #[derive(Debug, Clone, PartialEq)]
+    Set: Set -> SetReply, "The variable." {
+        /// The new value: any JSON.
+        pub value: Value,
+        /// Idempotency id.
+        pub op: Option<String>,
+    }
+
+    fn params(&self) -> Vec<(&'static str, String)> {
+        self.op.iter().map(|op| (param::OP, op.clone())).collect()
+    }
+
+    fn payload(&self) -> Option<Vec<u8>> {
+        Some(encode(&self.value))
+    }
+
+    /// Parses the payload and `op`.
+    fn parse(name: Name, mut params: Params, payload: Option<&[u8]>) -> Result<Self, ErrorReply> {
+        let op = params.take_id(param::OP)?;
+        params.finish("set", &[param::OP])?;
+        let value = value_from_payload(&name, payload)?;
+        Ok(Set { name, value, op })
+    }
 }
 
 /// Decodes a variable's value from a payload, naming the variable on error.
@@ -43,29 +57,4 @@ pub fn value_from_payload(name: &Name, payload: Option<&[u8]>) -> Result<Value, 
     }
     decode(bytes, &format!("value of '{name}'"))
         .map_err(|e| ErrorReply::new(ErrorCode::BadJson, e.to_string()))
-}
-
-impl Command for Set {
-    const OP: DataOp = DataOp::Set;
-    type Reply = SetReply;
-
-    fn name(&self) -> &Name {
-        &self.name
-    }
-
-    fn params(&self) -> Vec<(&'static str, String)> {
-        self.op.iter().map(|op| (param::OP, op.clone())).collect()
-    }
-
-    fn payload(&self) -> Option<Vec<u8>> {
-        Some(encode(&self.value))
-    }
-
-    /// Parses the payload and `op`.
-    fn parse(name: Name, mut params: Params, payload: Option<&[u8]>) -> Result<Self, ErrorReply> {
-        let op = params.take_id(param::OP)?;
-        params.finish("set", &[param::OP])?;
-        let value = value_from_payload(&name, payload)?;
-        Ok(Set { name, value, op })
-    }
 }

@@ -1,39 +1,28 @@
-use super::Command;
 use crate::data::{param, SignalReply};
-use crate::keys::DataOp;
 use crate::{ErrorCode, ErrorReply, Name, Params};
 
-/// up(): adds a unit, handing it to the first queued wait if there is one
-/// (the thesis' `DataSignal(DS, "$XYZ")`).
-///
-/// ```text
-/// get rome/data/signal/XYZ?op=c7-13   -> {"name":"XYZ","value":0,"woke":true}
-/// put rome/data/signal/XYZ            (no reply; any payload)
-/// ```
-///
-/// `op` makes a retry safe: the same id signals once. With `owner` and
-/// `undo=true` the signal gives back a unit that owner took with an undo
-/// wait (refused if it holds none):
-///
-/// ```text
-/// get rome/data/signal/passage/J?op=c7-17;owner=c7;undo=true
-/// ```
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Signal {
-    /// The semaphore.
-    pub name: Name,
-    /// Idempotency id.
-    pub op: Option<String>,
-    /// The owner giving back a unit it holds with `undo`.
-    pub undo_owner: Option<String>,
-}
-
-impl Command for Signal {
-    const OP: DataOp = DataOp::Signal;
-    type Reply = SignalReply;
-
-    fn name(&self) -> &Name {
-        &self.name
+request! {
+    /// up(): adds a unit, handing it to the first queued wait if there is one
+    /// (the thesis' `DataSignal(DS, "$XYZ")`).
+    ///
+    /// ```text
+    /// get rome/data/signal/XYZ?op=c7-13   -> {"name":"XYZ","value":0,"woke":true}
+    /// put rome/data/signal/XYZ            (no reply; any payload)
+    /// ```
+    ///
+    /// `op` makes a retry safe: the same id signals once. With `owner` and
+    /// `undo=true` the signal gives back a unit that owner took with an undo
+    /// wait (refused if it holds none):
+    ///
+    /// ```text
+    /// get rome/data/signal/passage/J?op=c7-17;owner=c7;undo=true
+    /// ```
+    #[derive(Debug, Clone, PartialEq, Eq)]
+    Signal: Signal -> SignalReply, "The semaphore." {
+        /// Idempotency id.
+        pub op: Option<String>,
+        /// The owner giving back a unit it holds with `undo`.
+        pub undo_owner: Option<String>,
     }
 
     fn params(&self) -> Vec<(&'static str, String)> {

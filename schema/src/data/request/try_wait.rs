@@ -1,28 +1,17 @@
-use super::Command;
 use crate::data::{param, TryWaitReply};
-use crate::keys::DataOp;
 use crate::{ErrorReply, Name, Params};
 
-/// Non-blocking down() (the thesis' `down_nowait()`): takes a unit if one
-/// is free and no wait is queued before it.
-///
-/// ```text
-/// get rome/data/try-wait/XYZ?op=c7-14   -> {"name":"XYZ","acquired":true,"value":0}
-/// ```
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct TryWait {
-    /// The semaphore.
-    pub name: Name,
-    /// Idempotency id.
-    pub op: Option<String>,
-}
-
-impl Command for TryWait {
-    const OP: DataOp = DataOp::TryWait;
-    type Reply = TryWaitReply;
-
-    fn name(&self) -> &Name {
-        &self.name
+request! {
+    /// Non-blocking down() (the thesis' `down_nowait()`): takes a unit if one
+    /// is free and no wait is queued before it.
+    ///
+    /// ```text
+    /// get rome/data/try-wait/XYZ?op=c7-14   -> {"name":"XYZ","acquired":true,"value":0}
+    /// ```
+    #[derive(Debug, Clone, PartialEq, Eq)]
+    TryWait: TryWait -> TryWaitReply, "The semaphore." {
+        /// Idempotency id.
+        pub op: Option<String>,
     }
 
     fn params(&self) -> Vec<(&'static str, String)> {

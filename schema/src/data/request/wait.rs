@@ -1,55 +1,44 @@
-use super::Command;
 use crate::data::{param, WaitReply, DEFAULT_HOLD_MS, MAX_HOLD_MS};
-use crate::keys::DataOp;
 use crate::{ErrorReply, Name, Params};
 use std::time::Duration;
 
-/// Blocking down() (the thesis' `DataWait(DS, "$XYZ")`): answered
-/// `granted` as soon as a unit is the ticket's, or `pending` after
-/// `hold_ms` (the client asks again with the same ticket, keeping its
-/// place in the queue).
-///
-/// ```text
-/// get rome/data/wait/XYZ?ticket=c7-15;owner=c7;hold_ms=10000
-///     -> {"name":"XYZ","ticket":"c7-15","status":"granted"}
-///     -> {"name":"XYZ","ticket":"c7-15","status":"pending","position":2}
-/// get rome/data/wait/XYZ?hold_ms=3000        (anonymous, e.g. from z_get)
-///     -> {"name":"XYZ","ticket":"anon-4","status":"timed_out"}
-/// ```
-///
-/// With an `owner` (the last chunk of the client's liveliness token
-/// `rome/alive/client/<role>/<owner>`) a grant is provisional until
-/// `ack`; if the owner disappears first, its place is dropped and the
-/// unit goes back. An anonymous wait's grant is final, and it leaves the
-/// queue when its hold runs out.
-///
-/// With `undo=true` (owner required) the confirmed unit stays on the
-/// owner's account: it comes back by itself when the owner is gone, unless
-/// the owner gave it back first with `signal?owner=…;undo=true`.
-///
-/// ```text
-/// get rome/data/wait/passage/J?ticket=c7-16;owner=c7;undo=true
-/// ```
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Wait {
-    /// The semaphore.
-    pub name: Name,
-    /// The wait's identity across retries.
-    pub ticket: Option<String>,
-    /// The waiting client's liveliness id.
-    pub owner: Option<String>,
-    /// How long the server may hold the query.
-    pub hold: Duration,
-    /// The unit stays on the owner's account until given back.
-    pub undo: bool,
-}
-
-impl Command for Wait {
-    const OP: DataOp = DataOp::Wait;
-    type Reply = WaitReply;
-
-    fn name(&self) -> &Name {
-        &self.name
+request! {
+    /// Blocking down() (the thesis' `DataWait(DS, "$XYZ")`): answered
+    /// `granted` as soon as a unit is the ticket's, or `pending` after
+    /// `hold_ms` (the client asks again with the same ticket, keeping its
+    /// place in the queue).
+    ///
+    /// ```text
+    /// get rome/data/wait/XYZ?ticket=c7-15;owner=c7;hold_ms=10000
+    ///     -> {"name":"XYZ","ticket":"c7-15","status":"granted"}
+    ///     -> {"name":"XYZ","ticket":"c7-15","status":"pending","position":2}
+    /// get rome/data/wait/XYZ?hold_ms=3000        (anonymous, e.g. from z_get)
+    ///     -> {"name":"XYZ","ticket":"anon-4","status":"timed_out"}
+    /// ```
+    ///
+    /// With an `owner` (the last chunk of the client's liveliness token
+    /// `rome/alive/client/<role>/<owner>`) a grant is provisional until
+    /// `ack`; if the owner disappears first, its place is dropped and the
+    /// unit goes back. An anonymous wait's grant is final, and it leaves the
+    /// queue when its hold runs out.
+    ///
+    /// With `undo=true` (owner required) the confirmed unit stays on the
+    /// owner's account: it comes back by itself when the owner is gone, unless
+    /// the owner gave it back first with `signal?owner=…;undo=true`.
+    ///
+    /// ```text
+    /// get rome/data/wait/passage/J?ticket=c7-16;owner=c7;undo=true
+    /// ```
+    #[derive(Debug, Clone, PartialEq, Eq)]
+    Wait: Wait -> WaitReply, "The semaphore." {
+        /// The wait's identity across retries.
+        pub ticket: Option<String>,
+        /// The waiting client's liveliness id.
+        pub owner: Option<String>,
+        /// How long the server may hold the query.
+        pub hold: Duration,
+        /// The unit stays on the owner's account until given back.
+        pub undo: bool,
     }
 
     fn params(&self) -> Vec<(&'static str, String)> {
