@@ -514,9 +514,23 @@ impl DataClient {
 
     /// Non-blocking down(): whether a unit was taken.
     pub async fn try_wait(&self, name: &str) -> Result<bool, ClientError> {
+        self.try_down(name, false).await
+    }
+
+    /// Non-blocking down() whose unit, if taken, stays on this client's
+    /// account as [`DataClient::wait_undo`]'s does: it comes back by itself
+    /// if the client dies before [`DataClient::give_back`]. Answered at
+    /// once, so a lock-step clock waits for it (a wait that may be held
+    /// does not hold the clock).
+    pub async fn try_wait_undo(&self, name: &str) -> Result<bool, ClientError> {
+        self.try_down(name, true).await
+    }
+
+    async fn try_down(&self, name: &str, undo: bool) -> Result<bool, ClientError> {
         let try_wait = TryWait {
             name: Name::semaphore(name)?,
             op: Some(self.next_id()),
+            undo_owner: undo.then(|| self.inner.owner.clone()),
         };
         Ok(self.request(&try_wait).await?.acquired)
     }

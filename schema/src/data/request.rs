@@ -173,6 +173,29 @@ impl Request {
     }
 }
 
+/// Takes `owner` and `undo`: the owner whose undo unit the request gives
+/// back or takes (`owner=ID;undo=true`); an owner alone changes nothing.
+fn undo_owner(params: &mut Params, what: &str) -> Result<Option<String>, ErrorReply> {
+    let owner = params.take_id(super::param::OWNER)?;
+    let undo = params.take_bool(super::param::UNDO)?;
+    match (owner, undo) {
+        (Some(owner), true) => Ok(Some(owner)),
+        (None, true) => Err(ErrorReply::new(
+            ErrorCode::BadParameter,
+            format!("an undo {what} names the owner whose unit it is (owner=ID)"),
+        )),
+        (_, false) => Ok(None),
+    }
+}
+
+/// `owner=ID;undo=true` for [`undo_owner`], when there is one.
+fn push_undo(params: &mut Vec<(&'static str, String)>, undo_owner: &Option<String>) {
+    if let Some(owner) = undo_owner {
+        params.push((super::param::OWNER, owner.clone()));
+        params.push((super::param::UNDO, "true".to_string()));
+    }
+}
+
 /// Takes the required `ticket` parameter of `op`.
 fn required_ticket(op: &str, params: &mut Params) -> Result<String, ErrorReply> {
     params.take_id(super::param::TICKET)?.ok_or_else(|| {

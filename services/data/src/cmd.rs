@@ -84,9 +84,10 @@ impl Apply for Request {
                 }
                 Ok(Applied::reply(&reply))
             }
-            Request::TryWait(t) => Ok(Applied::reply(&store.try_wait(
+            Request::TryWait(t) => Ok(Applied::reply(&store.try_wait_undo(
                 &t.name,
                 t.op.as_deref(),
+                t.undo_owner.as_deref(),
                 now,
             )?)),
             Request::Cancel(c) => Ok(Applied::reply(&store.cancel(&c.name, &c.ticket)?)),

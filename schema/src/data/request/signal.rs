@@ -1,5 +1,6 @@
+use super::{push_undo, undo_owner};
 use crate::data::{param, SignalReply};
-use crate::{ErrorCode, ErrorReply, Name, Params};
+use crate::{ErrorReply, Name, Params};
 
 request! {
     /// up(): adds a unit, handing it to the first queued wait if there is one
@@ -27,30 +28,15 @@ request! {
 
     fn params(&self) -> Vec<(&'static str, String)> {
         let mut params: Vec<_> = self.op.iter().map(|op| (param::OP, op.clone())).collect();
-        if let Some(owner) = &self.undo_owner {
-            params.push((param::OWNER, owner.clone()));
-            params.push((param::UNDO, "true".to_string()));
-        }
+        push_undo(&mut params, &self.undo_owner);
         params
     }
 
     /// Parses `op`, `owner` and `undo`.
     fn parse(name: Name, mut params: Params, _: Option<&[u8]>) -> Result<Self, ErrorReply> {
         let op = params.take_id(param::OP)?;
-        let owner = params.take_id(param::OWNER)?;
-        let undo = params.take_bool(param::UNDO)?;
+        let undo_owner = undo_owner(&mut params, "signal")?;
         params.finish("signal", &[param::OP, param::OWNER, param::UNDO])?;
-        let undo_owner = match (owner, undo) {
-            (Some(owner), true) => Some(owner),
-            (None, true) => {
-                return Err(ErrorReply::new(
-                    ErrorCode::BadParameter,
-                    "an undo signal names the owner whose unit it gives back (owner=ID)",
-                ))
-            }
-            // An owner alone changes nothing: a plain signal.
-            (_, false) => None,
-        };
         Ok(Signal {
             name,
             op,

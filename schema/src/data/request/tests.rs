@@ -134,11 +134,14 @@ fn every_request_parses_back_as_it_was_encoded() {
             op: op.clone(),
         };
         assert_eq!(round_trip(&set), Request::Set(set));
-        let try_wait = TryWait {
-            name: n.clone(),
-            op,
-        };
-        assert_eq!(round_trip(&try_wait), Request::TryWait(try_wait));
+        for undo_owner in [None, Some("c7".to_string())] {
+            let try_wait = TryWait {
+                name: n.clone(),
+                op: op.clone(),
+                undo_owner,
+            };
+            assert_eq!(round_trip(&try_wait), Request::TryWait(try_wait));
+        }
     }
     for len in [None, Some(1), Some(crate::data::MAX_HISTORY)] {
         let history = History {

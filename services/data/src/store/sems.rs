@@ -180,6 +180,19 @@ impl Store {
         op: Option<&str>,
         now: Instant,
     ) -> Result<TryWaitReply, ErrorReply> {
+        self.try_wait_undo(name, op, None, now)
+    }
+
+    /// down_nowait() whose unit, if taken, stays on `undo_owner`'s account
+    /// as a confirmed undo wait's does: it goes back by itself if that
+    /// owner dies before giving it back with an undo signal.
+    pub fn try_wait_undo(
+        &mut self,
+        name: &Name,
+        op: Option<&str>,
+        undo_owner: Option<&str>,
+        now: Instant,
+    ) -> Result<TryWaitReply, ErrorReply> {
         match self.recall(op) {
             Some(Remembered::TryWait(reply)) if reply.name == name.as_str() => {
                 return Ok(reply.clone())
@@ -196,6 +209,16 @@ impl Store {
         let value = sem.value;
         if acquired {
             self.touch_sem(name);
+            if let Some(owner) = undo_owner {
+                let key = (name.clone(), owner.to_string());
+                self.touch_held(&key);
+                let h = self.held.entry(key).or_insert(Held {
+                    units: 0,
+                    since: now,
+                });
+                h.units += 1;
+                h.since = now;
+            }
         }
         let reply = TryWaitReply {
             name: name.to_string(),

@@ -457,3 +457,32 @@ fn limits_refuse_with_quota_naming_the_limit_and_deletes_give_room_back() {
     assert_eq!(s.bytes(), 1);
     s.set(&a, json!("12345"), None, now).unwrap();
 }
+
+#[test]
+fn a_unit_taken_by_an_undo_try_wait_comes_back_when_its_owner_dies() {
+    let mut s = Store::new(4);
+    let t = Instant::now();
+    s.create(&n("J"), 1).unwrap();
+    let taken = s.try_wait_undo(&n("J"), Some("a-1"), Some("a"), t).unwrap();
+    assert!(taken.acquired);
+    // Taken by nobody else meanwhile: not free, and not free for a second try.
+    assert!(
+        !s.try_wait_undo(&n("J"), Some("b-1"), Some("b"), t)
+            .unwrap()
+            .acquired
+    );
+    let st = s.semaphore(&n("J")).unwrap();
+    assert_eq!((st.value, st.held), (0, 1));
+    // b queues; a dies holding the unit: b gets it.
+    s.wait_undo(&n("J"), Some("b-2"), Some("b"), true, t)
+        .unwrap();
+    let grants = s.owner_gone("a", t);
+    assert_eq!(grants.len(), 1);
+    assert_eq!(grants[0].ticket, "b-2");
+    // A plain try-wait's unit is final, whoever dies.
+    s.ack(&n("J"), "b-2", t).unwrap();
+    s.signal_as(&n("J"), None, Some("b"), t).unwrap();
+    assert!(s.try_wait(&n("J"), Some("c-1"), t).unwrap().acquired);
+    assert!(s.owner_gone("c", t).is_empty());
+    assert_eq!(s.semaphore(&n("J")).unwrap().value, 0);
+}
