@@ -33,14 +33,15 @@ pub enum Event {
         /// The goal, with its verdict.
         handed: Handed,
     },
-    /// A robot waits for, holds or has left a narrow passage.
-    Passage {
+    /// A robot waits for, holds or has given back a part of the building
+    /// it reserves: a narrow passage or a junction ([`rome_nav::traffic`]).
+    Traffic {
         /// Which robot.
         robot: usize,
-        /// The passage.
-        passage: String,
-        /// What it is doing there.
-        state: PassageState,
+        /// The part's semaphore (`$passage/N`, `$traffic/junction/012`).
+        part: String,
+        /// What it is doing with it.
+        state: PartState,
     },
     /// A robot's run ended (arrived, failed or given up).
     Finished {
@@ -64,9 +65,9 @@ pub enum Event {
     },
 }
 
-/// Where a robot is with a narrow passage.
+/// Where a robot is with a part of the building it reserves.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum PassageState {
+pub enum PartState {
     /// Stopped, waiting for it to be free.
     Waiting,
     /// Holding it (going through).

@@ -46,7 +46,7 @@ pub mod experiment;
 pub mod plates;
 pub mod routes;
 
-pub use events::{Event, FleetReport, PassageState, RobotTick};
+pub use events::{Event, FleetReport, PartState, RobotTick};
 pub use rome_nav::report::ARRIVED_CM;
 pub use routes::{parse_routes, pick_routes, RouteSpec};
 
@@ -91,6 +91,10 @@ pub struct RunConfig {
     /// People walking to and fro along the corridors, placed with the seed
     /// (the thesis' robot met them in the hallways).
     pub people: usize,
+    /// Whether robots reserve the junctions they turn in and cross as
+    /// well as the narrow passages (`rome_nav::traffic`); without it only
+    /// the passages, as before there was traffic control.
+    pub traffic: bool,
     /// The network of the run's session: by default it talks to nobody
     /// else; with endpoints, `rome view`, `rome echo` or `rome record` in
     /// other processes can watch.
@@ -136,6 +140,7 @@ impl RunConfig {
             plfinder: true,
             covered: Vec::new(),
             people: 0,
+            traffic: true,
             net: NetOptions::isolated(),
         }
     }
@@ -358,7 +363,10 @@ async fn run_all(
                 r.robot
             )));
         }
-        let plan = Plan::through(&world_map, &network, &r.from, &r.via, &r.to)?;
+        let mut plan = Plan::through(&world_map, &network, &r.from, &r.via, &r.to)?;
+        if !cfg.traffic {
+            plan = plan.without_junctions();
+        }
         progress(Event::Planned {
             robot: k,
             plan: plan.clone(),
@@ -606,18 +614,18 @@ async fn drive(
                             handed: h.clone(),
                         }
                     }
-                    Progress::Waiting(name) => Event::Passage {
+                    Progress::Waiting(part) => Event::Traffic {
                         robot: k,
-                        passage: name.to_string(),
-                        state: PassageState::Waiting,
+                        part: part.to_string(),
+                        state: PartState::Waiting,
                     },
-                    Progress::Passage(name, inside) => Event::Passage {
+                    Progress::Holding(part, holding) => Event::Traffic {
                         robot: k,
-                        passage: name.to_string(),
-                        state: if inside {
-                            PassageState::Holding
+                        part: part.to_string(),
+                        state: if holding {
+                            PartState::Holding
                         } else {
-                            PassageState::Left
+                            PartState::Left
                         },
                     },
                 };

@@ -3,7 +3,7 @@
 //! robots taking turns through a narrow passage, and a run whose mode is
 //! made to fail and is reported failed.
 
-use rome_harness::{self as run, Event, FleetReport, PassageState, RouteSpec, RunConfig};
+use rome_harness::{self as run, Event, FleetReport, PartState, RouteSpec, RunConfig};
 use rome_nav::report::Report;
 use std::time::Duration;
 
@@ -138,11 +138,11 @@ async fn robots_take_turns_through_a_narrow_passage() {
         Event::Tick { robots, .. } if in_n(&robots[0].pose) && in_n(&robots[1].pose) => {
             both_inside += 1;
         }
-        Event::Passage {
+        Event::Traffic {
             robot,
-            state: PassageState::Waiting,
-            ..
-        } => waited.push(*robot),
+            part,
+            state: PartState::Waiting,
+        } if part == "$passage/N" => waited.push(*robot),
         _ => {}
     })
     .await;

@@ -131,6 +131,10 @@ pub enum Var {
     /// from the goal, mm, as the map has them (`null` when either is not
     /// in reach), written by the Planner before it hands the goal over.
     GoalWalls,
+    /// The junctions and narrow passages the robot holds and the one it
+    /// waits for ([`crate::traffic::TrafficState`]), written by the
+    /// Planner as they change, for people watching.
+    Traffic,
 }
 
 impl Var {
@@ -153,6 +157,7 @@ impl Var {
             Var::EndWall => "EndWall",
             Var::GoalLane => "GoalLane",
             Var::GoalWalls => "GoalWalls",
+            Var::Traffic => "Traffic",
         }
     }
 }

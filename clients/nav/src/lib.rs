@@ -20,6 +20,8 @@
 //!   truth, contacts) and reported as rows of Tables 6.1–6.2 and a picture.
 //! - [`track`]: where the robot was when a scan or frame was taken, from
 //!   the base's state stream, so readings are placed right over a slow link.
+//! - [`traffic`]: the junctions and narrow passages a robot reserves
+//!   before it drives into them, in an order that cannot deadlock.
 
 pub mod board;
 pub mod crew;
@@ -33,6 +35,7 @@ pub mod planner;
 pub mod plfinder;
 pub mod report;
 pub mod track;
+pub mod traffic;
 
 use std::time::Duration;
 

@@ -13,6 +13,7 @@
 //! 6.1–6.2 count E and C together as the corner column.
 
 use crate::board::{Corridor, Goal, GoalType, RouteInfo};
+use crate::traffic::{Hold, Junctions};
 use rome_maps::geometry::{direction, distance, heading_to, normalize_deg, Point};
 use rome_maps::{Network, Route, RouteError, World};
 
@@ -81,6 +82,9 @@ impl Step {
     }
 }
 
+/// What a narrow passage's semaphore is called before its name.
+pub const PASSAGE_PREFIX: &str = "$passage/";
+
 /// A narrow passage on the route (edges tagged `passage=NAME`): the
 /// Planner holds its semaphore from before step `first` until step `last`
 /// is done, so robots take turns through it.
@@ -99,7 +103,7 @@ pub struct PassageUse {
 impl PassageUse {
     /// The passage's semaphore on the data server (`$passage/NAME`).
     pub fn semaphore(&self) -> String {
-        format!("$passage/{}", self.name)
+        format!("{PASSAGE_PREFIX}{}", self.name)
     }
 }
 
@@ -114,6 +118,10 @@ pub struct Plan {
     pub start_heading_deg: f64,
     /// The narrow passages it goes through.
     pub passages: Vec<PassageUse>,
+    /// What the robot reserves on the way and when ([`crate::traffic`]):
+    /// the narrow passages, and the junctions it turns in or crosses when
+    /// the plan was made with the route network ([`Plan::through`]).
+    pub holds: Vec<Hold>,
 }
 
 /// How often each mode occurs: the L / C / D columns of Tables 6.1–6.2.
@@ -188,7 +196,17 @@ impl Plan {
         if !via.is_empty() {
             drive_through(world, &mut route)?;
         }
-        Ok(Plan::segment(world, route))
+        let mut plan = Plan::segment(world, route);
+        plan.holds.extend(Junctions::of(network).holds(&plan.steps));
+        Ok(plan)
+    }
+
+    /// Leaves out the junctions: the robot reserves only the narrow
+    /// passages, as before there was traffic control.
+    pub fn without_junctions(mut self) -> Plan {
+        self.holds
+            .retain(|h| h.semaphore.starts_with(PASSAGE_PREFIX));
+        self
     }
 
     /// The route as tables name it ([`label`]).
@@ -302,11 +320,20 @@ impl Plan {
         }
         let start_heading_deg = legs.first().map_or(0.0, |l| l.3);
         let passages = passages_on(world, &legs, &steps);
+        let holds = passages
+            .iter()
+            .map(|p| Hold {
+                semaphore: p.semaphore(),
+                first: p.first,
+                last: p.last,
+            })
+            .collect();
         Plan {
             route,
             steps,
             start_heading_deg,
             passages,
+            holds,
         }
     }
 

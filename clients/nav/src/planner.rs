@@ -8,22 +8,26 @@
 //! `$EndLMode` and takes the CTracker's `Overshoot` off the dead-reckoning
 //! distance that follows: the overshoot compensation of Chapter 6.
 //!
-//! Before a narrow passage (edges tagged `passage=NAME`) the Planner takes
-//! the passage's semaphore `$passage/NAME` (value 1) with an undo wait, and
-//! gives it back once the robot has left: robots take turns, and a robot
-//! whose Planner dies inside the passage does not close it, because the
-//! data server takes the unit back when the Planner's liveliness goes. If
-//! the passage is busy, the robot is first stopped where it is (a D goal of
-//! no distance), so it does not drive on while it waits.
+//! Traffic ([`crate::traffic`]): before the junctions and narrow passages
+//! of the route (a chain of them between two stretches of plain corridor)
+//! the Planner takes their semaphores (value 1) with undo waits, in the
+//! order of their names, and gives each back once the robot has left it:
+//! robots take turns and never wait for each other in a circle, and a
+//! robot whose Planner dies inside does not close them, because the data
+//! server takes the units back when the Planner's liveliness goes. If a
+//! part is busy, the robot is first stopped where it is (a D goal of no
+//! distance), so it does not drive on while it waits. What it holds and
+//! waits for is on its blackboard (`Traffic`).
 //!
 //! Each goal done is judged by what happened ([`crate::report::judge_step`]):
 //! the CTracker's `TrackLog` for an L segment, and, where a simulator
 //! answers, the robot's ground truth for C and D segments.
 
 use crate::board::{Board, Corridor, Goal, GoalType, Sem, Var};
-use crate::plan::{PassageUse, Plan, Step};
+use crate::plan::{Plan, Step};
 use crate::report::judge_step;
 pub use crate::report::Handed;
+use crate::traffic::{chains, Chain, TrafficState};
 use crate::NavError;
 use rome_client::sim::TruthClient;
 use rome_client::RobotClient;
@@ -35,10 +39,12 @@ pub enum Progress<'a> {
     Handed(&'a Handed),
     /// The Navigator reported it done, and it was judged.
     Done(&'a Handed),
-    /// The robot waits for a narrow passage to be free.
+    /// The robot waits for a junction or narrow passage to be free (its
+    /// semaphore; [`crate::traffic::describe`] names it).
     Waiting(&'a str),
-    /// The robot holds a narrow passage (`true`) or has left it.
-    Passage(&'a str, bool),
+    /// The robot holds a junction or narrow passage (`true`) or has given
+    /// it back.
+    Holding(&'a str, bool),
 }
 
 /// Registers the robot at the plan's start: odometry reads the map's
@@ -94,9 +100,12 @@ pub async fn run(
         .await?;
     let mut out = Vec::with_capacity(plan.steps.len());
     let mut overshoot = 0i64;
+    let chains = chains(&plan.holds);
+    let mut traffic = TrafficState::default();
+    board.set(Var::Traffic, &traffic).await?;
     for (index, step) in plan.steps.iter().enumerate() {
-        for p in plan.passages.iter().filter(|p| p.first == index) {
-            enter(board, p, step, index > 0, &mut progress).await?;
+        for chain in chains.iter().filter(|c| c.first == index) {
+            take(board, chain, step, index > 0, &mut traffic, &mut progress).await?;
         }
         let mut step = step.clone();
         let mut handed_overshoot = None;
@@ -179,9 +188,16 @@ pub async fn run(
         handed.failure = judge_step(&step, handed.truth.as_ref(), handed.track.as_ref());
         progress(Progress::Done(&handed));
         out.push(handed);
-        for p in plan.passages.iter().filter(|p| p.last == index) {
-            board.client().give_back(&p.semaphore()).await?;
-            progress(Progress::Passage(&p.name, false));
+        for chain in chains
+            .iter()
+            .filter(|c| (c.first..=c.last).contains(&index))
+        {
+            for h in chain.holds.iter().filter(|h| h.last == index) {
+                board.client().give_back(&h.semaphore).await?;
+                traffic.holds.retain(|s| s != &h.semaphore);
+                board.set(Var::Traffic, &traffic).await?;
+                progress(Progress::Holding(&h.semaphore, false));
+            }
         }
     }
     Ok(out)
@@ -224,33 +240,45 @@ where
     }
 }
 
-/// Takes a narrow passage before `step`; a robot that may be moving
-/// (`moving`) is stopped first if it has to wait.
-async fn enter(
+/// Takes every part of `chain` before `step`, in the order of their
+/// names; a robot that may be moving (`moving`) is stopped first if it has
+/// to wait.
+async fn take(
     board: &Board,
-    passage: &PassageUse,
+    chain: &Chain,
     step: &Step,
     moving: bool,
+    traffic: &mut TrafficState,
     progress: &mut impl FnMut(Progress<'_>),
 ) -> Result<(), NavError> {
     let ds = board.client();
-    let sem = passage.semaphore();
-    ds.create_semaphore(&sem, 1).await?;
-    let state = ds.semaphore(&sem).await?;
-    if state.value == 0 || state.waiters > 0 {
-        progress(Progress::Waiting(&passage.name));
-        if moving {
-            board
-                .give_goal(&Goal {
-                    goal_type: GoalType::D,
-                    distance: 0,
-                    direction_deg: step.goal.direction_deg,
-                })
-                .await?;
-            board.down(Sem::RobotStatus).await?;
+    let mut stopped = !moving;
+    for hold in &chain.holds {
+        let sem = &hold.semaphore;
+        ds.create_semaphore(sem, 1).await?;
+        // Free: taken at once (the common case, and one a lock-step clock
+        // waits for). Busy: the robot stops and waits in the queue.
+        if !ds.try_wait_undo(sem).await? {
+            progress(Progress::Waiting(sem));
+            traffic.waits_for = Some(sem.clone());
+            board.set(Var::Traffic, &*traffic).await?;
+            if !stopped {
+                board
+                    .give_goal(&Goal {
+                        goal_type: GoalType::D,
+                        distance: 0,
+                        direction_deg: step.goal.direction_deg,
+                    })
+                    .await?;
+                board.down(Sem::RobotStatus).await?;
+                stopped = true;
+            }
+            ds.wait_undo(sem).await?;
         }
+        traffic.waits_for = None;
+        traffic.holds.push(sem.clone());
+        board.set(Var::Traffic, &*traffic).await?;
+        progress(Progress::Holding(sem, true));
     }
-    ds.wait_undo(&sem).await?;
-    progress(Progress::Passage(&passage.name, true));
     Ok(())
 }

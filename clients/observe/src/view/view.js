@@ -65,7 +65,10 @@ function apply(e) {
     case "plate":
       r.plates.push(e); break;
     case "board":
-      r.board[e.var] = e.v; updateCard(r); break;
+      r.board[e.var] = e.v;
+      // Who waits for whom changes on every robot's card.
+      if (e.var === "Traffic") robots.forEach(updateCard); else updateCard(r);
+      break;
   }
 }
 
@@ -121,6 +124,27 @@ function fmt(v) {
   return typeof v === "string" ? v : JSON.stringify(v);
 }
 
+// A part of the building as people call it (rome_nav::traffic::describe).
+function part(sem) {
+  if (sem.startsWith("$passage/")) return `passage ${sem.slice(9)}`;
+  if (sem.startsWith("$traffic/junction/")) return `junction ${sem.slice(18)}`;
+  return sem;
+}
+
+// What a robot holds and waits for, and who holds what it waits for.
+function traffic(r) {
+  const t = r.board.Traffic;
+  if (!t || typeof t !== "object") return null;
+  const holds = Array.isArray(t.holds) ? t.holds.filter((s) => typeof s === "string") : [];
+  let text = holds.length ? `holds ${holds.map(part).join(", ")}` : "holds nothing";
+  if (typeof t.waits_for === "string") {
+    const by = [...robots.values()].filter((o) => o !== r && Array.isArray(o.board.Traffic?.holds)
+      && o.board.Traffic.holds.includes(t.waits_for)).map((o) => o.name);
+    text += `; waits for ${part(t.waits_for)}${by.length ? " (held by " + by.join(", ") + ")" : ""}`;
+  }
+  return text;
+}
+
 function updateCard(r) {
   if (!r.card) return;
   const b = r.board;
@@ -132,6 +156,8 @@ function updateCard(r) {
   }
   if (b.Status) rows.push(["navigator", `${b.Status.state} (goal ${b.Status.goal}, ${b.Status.goal_type})`]);
   if (b.CeilingLight !== undefined) rows.push(["lights counted", fmt(b.CeilingLight)]);
+  const t = traffic(r);
+  if (t) rows.push(["traffic", t]);
   if (r.odo) rows.push(["base", `${r.odo.mode}${r.odo.lock ? ", locked by " + r.odo.lock : ""}`]);
   if (r.truth) rows.push(["driven", `${(r.truth.travelled_mm / 1000).toFixed(2)} m`]);
   if (r.truth && r.odo) rows.push(["odometry off", `${(Math.hypot(r.truth.x - r.odo.x, r.truth.y - r.odo.y) / 1000).toFixed(2)} m`]);

@@ -24,6 +24,7 @@ use rome_nav::plan::Plan;
 use rome_nav::planner::{self, Progress};
 use rome_nav::plfinder::PlConfig;
 use rome_nav::report::{Ended, Report, ARRIVED_CM};
+use rome_nav::traffic;
 
 /// The robot a client works for.
 #[derive(Debug, clap::Args)]
@@ -59,6 +60,10 @@ pub struct PlannerArgs {
     /// Print the plan and exit without driving.
     #[arg(long)]
     dry_run: bool,
+    /// Reserve only narrow passages, not junctions: robots meeting at a
+    /// junction are then not kept apart (docs/traffic.md).
+    #[arg(long)]
+    no_traffic: bool,
     /// Give up after this many seconds of wall time (exit status 3), with
     /// the goals judged so far; without it the Planner waits as long as the
     /// robot takes.
@@ -147,7 +152,10 @@ pub async fn planner(common: &CommonArgs, args: PlannerArgs) -> anyhow::Result<u
     let map = rome_maps::load_named(&args.map)?;
     let world = rome_maps::World::from_map(&map);
     let network = rome_maps::Network::new(&map, &world);
-    let plan = Plan::through(&world, &network, &args.from, &args.via, &args.to)?;
+    let mut plan = Plan::through(&world, &network, &args.from, &args.via, &args.to)?;
+    if args.no_traffic {
+        plan = plan.without_junctions();
+    }
     let via = if args.via.is_empty() {
         String::new()
     } else {
@@ -163,13 +171,22 @@ pub async fn planner(common: &CommonArgs, args: PlannerArgs) -> anyhow::Result<u
     for line in plan.describe() {
         println!("  {line}");
     }
-    for p in &plan.passages {
+    for chain in traffic::chains(&plan.holds) {
+        let parts: Vec<String> = chain
+            .holds
+            .iter()
+            .map(|h| {
+                format!(
+                    "{} (to goal {})",
+                    traffic::describe(&h.semaphore),
+                    h.last + 1
+                )
+            })
+            .collect();
         println!(
-            "  narrow passage {}: held from goal {} to goal {} (semaphore {})",
-            p.name,
-            p.first + 1,
-            p.last + 1,
-            p.semaphore()
+            "  before goal {}: takes {}",
+            chain.first + 1,
+            parts.join(", ")
         );
     }
     if args.dry_run {
@@ -218,9 +235,9 @@ pub async fn planner(common: &CommonArgs, args: PlannerArgs) -> anyhow::Result<u
             Some(why) => println!("[goal {}/{total}] failed: {why}", h.index + 1),
             None => println!("[goal {}/{total}] done", h.index + 1),
         },
-        Progress::Waiting(name) => println!("waiting for the narrow passage {name}"),
-        Progress::Passage(name, true) => println!("in the narrow passage {name}"),
-        Progress::Passage(name, false) => println!("out of the narrow passage {name}"),
+        Progress::Waiting(part) => println!("waiting for {}", traffic::describe(part)),
+        Progress::Holding(part, true) => println!("in {}", traffic::describe(part)),
+        Progress::Holding(part, false) => println!("out of {}", traffic::describe(part)),
     });
     let handed = match args.timeout {
         None => run.await?,

@@ -22,7 +22,7 @@
 use crate::args::{CommonArgs, Side};
 use crate::exit;
 use anyhow::Context;
-use rome_harness::{self as run, Event, PassageState, RobotTick, RouteSpec, RunConfig};
+use rome_harness::{self as run, Event, PartState, RobotTick, RouteSpec, RunConfig};
 use rome_nav::board::GoalType;
 use rome_nav::report::Report;
 use rome_observe::record::Recorder;
@@ -83,6 +83,10 @@ pub struct Args {
     /// Leave out the local mapper (no heading or sideways correction).
     #[arg(long)]
     pub no_himm: bool,
+    /// Robots reserve only narrow passages, not the junctions they turn in
+    /// and cross (docs/traffic.md): to see what traffic control does.
+    #[arg(long)]
+    pub no_traffic: bool,
     /// Leave out the door-plate finder.
     #[arg(long)]
     pub no_plfinder: bool,
@@ -162,6 +166,7 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
     cfg.plfinder = !args.no_plfinder;
     cfg.covered = args.cover_camera.clone();
     cfg.people = args.people as usize;
+    cfg.traffic = !args.no_traffic;
     cfg.limit = Duration::from_secs_f64(args.limit_min * 60.0);
     if args.no_noise {
         cfg.noise = Noise::none();
@@ -257,20 +262,21 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
                 ));
             }
         }
-        Event::Passage {
-            robot,
-            passage,
-            state,
-        } => {
+        Event::Traffic { robot, part, state } => {
+            // Junctions are taken and given back at every corner: only a
+            // wait is worth a line; a narrow passage's every change is.
             let what = match state {
-                PassageState::Waiting => "waits for",
-                PassageState::Holding => "enters",
-                PassageState::Left => "has left",
+                PartState::Waiting => "waits for",
+                PartState::Holding => "enters",
+                PartState::Left => "has left",
             };
-            screen.line(&format!(
-                "[{}] {what} the narrow passage {passage}",
-                routes[robot].robot
-            ));
+            if state == PartState::Waiting || part.starts_with("$passage/") {
+                screen.line(&format!(
+                    "[{}] {what} {}",
+                    routes[robot].robot,
+                    rome_nav::traffic::describe(&part)
+                ));
+            }
         }
         Event::Finished { robot, report } => {
             modes[robot] = if report.arrived() {

@@ -30,6 +30,10 @@ pub enum MapCmd {
         /// Positions the drawn route must pass, in order.
         #[arg(long, value_name = "POSITION", requires = "route")]
         via: Vec<String>,
+        /// Also draw the junctions robots reserve (docs/traffic.md), each
+        /// with its number; with --route, those the route holds in red.
+        #[arg(long)]
+        junctions: bool,
     },
     /// The shortest route between two positions (door jambs like 350R, or
     /// RING.NODE) along the corridors: length, corners and legs.
@@ -47,6 +51,48 @@ pub enum MapCmd {
         #[arg(long)]
         legs: bool,
     },
+}
+
+/// Every junction of the map's route network as a dot with its number;
+/// those a route between `ends` holds in red.
+fn junction_shapes(
+    map: &rome_maps::Map,
+    world: &World,
+    ends: Option<&[String]>,
+    via: &[String],
+) -> anyhow::Result<Vec<render::Shape>> {
+    use rome_nav::traffic::Junctions;
+    let network = Network::new(map, world);
+    let junctions = Junctions::of(&network);
+    let held: Vec<String> = match ends {
+        Some([from, to]) => rome_nav::plan::Plan::through(world, &network, from, via, to)?
+            .holds
+            .into_iter()
+            .map(|h| h.semaphore)
+            .collect(),
+        _ => Vec::new(),
+    };
+    let mut out = Vec::new();
+    for k in 0..junctions.len() {
+        let color = if held.contains(&Junctions::semaphore(k)) {
+            [200, 30, 30]
+        } else {
+            [90, 90, 200]
+        };
+        let at = junctions.centre(k);
+        out.push(render::Shape::Dot {
+            at,
+            radius: 6.0,
+            color,
+        });
+        out.push(render::Shape::Text {
+            at,
+            text: format!("{k:03}"),
+            color,
+            size: 1,
+        });
+    }
+    Ok(out)
 }
 
 /// A built-in map by name (`eb3`, `fig5_3`) or a map file.
@@ -139,12 +185,16 @@ pub fn run(cmd: MapCmd) -> anyhow::Result<u8> {
             width,
             route: between,
             via,
+            junctions,
         } => {
             let (map, world) = load(&file)?;
-            let overlay = match &between {
+            let mut overlay = match &between {
                 Some(ends) => render::route_shapes(&route(&map, &world, &ends[0], &via, &ends[1])?),
                 None => Vec::new(),
             };
+            if junctions {
+                overlay.extend(junction_shapes(&map, &world, between.as_deref(), &via)?);
+            }
             let ext = output
                 .extension()
                 .and_then(|e| e.to_str())
