@@ -91,9 +91,10 @@ pub struct RunConfig {
     /// People walking to and fro along the corridors, placed with the seed
     /// (the thesis' robot met them in the hallways).
     pub people: usize,
-    /// Whether robots reserve the junctions they turn in and cross as
-    /// well as the narrow passages (`rome_nav::traffic`); without it only
-    /// the passages, as before there was traffic control.
+    /// Whether robots reserve the junctions they turn in as well as the
+    /// narrow passages (`rome_nav::traffic`). Off by default: robots that
+    /// wait for a junction stand on the corridor's centre line at its
+    /// mouth, where those leaving it cannot get past (docs/traffic.md).
     pub traffic: bool,
     /// The network of the run's session: by default it talks to nobody
     /// else; with endpoints, `rome view`, `rome echo` or `rome record` in
@@ -140,7 +141,7 @@ impl RunConfig {
             plfinder: true,
             covered: Vec::new(),
             people: 0,
-            traffic: true,
+            traffic: false,
             net: NetOptions::isolated(),
         }
     }
@@ -463,6 +464,9 @@ async fn run_all(
     // Odometry means something only once the Planner has registered the
     // robot at its start, just before handing over the first goal.
     let mut registered = vec![false; n];
+    // Robots stopped in a corridor, waiting for a junction or passage to
+    // be free: waiting their turn is not being stuck.
+    let mut waiting = vec![false; n];
     let mut moved: Vec<(u64, f64)> = vec![(0, 0.0); n];
     let t0 = rig.world.lock().time_ms();
     let monitors: Vec<RobotClient> = {
@@ -483,6 +487,9 @@ async fn run_all(
                 match &event {
                     Event::Finished { robot, report } => reports[*robot] = Some((**report).clone()),
                     Event::Goal { robot, .. } => registered[*robot] = true,
+                    Event::Traffic { robot, state, .. } => {
+                        waiting[*robot] = *state == PartState::Waiting;
+                    }
                     _ => {}
                 }
                 progress(event);
@@ -526,7 +533,7 @@ async fn run_all(
                             odometry_error_mm = Pose::from(&p).dist(&pose);
                             max_err[k] = max_err[k].max(odometry_error_mm);
                         }
-                        if travelled_mm - moved[k].1 >= 500.0 {
+                        if travelled_mm - moved[k].1 >= 500.0 || waiting[k] {
                             moved[k] = (now, travelled_mm);
                         }
                         let why = if Duration::from_millis(now - t0) > cfg.limit {
@@ -640,8 +647,13 @@ async fn drive(
         }
     };
     // A robot whose run ended stands still, so it does not drive on into
-    // the others.
+    // the others, and gives back what it held of the building, so they
+    // are not kept waiting for it (a run given up ends holding what it
+    // held at that moment).
     let _ = crew.robot.stop(false).await;
+    if let Err(e) = planner::give_back_all(&crew.board).await {
+        tracing::warn!(robot = %crew.name, error = %e, "could not give back what the robot held");
+    }
     let end = rome_sim_hardware::truth::truth_of(&world, crew.world_index);
     let odometry = crew.robot.pose().await.ok().map(|p| Pose::from(&p).at);
     let mut report = Report::new(Ended {

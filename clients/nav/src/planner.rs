@@ -203,6 +203,29 @@ pub async fn run(
     Ok(out)
 }
 
+/// Gives back every junction and passage the robot still holds (as its
+/// blackboard's `Traffic` says): for a run that ended before its last step,
+/// failed or given up, so that others are not kept waiting for a robot
+/// that no longer drives. Must be called with the Planner's own client,
+/// whose undo units they are.
+pub async fn give_back_all(board: &Board) -> Result<(), NavError> {
+    let traffic: TrafficState = match board.get(Var::Traffic).await {
+        Ok(t) => t,
+        // Never written: the run never got to its traffic.
+        Err(_) => return Ok(()),
+    };
+    for sem in &traffic.holds {
+        match board.client().give_back(sem).await {
+            Ok(_) => {}
+            // Given back already, just before the blackboard was written.
+            Err(e) if e.code() == Some(rome_schema::ErrorCode::Conflict) => {}
+            Err(e) => return Err(e.into()),
+        }
+    }
+    board.set(Var::Traffic, &TrafficState::default()).await?;
+    Ok(())
+}
+
 /// How long the Planner waits for a sign of life from the Navigator (a new
 /// Status) or the CTracker before it gives the run up as failed, wall time.
 pub const NAVIGATOR_SILENCE: std::time::Duration = std::time::Duration::from_secs(30);

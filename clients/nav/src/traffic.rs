@@ -6,9 +6,10 @@
 //! waypoints, those nearer than [`JUNCTION_MERGE_MM`] to each other taken
 //! as one crossing) and the narrow passages (edges tagged `passage=NAME`).
 //! Each is a semaphore of value 1 (§4.6.1): `$traffic/junction/NNN` and
-//! `$passage/NAME`. A step of a plan uses a junction when its line passes
-//! within [`JUNCTION_REACH_MM`] of the junction's middle: an Enter-Corner
-//! and the Leave-Corner after it, and a segment that crosses it straight.
+//! `$passage/NAME`. A robot holds a junction it turns in, from its
+//! Enter-Corner step (whose line ends within [`JUNCTION_REACH_MM`] of the
+//! junction's middle) to the Leave-Corner step after it. It does not hold
+//! junctions it crosses straight.
 //!
 //! The discipline:
 //! - A robot holds a part ([`Hold`]) from before the first step that uses
@@ -116,11 +117,23 @@ impl Junctions {
             .collect()
     }
 
-    /// One hold per junction a run of steps uses, from the first step that
-    /// uses it to the last of that run of steps.
+    /// One hold per junction the plan turns in: from its Enter-Corner step
+    /// to the Leave-Corner step after it (steps that pass a junction
+    /// straight do not hold it).
     pub fn holds(&self, steps: &[Step]) -> Vec<Hold> {
         let mut out: Vec<Hold> = Vec::new();
         for (i, step) in steps.iter().enumerate() {
+            // Only where the robot turns: a robot crossing straight would
+            // hold the junction for a whole segment, tens of metres, and
+            // at 40 robots on EB3 that kept the turning ones waiting until
+            // fewer arrived than with no reservations at all.
+            let turns = matches!(
+                step.goal.goal_type,
+                crate::board::GoalType::E | crate::board::GoalType::C
+            );
+            if !turns {
+                continue;
+            }
             for k in self.on_line(step.from, step.to) {
                 let semaphore = Junctions::semaphore(k);
                 match out

@@ -318,7 +318,7 @@ fn head_on_through_two_junctions_is_the_circle_chains_prevent() {
 }
 
 #[test]
-fn a_plan_holds_the_junctions_it_turns_in_and_crosses() {
+fn a_plan_holds_the_junctions_it_turns_in() {
     let map = rome_maps::load_named("eb3").unwrap();
     let world = World::from_map(&map);
     let network = Network::new(&map, &world);

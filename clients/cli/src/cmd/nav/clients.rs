@@ -60,10 +60,10 @@ pub struct PlannerArgs {
     /// Print the plan and exit without driving.
     #[arg(long)]
     dry_run: bool,
-    /// Reserve only narrow passages, not junctions: robots meeting at a
-    /// junction are then not kept apart (docs/traffic.md).
+    /// Reserve the junctions the robot turns in, not only narrow passages
+    /// (docs/traffic.md).
     #[arg(long)]
-    no_traffic: bool,
+    traffic: bool,
     /// Give up after this many seconds of wall time (exit status 3), with
     /// the goals judged so far; without it the Planner waits as long as the
     /// robot takes.
@@ -153,7 +153,7 @@ pub async fn planner(common: &CommonArgs, args: PlannerArgs) -> anyhow::Result<u
     let world = rome_maps::World::from_map(&map);
     let network = rome_maps::Network::new(&map, &world);
     let mut plan = Plan::through(&world, &network, &args.from, &args.via, &args.to)?;
-    if args.no_traffic {
+    if !args.traffic {
         plan = plan.without_junctions();
     }
     let via = if args.via.is_empty() {

@@ -83,10 +83,10 @@ pub struct Args {
     /// Leave out the local mapper (no heading or sideways correction).
     #[arg(long)]
     pub no_himm: bool,
-    /// Robots reserve only narrow passages, not the junctions they turn in
-    /// and cross (docs/traffic.md): to see what traffic control does.
+    /// Robots also reserve the junctions they turn in, not only narrow
+    /// passages (docs/traffic.md; not yet better at high density).
     #[arg(long)]
-    pub no_traffic: bool,
+    pub traffic: bool,
     /// Leave out the door-plate finder.
     #[arg(long)]
     pub no_plfinder: bool,
@@ -166,7 +166,7 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
     cfg.plfinder = !args.no_plfinder;
     cfg.covered = args.cover_camera.clone();
     cfg.people = args.people as usize;
-    cfg.traffic = !args.no_traffic;
+    cfg.traffic = args.traffic;
     cfg.limit = Duration::from_secs_f64(args.limit_min * 60.0);
     if args.no_noise {
         cfg.noise = Noise::none();
