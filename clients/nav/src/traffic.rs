@@ -29,10 +29,12 @@
 //! taken with an undo wait, so a robot whose Planner dies frees what it
 //! held (the data server sees its liveliness go).
 
-use crate::plan::Step;
 use rome_maps::geometry::{distance, Point};
 use rome_maps::Network;
 use serde::{Deserialize, Serialize};
+
+/// What a narrow passage's semaphore is called before its name.
+pub const PASSAGE_PREFIX: &str = "$passage/";
 
 /// Waypoints nearer than this to each other are one junction (the four
 /// building corners of a crossing, the two of a T), mm.
@@ -116,41 +118,6 @@ impl Junctions {
             .filter(|&k| to_segment(self.centres[k], a, b) <= JUNCTION_REACH_MM)
             .collect()
     }
-
-    /// One hold per junction the plan turns in: from its Enter-Corner step
-    /// to the Leave-Corner step after it (steps that pass a junction
-    /// straight do not hold it).
-    pub fn holds(&self, steps: &[Step]) -> Vec<Hold> {
-        let mut out: Vec<Hold> = Vec::new();
-        for (i, step) in steps.iter().enumerate() {
-            // Only where the robot turns: a robot crossing straight would
-            // hold the junction for a whole segment, tens of metres, and
-            // at 40 robots on EB3 that kept the turning ones waiting until
-            // fewer arrived than with no reservations at all.
-            let turns = matches!(
-                step.goal.goal_type,
-                crate::board::GoalType::E | crate::board::GoalType::C
-            );
-            if !turns {
-                continue;
-            }
-            for k in self.on_line(step.from, step.to) {
-                let semaphore = Junctions::semaphore(k);
-                match out
-                    .iter_mut()
-                    .find(|h| h.semaphore == semaphore && h.last + 1 == i)
-                {
-                    Some(h) => h.last = i,
-                    None => out.push(Hold {
-                        semaphore,
-                        first: i,
-                        last: i,
-                    }),
-                }
-            }
-        }
-        out
-    }
 }
 
 /// How far `p` is from the segment `a`–`b`, mm.
@@ -224,7 +191,7 @@ pub fn chains(holds: &[Hold]) -> Vec<Chain> {
 
 /// A part as people call it: `the narrow passage N`, `junction 012`.
 pub fn describe(semaphore: &str) -> String {
-    if let Some(name) = semaphore.strip_prefix(crate::plan::PASSAGE_PREFIX) {
+    if let Some(name) = semaphore.strip_prefix(PASSAGE_PREFIX) {
         format!("the narrow passage {name}")
     } else if let Some(k) = semaphore.strip_prefix("$traffic/junction/") {
         format!("junction {k}")
