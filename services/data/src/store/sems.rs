@@ -210,14 +210,7 @@ impl Store {
         if acquired {
             self.touch_sem(name);
             if let Some(owner) = undo_owner {
-                let key = (name.clone(), owner.to_string());
-                self.touch_held(&key);
-                let h = self.held.entry(key).or_insert(Held {
-                    units: 0,
-                    since: now,
-                });
-                h.units += 1;
-                h.since = now;
+                self.hold_undo(name, owner.to_string(), now);
             }
         }
         let reply = TryWaitReply {
@@ -412,6 +405,19 @@ impl Store {
         Ok(self.wait_reply(name, ticket, status))
     }
 
+    /// Puts one unit of `name` on `owner`'s undo account: it goes back by
+    /// itself if the owner dies before giving it back.
+    fn hold_undo(&mut self, name: &Name, owner: String, now: Instant) {
+        let key = (name.clone(), owner);
+        self.touch_held(&key);
+        let h = self.held.entry(key).or_insert(Held {
+            units: 0,
+            since: now,
+        });
+        h.units += 1;
+        h.since = now;
+    }
+
     /// Confirms a grant: the unit is the client's for good.
     pub fn ack(
         &mut self,
@@ -429,13 +435,7 @@ impl Store {
                     ..
                 }) = self.tickets.remove(ticket)
                 {
-                    self.touch_held(&(name.clone(), owner.clone()));
-                    let h = self.held.entry((name.clone(), owner)).or_insert(Held {
-                        units: 0,
-                        since: now,
-                    });
-                    h.units += 1;
-                    h.since = now;
+                    self.hold_undo(name, owner, now);
                 }
                 let reply = self.wait_reply(name, ticket, WaitStatus::Confirmed);
                 self.remember(Some(ticket), now, Remembered::Confirmed(reply.clone()));
