@@ -188,12 +188,29 @@ fn undo_owner(params: &mut Params, what: &str) -> Result<Option<String>, ErrorRe
     }
 }
 
-/// `owner=ID;undo=true` for [`undo_owner`], when there is one.
-fn push_undo(params: &mut Vec<(&'static str, String)>, undo_owner: &Option<String>) {
+/// `op=ID` and `owner=ID;undo=true`, each when there is one: the
+/// parameters signal and try-wait share.
+fn op_undo_params(op: &Option<String>, undo_owner: &Option<String>) -> Vec<(&'static str, String)> {
+    let mut params: Vec<_> = op.iter().map(|op| (super::param::OP, op.clone())).collect();
     if let Some(owner) = undo_owner {
         params.push((super::param::OWNER, owner.clone()));
         params.push((super::param::UNDO, "true".to_string()));
     }
+    params
+}
+
+/// Parses `op`, `owner` and `undo` and nothing else (signal, try-wait).
+fn parse_op_undo(
+    mut params: Params,
+    what: &str,
+) -> Result<(Option<String>, Option<String>), ErrorReply> {
+    let op = params.take_id(super::param::OP)?;
+    let undo_owner = undo_owner(&mut params, what)?;
+    params.finish(
+        what,
+        &[super::param::OP, super::param::OWNER, super::param::UNDO],
+    )?;
+    Ok((op, undo_owner))
 }
 
 /// Takes the required `ticket` parameter of `op`.

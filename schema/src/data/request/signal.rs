@@ -1,5 +1,5 @@
-use super::{push_undo, undo_owner};
-use crate::data::{param, SignalReply};
+use super::{op_undo_params, parse_op_undo};
+use crate::data::SignalReply;
 use crate::{ErrorReply, Name, Params};
 
 request! {
@@ -27,20 +27,12 @@ request! {
     }
 
     fn params(&self) -> Vec<(&'static str, String)> {
-        let mut params: Vec<_> = self.op.iter().map(|op| (param::OP, op.clone())).collect();
-        push_undo(&mut params, &self.undo_owner);
-        params
+        op_undo_params(&self.op, &self.undo_owner)
     }
 
     /// Parses `op`, `owner` and `undo`.
-    fn parse(name: Name, mut params: Params, _: Option<&[u8]>) -> Result<Self, ErrorReply> {
-        let op = params.take_id(param::OP)?;
-        let undo_owner = undo_owner(&mut params, "signal")?;
-        params.finish("signal", &[param::OP, param::OWNER, param::UNDO])?;
-        Ok(Signal {
-            name,
-            op,
-            undo_owner,
-        })
+    fn parse(name: Name, params: Params, _: Option<&[u8]>) -> Result<Self, ErrorReply> {
+        let (op, undo_owner) = parse_op_undo(params, "signal")?;
+        Ok(Signal { name, op, undo_owner })
     }
 }

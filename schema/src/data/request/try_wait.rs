@@ -1,5 +1,5 @@
-use super::{push_undo, undo_owner};
-use crate::data::{param, TryWaitReply};
+use super::{op_undo_params, parse_op_undo};
+use crate::data::TryWaitReply;
 use crate::{ErrorReply, Name, Params};
 
 request! {
@@ -26,20 +26,12 @@ request! {
     }
 
     fn params(&self) -> Vec<(&'static str, String)> {
-        let mut params: Vec<_> = self.op.iter().map(|op| (param::OP, op.clone())).collect();
-        push_undo(&mut params, &self.undo_owner);
-        params
+        op_undo_params(&self.op, &self.undo_owner)
     }
 
     /// Parses `op`, `owner` and `undo`.
-    fn parse(name: Name, mut params: Params, _: Option<&[u8]>) -> Result<Self, ErrorReply> {
-        let op = params.take_id(param::OP)?;
-        let undo_owner = undo_owner(&mut params, "try-wait")?;
-        params.finish("try-wait", &[param::OP, param::OWNER, param::UNDO])?;
-        Ok(TryWait {
-            name,
-            op,
-            undo_owner,
-        })
+    fn parse(name: Name, params: Params, _: Option<&[u8]>) -> Result<Self, ErrorReply> {
+        let (op, undo_owner) = parse_op_undo(params, "try-wait")?;
+        Ok(TryWait { name, op, undo_owner })
     }
 }
