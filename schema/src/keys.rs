@@ -247,6 +247,12 @@ impl Root {
         format!("{}/data/{}/**", self.0, op.chunk())
     }
 
+    /// `<root>/data/<op>/<pattern>`: the keys of one operation whose names
+    /// a pattern matches (`fleet/task/*`, `nav/*/Duty`).
+    pub fn data_matching(&self, op: DataOp, pattern: &str) -> String {
+        format!("{}/data/{}/{}", self.0, op.chunk(), pattern)
+    }
+
     /// `<root>/data/**`: everything the data server answers.
     pub fn data_all(&self) -> String {
         format!("{}/data/**", self.0)

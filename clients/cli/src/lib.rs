@@ -7,7 +7,7 @@
 //!   from `rome-common`) flattened in.
 //! - [`cmd`]: the commands, grouped: `data` (data-server, data, sem),
 //!   `robot` (sim, pioneer, robot, storage), `nav` (planner, navigator,
-//!   ctracker, mapper, plfinder, demo, experiment, colony, map), `observe`
+//!   ctracker, mapper, plfinder, dispatcher, task, demo, experiment, colony, map), `observe`
 //!   (ls, echo, record, replay, view, foxglove), `deploy` (router, certs)
 //!   and `tools` (bench, soak, fuzz).
 //! - [`main`] and [`run`]: the runtime, the interrupt, the lock-step clock
@@ -118,6 +118,11 @@ pub enum Command {
     Mapper(cmd::nav::clients::RobotArg),
     /// Door-plate finder, PlFinder (§5.7): report the door plates the side camera sees.
     Plfinder(cmd::nav::clients::PlFinderArgs),
+    /// The fleet's dispatcher: hand each task to the free robot with the shortest route to it.
+    Dispatcher(cmd::nav::fleet::DispatcherArgs),
+    /// Add, list and cancel the fleet's tasks.
+    #[command(subcommand)]
+    Task(cmd::nav::fleet::TaskCmd),
     /// Colony-style networks as prioritised clients (§4.8.2): module priorities and the equivalent program.
     #[command(subcommand)]
     Colony(cmd::nav::colony::ColonyCmd),
@@ -358,6 +363,8 @@ async fn run_command(cli: Cli) -> anyhow::Result<u8> {
         Command::Experiment(args) => cmd::nav::experiment::run(args).await,
         Command::Colony(c) => cmd::nav::colony::run(&common, c).await,
         Command::Planner(args) => cmd::nav::clients::planner(&common, args).await,
+        Command::Dispatcher(args) => cmd::nav::fleet::dispatcher(&common, args).await,
+        Command::Task(c) => cmd::nav::fleet::task(&common, c).await,
         Command::Navigator(args) => cmd::nav::clients::navigator(&common, args).await,
         Command::Ctracker(args) => cmd::nav::clients::ctracker(&common, args).await,
         Command::Mapper(args) => cmd::nav::clients::mapper(&common, args).await,

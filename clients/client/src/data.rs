@@ -402,9 +402,25 @@ impl DataClient {
 
     /// Every variable's current value, by name.
     pub async fn values(&self) -> Result<std::collections::BTreeMap<String, Value>, ClientError> {
+        self.values_matching("**").await
+    }
+
+    /// The current value of every variable whose name `pattern` matches
+    /// (a Zenoh key expression over names: `fleet/task/*`, `nav/*/Duty`),
+    /// by name. Each value is as stored: whoever reads it decodes it.
+    pub async fn values_matching(
+        &self,
+        pattern: &str,
+    ) -> Result<std::collections::BTreeMap<String, Value>, ClientError> {
         let root = &self.inner.options.root;
+        let key = root.data_matching(DataOp::Var, pattern);
+        if zenoh::key_expr::KeyExpr::try_from(key.as_str()).is_err() {
+            return Err(ClientError::Value(format!(
+                "'{pattern}' is not a pattern of variable names (a key expression such as fleet/task/*)"
+            )));
+        }
         let mut out = std::collections::BTreeMap::new();
-        for (key, body) in self.collect(&root.data_all_of(DataOp::Var)).await? {
+        for (key, body) in self.collect(&key).await? {
             let parsed = root.parse_data(&key)?;
             out.insert(parsed.name.to_string(), decode(&body, "variable value")?);
         }

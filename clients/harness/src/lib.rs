@@ -9,7 +9,8 @@
 //! simulated world; [`run`] and [`run_fleet`] add each robot's crew
 //! (`rome_nav::crew`) and judge the run with `rome-nav`'s `report` module,
 //! telling whoever watches through [`events`]; [`routes`] reads and picks
-//! the robots' routes;
+//! the robots' routes; [`tasks`] gives a fleet errands through the
+//! dispatcher instead of routes;
 //! [`experiment`] reruns Chapter 6's runs many at a time and tabulates
 //! them beside the thesis' (`rome experiment`); [`confidence`] is §6.3's
 //! automaton, its probabilities estimated from those runs. It
@@ -45,6 +46,7 @@ pub mod events;
 pub mod experiment;
 pub mod plates;
 pub mod routes;
+pub mod tasks;
 
 pub use events::{Event, FleetReport, PartState, RobotTick};
 pub use rome_nav::report::ARRIVED_CM;
@@ -110,7 +112,7 @@ impl RunConfig {
 
     /// A period of `ms` simulated milliseconds as the servers' and
     /// monitor's clocks count it.
-    fn period(&self, ms: f64) -> Duration {
+    pub(crate) fn period(&self, ms: f64) -> Duration {
         if self.lockstep {
             Duration::from_secs_f64(ms / 1_000.0)
         } else {
@@ -167,12 +169,12 @@ pub struct Harness {
 }
 
 impl Harness {
-    /// Builds the world for `plans` (robot name, plan) and starts the
-    /// servers on a session opened with `net`; returns once every server
-    /// is alive.
+    /// Builds the world with robots put down at `starts` (robot name, true
+    /// pose) and starts the servers on a session opened with `net`;
+    /// returns once every server is alive.
     pub async fn start(
         cfg: &RunConfig,
-        plans: &[(String, Plan)],
+        starts: &[(String, Pose)],
         net: NetOptions,
     ) -> Result<Harness, NavError> {
         if let Some(speed) = cfg.speed.filter(|s| !(s.is_finite() && *s > 0.0)) {
@@ -189,10 +191,9 @@ impl Harness {
             },
         );
         let mut index = Vec::new();
-        for (robot, plan) in plans {
-            let (start, _) = plan.ends();
+        for (robot, start) in starts {
             let i = sim
-                .add_robot(robot, Pose::new(start.x, start.y, plan.start_heading_deg))
+                .add_robot(robot, *start)
                 .map_err(|e| NavError::Config(e.to_string()))?;
             index.push(i);
         }
@@ -235,13 +236,13 @@ impl Harness {
                 cfg.lockstep,
             ),
         ];
-        for (robot, _) in plans {
+        for (robot, _) in starts {
             servers.extend(
                 spawn_sim_robot(&session, &root, &world, robot, rates)
                     .map_err(|e| NavError::Config(e.to_string()))?,
             );
         }
-        for (robot, _) in plans {
+        for (robot, _) in starts {
             for device in ["base", "proximity", "camera/up", "camera/side"] {
                 rome_client::alive::await_server(
                     &session,
@@ -287,6 +288,40 @@ impl Harness {
     }
 }
 
+/// Each robot's start: its plan's first point, facing along the route.
+pub fn starts(plans: &[(String, Plan)]) -> Vec<(String, Pose)> {
+    plans
+        .iter()
+        .map(|(robot, plan)| {
+            let (start, _) = plan.ends();
+            (
+                robot.clone(),
+                Pose::new(start.x, start.y, plan.start_heading_deg),
+            )
+        })
+        .collect()
+}
+
+/// The members of a robot's crew as `cfg` has them, the Navigator at
+/// `cruise_mm_s` if given.
+pub fn members(cfg: &RunConfig, world: &World, cruise_mm_s: Option<f64>) -> Vec<Member> {
+    let mut nav_cfg = cfg.nav.clone();
+    if let Some(v) = cruise_mm_s {
+        nav_cfg.cruise_mm_s = v;
+    }
+    let mut members = vec![
+        Member::Navigator(nav_cfg),
+        Member::CTracker(cfg.track.clone()),
+    ];
+    if cfg.himm {
+        members.push(Member::Mapper(cfg.himm_cfg.clone()));
+    }
+    if cfg.plfinder {
+        members.push(Member::PlFinder(PlConfig::with_map(world)));
+    }
+    members
+}
+
 /// Runs one robot from its start to its goal; `progress` hears what
 /// happens.
 pub async fn run(cfg: RunConfig, mut progress: impl FnMut(Event)) -> Result<Report, NavError> {
@@ -317,7 +352,7 @@ struct Crew {
 }
 
 /// Opens the clients of one role for robot `robot`.
-async fn connect(
+pub async fn connect(
     session: &zenoh::Session,
     robot: &str,
     role: &'static str,
@@ -374,7 +409,7 @@ async fn run_all(
         });
         plans.push((r.robot.clone(), plan));
     }
-    let rig = Harness::start(&cfg, &plans, cfg.net.clone()).await?;
+    let rig = Harness::start(&cfg, &starts(&plans), cfg.net.clone()).await?;
     let session = rig.session.clone();
     let root = Root::default();
 
@@ -386,21 +421,7 @@ async fn run_all(
     for (k, (name, plan)) in plans.iter().enumerate() {
         let (board, robot) = connect(&session, name, "planner").await?;
         let truth = TruthClient::new(&session, &root, name)?;
-        let mut nav_cfg = cfg.nav.clone();
-        if let Some(v) = cfg.routes[k].cruise_mm_s {
-            nav_cfg.cruise_mm_s = v;
-        }
-        let mut members = vec![
-            Member::Navigator(nav_cfg),
-            Member::CTracker(cfg.track.clone()),
-        ];
-        if cfg.himm {
-            members.push(Member::Mapper(cfg.himm_cfg.clone()));
-        }
-        if cfg.plfinder {
-            members.push(Member::PlFinder(PlConfig::with_map(&world_map)));
-        }
-        for member in members {
+        for member in members(&cfg, &world_map, cfg.routes[k].cruise_mm_s) {
             let role = member.role();
             let (board, robot) = connect(&session, name, role).await?;
             let mut reports = Reports::default();

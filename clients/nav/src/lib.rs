@@ -20,6 +20,8 @@
 //!   truth, contacts) and reported as rows of Tables 6.1–6.2 and a picture.
 //! - [`track`]: where the robot was when a scan or frame was taken, from
 //!   the base's state stream, so readings are placed right over a slow link.
+//! - [`fleet`]: tasks for a fleet, the dispatcher that hands them out and
+//!   a robot's Planner taking them.
 //! - [`traffic`]: the junctions and narrow passages a robot reserves
 //!   before it drives into them, in an order that cannot deadlock.
 
@@ -27,6 +29,7 @@ pub mod board;
 pub mod crew;
 pub mod ctracker;
 pub mod drive;
+pub mod fleet;
 pub mod hallway;
 pub mod himm;
 pub mod navigator;

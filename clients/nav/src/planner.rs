@@ -70,6 +70,13 @@ pub async fn put_down(
     robot
         .set_pose(start.x.round() as i64, start.y.round() as i64, facing)
         .await?;
+    turn_onto(robot, plan, facing).await
+}
+
+/// Turns the robot in place onto the plan's first heading, if it faces
+/// elsewhere (`facing`, in the map's frame): for a robot registered
+/// already, such as one that arrived at the start of its next task.
+pub async fn turn_onto(robot: &RobotClient, plan: &Plan, facing: f64) -> Result<(), NavError> {
     let turn = rome_maps::geometry::normalize_deg(plan.start_heading_deg - facing);
     if turn.abs() > 1.0 {
         // Positive turns are clockwise on the base.

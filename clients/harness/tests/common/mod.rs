@@ -20,7 +20,8 @@ pub async fn one_robot(speed: f64) -> (Harness, rome_sim_hardware::world::Steppe
     // These tests step the world themselves, against the wall clock.
     cfg.lockstep = false;
     cfg.speed = Some(speed);
-    let rig = Harness::start(&cfg, &[("r1".to_string(), plan)], NetOptions::isolated())
+    let starts = rome_harness::starts(&[("r1".to_string(), plan)]);
+    let rig = Harness::start(&cfg, &starts, NetOptions::isolated())
         .await
         .expect("the rig starts");
     let stepper = rig.world.start(Some(speed));

@@ -46,8 +46,13 @@ pub struct PlannerArgs {
     #[arg(long)]
     from: String,
     /// Goal.
-    #[arg(long)]
-    to: String,
+    #[arg(long, required_unless_present = "tasks")]
+    to: Option<String>,
+    /// Take goals from the fleet's dispatcher instead of --to: one task
+    /// after another, each from where the last one ended
+    /// (`rome dispatcher`, `rome task add`).
+    #[arg(long, conflicts_with_all = ["to", "via", "dry_run", "timeout"])]
+    tasks: bool,
     /// Positions to go through in order on the way (the long way round),
     /// comma-separated.
     #[arg(long, value_delimiter = ',', value_name = "POS")]
@@ -152,7 +157,21 @@ pub async fn planner(common: &CommonArgs, args: PlannerArgs) -> anyhow::Result<u
     let map = rome_maps::load_named(&args.map)?;
     let world = rome_maps::World::from_map(&map);
     let network = rome_maps::Network::new(&map, &world);
-    let mut plan = Plan::through(&world, &network, &args.from, &args.via, &args.to)?;
+    let Some(to) = args.to.clone() else {
+        let (board, robot) = connect(common, &args.robot.robot, "planner").await?;
+        let duty = super::fleet::Duty {
+            board,
+            robot,
+            world,
+            network,
+            name: args.robot.robot.clone(),
+            at: args.from.clone(),
+            heading: args.heading,
+            traffic: args.traffic,
+        };
+        return super::fleet::take_tasks(common, duty).await;
+    };
+    let mut plan = Plan::through(&world, &network, &args.from, &args.via, &to)?;
     if !args.traffic {
         plan = plan.without_junctions();
     }
@@ -162,9 +181,8 @@ pub async fn planner(common: &CommonArgs, args: PlannerArgs) -> anyhow::Result<u
         format!(" via {}", args.via.join(", "))
     };
     println!(
-        "plan {} -> {}{via}: {:.3} m, {} corner(s)",
+        "plan {} -> {to}{via}: {:.3} m, {} corner(s)",
         args.from,
-        args.to,
         plan.route.length_mm / 1_000.0,
         plan.route.turns
     );
@@ -264,7 +282,7 @@ pub async fn planner(common: &CommonArgs, args: PlannerArgs) -> anyhow::Result<u
             "done: {} goal(s); no ground truth: odometry puts the robot {:.2} m from {}",
             handed.len(),
             by_odometry / 1_000.0,
-            args.to
+            to
         );
         return Ok(if by_odometry <= ARRIVED_CM * 10.0 {
             exit::OK
@@ -275,7 +293,7 @@ pub async fn planner(common: &CommonArgs, args: PlannerArgs) -> anyhow::Result<u
     let report = Report::new(Ended {
         robot: robot_name.clone(),
         from: args.from.clone(),
-        to: args.to.clone(),
+        to: to.clone(),
         plan,
         steps: handed,
         truth: (start, end),
@@ -293,7 +311,7 @@ pub async fn planner(common: &CommonArgs, args: PlannerArgs) -> anyhow::Result<u
         "done: {} goal(s); ground truth puts {robot_name} {:.2} m from {} ({:+.0} cm along, {:.0} cm across); odometry is {:.2} m off",
         report.steps.len(),
         report.miss_cm / 100.0,
-        args.to,
+        to,
         report.to_goal_cm,
         report.off_line_cm,
         report.odometry_error_cm.unwrap_or(0.0) / 100.0

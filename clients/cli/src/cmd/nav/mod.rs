@@ -4,6 +4,7 @@
 //!   client a process of its own.
 //! - [`demo`] and [`experiment`]: everything in one process, one run or
 //!   Chapter 6's tables (cargo feature `sim`).
+//! - [`fleet`]: `rome dispatcher`, `rome task` and `rome planner --tasks`.
 //! - [`colony`]: §4.8.2's colony-style networks as prioritised clients.
 //! - [`map`]: `rome map check|render|route`.
 
@@ -13,4 +14,5 @@ pub mod colony;
 pub mod demo;
 #[cfg(feature = "sim")]
 pub mod experiment;
+pub mod fleet;
 pub mod map;

@@ -1,0 +1,112 @@
+//! A fleet given tasks through the dispatcher, in lock-step, judged by
+//! ground truth: each task goes to the nearest free robot and is done
+//! there; a task pinned to a robot waits for it; a task for nowhere fails
+//! with the reason; a task whose robot's crew dies goes to another robot
+//! and says why.
+
+use rome_harness::tasks::{run_tasks, TaskEvent, TaskReport, TaskRun};
+use rome_harness::{RouteSpec, RunConfig};
+use rome_nav::fleet::schema::{TaskSpec, TaskState, TaskStatus};
+use std::time::Duration;
+
+fn spec(to: &str, robot: Option<&str>) -> TaskSpec {
+    TaskSpec {
+        to: to.into(),
+        robot: robot.map(Into::into),
+        priority: 0,
+        via: vec![],
+    }
+}
+
+async fn run(
+    robots: &[(&str, &str)],
+    tasks: Vec<(&str, TaskSpec)>,
+    kill: Option<&str>,
+) -> TaskReport {
+    rome_tests::show_warnings_on_failure();
+    let map = rome_maps::load_named("eb3").expect("eb3 loads");
+    let routes = robots
+        .iter()
+        .map(|(r, at)| RouteSpec::new(r, at, at))
+        .collect();
+    let mut cfg = RunConfig::fleet(map, routes);
+    cfg.limit = Duration::from_secs(15 * 60);
+    cfg.plfinder = false;
+    let run = TaskRun {
+        run: cfg,
+        tasks: tasks
+            .into_iter()
+            .map(|(id, s)| (id.to_string(), s))
+            .collect(),
+        kill: kill.map(Into::into),
+    };
+    let report = run_tasks(run, &mut |e| match e {
+        TaskEvent::Task(s, what) => println!("{} ({}): {what}", s.id, s.to),
+        TaskEvent::Robot(r, what) => println!("{r}: {what}"),
+    })
+    .await
+    .expect("the run completes");
+    println!(
+        "{:.0} s simulated in {:.1?}; contacts {:?}; longest still {:?}",
+        report.sim_s, report.wall, report.contacts, report.longest_still_s
+    );
+    report
+}
+
+fn status<'a>(r: &'a TaskReport, id: &str) -> &'a TaskStatus {
+    r.statuses
+        .iter()
+        .find(|s| s.id == id)
+        .unwrap_or_else(|| panic!("no status for {id}: {:?}", r.statuses))
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn tasks_go_to_the_nearest_free_robot_and_are_done_where_ground_truth_says() {
+    let r = run(
+        &[("r1", "350R"), ("r2", "376L")],
+        vec![
+            ("T1", spec("356R", None)),
+            ("T2", spec("372L", None)),
+            ("T3", spec("352L", Some("r1"))),
+            ("T4", spec("nowhere", None)),
+        ],
+        None,
+    )
+    .await;
+    for (id, robot) in [("T1", "r1"), ("T2", "r2"), ("T3", "r1")] {
+        let s = status(&r, id);
+        assert_eq!(s.state, TaskState::Done, "{s:?}");
+        assert_eq!(s.tried, vec![robot.to_string()], "{s:?}");
+    }
+    let t3 = status(&r, "T3");
+    let t1 = status(&r, "T1");
+    assert!(
+        t3.assigned_ms >= t1.ended_ms,
+        "the pinned task waited for its robot: {t1:?} {t3:?}"
+    );
+    let t4 = status(&r, "T4");
+    assert_eq!(t4.state, TaskState::Failed);
+    assert!(t4.why[0].contains("no position 'nowhere'"), "{t4:?}");
+    for (robot, c) in &r.contacts {
+        assert_eq!(c.wall + c.robot, 0, "{robot} touched something: {c:?}");
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_task_whose_robot_dies_goes_to_another_and_says_why() {
+    // r2 at 360L is nearer 356R (11 m) than r1 at 350R (16 m): it takes
+    // the task, and its whole crew dies at that moment.
+    let r = run(
+        &[("r1", "350R"), ("r2", "360L")],
+        vec![("T1", spec("356R", None))],
+        Some("r2"),
+    )
+    .await;
+    let s = status(&r, "T1");
+    assert_eq!(s.state, TaskState::Done, "{s:?}");
+    assert_eq!(s.tried, vec!["r2".to_string(), "r1".to_string()], "{s:?}");
+    assert!(
+        s.why[0].contains("r2's Planner is gone"),
+        "the task says why it moved: {s:?}"
+    );
+}

@@ -1,0 +1,16 @@
+//! Tasks for a fleet (§4.7: several robots, one data server): errands kept
+//! on the data server, a dispatcher that hands each to a free robot, and
+//! a robot's Planner that takes them.
+//!
+//! How this module is laid out:
+//! - [`schema`]: the keys and values, one writer each (docs/keys.md).
+//! - [`tasks`]: adding, listing and cancelling (`rome task`).
+//! - [`assign`]: which free robot takes which task (shortest route).
+//! - [`dispatcher`]: the one dispatcher's rounds (`rome dispatcher`).
+//! - [`duty`]: a robot taking tasks (`rome planner --tasks`).
+
+pub mod assign;
+pub mod dispatcher;
+pub mod duty;
+pub mod schema;
+pub mod tasks;

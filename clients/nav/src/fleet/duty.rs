@@ -1,0 +1,236 @@
+//! A robot's Planner taking its goals from the dispatcher
+//! (`rome planner --tasks`): it says where it stands on `nav/<robot>/Duty`,
+//! waits on `$nav/<robot>/Task`, plans from where it stands to the task's
+//! goal, drives there as [`crate::planner::run`] does, and reports how it
+//! went.
+//!
+//! A task that cannot be planned fails and the robot stays where it is.
+//! A run that fails or is cancelled midway stops the robot away from any
+//! position the map names: it reports itself `lost` and takes no more
+//! tasks until it is put down again (started again with `--from`). A
+//! value on the blackboard that does not decode is reported and skipped;
+//! it never ends the Planner.
+
+use super::schema::{
+    decode, duty_var, task_sem, task_var, Assignment, Duty, DutyState, Outcome, WAKE,
+};
+use crate::board::Board;
+use crate::plan::Plan;
+use crate::planner::{self, Progress};
+use crate::NavError;
+use rome_client::sim::TruthClient;
+use rome_client::RobotClient;
+use rome_maps::{Network, World};
+use std::time::Duration;
+
+/// How the robot takes tasks.
+#[derive(Debug, Clone)]
+pub struct DutyConfig {
+    /// The position it stands at when it starts (it is registered there).
+    pub at: String,
+    /// Which way it faces there, degrees; without it the base's odometry
+    /// heading is taken.
+    pub facing: Option<f64>,
+    /// Reserve the junctions it turns in, not only narrow passages.
+    pub traffic: bool,
+    /// How often a run looks whether its task was cancelled.
+    pub check_every: Duration,
+}
+
+impl DutyConfig {
+    /// A robot standing at `at`.
+    pub fn at(at: &str) -> DutyConfig {
+        DutyConfig {
+            at: at.to_string(),
+            facing: None,
+            traffic: false,
+            check_every: Duration::from_secs(1),
+        }
+    }
+}
+
+/// What the robot tells whoever watches.
+#[derive(Debug)]
+pub enum DutyNote<'a> {
+    /// It took a task and drives this plan.
+    Took(&'a Assignment, &'a Plan),
+    /// Something the Planner says as it drives.
+    Planner(Progress<'a>),
+    /// It finished a task, well or not.
+    Ended(&'a Outcome),
+    /// A value it read was not what it should be; it was skipped.
+    Skipped(String),
+}
+
+/// A robot that takes tasks: its blackboard, base, the map, and where it
+/// stands.
+pub struct OnDuty<'a> {
+    /// Its blackboard (its Planner's data-server client).
+    pub board: &'a Board,
+    /// Its base.
+    pub robot: &'a RobotClient,
+    /// Ground truth, where a simulator answers: arrival is judged by it.
+    pub truth: Option<&'a TruthClient>,
+    /// The map's world.
+    pub world: &'a World,
+    /// The map's route network.
+    pub network: &'a Network,
+    /// Its name.
+    pub name: &'a str,
+}
+
+impl OnDuty<'_> {
+    /// Takes tasks until the data server or the robot's servers cannot be
+    /// reached.
+    pub async fn serve(
+        &self,
+        cfg: &DutyConfig,
+        mut note: impl FnMut(DutyNote<'_>),
+    ) -> Result<(), NavError> {
+        let ds = self.board.client();
+        self.board.declare().await?;
+        ds.create_semaphore(&task_sem(self.name), 0).await?;
+        ds.create_semaphore(WAKE, 0).await?;
+        if self.world.position(&cfg.at).is_none() {
+            return Err(NavError::Config(format!(
+                "{} is not a position of the map; the robot must stand at one",
+                cfg.at
+            )));
+        }
+        let mut duty = Duty {
+            at: cfg.at.clone(),
+            state: DutyState::Idle,
+            task: None,
+            owner: ds.owner().to_string(),
+            last: None,
+        };
+        // A task told to an earlier Planner of this robot is not taken up:
+        // the dispatcher sees the new owner and hands it out again.
+        ds.set(&task_var(self.name), &None::<Assignment>).await?;
+        self.report(&duty).await?;
+        let mut facing = cfg.facing;
+        let mut registered = false;
+        loop {
+            ds.wait(&task_sem(self.name)).await?;
+            let value = ds.get(&task_var(self.name)).await?;
+            let a = match decode::<Option<Assignment>>(&task_var(self.name), &value) {
+                Ok(Some(a)) => a,
+                Ok(None) => continue,
+                Err(why) => {
+                    note(DutyNote::Skipped(why));
+                    continue;
+                }
+            };
+            if duty.state == DutyState::Lost || duty.last.as_ref().is_some_and(|o| o.task == a.task)
+            {
+                continue;
+            }
+            duty.state = DutyState::Busy;
+            duty.task = Some(a.task.clone());
+            self.report(&duty).await?;
+            let from = duty.at.clone();
+            let (outcome, at) = self
+                .carry_out(cfg, &from, &a, &mut registered, &mut facing, &mut note)
+                .await;
+            note(DutyNote::Ended(&outcome));
+            duty.state = match &at {
+                Some(_) => DutyState::Idle,
+                None => DutyState::Lost,
+            };
+            duty.at = at.unwrap_or(duty.at);
+            duty.task = None;
+            duty.last = Some(outcome);
+            self.report(&duty).await?;
+        }
+    }
+
+    async fn report(&self, duty: &Duty) -> Result<(), NavError> {
+        let ds = self.board.client();
+        ds.set(&duty_var(self.name), duty).await?;
+        ds.signal(WAKE).await?;
+        Ok(())
+    }
+
+    /// Drives one task: how it went, and where the robot stands after it
+    /// (`None`: nowhere the map names).
+    async fn carry_out(
+        &self,
+        cfg: &DutyConfig,
+        from: &str,
+        a: &Assignment,
+        registered: &mut bool,
+        facing: &mut Option<f64>,
+        note: &mut impl FnMut(DutyNote<'_>),
+    ) -> (Outcome, Option<String>) {
+        let outcome = |ok: bool, why: Option<String>| Outcome {
+            task: a.task.clone(),
+            ok,
+            why,
+        };
+        if from == a.to && a.via.is_empty() {
+            return (outcome(true, None), Some(from.to_string()));
+        }
+        let plan = match Plan::through(self.world, self.network, from, &a.via, &a.to) {
+            Ok(p) if cfg.traffic => p,
+            Ok(p) => p.without_junctions(),
+            Err(e) => return (outcome(false, Some(e.to_string())), Some(from.to_string())),
+        };
+        note(DutyNote::Took(a, &plan));
+        let drive = async {
+            if *registered {
+                let heading = self.robot.pose().await?.heading_deg;
+                planner::turn_onto(self.robot, &plan, heading).await?;
+            } else {
+                planner::put_down(self.robot, &plan, facing.take()).await?;
+                *registered = true;
+            }
+            planner::run(self.board, &plan, self.truth, |p| {
+                note(DutyNote::Planner(p))
+            })
+            .await
+        };
+        let ended = tokio::select! {
+            biased;
+            r = drive => r.map(|_| ()).map_err(|e| format!("the Planner stopped: {e}")),
+            why = self.cancelled(a, cfg.check_every) => Err(why),
+        };
+        if let Err(why) = ended {
+            // Stopped where it is, holding nothing of the building.
+            let _ = self.robot.stop(false).await;
+            let _ = planner::give_back_all(self.board).await;
+            return (outcome(false, Some(why)), None);
+        }
+        let (_, goal) = plan.ends();
+        match self.truth {
+            Some(t) => match t.get().await {
+                Ok(p) => {
+                    let off_mm = (p.x_mm - goal.x).hypot(p.y_mm - goal.y);
+                    if off_mm <= crate::report::ARRIVED_CM * 10.0 {
+                        (outcome(true, None), Some(a.to.clone()))
+                    } else {
+                        let why = format!("ended {:.2} m from {}", off_mm / 1000.0, a.to);
+                        (outcome(false, Some(why)), None)
+                    }
+                }
+                // No simulator answers: the Navigator's word is taken.
+                Err(_) => (outcome(true, None), Some(a.to.clone())),
+            },
+            None => (outcome(true, None), Some(a.to.clone())),
+        }
+    }
+
+    /// Resolves once the robot's `Task` no longer names `a` (the task was
+    /// cancelled or taken back), with the reason.
+    async fn cancelled(&self, a: &Assignment, every: Duration) -> String {
+        loop {
+            rome_clock::sleep(every).await;
+            let value = self.board.client().get(&task_var(self.name)).await;
+            match value.map(serde_json::from_value::<Option<Assignment>>) {
+                Ok(Ok(Some(now))) if now == *a => {}
+                Ok(Ok(_)) => return format!("task {} was cancelled", a.task),
+                // The server away or a bad value: no word of a cancel.
+                _ => {}
+            }
+        }
+    }
+}
