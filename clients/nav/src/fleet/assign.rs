@@ -34,7 +34,7 @@ pub struct Waiting<'a> {
 pub fn assign(
     waiting: &[Waiting<'_>],
     free: &[Free],
-    length: impl Fn(&str, &str) -> Option<f64>,
+    mut length: impl FnMut(&str, &str) -> Option<f64>,
 ) -> Vec<(String, String)> {
     let mut order: Vec<&Waiting<'_>> = waiting.iter().collect();
     order.sort_by(|a, b| {

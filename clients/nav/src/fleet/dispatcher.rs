@@ -70,6 +70,8 @@ pub struct Dispatcher {
     statuses: BTreeMap<String, TaskStatus>,
     /// Duties that did not decode, and why: each is said once.
     bad_duties: BTreeMap<String, String>,
+    /// Route lengths between positions, mm, as measured once.
+    lengths: BTreeMap<(String, String), Option<f64>>,
 }
 
 impl Dispatcher {
@@ -92,6 +94,7 @@ impl Dispatcher {
             cfg,
             statuses: BTreeMap::new(),
             bad_duties: BTreeMap::new(),
+            lengths: BTreeMap::new(),
         }
     }
 
@@ -279,15 +282,19 @@ impl Dispatcher {
                 robot: specs_ok.get(&s.id).and_then(|t| t.robot.as_deref()),
             })
             .collect();
-        let (world, network) = (&self.world, &self.network);
+        let (world, network, lengths) = (&self.world, &self.network, &mut self.lengths);
         let chosen = assign(&waiting, &free, |from, to| {
             if from == to {
                 return Some(0.0);
             }
-            world
-                .route(network, from, &[], to)
-                .ok()
-                .map(|r| r.length_mm)
+            *lengths
+                .entry((from.to_string(), to.to_string()))
+                .or_insert_with(|| {
+                    world
+                        .route(network, from, &[], to)
+                        .ok()
+                        .map(|r| r.length_mm)
+                })
         });
         for (id, robot) in chosen {
             let Some(s) = self.statuses.get_mut(&id) else {
