@@ -105,6 +105,9 @@ pub enum Command {
     /// Run everything in one process: a simulated robot drives from room to room (no router, no configuration).
     #[cfg(feature = "sim")]
     Demo(cmd::nav::demo::Args),
+    /// Measure fleets of several sizes given the same tasks: tasks done, waits, throughput, efficiency, contacts.
+    #[cfg(feature = "sim")]
+    Fleet(cmd::nav::scale::Args),
     /// Rerun Chapter 6's runs (Tables 6.1 and 6.2) in simulation, several at a time, and tabulate them beside the thesis'.
     #[cfg(feature = "sim")]
     Experiment(cmd::nav::experiment::Args),
@@ -200,6 +203,7 @@ pub const OPTIONAL_COMMANDS: &[(&str, &str, bool)] = &[
     ("sim", "sim", cfg!(feature = "sim")),
     ("demo", "sim", cfg!(feature = "sim")),
     ("experiment", "sim", cfg!(feature = "sim")),
+    ("fleet", "sim", cfg!(feature = "sim")),
     ("router", "router", cfg!(feature = "router")),
     ("certs", "router", cfg!(feature = "router")),
     ("bench", "tools", cfg!(feature = "tools")),
@@ -319,7 +323,7 @@ impl Command {
         match self {
             Command::Storage(_) | Command::Pioneer(_) => true,
             #[cfg(feature = "sim")]
-            Command::Sim(_) | Command::Demo(_) | Command::Experiment(_) => true,
+            Command::Sim(_) | Command::Demo(_) | Command::Experiment(_) | Command::Fleet(_) => true,
             #[cfg(feature = "tools")]
             Command::Bench(_) | Command::Soak(_) => true,
             #[cfg(feature = "router")]
@@ -361,6 +365,8 @@ async fn run_command(cli: Cli) -> anyhow::Result<u8> {
         Command::Demo(args) => cmd::nav::demo::run(&common, args).await,
         #[cfg(feature = "sim")]
         Command::Experiment(args) => cmd::nav::experiment::run(args).await,
+        #[cfg(feature = "sim")]
+        Command::Fleet(args) => cmd::nav::scale::run(args).await,
         Command::Colony(c) => cmd::nav::colony::run(&common, c).await,
         Command::Planner(args) => cmd::nav::clients::planner(&common, args).await,
         Command::Dispatcher(args) => cmd::nav::fleet::dispatcher(&common, args).await,

@@ -10,7 +10,8 @@
 //! (`rome_nav::crew`) and judge the run with `rome-nav`'s `report` module,
 //! telling whoever watches through [`events`]; [`routes`] reads and picks
 //! the robots' routes; [`tasks`] gives a fleet errands through the
-//! dispatcher instead of routes;
+//! dispatcher instead of routes, and [`scale`] measures fleets of
+//! several sizes so (`rome fleet`);
 //! [`experiment`] reruns Chapter 6's runs many at a time and tabulates
 //! them beside the thesis' (`rome experiment`); [`confidence`] is §6.3's
 //! automaton, its probabilities estimated from those runs. It
@@ -46,6 +47,7 @@ pub mod events;
 pub mod experiment;
 pub mod plates;
 pub mod routes;
+pub mod scale;
 pub mod tasks;
 
 pub use events::{Event, FleetReport, PartState, RobotTick};

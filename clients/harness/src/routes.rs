@@ -118,13 +118,7 @@ pub fn pick_routes(
             .map(|p| p.in_corridor())
             .unwrap_or(Point::new(f64::NAN, f64::NAN))
     };
-    let mut state = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
-    let mut next = |m: usize| {
-        state = state
-            .wrapping_mul(6_364_136_223_846_793_005)
-            .wrapping_add(1_442_695_040_888_963_407);
-        ((state >> 33) % m.max(1) as u64) as usize
-    };
+    let mut next = picker(seed);
     let mut tries = 0;
     while routes.len() < n && tries < 200 * n && doors.len() >= 2 {
         tries += 1;
@@ -148,4 +142,33 @@ pub fn pick_routes(
         )));
     }
     Ok(routes)
+}
+
+/// A picker of indices below `m`, the same sequence for the same seed on
+/// every machine (a linear congruential generator: no crate's algorithm
+/// may change under the runs).
+fn picker(seed: u64) -> impl FnMut(usize) -> usize {
+    let mut state = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+    move |m: usize| {
+        state = state
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        ((state >> 33) % m.max(1) as u64) as usize
+    }
+}
+
+/// `n` door jambs of `map` picked with `seed` (the same one may come
+/// twice, as errands do): goals for tasks.
+pub fn pick_doors(map: &Map, n: usize, seed: u64) -> Vec<String> {
+    let world = World::from_map(map);
+    let doors: Vec<&String> = world
+        .positions
+        .keys()
+        .filter(|name| !name.contains('.'))
+        .collect();
+    if doors.is_empty() {
+        return Vec::new();
+    }
+    let mut next = picker(seed);
+    (0..n).map(|_| doors[next(doors.len())].clone()).collect()
 }

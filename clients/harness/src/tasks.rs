@@ -17,6 +17,7 @@ use rome_nav::fleet::dispatcher::{DispatchConfig, Dispatcher, Note};
 use rome_nav::fleet::duty::{DutyConfig, DutyNote, OnDuty};
 use rome_nav::fleet::schema::{TaskSpec, TaskStatus};
 use rome_nav::fleet::tasks;
+use rome_nav::planner::Progress;
 use rome_nav::NavError;
 use rome_schema::sim::ContactCount;
 use rome_schema::Root;
@@ -48,19 +49,57 @@ pub struct TaskReport {
     /// Each robot's longest time standing still (moved under half a metre)
     /// while it had a task, simulated s.
     pub longest_still_s: BTreeMap<String, f64>,
+    /// Each task's time spent waiting its turn for junctions and passages
+    /// on the way, simulated s, by task id.
+    pub traffic_wait_s: BTreeMap<String, f64>,
     /// Simulated time of the run, s.
     pub sim_s: f64,
     /// Wall time of the run.
     pub wall: Duration,
 }
 
-/// Something that happened, as a line to show.
+/// Something that happened.
 #[derive(Debug, Clone)]
 pub enum TaskEvent {
-    /// The dispatcher changed a task.
+    /// The dispatcher changed a task: its status, and what happened.
     Task(TaskStatus, String),
     /// A robot said something.
-    Robot(String, String),
+    Robot(String, Said),
+}
+
+/// What a robot says.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Said {
+    /// It took a task.
+    Took(String),
+    /// It arrived at a task's goal.
+    Arrived(String),
+    /// It did not: the task, why, and whether it is lost now (stopped
+    /// away from any position the map names, taking no more tasks).
+    NotArrived(String, String, bool),
+    /// It waits its turn for a junction or passage (`Some`), or no longer.
+    Waits(Option<String>),
+    /// A value it read was skipped, or one of its clients failed.
+    Trouble(String),
+}
+
+impl std::fmt::Display for Said {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Said::Took(t) => write!(f, "took {t}"),
+            Said::Arrived(t) => write!(f, "{t} arrived"),
+            Said::NotArrived(t, why, lost) => {
+                write!(f, "{t} not arrived: {why}")?;
+                if *lost {
+                    write!(f, "; lost")?;
+                }
+                Ok(())
+            }
+            Said::Waits(Some(part)) => write!(f, "waits for {part}"),
+            Said::Waits(None) => write!(f, "goes on"),
+            Said::Trouble(why) => write!(f, "{why}"),
+        }
+    }
 }
 
 /// Runs the fleet until every task has ended or `run.limit` of simulated
@@ -114,7 +153,8 @@ async fn run_all(
                 &format!("{} {role}", r.robot),
                 async move {
                     if let Err(e) = member.run(robot, board, Reports::default()).await {
-                        let _ = etx.send(TaskEvent::Robot(name, format!("the {role} failed: {e}")));
+                        let why = Said::Trouble(format!("the {role} failed: {e}"));
+                        let _ = etx.send(TaskEvent::Robot(name, why));
                     }
                 },
             ));
@@ -125,6 +165,7 @@ async fn run_all(
         let mut duty = DutyConfig::at(&r.from);
         duty.facing = Some(0.0);
         duty.traffic = run.traffic;
+        duty.stuck = run.stuck;
         let (name, etx) = (r.robot.clone(), etx.clone());
         set.spawn(rome_clock::wrap(
             &format!("{} planner", r.robot),
@@ -137,24 +178,28 @@ async fn run_all(
                     network: &network,
                     name: &name,
                 };
-                let say = |what: String| {
+                let say = |what: Said| {
                     let _ = etx.send(TaskEvent::Robot(name.clone(), what));
                 };
                 let r = on
                     .serve(&duty, |n| match n {
-                        DutyNote::Took(a, _) => say(format!("took {} to {}", a.task, a.to)),
-                        DutyNote::Ended(o) if o.ok => say(format!("{} arrived", o.task)),
-                        DutyNote::Ended(o) => say(format!(
-                            "{} not arrived: {}",
-                            o.task,
-                            o.why.as_deref().unwrap_or("")
+                        DutyNote::Took(a, _) => say(Said::Took(a.task.clone())),
+                        DutyNote::Ended(o, _) if o.ok => say(Said::Arrived(o.task.clone())),
+                        DutyNote::Ended(o, at) => say(Said::NotArrived(
+                            o.task.clone(),
+                            o.why.clone().unwrap_or_default(),
+                            at.is_none(),
                         )),
-                        DutyNote::Skipped(why) => say(format!("skipped {why}")),
+                        DutyNote::Skipped(why) => say(Said::Trouble(format!("skipped {why}"))),
+                        DutyNote::Planner(Progress::Waiting(part)) => {
+                            say(Said::Waits(Some(part.to_string())))
+                        }
+                        DutyNote::Planner(Progress::Holding(_, true)) => say(Said::Waits(None)),
                         DutyNote::Planner(_) => {}
                     })
                     .await;
                 if let Err(e) = r {
-                    say(format!("the planner failed: {e}"));
+                    say(Said::Trouble(format!("the planner failed: {e}")));
                 }
             },
         ));
@@ -195,10 +240,18 @@ async fn run_all(
     let t0 = rig.world.lock().time_ms();
     let mut still: Vec<(u64, f64)> = vec![(t0, 0.0); names.len()];
     let mut longest = vec![0.0f64; names.len()];
+    // Each robot's task and since when it waits its turn, if it does.
+    let mut doing: Vec<Option<String>> = vec![None; names.len()];
+    let mut waits_since: Vec<Option<u64>> = vec![None; names.len()];
+    let mut traffic_wait_s: BTreeMap<String, f64> = BTreeMap::new();
     let mut tick = rome_clock::interval(run.period(1_000.0));
     let mut killed = false;
+    // Robots that take no more tasks: lost, or their crew killed.
+    let mut lost = vec![false; names.len()];
     loop {
         let ended = statuses.len() == cfg.tasks.len() && statuses.values().all(|s| s.state.ended());
+        // Nobody left to do what remains.
+        let ended = ended || lost.iter().all(|l| *l);
         let now = rig.world.lock().time_ms();
         if ended || Duration::from_millis(now - t0) > run.limit {
             break;
@@ -210,16 +263,33 @@ async fn run_all(
                     TaskEvent::Task(s, _) => {
                         statuses.insert(s.id.clone(), s.clone());
                     }
-                    TaskEvent::Robot(name, what) => {
-                        let k = names.iter().position(|n| n == name);
-                        if let Some(k) = k {
-                            busy[k] = what.starts_with("took ");
+                    TaskEvent::Robot(name, said) => {
+                        if let Some(k) = names.iter().position(|n| n == name) {
+                            match said {
+                                Said::Waits(Some(_)) => {
+                                    waits_since[k].get_or_insert(now);
+                                    progress(event);
+                                    continue;
+                                }
+                                Said::Waits(None) => {
+                                    if let (Some(t0), Some(task)) = (waits_since[k].take(), &doing[k]) {
+                                        *traffic_wait_s.entry(task.clone()).or_default() += (now - t0) as f64 / 1000.0;
+                                    }
+                                    progress(event);
+                                    continue;
+                                }
+                                Said::Took(task) => doing[k] = Some(task.clone()),
+                                _ => doing[k] = None,
+                            }
+                            busy[k] = matches!(said, Said::Took(_));
+                            lost[k] |= matches!(said, Said::NotArrived(_, _, true));
                             still[k] = (now, rig.world.lock().robot(rig.index[k]).travelled_mm);
                             if !killed && busy[k] && cfg.kill.as_deref() == Some(name.as_str()) {
                                 // The whole crew dies at once, Planner too.
                                 crews[k].abort_all();
                                 killed = true;
                                 busy[k] = false;
+                                lost[k] = true;
                             }
                         }
                     }
@@ -229,7 +299,8 @@ async fn run_all(
             _ = tick.tick() => {
                 for k in 0..names.len() {
                     let moved = rig.world.lock().robot(rig.index[k]).travelled_mm;
-                    if !busy[k] || moved - still[k].1 >= 500.0 {
+                    // Waiting one's turn is not being stuck.
+                    if !busy[k] || waits_since[k].is_some() || moved - still[k].1 >= 500.0 {
                         still[k] = (now, moved);
                     }
                     longest[k] = longest[k].max((now - still[k].0) as f64 / 1000.0);
@@ -255,6 +326,7 @@ async fn run_all(
         statuses: statuses.into_values().collect(),
         contacts,
         longest_still_s,
+        traffic_wait_s,
         sim_s,
         wall: wall.elapsed(),
     })

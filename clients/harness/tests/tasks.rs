@@ -42,7 +42,7 @@ async fn run(
     };
     let report = run_tasks(run, &mut |e| match e {
         TaskEvent::Task(s, what) => println!("{} ({}): {what}", s.id, s.to),
-        TaskEvent::Robot(r, what) => println!("{r}: {what}"),
+        TaskEvent::Robot(r, said) => println!("{r}: {said}"),
     })
     .await
     .expect("the run completes");

@@ -21,6 +21,7 @@ use crate::NavError;
 use rome_client::sim::TruthClient;
 use rome_client::RobotClient;
 use rome_maps::{Network, World};
+use std::sync::atomic::{AtomicBool, Ordering::Relaxed};
 use std::time::Duration;
 
 /// How the robot takes tasks.
@@ -35,6 +36,10 @@ pub struct DutyConfig {
     pub traffic: bool,
     /// How often a run looks whether its task was cancelled.
     pub check_every: Duration,
+    /// A run that has not taken the robot half a metre from where it was
+    /// this long ago, while it was not waiting its turn for a junction or
+    /// passage, is given up as blocked.
+    pub stuck: Duration,
 }
 
 impl DutyConfig {
@@ -45,6 +50,7 @@ impl DutyConfig {
             facing: None,
             traffic: false,
             check_every: Duration::from_secs(1),
+            stuck: Duration::from_secs(180),
         }
     }
 }
@@ -56,8 +62,9 @@ pub enum DutyNote<'a> {
     Took(&'a Assignment, &'a Plan),
     /// Something the Planner says as it drives.
     Planner(Progress<'a>),
-    /// It finished a task, well or not.
-    Ended(&'a Outcome),
+    /// It finished a task, well or not, and stands at a position of the
+    /// map (`Some`) or is lost (`None`).
+    Ended(&'a Outcome, Option<&'a str>),
     /// A value it read was not what it should be; it was skipped.
     Skipped(String),
 }
@@ -132,7 +139,7 @@ impl OnDuty<'_> {
             let (outcome, at) = self
                 .carry_out(cfg, &from, &a, &mut registered, &mut facing, &mut note)
                 .await;
-            note(DutyNote::Ended(&outcome));
+            note(DutyNote::Ended(&outcome, at.as_deref()));
             duty.state = match &at {
                 Some(_) => DutyState::Idle,
                 None => DutyState::Lost,
@@ -176,6 +183,9 @@ impl OnDuty<'_> {
             Err(e) => return (outcome(false, Some(e.to_string())), Some(from.to_string())),
         };
         note(DutyNote::Took(a, &plan));
+        // Set while the Planner waits its turn: standing still is not being
+        // blocked then.
+        let waiting = std::sync::atomic::AtomicBool::new(false);
         let drive = async {
             if *registered {
                 let heading = self.robot.pose().await?.heading_deg;
@@ -193,6 +203,7 @@ impl OnDuty<'_> {
             biased;
             r = drive => r.map(|_| ()).map_err(|e| format!("the Planner stopped: {e}")),
             why = self.cancelled(a, cfg.check_every) => Err(why),
+            why = self.blocked(cfg, &waiting) => Err(why),
         };
         if let Err(why) = ended {
             // Stopped where it is, holding nothing of the building.
@@ -230,6 +241,35 @@ impl OnDuty<'_> {
                 Ok(Ok(_)) => return format!("task {} was cancelled", a.task),
                 // The server away or a bad value: no word of a cancel.
                 _ => {}
+            }
+        }
+    }
+
+    /// Resolves once the robot has stood within half a metre of one place
+    /// for `cfg.stuck` without waiting its turn, saying where (by its
+    /// odometry): something it cannot pass stands in its way.
+    async fn blocked(&self, cfg: &DutyConfig, waiting: &AtomicBool) -> String {
+        let mut anchor: Option<(f64, f64, rome_clock::Instant)> = None;
+        loop {
+            rome_clock::sleep(cfg.check_every).await;
+            let Ok(p) = self.robot.pose().await else {
+                continue;
+            };
+            let (x, y) = (f64::from(p.x_mm), f64::from(p.y_mm));
+            match anchor {
+                Some((ax, ay, since))
+                    if !waiting.load(Relaxed) && (x - ax).hypot(y - ay) < 500.0 =>
+                {
+                    if since.elapsed() >= cfg.stuck {
+                        return format!(
+                            "blocked at ({:.1}, {:.1}) m: moved less than half a metre in {:.0} s",
+                            x / 1000.0,
+                            y / 1000.0,
+                            cfg.stuck.as_secs_f64()
+                        );
+                    }
+                }
+                _ => anchor = Some((x, y, rome_clock::Instant::now())),
             }
         }
     }

@@ -303,11 +303,16 @@ pub async fn take_tasks(common: &CommonArgs, d: Duty) -> anyhow::Result<u8> {
             println!("waiting for {}", traffic::describe(part))
         }
         DutyNote::Planner(_) => {}
-        DutyNote::Ended(o) if o.ok => println!("{}: arrived", o.task),
-        DutyNote::Ended(o) => println!(
-            "{}: not arrived: {}",
+        DutyNote::Ended(o, _) if o.ok => println!("{}: arrived", o.task),
+        DutyNote::Ended(o, at) => println!(
+            "{}: not arrived: {}{}",
             o.task,
-            o.why.as_deref().unwrap_or("no reason")
+            o.why.as_deref().unwrap_or("no reason"),
+            match at {
+                Some(_) => "",
+                None =>
+                    "; the robot is lost and takes no more tasks until started again with --from",
+            }
         ),
         DutyNote::Skipped(why) => eprintln!("rome planner: skipped {why}"),
     })

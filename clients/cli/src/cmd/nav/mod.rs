@@ -5,6 +5,8 @@
 //! - [`demo`] and [`experiment`]: everything in one process, one run or
 //!   Chapter 6's tables (cargo feature `sim`).
 //! - [`fleet`]: `rome dispatcher`, `rome task` and `rome planner --tasks`.
+//! - [`scale`]: `rome fleet`, fleets of several sizes measured (cargo
+//!   feature `sim`).
 //! - [`colony`]: §4.8.2's colony-style networks as prioritised clients.
 //! - [`map`]: `rome map check|render|route`.
 
@@ -16,3 +18,5 @@ pub mod demo;
 pub mod experiment;
 pub mod fleet;
 pub mod map;
+#[cfg(feature = "sim")]
+pub mod scale;

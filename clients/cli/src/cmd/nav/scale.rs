@@ -1,0 +1,122 @@
+//! `rome fleet`: fleets of several sizes given the same tasks through the
+//! dispatcher, in lock-step, measured by ground truth.
+//!
+//! ```text
+//! rome fleet                                   # 1, 5 and 10 robots, 50 tasks on EB3
+//! rome fleet --robots 1,5,10,20,40 --tasks 200 # the sweep of docs/tasks.md
+//! rome fleet --map annex --seed 7 --out runs/  # where fleet.csv and fleet.svg go
+//! ```
+
+use crate::progress::Progress;
+use anyhow::Context;
+use rome_harness::scale::{self, ScaleConfig, ScaleEvent};
+use rome_harness::tasks::TaskEvent;
+use std::path::PathBuf;
+use std::time::Duration;
+
+/// Flags of `rome fleet`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Fleet sizes, comma-separated; a one-robot run is added first when
+    /// missing, as efficiency is measured against it.
+    #[arg(long, value_delimiter = ',', default_values_t = vec![1usize, 5, 10])]
+    robots: Vec<usize>,
+    /// Tasks given to every fleet (door jambs picked with the seed).
+    #[arg(long, default_value_t = 50)]
+    tasks: usize,
+    /// Map: a built-in name (eb3, annex, fig5_3) or a .stk file.
+    #[arg(long, default_value = "eb3")]
+    map: String,
+    /// Seed of the robots' starts, the tasks and the world.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Reserve the junctions robots turn in, not only narrow passages.
+    #[arg(long)]
+    traffic: bool,
+    /// Give a run up after this many simulated minutes.
+    #[arg(long, default_value_t = 600.0)]
+    limit_min: f64,
+    /// Directory for fleet.csv and fleet.svg.
+    #[arg(long, short = 'o', default_value = "fleet")]
+    out: PathBuf,
+}
+
+/// Runs the sweep; exit status 1 when a task was not done.
+pub async fn run(args: Args) -> anyhow::Result<u8> {
+    anyhow::ensure!(
+        args.limit_min.is_finite() && args.limit_min > 0.0,
+        "--limit-min must be a positive number of minutes, got {}",
+        args.limit_min
+    );
+    anyhow::ensure!(args.tasks > 0, "--tasks must be at least 1");
+    let mut sizes = args.robots.clone();
+    anyhow::ensure!(
+        sizes.iter().all(|n| (1..=200).contains(n)),
+        "--robots takes fleet sizes from 1 to 200, got {sizes:?}"
+    );
+    sizes.sort_unstable();
+    sizes.dedup();
+    if sizes.first() != Some(&1) {
+        sizes.insert(0, 1);
+    }
+    let cfg = ScaleConfig {
+        map: rome_maps::load_named(&args.map)?,
+        sizes,
+        tasks: args.tasks,
+        seed: args.seed,
+        traffic: args.traffic,
+        limit: Duration::from_secs_f64(args.limit_min * 60.0),
+        stuck: Duration::from_secs(60),
+    };
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("cannot make {}", args.out.display()))?;
+    println!(
+        "{} task(s) on {} for fleets of {:?} robots, seed {}",
+        cfg.tasks, args.map, cfg.sizes, cfg.seed
+    );
+    println!("{}", scale::HEADER);
+    let mut bar: Option<Progress> = None;
+    let mut done = 0u64;
+    let rows = scale::sweep(&cfg, |e| match e {
+        ScaleEvent::Begin { robots } => {
+            done = 0;
+            bar = Some(Progress::bar(
+                &format!("{robots} robot(s)"),
+                "tasks",
+                cfg.tasks as u64,
+            ));
+        }
+        ScaleEvent::Run(TaskEvent::Task(s, what)) if s.state.ended() => {
+            done += 1;
+            if let Some(b) = bar.as_mut() {
+                b.set(done, &format!("{} {what}", s.id));
+            }
+        }
+        ScaleEvent::Run(_) => {}
+        ScaleEvent::End(row) => {
+            if let Some(mut b) = bar.take() {
+                b.finish();
+            }
+            println!("{}", scale::csv_line(row));
+        }
+    })
+    .await?;
+    let mut csv = format!("{}\n", scale::HEADER);
+    for r in &rows {
+        csv.push_str(&scale::csv_line(r));
+        csv.push('\n');
+    }
+    let csv_path = args.out.join("fleet.csv");
+    std::fs::write(&csv_path, csv)
+        .with_context(|| format!("cannot write {}", csv_path.display()))?;
+    let title = format!("{} tasks on {}, seed {}", cfg.tasks, args.map, cfg.seed);
+    let svg_path = args.out.join("fleet.svg");
+    std::fs::write(&svg_path, scale::svg(&rows, &title))
+        .with_context(|| format!("cannot write {}", svg_path.display()))?;
+    println!("wrote {} and {}", csv_path.display(), svg_path.display());
+    Ok(if rows.iter().all(|r| r.done == r.tasks) {
+        crate::exit::OK
+    } else {
+        crate::exit::ERROR
+    })
+}

@@ -1,0 +1,300 @@
+//! A fleet measured at scale (`rome fleet`): the same tasks given to
+//! fleets of several sizes through the dispatcher, in lock-step, each
+//! judged by ground truth; a table, a CSV and a picture of throughput and
+//! fleet efficiency against the fleet's size.
+//!
+//! Throughput is tasks done per simulated hour, from the start to the
+//! end of the last task. Fleet efficiency at N robots is throughput(N) /
+//! (N × throughput(1)): 1 when N robots do N times the work of one, less
+//! as they get in each other's way or wait for work.
+
+use crate::routes::{pick_doors, pick_routes};
+use crate::tasks::{run_tasks, TaskEvent, TaskRun};
+use crate::RunConfig;
+use rome_maps::Map;
+use rome_nav::fleet::schema::{TaskSpec, TaskState};
+use rome_nav::NavError;
+use std::fmt::Write as _;
+use std::time::Duration;
+
+/// What to measure.
+#[derive(Debug, Clone)]
+pub struct ScaleConfig {
+    /// The map.
+    pub map: Map,
+    /// Fleet sizes, each run with the same tasks.
+    pub sizes: Vec<usize>,
+    /// How many tasks each run is given.
+    pub tasks: usize,
+    /// Seed of the robots' starts, the tasks and the world.
+    pub seed: u64,
+    /// Reserve junctions as well as narrow passages.
+    pub traffic: bool,
+    /// Give a run up after this much simulated time.
+    pub limit: Duration,
+    /// A robot standing still this long with a task counts as stuck.
+    pub stuck: Duration,
+}
+
+/// One fleet size's run.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ScaleRow {
+    /// Robots.
+    pub robots: usize,
+    /// Tasks given.
+    pub tasks: usize,
+    /// Tasks done (arrived, by ground truth).
+    pub done: usize,
+    /// Tasks failed.
+    pub failed: usize,
+    /// Mean wait for a robot, s.
+    pub wait_mean_s: f64,
+    /// Longest wait for a robot, s.
+    pub wait_max_s: f64,
+    /// Mean time a task's robot waited its turn for junctions and passages
+    /// on the way, s.
+    pub traffic_wait_mean_s: f64,
+    /// The longest such wait of one task, s.
+    pub traffic_wait_max_s: f64,
+    /// Simulated time to the end of the last task, h.
+    pub sim_h: f64,
+    /// Tasks done per simulated hour.
+    pub throughput_h: f64,
+    /// throughput(N) / (N × throughput(1)), once the one-robot run is in.
+    pub efficiency: Option<f64>,
+    /// Touches of walls, by ground truth.
+    pub wall_contacts: u32,
+    /// Touches of robots, by ground truth.
+    pub robot_contacts: u32,
+    /// Robots that stood still longer than the stuck limit with a task.
+    pub stuck: usize,
+    /// Wall time of the run, s.
+    pub wall_s: f64,
+}
+
+/// What a sweep tells whoever watches.
+#[derive(Debug)]
+pub enum ScaleEvent<'a> {
+    /// A run of `robots` begins.
+    Begin {
+        /// Its fleet size.
+        robots: usize,
+    },
+    /// Something happened in the run.
+    Run(&'a TaskEvent),
+    /// A run ended.
+    End(&'a ScaleRow),
+}
+
+/// The tasks a sweep gives every fleet: `n` door jambs picked with `seed`.
+pub fn pick_tasks(map: &Map, n: usize, seed: u64) -> Vec<(String, TaskSpec)> {
+    pick_doors(map, n, seed ^ 0x7a5c)
+        .into_iter()
+        .enumerate()
+        .map(|(k, to)| {
+            let spec = TaskSpec {
+                to,
+                robot: None,
+                priority: 0,
+                via: vec![],
+            };
+            (format!("T{}", k + 1), spec)
+        })
+        .collect()
+}
+
+/// Runs every fleet size in turn and returns a row for each.
+pub async fn sweep(
+    cfg: &ScaleConfig,
+    mut progress: impl FnMut(ScaleEvent<'_>),
+) -> Result<Vec<ScaleRow>, NavError> {
+    let tasks = pick_tasks(&cfg.map, cfg.tasks, cfg.seed);
+    let mut rows: Vec<ScaleRow> = Vec::new();
+    for &n in &cfg.sizes {
+        progress(ScaleEvent::Begin { robots: n });
+        let routes = pick_routes(&cfg.map, Vec::new(), n, cfg.seed)?;
+        let mut run = RunConfig::fleet(cfg.map.clone(), routes);
+        run.seed = cfg.seed;
+        run.limit = cfg.limit;
+        run.traffic = cfg.traffic;
+        // The plate finder reads camera images that no task needs.
+        run.plfinder = false;
+        let r = run_tasks(
+            TaskRun {
+                run,
+                tasks: tasks.clone(),
+                kill: None,
+            },
+            &mut |e| progress(ScaleEvent::Run(&e)),
+        )
+        .await?;
+        let done: Vec<_> = r
+            .statuses
+            .iter()
+            .filter(|s| s.state == TaskState::Done)
+            .collect();
+        let waits: Vec<f64> = r
+            .statuses
+            .iter()
+            .filter_map(|s| {
+                s.assigned_ms
+                    .map(|a| a.saturating_sub(s.added_ms) as f64 / 1000.0)
+            })
+            .collect();
+        let t0 = r.statuses.iter().map(|s| s.added_ms).min().unwrap_or(0);
+        let last = done.iter().filter_map(|s| s.ended_ms).max().unwrap_or(t0);
+        let sim_h = (last.saturating_sub(t0)) as f64 / 3.6e6;
+        let throughput_h = if sim_h > 0.0 {
+            done.len() as f64 / sim_h
+        } else {
+            0.0
+        };
+        let traffic: Vec<f64> = r
+            .statuses
+            .iter()
+            .map(|s| r.traffic_wait_s.get(&s.id).copied().unwrap_or(0.0))
+            .collect();
+        let one = rows.iter().find(|r| r.robots == 1).map(|r| r.throughput_h);
+        let row = ScaleRow {
+            robots: n,
+            tasks: cfg.tasks,
+            done: done.len(),
+            failed: r
+                .statuses
+                .iter()
+                .filter(|s| s.state == TaskState::Failed)
+                .count(),
+            wait_mean_s: waits.iter().sum::<f64>() / waits.len().max(1) as f64,
+            wait_max_s: waits.iter().copied().fold(0.0, f64::max),
+            traffic_wait_mean_s: traffic.iter().sum::<f64>() / traffic.len().max(1) as f64,
+            traffic_wait_max_s: traffic.iter().copied().fold(0.0, f64::max),
+            sim_h,
+            throughput_h,
+            efficiency: one
+                .filter(|t| *t > 0.0)
+                .map(|t| throughput_h / (n as f64 * t)),
+            wall_contacts: r.contacts.values().map(|c| c.wall).sum(),
+            robot_contacts: r.contacts.values().map(|c| c.robot).sum(),
+            stuck: r
+                .longest_still_s
+                .values()
+                .filter(|s| **s > cfg.stuck.as_secs_f64())
+                .count(),
+            wall_s: r.wall.as_secs_f64(),
+        };
+        progress(ScaleEvent::End(&row));
+        rows.push(row);
+    }
+    Ok(rows)
+}
+
+/// The table's header.
+pub const HEADER: &str =
+    "robots,tasks,done,failed,wait_mean_s,wait_max_s,traffic_wait_mean_s,traffic_wait_max_s,sim_h,throughput_per_h,efficiency,wall_contacts,robot_contacts,stuck,wall_s";
+
+/// A row as a line of the CSV.
+pub fn csv_line(r: &ScaleRow) -> String {
+    format!(
+        "{},{},{},{},{:.1},{:.1},{:.1},{:.1},{:.3},{:.1},{},{},{},{},{:.1}",
+        r.robots,
+        r.tasks,
+        r.done,
+        r.failed,
+        r.wait_mean_s,
+        r.wait_max_s,
+        r.traffic_wait_mean_s,
+        r.traffic_wait_max_s,
+        r.sim_h,
+        r.throughput_h,
+        r.efficiency.map_or(String::new(), |e| format!("{e:.2}")),
+        r.wall_contacts,
+        r.robot_contacts,
+        r.stuck,
+        r.wall_s
+    )
+}
+
+/// Throughput (left axis) and efficiency (right axis, 0–1) against the
+/// fleet's size, as an SVG picture.
+pub fn svg(rows: &[ScaleRow], title: &str) -> String {
+    let (w, h, pad) = (640.0, 400.0, 60.0);
+    let max_n = rows.iter().map(|r| r.robots).max().unwrap_or(1).max(1) as f64;
+    let max_t = rows.iter().map(|r| r.throughput_h).fold(1.0, f64::max) * 1.1;
+    let x = |n: f64| pad + (w - 2.0 * pad) * n / max_n;
+    let y = |f: f64| h - pad - (h - 2.0 * pad) * f;
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" font-family="sans-serif" font-size="12">"#
+    );
+    let _ = writeln!(s, r#"<rect width="100%" height="100%" fill="white"/>"#);
+    let _ = writeln!(
+        s,
+        r#"<text x="{}" y="24" text-anchor="middle" font-size="15">{title}</text>"#,
+        w / 2.0
+    );
+    let _ = writeln!(
+        s,
+        r#"<path d="M{pad},{pad} V{} H{}" stroke="black" fill="none"/>"#,
+        h - pad,
+        w - pad
+    );
+    let _ = writeln!(
+        s,
+        r#"<text x="{}" y="{}" text-anchor="middle">robots</text>"#,
+        w / 2.0,
+        h - 20.0
+    );
+    let _ = writeln!(
+        s,
+        r##"<text x="14" y="{}" fill="#1f77b4" transform="rotate(-90 14 {})" text-anchor="middle">tasks per simulated hour (max {max_t:.0})</text>"##,
+        h / 2.0,
+        h / 2.0
+    );
+    let _ = writeln!(
+        s,
+        r##"<text x="{}" y="{}" fill="#d62728" transform="rotate(90 {} {})" text-anchor="middle">efficiency (0 to 1)</text>"##,
+        w - 14.0,
+        h / 2.0,
+        w - 14.0,
+        h / 2.0
+    );
+    let series = [
+        (
+            "#1f77b4",
+            rows.iter()
+                .map(|r| (r.robots, Some(r.throughput_h / max_t)))
+                .collect::<Vec<_>>(),
+        ),
+        (
+            "#d62728",
+            rows.iter().map(|r| (r.robots, r.efficiency)).collect(),
+        ),
+    ];
+    for (color, points) in series {
+        let pts: Vec<String> = points
+            .iter()
+            .filter_map(|(n, f)| f.map(|f| format!("{:.1},{:.1}", x(*n as f64), y(f.min(1.2)))))
+            .collect();
+        let _ = writeln!(
+            s,
+            r#"<polyline points="{}" stroke="{color}" stroke-width="2" fill="none"/>"#,
+            pts.join(" ")
+        );
+        for p in &pts {
+            let (px, py) = p.split_once(',').unwrap_or(("0", "0"));
+            let _ = writeln!(s, r#"<circle cx="{px}" cy="{py}" r="4" fill="{color}"/>"#);
+        }
+    }
+    for r in rows {
+        let _ = writeln!(
+            s,
+            r#"<text x="{:.1}" y="{}" text-anchor="middle">{}</text>"#,
+            x(r.robots as f64),
+            h - pad + 16.0,
+            r.robots
+        );
+    }
+    s.push_str("</svg>\n");
+    s
+}
