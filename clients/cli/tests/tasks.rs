@@ -44,6 +44,22 @@ async fn tasks_added_from_the_cli_are_done_and_survive_a_killed_dispatcher() {
             Stdio::null(),
         ));
     }
+    // Both robots take tasks before the first is added: otherwise the
+    // only robot ready would take it, however far it stands.
+    let ds = rome_client::DataClient::connect(&session, rome_client::DataOptions::new("check"))
+        .await
+        .unwrap();
+    rome_tests::eventually(
+        std::time::Duration::from_secs(60),
+        "both robots take tasks",
+        || async {
+            let robots = rome_nav::fleet::tasks::robots(&ds)
+                .await
+                .unwrap_or_default();
+            robots.len() == 2 && robots.iter().all(|(_, d)| d.is_ok())
+        },
+    )
+    .await;
     let mut dispatcher = client(port, "dispatcher", &["dispatcher"], Stdio::null());
 
     let out = run(port, "task-1", &["task", "add", "--to", "356R", "--wait"]).await;
@@ -65,6 +81,16 @@ async fn tasks_added_from_the_cli_are_done_and_survive_a_killed_dispatcher() {
     // The nearest robot took each: r1 stood at 350R, r2 at 376L.
     assert_eq!(row("T1")[1..4], ["done", "r1", "356R"], "{ls}");
     assert_eq!(row("T2")[1..4], ["done", "r2", "372L"], "{ls}");
+    // Each stands where its task ended, ready for the next.
+    let robots = run(port, "task-robots", &["task", "robots"]).await;
+    for (robot, at) in [("r1", "356R"), ("r2", "372L")] {
+        let line = robots
+            .lines()
+            .find(|l| l.starts_with(&format!("{robot} ")))
+            .unwrap_or_else(|| panic!("no {robot} in:\n{robots}"));
+        let words: Vec<&str> = line.split_whitespace().collect();
+        assert_eq!(words[1..3], ["idle", at], "{robots}");
+    }
     for mut c in crew {
         c.kill();
     }

@@ -3,8 +3,8 @@
 //! REST users do the same with a `set` or a `get`.
 
 use super::schema::{
-    decode, TaskSpec, TaskState, TaskStatus, CANCEL_PREFIX, STATUS_PREFIX, TASK_IDS, TASK_PREFIX,
-    WAKE,
+    decode, Duty, TaskSpec, TaskState, TaskStatus, CANCEL_PREFIX, STATUS_PREFIX, TASK_IDS,
+    TASK_PREFIX, WAKE,
 };
 use rome_client::{ClientError, DataClient};
 use std::collections::BTreeMap;
@@ -110,6 +110,22 @@ pub async fn list(ds: &DataClient) -> Result<Vec<Listed>, ClientError> {
         })
         .collect();
     out.sort_by_key(|l| id_order(&l.id));
+    Ok(out)
+}
+
+/// Every robot that has taken tasks, by name: its duty, or why it does
+/// not decode.
+pub async fn robots(ds: &DataClient) -> Result<Vec<(String, Result<Duty, String>)>, ClientError> {
+    let mut out = Vec::new();
+    for (name, value) in ds.values_matching("nav/*/Duty").await? {
+        let Some(robot) = name
+            .strip_prefix("nav/")
+            .and_then(|r| r.strip_suffix("/Duty"))
+        else {
+            continue;
+        };
+        out.push((robot.to_string(), decode(&name, &value)));
+    }
     Ok(out)
 }
 

@@ -7,6 +7,7 @@
 //! rome task add --to 376L
 //! rome task ls
 //! rome task cancel T4 --why "not needed"
+//! rome task robots
 //! ```
 
 use crate::args::{CommonArgs, Side};
@@ -17,7 +18,7 @@ use rome_maps::{Network, World};
 use rome_nav::board::Board;
 use rome_nav::fleet::dispatcher::{now_ms, DispatchConfig, Dispatcher, Note};
 use rome_nav::fleet::duty::{DutyConfig, DutyNote, OnDuty};
-use rome_nav::fleet::schema::{TaskSpec, TaskState, STATUS_PREFIX};
+use rome_nav::fleet::schema::{DutyState, TaskSpec, TaskState, STATUS_PREFIX};
 use rome_nav::fleet::tasks;
 use rome_nav::planner::Progress;
 use rome_nav::traffic;
@@ -44,6 +45,8 @@ pub enum TaskCmd {
     Ls(LsArgs),
     /// Cancel a task; a robot driving it stops where it is.
     Cancel(CancelArgs),
+    /// List the robots taking tasks: where each stands, what it does, how its last task went.
+    Robots,
 }
 
 /// Flags of `rome task add`.
@@ -181,6 +184,39 @@ pub async fn task(common: &CommonArgs, cmd: TaskCmd) -> anyhow::Result<u8> {
             }
             if all.iter().any(|t| t.status.is_none()) {
                 println!("(tasks marked new have not been seen by a dispatcher: is `rome dispatcher` running?)");
+            }
+            Ok(exit::OK)
+        }
+        TaskCmd::Robots => {
+            println!(
+                "{:<6} {:<5} {:<8} {:<6}  LAST",
+                "ROBOT", "STATE", "AT", "TASK"
+            );
+            for (robot, duty) in tasks::robots(&ds).await? {
+                let d = match duty {
+                    Ok(d) => d,
+                    Err(why) => {
+                        println!("{robot:<6} ?      {why}");
+                        continue;
+                    }
+                };
+                let state = match d.state {
+                    DutyState::Idle => "idle",
+                    DutyState::Busy => "busy",
+                    DutyState::Lost => "lost",
+                };
+                let last = match &d.last {
+                    None => String::new(),
+                    Some(o) if o.ok => format!("{} arrived", o.task),
+                    Some(o) => {
+                        format!("{} not arrived: {}", o.task, o.why.as_deref().unwrap_or(""))
+                    }
+                };
+                println!(
+                    "{robot:<6} {state:<5} {:<8} {:<6}  {last}",
+                    d.at,
+                    d.task.as_deref().unwrap_or("-")
+                );
             }
             Ok(exit::OK)
         }
