@@ -223,11 +223,28 @@ impl World {
         via: &[&str],
         to: &str,
     ) -> Result<Route, RouteError> {
-        let mut stops: Vec<&str> = vec![from];
+        let start = self.position(from).ok_or_else(|| RouteError::Unknown {
+            name: from.to_string(),
+            similar: self.similar(from),
+        })?;
+        self.route_from(network, (from, start.in_corridor()), via, to)
+    }
+
+    /// The shortest route from a point (a robot standing where no position
+    /// is named, as its odometry puts it; `start.0` names it in the route)
+    /// to a named position through the `via` positions in order.
+    pub fn route_from(
+        &self,
+        network: &Network,
+        start: (&str, Point),
+        via: &[&str],
+        to: &str,
+    ) -> Result<Route, RouteError> {
+        let mut stops: Vec<&str> = vec![start.0];
         stops.extend_from_slice(via);
         stops.push(to);
-        let mut at = Vec::with_capacity(stops.len());
-        for name in &stops {
+        let mut at = vec![start.1];
+        for name in &stops[1..] {
             let p = self.position(name).ok_or_else(|| RouteError::Unknown {
                 name: (*name).to_string(),
                 similar: self.similar(name),

@@ -128,6 +128,7 @@ async fn bad_values_fail_their_task_or_are_skipped_and_a_failed_robot_gives_its_
     // A robot played by hand: idle at 350R, its owner this live client.
     let mut duty = Duty {
         at: "350R".into(),
+        at_mm: None,
         state: DutyState::Idle,
         task: None,
         owner: ds.owner().to_string(),

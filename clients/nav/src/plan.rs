@@ -188,8 +188,28 @@ impl Plan {
         via: &[String],
         to: &str,
     ) -> Result<Plan, RouteError> {
+        let start = world
+            .position(from)
+            .ok_or_else(|| RouteError::Unknown {
+                name: from.to_string(),
+                similar: world.similar(from),
+            })?
+            .in_corridor();
+        Plan::from_point(world, network, (from, start), via, to)
+    }
+
+    /// Plans the route from a point (where odometry puts a robot that
+    /// stopped away from any named position; `start.0` names it) to `to`
+    /// through the `via` positions, and segments it.
+    pub fn from_point(
+        world: &World,
+        network: &Network,
+        start: (&str, Point),
+        via: &[String],
+        to: &str,
+    ) -> Result<Plan, RouteError> {
         let via: Vec<&str> = via.iter().map(String::as_str).collect();
-        let mut route = world.route(network, from, &via, to)?;
+        let mut route = world.route_from(network, start, &via, to)?;
         if !via.is_empty() {
             drive_through(world, &mut route)?;
         }
@@ -596,6 +616,29 @@ mod tests {
             "{total} vs {}",
             plan.route.length_mm
         );
+    }
+
+    #[test]
+    fn a_plan_from_a_point_between_positions_starts_there() {
+        // Two metres along corridor A from 350R towards 376L, where a
+        // robot whose run failed might stand.
+        let (world, net) = eb3();
+        let whole = Plan::new(&world, &net, "350R", "376L").expect("plan");
+        let (a, b) = whole.ends();
+        let d = rome_maps::geometry::distance(a, b);
+        let p = Point::new(
+            a.x + (b.x - a.x) * 2_000.0 / d,
+            a.y + (b.y - a.y) * 2_000.0 / d,
+        );
+        let plan = Plan::from_point(&world, &net, ("@here", p), &[], "376L").expect("plan");
+        assert!(
+            (plan.route.length_mm - (whole.route.length_mm - 2_000.0)).abs() < 1.0,
+            "{} vs {}",
+            plan.route.length_mm,
+            whole.route.length_mm
+        );
+        assert_eq!(plan.route.stops[0], "@here");
+        assert!(Plan::from_point(&world, &net, ("@here", p), &[], "nowhere").is_err());
     }
 
     #[test]

@@ -11,12 +11,14 @@
 use super::schema::TaskStatus;
 
 /// A robot free to take a task.
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct Free {
     /// Its name.
     pub name: String,
-    /// The position it stands at.
+    /// The position it stands at (`@x,y` between positions).
     pub at: String,
+    /// Where it stands, mm, when that is not a named position.
+    pub at_mm: Option<[f64; 2]>,
 }
 
 /// A waiting task as the choice needs it.
@@ -29,12 +31,12 @@ pub struct Waiting<'a> {
 }
 
 /// Pairs waiting tasks with free robots: `(task id, robot)`, in the order
-/// the tasks were chosen. `length(from, to)` is the route length in mm,
-/// `None` where there is no route.
+/// the tasks were chosen. `length(robot, to)` is the route length in mm
+/// from where the robot stands, `None` where there is no route.
 pub fn assign(
     waiting: &[Waiting<'_>],
     free: &[Free],
-    mut length: impl FnMut(&str, &str) -> Option<f64>,
+    mut length: impl FnMut(&Free, &str) -> Option<f64>,
 ) -> Vec<(String, String)> {
     let mut order: Vec<&Waiting<'_>> = waiting.iter().collect();
     order.sort_by(|a, b| {
@@ -54,7 +56,7 @@ pub fn assign(
                     && task.robot.is_none_or(|p| p == r.name)
                     && !task.status.tried.contains(&r.name)
             })
-            .filter_map(|(k, r)| length(&r.at, &task.status.to).map(|d| (d, &r.name, k)))
+            .filter_map(|(k, r)| length(r, &task.status.to).map(|d| (d, &r.name, k)))
             .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(b.1)));
         if let Some((_, name, k)) = best {
             taken[k] = true;
@@ -89,13 +91,14 @@ mod tests {
         Free {
             name: name.into(),
             at: at.into(),
+            at_mm: None,
         }
     }
 
     /// Positions on a line: the distance is the difference of the numbers.
-    fn line(a: &str, b: &str) -> Option<f64> {
+    fn line(a: &Free, b: &str) -> Option<f64> {
         let n = |s: &str| s.parse::<f64>().ok();
-        Some((n(a)? - n(b)?).abs())
+        Some((n(&a.at)? - n(b)?).abs())
     }
 
     fn wait(s: &TaskStatus) -> Waiting<'_> {

@@ -20,6 +20,7 @@ use super::schema::{
 };
 use crate::NavError;
 use rome_client::{ClientError, DataClient};
+use rome_maps::geometry::Point;
 use rome_maps::{Network, World};
 use rome_schema::Root;
 use serde_json::Value;
@@ -271,6 +272,7 @@ impl Dispatcher {
             .map(|(r, d)| Free {
                 name: r.clone(),
                 at: d.at.clone(),
+                at_mm: d.at_mm,
             })
             .collect();
         let waiting: Vec<Waiting<'_>> = self
@@ -283,17 +285,20 @@ impl Dispatcher {
             })
             .collect();
         let (world, network, lengths) = (&self.world, &self.network, &mut self.lengths);
-        let chosen = assign(&waiting, &free, |from, to| {
-            if from == to {
+        let chosen = assign(&waiting, &free, |robot, to| {
+            if robot.at_mm.is_none() && robot.at == to {
                 return Some(0.0);
             }
             *lengths
-                .entry((from.to_string(), to.to_string()))
+                .entry((robot.at.clone(), to.to_string()))
                 .or_insert_with(|| {
-                    world
-                        .route(network, from, &[], to)
-                        .ok()
-                        .map(|r| r.length_mm)
+                    let route = match robot.at_mm {
+                        Some([x, y]) => {
+                            world.route_from(network, (&robot.at, Point::new(x, y)), &[], to)
+                        }
+                        None => world.route(network, &robot.at, &[], to),
+                    };
+                    route.ok().map(|r| r.length_mm)
                 })
         });
         for (id, robot) in chosen {

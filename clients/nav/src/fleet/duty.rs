@@ -6,10 +6,12 @@
 //!
 //! A task that cannot be planned fails and the robot stays where it is.
 //! A run that fails or is cancelled midway stops the robot away from any
-//! position the map names: it reports itself `lost` and takes no more
-//! tasks until it is put down again (started again with `--from`). A
-//! value on the blackboard that does not decode is reported and skipped;
-//! it never ends the Planner.
+//! position the map names: it reports where its odometry puts it
+//! (`@x,y` in metres, and `at_mm`), and its next task is planned from
+//! there. Only a robot whose odometry cannot be read is `lost`, taking no
+//! more tasks until it is started again with `--from`. A value on the
+//! blackboard that does not decode is reported and skipped; it never ends
+//! the Planner.
 
 use super::schema::{
     decode, duty_var, task_sem, task_var, Assignment, Duty, DutyState, Outcome, WAKE,
@@ -20,6 +22,7 @@ use crate::planner::{self, Progress};
 use crate::NavError;
 use rome_client::sim::TruthClient;
 use rome_client::RobotClient;
+use rome_maps::geometry::Point;
 use rome_maps::{Network, World};
 use std::sync::atomic::{AtomicBool, Ordering::Relaxed};
 use std::time::Duration;
@@ -106,6 +109,7 @@ impl OnDuty<'_> {
         }
         let mut duty = Duty {
             at: cfg.at.clone(),
+            at_mm: None,
             state: DutyState::Idle,
             task: None,
             owner: ds.owner().to_string(),
@@ -135,16 +139,33 @@ impl OnDuty<'_> {
             duty.state = DutyState::Busy;
             duty.task = Some(a.task.clone());
             self.report(&duty).await?;
-            let from = duty.at.clone();
+            let from = (duty.at.clone(), duty.at_mm.map(|[x, y]| Point::new(x, y)));
             let (outcome, at) = self
                 .carry_out(cfg, &from, &a, &mut registered, &mut facing, &mut note)
                 .await;
-            note(DutyNote::Ended(&outcome, at.as_deref()));
-            duty.state = match &at {
-                Some(_) => DutyState::Idle,
-                None => DutyState::Lost,
-            };
-            duty.at = at.unwrap_or(duty.at);
+            match at {
+                Some(at) => {
+                    duty.at = at;
+                    duty.at_mm = None;
+                    duty.state = DutyState::Idle;
+                }
+                // Stopped between named positions: it goes on from where
+                // its odometry puts it (registered at its first task's
+                // start, corrected by walls and lights on the way).
+                None => match self.robot.pose().await {
+                    Ok(p) if registered => {
+                        let (x, y) = (f64::from(p.x_mm), f64::from(p.y_mm));
+                        duty.at = format!("@{:.1},{:.1}", x / 1000.0, y / 1000.0);
+                        duty.at_mm = Some([x, y]);
+                        duty.state = DutyState::Idle;
+                    }
+                    _ => duty.state = DutyState::Lost,
+                },
+            }
+            note(DutyNote::Ended(
+                &outcome,
+                (duty.state != DutyState::Lost).then_some(duty.at.as_str()),
+            ));
             duty.task = None;
             duty.last = Some(outcome);
             self.report(&duty).await?;
@@ -163,7 +184,7 @@ impl OnDuty<'_> {
     async fn carry_out(
         &self,
         cfg: &DutyConfig,
-        from: &str,
+        from: &(String, Option<Point>),
         a: &Assignment,
         registered: &mut bool,
         facing: &mut Option<f64>,
@@ -174,13 +195,22 @@ impl OnDuty<'_> {
             ok,
             why,
         };
-        if from == a.to && a.via.is_empty() {
-            return (outcome(true, None), Some(from.to_string()));
+        let (label, point) = from;
+        if point.is_none() && *label == a.to && a.via.is_empty() {
+            return (outcome(true, None), Some(label.clone()));
         }
-        let plan = match Plan::through(self.world, self.network, from, &a.via, &a.to) {
+        let planned = match point {
+            Some(p) => Plan::from_point(self.world, self.network, (label, *p), &a.via, &a.to),
+            None => Plan::through(self.world, self.network, label, &a.via, &a.to),
+        };
+        let plan = match planned {
             Ok(p) if cfg.traffic => p,
             Ok(p) => p.without_junctions(),
-            Err(e) => return (outcome(false, Some(e.to_string())), Some(from.to_string())),
+            // Not moved: it still stands where it stood.
+            Err(e) => {
+                let still = point.is_none().then(|| label.clone());
+                return (outcome(false, Some(e.to_string())), still);
+            }
         };
         note(DutyNote::Took(a, &plan));
         // Set while the Planner waits its turn: standing still is not being

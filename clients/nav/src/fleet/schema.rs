@@ -158,8 +158,8 @@ pub enum DutyState {
     Idle,
     /// On its way to a task's goal.
     Busy,
-    /// Stopped away from any known position (a run that failed or was
-    /// cancelled midway): it takes no task until it is put down again.
+    /// Stopped where it does not know where it is (its odometry cannot
+    /// be read): it takes no task until it is put down again.
     Lost,
 }
 
@@ -176,11 +176,15 @@ pub struct Outcome {
 }
 
 /// `nav/<robot>/Duty`: written by the robot's Planner when it takes tasks.
-#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Duty {
-    /// Where it stands (when idle) or last stood.
+    /// Where it stands (when idle) or last stood: a position of the map,
+    /// or `@x,y` (metres) where its odometry puts it between positions.
     pub at: String,
+    /// Where its odometry puts it, mm, when that is not a named position.
+    #[serde(default)]
+    pub at_mm: Option<[f64; 2]>,
     /// Its state.
     pub state: DutyState,
     /// The task it carries out.

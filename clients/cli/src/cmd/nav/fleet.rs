@@ -345,9 +345,8 @@ pub async fn take_tasks(common: &CommonArgs, d: Duty) -> anyhow::Result<u8> {
             o.task,
             o.why.as_deref().unwrap_or("no reason"),
             match at {
-                Some(_) => "",
-                None =>
-                    "; the robot is lost and takes no more tasks until started again with --from",
+                Some(at) => format!("; goes on from {at}"),
+                None => "; its odometry cannot be read: it takes no more tasks until started again with --from".to_string(),
             }
         ),
         DutyNote::Skipped(why) => eprintln!("rome planner: skipped {why}"),

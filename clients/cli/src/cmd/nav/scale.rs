@@ -10,7 +10,7 @@
 use crate::progress::Progress;
 use anyhow::Context;
 use rome_harness::scale::{self, ScaleConfig, ScaleEvent};
-use rome_harness::tasks::TaskEvent;
+use rome_harness::tasks::{Said, TaskEvent};
 use std::path::PathBuf;
 use std::time::Duration;
 
@@ -91,6 +91,12 @@ pub async fn run(args: Args) -> anyhow::Result<u8> {
             if let Some(b) = bar.as_mut() {
                 b.set(done, &format!("{} {what}", s.id));
             }
+        }
+        ScaleEvent::Run(TaskEvent::Robot(
+            robot,
+            said @ (Said::NotArrived(..) | Said::Trouble(_)),
+        )) => {
+            eprintln!("{robot}: {said}");
         }
         ScaleEvent::Run(_) => {}
         ScaleEvent::End(row) => {
