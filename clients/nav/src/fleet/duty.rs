@@ -8,8 +8,9 @@
 //! A run that fails or is cancelled midway stops the robot away from any
 //! position the map names: it reports where its odometry puts it
 //! (`@x,y` in metres, and `at_mm`), and its next task is planned from
-//! there. Only a robot whose odometry cannot be read is `lost`, taking no
-//! more tasks until it is started again with `--from`. A value on the
+//! there. A robot whose odometry cannot be read, or that is blocked twice
+//! in one place, is `lost`, taking no more tasks until it is started again
+//! with `--from`. A value on the
 //! blackboard that does not decode is reported and skipped; it never ends
 //! the Planner.
 
@@ -26,6 +27,9 @@ use rome_maps::geometry::Point;
 use rome_maps::{Network, World};
 use std::sync::atomic::{AtomicBool, Ordering::Relaxed};
 use std::time::Duration;
+
+/// How a task given up because the robot stood still begins its reason.
+pub const BLOCKED: &str = "blocked";
 
 /// How the robot takes tasks.
 #[derive(Debug, Clone)]
@@ -121,6 +125,8 @@ impl OnDuty<'_> {
         self.report(&duty).await?;
         let mut facing = cfg.facing;
         let mut registered = false;
+        // Where the last task was given up as blocked, if it was.
+        let mut blocked_at: Option<(f64, f64)> = None;
         loop {
             ds.wait(&task_sem(self.name)).await?;
             let value = ds.get(&task_var(self.name)).await?;
@@ -143,6 +149,7 @@ impl OnDuty<'_> {
             let (outcome, at) = self
                 .carry_out(cfg, &from, &a, &mut registered, &mut facing, &mut note)
                 .await;
+            let at_known = at.is_some();
             match at {
                 Some(at) => {
                     duty.at = at;
@@ -158,9 +165,26 @@ impl OnDuty<'_> {
                         duty.at = format!("@{:.1},{:.1}", x / 1000.0, y / 1000.0);
                         duty.at_mm = Some([x, y]);
                         duty.state = DutyState::Idle;
+                        let blocked = outcome
+                            .why
+                            .as_deref()
+                            .is_some_and(|w| w.starts_with(BLOCKED));
+                        // Blocked twice in one place: whatever holds it
+                        // there will hold it for the next task too, and a
+                        // robot that keeps failing tasks keeps them from
+                        // robots that could do them.
+                        if blocked
+                            && blocked_at.is_some_and(|(bx, by)| (x - bx).hypot(y - by) < 1_000.0)
+                        {
+                            duty.state = DutyState::Lost;
+                        }
+                        blocked_at = blocked.then_some((x, y));
                     }
                     _ => duty.state = DutyState::Lost,
                 },
+            }
+            if at_known {
+                blocked_at = None;
             }
             note(DutyNote::Ended(
                 &outcome,
@@ -292,7 +316,7 @@ impl OnDuty<'_> {
                 {
                     if since.elapsed() >= cfg.stuck {
                         return format!(
-                            "blocked at ({:.1}, {:.1}) m: moved less than half a metre in {:.0} s",
+                            "{BLOCKED} at ({:.1}, {:.1}) m: moved less than half a metre in {:.0} s",
                             x / 1000.0,
                             y / 1000.0,
                             cfg.stuck.as_secs_f64()

@@ -158,8 +158,9 @@ pub enum DutyState {
     Idle,
     /// On its way to a task's goal.
     Busy,
-    /// Stopped where it does not know where it is (its odometry cannot
-    /// be read): it takes no task until it is put down again.
+    /// Out of service: it does not know where it is (its odometry cannot
+    /// be read), or it was blocked twice in one place. It takes no task
+    /// until it is put down again.
     Lost,
 }
 

@@ -34,7 +34,7 @@ pub struct Args {
     #[arg(long)]
     traffic: bool,
     /// Give a run up after this many simulated minutes.
-    #[arg(long, default_value_t = 600.0)]
+    #[arg(long, default_value_t = 1440.0)]
     limit_min: f64,
     /// Directory for fleet.csv and fleet.svg.
     #[arg(long, short = 'o', default_value = "fleet")]
