@@ -369,16 +369,26 @@ pub async fn run_fleet(
     cfg: RunConfig,
     progress: &mut impl FnMut(Event),
 ) -> Result<FleetReport, NavError> {
-    if cfg.lockstep {
-        // Everything the run starts from here on, servers and clients, is a
-        // participant of the clock the world steps by.
+    let lockstep = cfg.lockstep;
+    monitored(lockstep, |clock| run_all(cfg, progress, clock)).await
+}
+
+/// Runs `run` as the run's monitor: in lock-step (`lockstep`) it is handed
+/// the clock the world will step by, and everything it starts, servers and
+/// clients, is a participant of that clock; otherwise it is handed none.
+pub async fn monitored<F, Fut, T>(lockstep: bool, run: F) -> T
+where
+    F: FnOnce(Option<rome_clock::LockStep>) -> Fut,
+    Fut: std::future::Future<Output = T>,
+{
+    if lockstep {
         let clock = rome_clock::LockStep::new(0);
         clock
             .clone()
-            .participate("the run's monitor", run_all(cfg, progress, Some(clock)))
+            .participate("the run's monitor", run(Some(clock)))
             .await
     } else {
-        run_all(cfg, progress, None).await
+        run(None).await
     }
 }
 

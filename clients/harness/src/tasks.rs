@@ -8,7 +8,7 @@
 //! truth is within a metre of the goal; contacts and standing still are
 //! counted from the simulated world.
 
-use crate::{connect, members, Harness, RunConfig};
+use crate::{connect, members, monitored, Harness, RunConfig};
 use rome_client::sim::TruthClient;
 use rome_client::{DataClient, DataOptions};
 use rome_maps::{Network, World};
@@ -108,15 +108,8 @@ pub async fn run_tasks(
     cfg: TaskRun,
     progress: &mut impl FnMut(TaskEvent),
 ) -> Result<TaskReport, NavError> {
-    if cfg.run.lockstep {
-        let clock = rome_clock::LockStep::new(0);
-        clock
-            .clone()
-            .participate("the run's monitor", run_all(cfg, progress, Some(clock)))
-            .await
-    } else {
-        run_all(cfg, progress, None).await
-    }
+    let lockstep = cfg.run.lockstep;
+    monitored(lockstep, |clock| run_all(cfg, progress, clock)).await
 }
 
 async fn run_all(

@@ -69,22 +69,9 @@ pub fn assign(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::fleet::schema::TaskState;
 
     fn status(id: &str, to: &str, priority: i64, seq: u64) -> TaskStatus {
-        TaskStatus {
-            id: id.into(),
-            to: to.into(),
-            priority,
-            state: TaskState::Queued,
-            robot: None,
-            tried: vec![],
-            why: vec![],
-            added_ms: 0,
-            assigned_ms: None,
-            ended_ms: None,
-            seq,
-        }
+        TaskStatus::queued(id, to, priority, 0, seq)
     }
 
     fn free(name: &str, at: &str) -> Free {

@@ -371,19 +371,8 @@ impl Dispatcher {
     }
 
     fn fresh(&self, id: &str, to: &str, priority: i64, now: u64) -> TaskStatus {
-        TaskStatus {
-            id: id.into(),
-            to: to.into(),
-            priority,
-            state: TaskState::Queued,
-            robot: None,
-            tried: vec![],
-            why: vec![],
-            added_ms: now,
-            assigned_ms: None,
-            ended_ms: None,
-            seq: self.statuses.values().map(|s| s.seq + 1).max().unwrap_or(1),
-        }
+        let seq = self.statuses.values().map(|s| s.seq + 1).max().unwrap_or(1);
+        TaskStatus::queued(id, to, priority, now, seq)
     }
 
     /// Why the map cannot place the task's goal or a position on its way.

@@ -125,6 +125,23 @@ pub struct TaskStatus {
 }
 
 impl TaskStatus {
+    /// A task just seen: queued, tried by no robot yet.
+    pub fn queued(id: &str, to: &str, priority: i64, added_ms: u64, seq: u64) -> TaskStatus {
+        TaskStatus {
+            id: id.into(),
+            to: to.into(),
+            priority,
+            state: TaskState::Queued,
+            robot: None,
+            tried: vec![],
+            why: vec![],
+            added_ms,
+            assigned_ms: None,
+            ended_ms: None,
+            seq,
+        }
+    }
+
     /// How long it waited for the robot that last took it, ms: from added
     /// to handed over (to its end if it ended waiting, to now if it still
     /// waits).
