@@ -28,6 +28,16 @@ pub fn check_cruise(mm_s: f64) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// Checks a flag that must be a positive number of `unit` (`--limit-min
+/// must be a positive number of minutes, got -3`).
+pub fn check_positive(flag: &str, value: f64, unit: &str) -> anyhow::Result<()> {
+    anyhow::ensure!(
+        value.is_finite() && value > 0.0,
+        "{flag} must be a positive number of {unit}, got {value}"
+    );
+    Ok(())
+}
+
 /// Opens a client session and connects to the data server.
 pub async fn connect_data(common: &CommonArgs, role: &str) -> anyhow::Result<DataClient> {
     let session = common.open(Side::Client).await?;

@@ -138,11 +138,7 @@ fn routes(args: &Args, map: &rome_maps::Map) -> anyhow::Result<Vec<RouteSpec>> {
 /// Runs the demo.
 pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
     let map = rome_maps::load_named(&args.map)?;
-    anyhow::ensure!(
-        args.limit_min.is_finite() && args.limit_min > 0.0,
-        "--limit-min must be a positive number of minutes, got {}",
-        args.limit_min
-    );
+    rome_common::check_positive("--limit-min", args.limit_min, "minutes")?;
     let mut routes = routes(&args, &map)?;
     if let Some(v) = args.cruise {
         rome_common::check_cruise(v)?;

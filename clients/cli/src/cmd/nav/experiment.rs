@@ -76,16 +76,8 @@ pub struct Args {
 
 /// Runs the experiment; exit status 1 when a run did not arrive.
 pub async fn run(args: Args) -> anyhow::Result<u8> {
-    anyhow::ensure!(
-        args.limit_min.is_finite() && args.limit_min > 0.0,
-        "--limit-min must be a positive number of minutes, got {}",
-        args.limit_min
-    );
-    anyhow::ensure!(
-        args.wall_limit_min.is_finite() && args.wall_limit_min > 0.0,
-        "--wall-limit-min must be a positive number of minutes, got {}",
-        args.wall_limit_min
-    );
+    rome_common::check_positive("--limit-min", args.limit_min, "minutes")?;
+    rome_common::check_positive("--wall-limit-min", args.wall_limit_min, "minutes")?;
     rome_common::check_cruise(args.cruise)?;
     let map = rome_maps::load_named(&args.map)?;
     let routes = match &args.routes {

@@ -93,11 +93,7 @@ pub struct CancelArgs {
 
 /// `rome dispatcher`: hands tasks to robots until interrupted.
 pub async fn dispatcher(common: &CommonArgs, args: DispatcherArgs) -> anyhow::Result<u8> {
-    anyhow::ensure!(
-        args.every.is_finite() && args.every > 0.0,
-        "--every must be a positive number of seconds, got {}",
-        args.every
-    );
+    rome_common::check_positive("--every", args.every, "seconds")?;
     let map = rome_maps::load_named(&args.map)?;
     let world = World::from_map(&map);
     let network = Network::new(&map, &world);

@@ -43,11 +43,7 @@ pub struct Args {
 
 /// Runs the sweep; exit status 1 when a task was not done.
 pub async fn run(args: Args) -> anyhow::Result<u8> {
-    anyhow::ensure!(
-        args.limit_min.is_finite() && args.limit_min > 0.0,
-        "--limit-min must be a positive number of minutes, got {}",
-        args.limit_min
-    );
+    rome_common::check_positive("--limit-min", args.limit_min, "minutes")?;
     anyhow::ensure!(args.tasks > 0, "--tasks must be at least 1");
     let mut sizes = args.robots.clone();
     anyhow::ensure!(
