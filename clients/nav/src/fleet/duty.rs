@@ -31,6 +31,10 @@ use std::time::Duration;
 /// How a task given up because the robot stood still begins its reason.
 pub const BLOCKED: &str = "blocked";
 
+/// How far a robot must get from where it was, mm, within
+/// [`DutyConfig::stuck`], not to be blocked.
+const BLOCKED_RADIUS_MM: f64 = 2_000.0;
+
 /// How the robot takes tasks.
 #[derive(Debug, Clone)]
 pub struct DutyConfig {
@@ -43,7 +47,7 @@ pub struct DutyConfig {
     pub traffic: bool,
     /// How often a run looks whether its task was cancelled.
     pub check_every: Duration,
-    /// A run that has not taken the robot half a metre from where it was
+    /// A run that has not taken the robot two metres from where it was
     /// this long ago, while it was not waiting its turn for a junction or
     /// passage, is given up as blocked.
     pub stuck: Duration,
@@ -299,7 +303,9 @@ impl OnDuty<'_> {
         }
     }
 
-    /// Resolves once the robot has stood within half a metre of one place
+    /// Resolves once the robot has stayed within two metres of one place
+    /// (a robot bumping to and fro against an obstacle moves about, but
+    /// gets nowhere)
     /// for `cfg.stuck` without waiting its turn, saying where (by its
     /// odometry): something it cannot pass stands in its way.
     async fn blocked(&self, cfg: &DutyConfig, waiting: &AtomicBool) -> String {
@@ -312,11 +318,11 @@ impl OnDuty<'_> {
             let (x, y) = (f64::from(p.x_mm), f64::from(p.y_mm));
             match anchor {
                 Some((ax, ay, since))
-                    if !waiting.load(Relaxed) && (x - ax).hypot(y - ay) < 500.0 =>
+                    if !waiting.load(Relaxed) && (x - ax).hypot(y - ay) < BLOCKED_RADIUS_MM =>
                 {
                     if since.elapsed() >= cfg.stuck {
                         return format!(
-                            "{BLOCKED} at ({:.1}, {:.1}) m: moved less than half a metre in {:.0} s",
+                            "{BLOCKED} at ({:.1}, {:.1}) m: got no further than 2 m in {:.0} s",
                             x / 1000.0,
                             y / 1000.0,
                             cfg.stuck.as_secs_f64()
