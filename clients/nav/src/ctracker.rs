@@ -371,8 +371,14 @@ impl Child {
                         pose,
                         ahead_mm,
                     };
-                    if tx.send(s).await.is_err() {
-                        break;
+                    // Never wait for the parent: between L segments it
+                    // reads nothing (it waits for $TrackData and then
+                    // drops what came before as stale), and a child
+                    // waiting on a full queue would stop its frames and,
+                    // in lock-step, the clock.
+                    match tx.try_send(s) {
+                        Ok(()) | Err(mpsc::error::TrySendError::Full(_)) => {}
+                        Err(mpsc::error::TrySendError::Closed(_)) => break,
                     }
                 }
             }
