@@ -185,7 +185,7 @@ pub async fn task(common: &CommonArgs, cmd: TaskCmd) -> anyhow::Result<u8> {
         }
         TaskCmd::Robots => {
             println!(
-                "{:<6} {:<5} {:<8} {:<6}  LAST",
+                "{:<6} {:<5} {:<12} {:<8}  LAST",
                 "ROBOT", "STATE", "AT", "TASK"
             );
             for (robot, duty) in tasks::robots(&ds).await? {
@@ -209,7 +209,7 @@ pub async fn task(common: &CommonArgs, cmd: TaskCmd) -> anyhow::Result<u8> {
                     }
                 };
                 println!(
-                    "{robot:<6} {state:<5} {:<8} {:<6}  {last}",
+                    "{robot:<6} {state:<5} {:<12} {:<8}  {last}",
                     d.at,
                     d.task.as_deref().unwrap_or("-")
                 );
