@@ -37,14 +37,7 @@ async fn dispatcher(
     let cfg = DispatchConfig {
         every: Duration::from_millis(200),
     };
-    let d = Dispatcher::new(
-        ds,
-        session.clone(),
-        rome_schema::Root::default(),
-        world,
-        network,
-        cfg,
-    );
+    let d = Dispatcher::new(ds, session.clone(), world, network, cfg);
     let (tx, rx) = mpsc::unbounded_channel();
     let task = tokio::spawn(async move {
         let _ = d

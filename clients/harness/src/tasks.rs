@@ -202,7 +202,6 @@ async fn run_all(
     let d = Dispatcher::new(
         ds,
         session.clone(),
-        root.clone(),
         world.clone(),
         network.clone(),
         DispatchConfig::default(),

@@ -22,7 +22,6 @@ use crate::NavError;
 use rome_client::{ClientError, DataClient};
 use rome_maps::geometry::Point;
 use rome_maps::{Network, World};
-use rome_schema::Root;
 use serde_json::Value;
 use std::collections::{BTreeMap, BTreeSet};
 use std::time::Duration;
@@ -64,7 +63,6 @@ pub enum Note {
 pub struct Dispatcher {
     ds: DataClient,
     session: zenoh::Session,
-    root: Root,
     world: World,
     network: Network,
     cfg: DispatchConfig,
@@ -76,12 +74,11 @@ pub struct Dispatcher {
 }
 
 impl Dispatcher {
-    /// A dispatcher for the fleet under `root`, measuring routes on the
-    /// map of `world`.
+    /// A dispatcher for the fleet its data-server client serves (under that
+    /// client's root), measuring routes on the map of `world`.
     pub fn new(
         ds: DataClient,
         session: zenoh::Session,
-        root: Root,
         world: World,
         network: Network,
         cfg: DispatchConfig,
@@ -89,7 +86,6 @@ impl Dispatcher {
         Dispatcher {
             ds,
             session,
-            root,
             world,
             network,
             cfg,
@@ -336,25 +332,16 @@ impl Dispatcher {
         note: &mut impl FnMut(Note),
     ) -> Result<BTreeMap<String, Duty>, ClientError> {
         let mut out = BTreeMap::new();
-        for (name, value) in self.ds.values_matching("nav/*/Duty").await? {
-            let Some(robot) = name
-                .strip_prefix("nav/")
-                .and_then(|r| r.strip_suffix("/Duty"))
-            else {
-                continue;
-            };
-            if value.is_null() {
-                continue;
-            }
-            match decode::<Duty>(&name, &value) {
+        for (robot, duty) in super::tasks::robots(&self.ds).await? {
+            match duty {
                 Ok(d) => {
-                    self.bad_duties.remove(robot);
-                    out.insert(robot.to_string(), d);
+                    self.bad_duties.remove(&robot);
+                    out.insert(robot, d);
                 }
                 Err(why) => {
-                    if self.bad_duties.get(robot) != Some(&why) {
+                    if self.bad_duties.get(&robot) != Some(&why) {
                         note(Note::Round(format!("robot {robot} left out: {why}")));
-                        self.bad_duties.insert(robot.to_string(), why);
+                        self.bad_duties.insert(robot, why);
                     }
                 }
             }
@@ -365,8 +352,12 @@ impl Dispatcher {
     /// The ids of every live client (a duty's owner among them while its
     /// Planner runs).
     async fn alive(&self) -> Result<BTreeSet<String>, ClientError> {
-        let who =
-            rome_client::alive::list(&self.session, &self.root, Duration::from_secs(2)).await?;
+        let who = rome_client::alive::list(
+            &self.session,
+            &self.ds.options().root,
+            Duration::from_secs(2),
+        )
+        .await?;
         Ok(who.into_iter().map(|p| p.id).collect())
     }
 

@@ -153,12 +153,12 @@ impl OnDuty<'_> {
             let (outcome, at) = self
                 .carry_out(cfg, &from, &a, &mut registered, &mut facing, &mut note)
                 .await;
-            let at_known = at.is_some();
             match at {
                 Some(at) => {
                     duty.at = at;
                     duty.at_mm = None;
                     duty.state = DutyState::Idle;
+                    blocked_at = None;
                 }
                 // Stopped between named positions: it goes on from where
                 // its odometry puts it (registered at its first task's
@@ -186,9 +186,6 @@ impl OnDuty<'_> {
                     }
                     _ => duty.state = DutyState::Lost,
                 },
-            }
-            if at_known {
-                blocked_at = None;
             }
             note(DutyNote::Ended(
                 &outcome,

@@ -114,7 +114,7 @@ pub async fn list(ds: &DataClient) -> Result<Vec<Listed>, ClientError> {
 }
 
 /// Every robot that has taken tasks, by name: its duty, or why it does
-/// not decode.
+/// not decode (a `null` duty is no duty, and left out).
 pub async fn robots(ds: &DataClient) -> Result<Vec<(String, Result<Duty, String>)>, ClientError> {
     let mut out = Vec::new();
     for (name, value) in ds.values_matching("nav/*/Duty").await? {
@@ -124,7 +124,9 @@ pub async fn robots(ds: &DataClient) -> Result<Vec<(String, Result<Duty, String>
         else {
             continue;
         };
-        out.push((robot.to_string(), decode(&name, &value)));
+        if !value.is_null() {
+            out.push((robot.to_string(), decode(&name, &value)));
+        }
     }
     Ok(out)
 }

@@ -102,7 +102,7 @@ pub async fn dispatcher(common: &CommonArgs, args: DispatcherArgs) -> anyhow::Re
     let cfg = DispatchConfig {
         every: std::time::Duration::from_secs_f64(args.every),
     };
-    let d = Dispatcher::new(ds, session, common.root()?, world, network, cfg);
+    let d = Dispatcher::new(ds, session, world, network, cfg);
     d.run(|n| match n {
         Note::Waiting => println!("another dispatcher runs; waiting to take over"),
         Note::Running { tasks } => println!(
