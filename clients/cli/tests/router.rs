@@ -34,6 +34,22 @@ fn http_get(port: u16, path: &str) -> Option<(String, String)> {
     Some((head.lines().next()?.to_string(), body.to_string()))
 }
 
+/// One HTTP PUT of a JSON body on loopback; the status line.
+fn http_put(port: u16, path: &str, body: &str) -> Option<String> {
+    let mut s = std::net::TcpStream::connect(("127.0.0.1", port)).ok()?;
+    s.set_read_timeout(Some(Duration::from_secs(10))).ok()?;
+    write!(
+        s,
+        "PUT {path} HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Type: application/json\r\n\
+         Content-Length: {}\r\nConnection: close\r\n\r\n{body}",
+        body.len()
+    )
+    .ok()?;
+    let mut text = String::new();
+    s.read_to_string(&mut text).ok()?;
+    Some(text.lines().next()?.to_string())
+}
+
 /// Polls until `path` answers 200 with a body containing `want`.
 fn await_http(port: u16, path: &str, want: &str) -> String {
     let deadline = Instant::now() + Duration::from_secs(60);
@@ -74,6 +90,7 @@ async fn servers_and_clients_meet_through_the_router_and_rest_answers() {
     let via = ["--no-multicast", "-m", "client", "-e", router_ep.as_str()];
     let _data = rome(&[&via[..], &["data-server", "--in-memory"]].concat());
     let _sim = rome(&[&via[..], &["sim", "--robots", "1", "--at", "350R"]].concat());
+    let _dispatcher = rome(&[&via[..], &["dispatcher"]].concat());
 
     let session = NetOptions::loopback_client(port).open().await.unwrap();
     let ds = rome_client::DataClient::connect(&session, rome_client::DataOptions::new("test"))
@@ -114,6 +131,24 @@ async fn servers_and_clients_meet_through_the_router_and_rest_answers() {
             .await
             .unwrap();
     assert!(stored.contains("rome/store/test/record"), "{stored}");
+
+    // A fleet task added with a REST PUT reaches the dispatcher, which
+    // queues it (no robot takes tasks here).
+    let put = tokio::task::spawn_blocking(move || {
+        http_put(rest, "/rome/data/var/fleet/task/rest-1", r#"{"to":"356R"}"#)
+    })
+    .await
+    .unwrap();
+    assert!(
+        put.as_deref().is_some_and(|s| s.contains(" 200")),
+        "{put:?}"
+    );
+    let status = tokio::task::spawn_blocking(move || {
+        await_http(rest, "/rome/data/var/fleet/status/rest-1", "queued")
+    })
+    .await
+    .unwrap();
+    assert!(status.contains("356R"), "{status}");
     let _ = session.close().await;
 }
 

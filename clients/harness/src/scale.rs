@@ -9,7 +9,7 @@
 //! as they get in each other's way or wait for work.
 
 use crate::routes::{pick_doors, pick_routes};
-use crate::tasks::{run_tasks, TaskEvent, TaskRun};
+use crate::tasks::{run_tasks, ContactAt, TaskEvent, TaskRun};
 use crate::RunConfig;
 use rome_maps::Map;
 use rome_nav::fleet::schema::{TaskSpec, TaskState};
@@ -70,6 +70,8 @@ pub struct ScaleRow {
     pub stuck: usize,
     /// Wall time of the run, s.
     pub wall_s: f64,
+    /// Where each contact began.
+    pub contact_places: Vec<ContactAt>,
 }
 
 /// What a sweep tells whoever watches.
@@ -181,6 +183,7 @@ pub async fn sweep(
                 .filter(|s| **s > cfg.stuck.as_secs_f64())
                 .count(),
             wall_s: r.wall.as_secs_f64(),
+            contact_places: r.contact_places,
         };
         progress(ScaleEvent::End(&row));
         rows.push(row);
@@ -297,4 +300,26 @@ pub fn svg(rows: &[ScaleRow], title: &str) -> String {
     }
     s.push_str("</svg>\n");
     s
+}
+
+/// The header of contacts.csv.
+pub const CONTACTS_HEADER: &str = "robots,t_s,robot,x_m,y_m,with,task";
+
+/// Each contact of a run as lines of contacts.csv.
+pub fn contact_lines(row: &ScaleRow) -> String {
+    let mut out = String::new();
+    for c in &row.contact_places {
+        let _ = writeln!(
+            out,
+            "{},{:.0},{},{:.2},{:.2},{},{}",
+            row.robots,
+            c.t_s,
+            c.robot,
+            c.x_mm / 1000.0,
+            c.y_mm / 1000.0,
+            if c.with_robot { "robot" } else { "wall" },
+            c.task.as_deref().unwrap_or("")
+        );
+    }
+    out
 }

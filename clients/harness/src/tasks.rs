@@ -52,10 +52,30 @@ pub struct TaskReport {
     /// Each task's time spent waiting its turn for junctions and passages
     /// on the way, simulated s, by task id.
     pub traffic_wait_s: BTreeMap<String, f64>,
+    /// Where and when each contact began, in the order they happened.
+    pub contact_places: Vec<ContactAt>,
     /// Simulated time of the run, s.
     pub sim_s: f64,
     /// Wall time of the run.
     pub wall: Duration,
+}
+
+/// A contact, where it began: the robot's ground truth at the first
+/// second the count rose (so within a second's drive of the touch).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ContactAt {
+    /// Simulated time since the start, s.
+    pub t_s: f64,
+    /// The robot that touched.
+    pub robot: String,
+    /// Where it stood, mm.
+    pub x_mm: f64,
+    /// Where it stood, mm.
+    pub y_mm: f64,
+    /// Another robot (`true`) or a wall.
+    pub with_robot: bool,
+    /// The task it was doing, if any.
+    pub task: Option<String>,
 }
 
 /// Something that happened.
@@ -238,6 +258,8 @@ async fn run_all(
     let mut traffic_wait_s: BTreeMap<String, f64> = BTreeMap::new();
     let mut tick = rome_clock::interval(run.period(1_000.0));
     let mut killed = false;
+    let mut touched: Vec<(u32, u32)> = vec![(0, 0); names.len()];
+    let mut contact_places: Vec<ContactAt> = Vec::new();
     // Robots that take no more tasks: lost, or their crew killed.
     let mut lost = vec![false; names.len()];
     loop {
@@ -290,7 +312,24 @@ async fn run_all(
             }
             _ = tick.tick() => {
                 for k in 0..names.len() {
-                    let moved = rig.world.lock().robot(rig.index[k]).travelled_mm;
+                    let (moved, c, at) = {
+                        let w = rig.world.lock();
+                        let r = w.robot(rig.index[k]);
+                        (r.travelled_mm, r.contacts, r.pose.at)
+                    };
+                    for (with_robot, rose) in [(false, c.wall > touched[k].0), (true, c.robot > touched[k].1)] {
+                        if rose {
+                            contact_places.push(ContactAt {
+                                t_s: (now - t0) as f64 / 1000.0,
+                                robot: names[k].clone(),
+                                x_mm: at.x,
+                                y_mm: at.y,
+                                with_robot,
+                                task: doing[k].clone(),
+                            });
+                        }
+                    }
+                    touched[k] = (c.wall, c.robot);
                     // Waiting one's turn is not being stuck.
                     if !busy[k] || waits_since[k].is_some() || moved - still[k].1 >= 500.0 {
                         still[k] = (now, moved);
@@ -319,6 +358,7 @@ async fn run_all(
         contacts,
         longest_still_s,
         traffic_wait_s,
+        contact_places,
         sim_s,
         wall: wall.elapsed(),
     })

@@ -36,7 +36,8 @@ pub struct Args {
     /// Give a run up after this many simulated minutes.
     #[arg(long, default_value_t = 1440.0)]
     limit_min: f64,
-    /// Directory for fleet.csv and fleet.svg.
+    /// Directory for fleet.csv, fleet.svg and contacts.csv (where and when
+    /// each contact began).
     #[arg(long, short = 'o', default_value = "fleet")]
     out: PathBuf,
 }
@@ -108,6 +109,13 @@ pub async fn run(args: Args) -> anyhow::Result<u8> {
         csv.push_str(&scale::csv_line(r));
         csv.push('\n');
     }
+    let mut places = format!("{}\n", scale::CONTACTS_HEADER);
+    for r in &rows {
+        places.push_str(&scale::contact_lines(r));
+    }
+    let places_path = args.out.join("contacts.csv");
+    std::fs::write(&places_path, places)
+        .with_context(|| format!("cannot write {}", places_path.display()))?;
     let csv_path = args.out.join("fleet.csv");
     std::fs::write(&csv_path, csv)
         .with_context(|| format!("cannot write {}", csv_path.display()))?;
