@@ -1,5 +1,6 @@
 //! Several robots at once through one data server, in one process, judged
-//! by ground truth: robots that meet head-on or catch up with each other,
+//! by ground truth: robots that meet head-on (in a wide corridor and a
+//! narrow one) or catch up with each other,
 //! robots taking turns through a narrow passage, and a run whose mode is
 //! made to fail and is reported failed.
 
@@ -173,4 +174,40 @@ async fn a_robot_whose_camera_is_covered_has_its_light_segment_failed_with_the_r
     let ok = fleet(cfg, |_| {}).await;
     assert_eq!(ok.robots[0].modes_done.l, 1, "{}", ok.table());
     assert!(!ok.robots[0].row(1).contains('*'), "{}", ok.table());
+}
+
+/// Whether a pose is in corridor N (x = 60 m, between the old building's
+/// south corridor and the new wing's south one).
+fn in_corridor_n(p: &rome_sim::Pose) -> bool {
+    (p.at.x - 60_000.0).abs() < 1_300.0 && p.at.y > 9_000.0 && p.at.y < 53_000.0
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn two_robots_head_on_in_a_narrow_corridor_pass_without_touching() {
+    // Corridor N is 2.44 m wide: two robots of 0.76 m pass only if both
+    // are well over to their right by the time they meet. Steering over
+    // at the hallway's gentle rate, each touched a wall as they passed.
+    let cfg = RunConfig::fleet(
+        eb3(),
+        vec![
+            RouteSpec::new("r1", "303R", "A352L"),
+            RouteSpec::new("r2", "A353R", "301L"),
+        ],
+    );
+    let mut closest = f64::MAX;
+    let r = fleet(cfg, |e| {
+        if let Event::Tick { robots, .. } = e {
+            let (a, b) = (robots[0].pose, robots[1].pose);
+            if in_corridor_n(&a) && in_corridor_n(&b) {
+                closest = closest.min((a.at.x - b.at.x).hypot(a.at.y - b.at.y));
+            }
+        }
+    })
+    .await;
+    for robot in &r.robots {
+        assert_clean(robot);
+    }
+    // They met inside it: a second apart at their speeds is 0.8 m of
+    // closing, so some tick has them within a few metres.
+    assert!(closest < 3_000.0, "closest approach in N {closest:.0} mm");
 }

@@ -12,6 +12,9 @@ pub const FORWARD: usize = 12;
 pub const SPACING: f64 = 15.0;
 /// The jog rate of the superimposed turn, degrees per second (§5.4.1).
 pub const JOG_RATE_DEG_S: f64 = 4.0;
+/// How fast the robot steers over to keep right of an oncoming robot,
+/// degrees per second.
+pub const KEEP_RIGHT_JOG_DEG_S: f64 = 15.0;
 /// A reading along the hallway axis at least this long means the axis is
 /// open, mm.
 pub const OPEN_ENOUGH_MM: u32 = 3_000;
@@ -69,6 +72,11 @@ pub struct NavConfig {
     /// Whether a robot that ends a D goal more than 0.3 m across from the
     /// goal's line (steering round people, say) steps sideways onto it.
     pub onto_line: bool,
+    /// Whether a robot making way for something coming towards it steers
+    /// over briskly ([`KEEP_RIGHT_JOG_DEG_S`]), so that two robots are
+    /// across before they meet in a 2.44 m corridor. Else at the
+    /// hallway's gentle rate, as the thesis' Navigator steered.
+    pub brisk_keep_right: bool,
 }
 
 impl Default for NavConfig {
@@ -89,6 +97,7 @@ impl Default for NavConfig {
             blind_after: Duration::from_secs(1),
             stop_on_contact: true,
             onto_line: true,
+            brisk_keep_right: true,
         }
     }
 }

@@ -4,8 +4,8 @@
 
 use crate::drive::{
     Drive, NavConfig, FORWARD, JOG_RATE_DEG_S, KEEP_RIGHT_AHEAD_MM, KEEP_RIGHT_BEAR_DEG,
-    KEEP_RIGHT_FOR_MM, ONCOMING_CLOSING, OPEN_ENOUGH_MM, ROBOT_CLEARANCE_MM, SAFE_START_MM, SONARS,
-    SPACING,
+    KEEP_RIGHT_FOR_MM, KEEP_RIGHT_JOG_DEG_S, ONCOMING_CLOSING, OPEN_ENOUGH_MM, ROBOT_CLEARANCE_MM,
+    SAFE_START_MM, SONARS, SPACING,
 };
 use rome_maps::geometry::normalize_deg;
 use rome_schema::robot::Scan;
@@ -169,6 +169,8 @@ impl Hallway {
             }
         }
         let room = self.walls.keep_right_mm();
+        let brisk = keep_right && cfg.brisk_keep_right;
+        self.walls.brisk = brisk;
         self.walls.lane_mm = if keep_right {
             -room
         } else {
@@ -191,6 +193,10 @@ impl Hallway {
         };
         if delta.abs() < 1.0 {
             Drive::Go(speed)
+        } else if brisk {
+            // Out of the way of an oncoming robot before the two meet: at
+            // 4°/s the robot would still be turning when they pass.
+            Drive::Jog(delta.signum() * KEEP_RIGHT_JOG_DEG_S)
         } else {
             Drive::Jog(delta.signum() * JOG_RATE_DEG_S)
         }
@@ -221,6 +227,10 @@ pub struct Walls {
     lane_mm: f64,
     /// The Corner state's stop-and-go turn in progress, degrees per second.
     spin: Option<f64>,
+    /// Steer to the lane briskly: making way for an oncoming robot, the
+    /// robot must be across before the two meet (a gentle 10° per metre
+    /// off the lane takes some 14 s to move half a metre).
+    brisk: bool,
 }
 
 /// Driving this far is enough to tell the angle to the walls, mm.
@@ -284,7 +294,11 @@ impl Walls {
         // Moving left (counter-clockwise of the walls) raises the offset.
         let angle = (sxy / sxx).atan().to_degrees();
         let offset = self.samples.back()?.1 - self.lane_mm;
-        let wanted = (-offset / 1_000.0 * 10.0).clamp(-12.0, 12.0);
+        let wanted = if self.brisk {
+            (-offset / 1_000.0 * 50.0).clamp(-30.0, 30.0)
+        } else {
+            (-offset / 1_000.0 * 10.0).clamp(-12.0, 12.0)
+        };
         Some(wanted - angle)
     }
 }
