@@ -145,11 +145,39 @@ async fn one_seed_gives_the_same_run_to_the_last_bit() {
 async fn a_robot_that_cannot_move_is_given_up_as_stuck_with_its_position() {
     // The Navigator asks for no speed at all: the robot stays at the start
     // and the run is given up after the stuck time, not after the hour.
+    // Before that, the Navigator says on its blackboard that it is
+    // blocked, and by what.
     let map = rome_maps::load_named("eb3").expect("eb3 loads");
     let mut cfg = RunConfig::new(map, "350R", "372L");
     cfg.nav.cruise_mm_s = 0.0;
-    cfg.stuck = Duration::from_secs(20);
-    let r = run::run(cfg, |_| {}).await.expect("the run completes");
+    cfg.stuck = Duration::from_secs(40);
+    let (tx, mut said) = tokio::sync::mpsc::unbounded_channel::<String>();
+    let r = run::run(cfg, |e| {
+        if let run::Event::Started { session } = e {
+            let (session, tx) = (session.clone(), tx.clone());
+            tokio::spawn(async move {
+                let opts = rome_client::DataOptions::new("watch");
+                let ds = rome_client::DataClient::connect(&session, opts).await?;
+                let mut w = ds.watch("nav/r1/Status").await?;
+                while let Some(Ok(c)) = w.next().await {
+                    let why = c.value.as_ref().and_then(|v| v["blocked"].as_str());
+                    if let Some(why) = why {
+                        let _ = tx.send(why.to_string());
+                    }
+                }
+                Ok::<(), rome_client::ClientError>(())
+            });
+        }
+    })
+    .await
+    .expect("the run completes");
+    let blocked = said
+        .try_recv()
+        .expect("the Navigator never said it was blocked");
+    assert!(
+        blocked.starts_with("blocked: something") && blocked.contains("no headway for 20 s"),
+        "{blocked}"
+    );
     let why = r.failure.as_deref().expect("the run is given up");
     assert!(why.contains("stuck at (111.0, 104.0) m"), "{why}");
     assert!(r.run_time < Duration::from_secs(60), "{:?}", r.run_time);

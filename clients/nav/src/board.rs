@@ -203,6 +203,10 @@ pub struct Status {
     pub heading_deg: f64,
     /// The safe threshold in use, mm.
     pub safe_mm: i64,
+    /// Why the robot gets nowhere, while it does: "blocked: something 0.4 m
+    /// ahead (sonar 12); no headway for 25 s".
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub blocked: Option<String>,
 }
 
 /// A door plate the PlFinder reports.
@@ -305,6 +309,7 @@ impl Status {
             y_mm: pose.at.y.round() as i64,
             heading_deg: (pose.heading.deg() * 10.0).round() / 10.0,
             safe_mm: safe_mm.round() as i64,
+            blocked: None,
         }
     }
 }

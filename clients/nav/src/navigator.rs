@@ -24,6 +24,7 @@ pub use crate::hallway::{
     bearing, corner_step, open_sonar, sonar_add, sonar_towards, Hallway, Walls,
 };
 use crate::NavError;
+use blocked::Headway;
 use rome_client::RobotClient;
 use rome_maps::geometry::normalize_deg;
 use rome_schema::robot::Scan;
@@ -89,6 +90,8 @@ pub struct Navigator {
     /// A smoothed round trip of a drive command, seconds: how late a
     /// decision reaches the base, and so how far ahead to stop.
     rtt_s: f64,
+    /// Why the robot gets nowhere on its goal, while it does.
+    blocked: Option<String>,
 }
 
 impl Navigator {
@@ -107,6 +110,7 @@ impl Navigator {
             odometer: 0.0,
             track: None,
             rtt_s: 0.0,
+            blocked: None,
             odometer_at: None,
             speed,
         }
@@ -421,6 +425,7 @@ impl Navigator {
         let mut moved: Option<(u64, Pose)> = None;
         // Scans in a row on which a robot told to drive stood still.
         let mut still_scans = 0u32;
+        let mut headway: Option<Headway> = None;
         loop {
             // The goal function: progress along the goal direction, so a
             // robot that swerves round another does not count the swerve.
@@ -477,6 +482,18 @@ impl Navigator {
             if done {
                 break;
             }
+            // Turning in a corner makes no headway by design.
+            let blocked = if corner {
+                None
+            } else {
+                headway
+                    .get_or_insert_with(|| Headway::new(scan.time_ms, travelled))
+                    .update(scan.time_ms, travelled, &scan.sonar_mm)
+            };
+            if let (Some(why), None) = (&blocked, &self.blocked) {
+                tracing::warn!("navigator: {why}");
+            }
+            self.blocked = blocked;
             // The state.
             let drive = if corner {
                 corner_step(
@@ -584,6 +601,7 @@ impl Navigator {
             pose = self.pose_of(&scan).await?;
         }
         self.carry = None;
+        self.blocked = None;
         match goal.goal_type {
             GoalType::L => self.carry = Some(pose),
             GoalType::E => {
@@ -744,17 +762,19 @@ impl Navigator {
     }
 
     async fn publish(&self, goal: &Goal, pose: &Pose, corner: bool) -> Result<(), NavError> {
-        let status = Status::at(
+        let mut status = Status::at(
             self.goals,
             goal.goal_type,
             if corner { "corner" } else { "center-hallway" },
             pose,
             self.hallway.as_ref().map_or(0.0, |h| h.safe_mm),
         );
+        status.blocked = self.blocked.clone();
         self.board.set(Var::Status, &status).await?;
         Ok(())
     }
 }
 
+pub mod blocked;
 #[cfg(test)]
 mod tests;

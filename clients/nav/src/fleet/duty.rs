@@ -17,7 +17,7 @@
 use super::schema::{
     decode, duty_var, task_sem, task_var, Assignment, Duty, DutyState, Outcome, WAKE,
 };
-use crate::board::Board;
+use crate::board::{Board, Status, Var};
 use crate::plan::Plan;
 use crate::planner::{self, Progress};
 use crate::NavError;
@@ -318,12 +318,19 @@ impl OnDuty<'_> {
                     if !waiting.load(Relaxed) && (x - ax).hypot(y - ay) < BLOCKED_RADIUS_MM =>
                 {
                     if since.elapsed() >= cfg.stuck {
-                        return format!(
+                        let mut why = format!(
                             "{BLOCKED} at ({:.1}, {:.1}) m: got no further than 2 m in {:.0} s",
                             x / 1000.0,
                             y / 1000.0,
                             cfg.stuck.as_secs_f64()
                         );
+                        // What the Navigator sees in the way, if it says;
+                        // a Status that does not decode only loses that.
+                        let seen = self.board.get::<Status>(Var::Status).await;
+                        if let Some(nav) = seen.ok().and_then(|s| s.blocked) {
+                            why.push_str(&format!(" (the Navigator: {nav})"));
+                        }
+                        return why;
                     }
                 }
                 _ => anchor = Some((x, y, rome_clock::Instant::now())),

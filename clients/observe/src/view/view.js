@@ -155,6 +155,7 @@ function updateCard(r) {
     rows.push(["goal", `${fmt(b.GoalType)} ${fmt(b.GoalDistance)}${unit} heading ${fmt(b.GoalDirection)}°`]);
   }
   if (b.Status) rows.push(["navigator", `${b.Status.state} (goal ${b.Status.goal}, ${b.Status.goal_type})`]);
+  if (b.Status && typeof b.Status.blocked === "string") rows.push(["blocked", b.Status.blocked]);
   if (b.CeilingLight !== undefined) rows.push(["lights counted", fmt(b.CeilingLight)]);
   const t = traffic(r);
   if (t) rows.push(["traffic", t]);
