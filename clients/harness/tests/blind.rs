@@ -1,10 +1,11 @@
 //! A Navigator that cannot read what its goal depends on stops the robot
-//! instead of driving on blind.
+//! instead of driving on blind; one that reads a bad value ends that goal
+//! with the reason and carries out the next.
 
 mod common;
 
 use rome_client::{DataClient, DataOptions, RobotClient, RobotOptions};
-use rome_nav::board::{Board, Goal, GoalType};
+use rome_nav::board::{Board, Goal, GoalType, Sem, Status, Var};
 use rome_nav::navigator::{NavConfig, Navigator};
 use rome_nav::NavError;
 use std::time::{Duration, Instant};
@@ -88,5 +89,85 @@ async fn an_l_goal_stops_the_robot_when_the_light_count_goes_unanswered() {
     }
     let stop_pose = rig.truth(0);
     assert!(speed() < 1.0, "the robot set off again: {stop_pose:?}");
+    rig.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_light_count_that_is_not_a_number_ends_the_goal_and_the_navigator_takes_the_next() {
+    // Anyone may write the blackboard. A JSON object where the light count
+    // should be ends the L goal, with the reason, and stops the robot;
+    // the Navigator then carries out the next goal. It used to exit.
+    let (rig, _stepper, heading, planner) = common::one_robot(1.0).await;
+    let ds = DataClient::connect(&rig.session, DataOptions::new("navigator"))
+        .await
+        .expect("navigator data client");
+    let robot = RobotClient::connect(&rig.session, "r1", RobotOptions::new("navigator"))
+        .await
+        .expect("navigator robot client");
+    let mut nav = Navigator::new(robot, Board::new(ds, "r1"), NavConfig::default());
+    let navigating = tokio::spawn(async move { nav.run().await });
+
+    planner
+        .give_goal(&Goal {
+            goal_type: GoalType::L,
+            distance: 50,
+            direction_deg: heading,
+        })
+        .await
+        .expect("the goal is handed over");
+    let start = rig.truth(0);
+    let moved = until(Duration::from_secs(20), || {
+        let p = rig.truth(0);
+        (p.at.x - start.at.x).hypot(p.at.y - start.at.y) > 500.0
+    })
+    .await;
+    assert!(moved, "the robot never set off on its L goal");
+    planner
+        .set(Var::CeilingLight, &serde_json::json!({"lights": "many"}))
+        .await
+        .expect("the bad value is written");
+    tokio::time::timeout(Duration::from_secs(20), planner.down(Sem::RobotStatus))
+        .await
+        .expect("the Navigator ends the goal")
+        .expect("the goal's end is signalled");
+    let status: Status = planner.get(Var::Status).await.expect("a Status");
+    let why = status.failed.expect("the Status says why the goal ended");
+    assert!(
+        why.contains("CeilingLight") && why.contains("invalid type: map"),
+        "{why}"
+    );
+    let world = rig.world.clone();
+    let i = rig.index[0];
+    let speed = move || world.lock().robot(i).drive.wheel_speed().abs();
+    assert!(
+        until(Duration::from_secs(5), || speed() < 1.0).await,
+        "the robot still drives at {:.0} mm/s",
+        speed()
+    );
+    assert!(
+        !navigating.is_finished(),
+        "the Navigator exited: {navigating:?}"
+    );
+
+    // The next goal is carried out by the same Navigator.
+    let before = rig.truth(0);
+    planner
+        .give_goal(&Goal {
+            goal_type: GoalType::D,
+            distance: 1_000,
+            direction_deg: heading,
+        })
+        .await
+        .expect("the next goal is handed over");
+    tokio::time::timeout(Duration::from_secs(30), planner.down(Sem::RobotStatus))
+        .await
+        .expect("the Navigator carries out the next goal")
+        .expect("its end is signalled");
+    let after = rig.truth(0);
+    let driven = (after.at.x - before.at.x).hypot(after.at.y - before.at.y);
+    assert!(driven > 700.0, "drove {driven:.0} mm of 1000");
+    let status: Status = planner.get(Var::Status).await.expect("a Status");
+    assert_eq!(status.failed, None, "{status:?}");
+    navigating.abort();
     rig.stop().await;
 }

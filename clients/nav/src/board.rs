@@ -207,6 +207,12 @@ pub struct Status {
     /// ahead (sonar 12); no headway for 25 s".
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub blocked: Option<String>,
+    /// Why the last goal was ended before it was reached, when a value it
+    /// depends on was bad: "goal 4 ended: the ceiling-light count
+    /// (CeilingLight) could not be read, so the robot was stopped: …".
+    /// Cleared when the next goal is taken.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub failed: Option<String>,
 }
 
 /// A door plate the PlFinder reports.
@@ -310,6 +316,7 @@ impl Status {
             heading_deg: (pose.heading.deg() * 10.0).round() / 10.0,
             safe_mm: safe_mm.round() as i64,
             blocked: None,
+            failed: None,
         }
     }
 }

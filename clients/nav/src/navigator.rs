@@ -33,15 +33,6 @@ use std::time::Duration;
 /// Over this last stretch of a D goal that lies off the corridor's middle,
 /// the robot moves onto the goal's line, mm.
 pub const LANE_APPROACH_MM: f64 = 5_000.0;
-/// How far across from its goal's line a robot may end a D goal before it
-/// steps sideways onto it, mm.
-const OFF_LINE_MM: f64 = 300.0;
-/// The longest such sideways step, mm: farther off is a misreading (a
-/// robot in a corridor cannot stand farther from its middle).
-const MAX_STEP_MM: f64 = 1_500.0;
-/// How near the side sonars' two ranges must add up to the map's width
-/// beside the goal for them to be believed, mm.
-const WIDTH_AGREES_MM: f64 = 250.0;
 /// Scans in a row (a tenth of a second each) a robot told to drive may
 /// stand still before Check-Bumper looks why.
 const STILL_SCANS: u32 = 3;
@@ -162,11 +153,21 @@ impl Navigator {
                     tracing::info!(goal = ?active.goal, "navigator: taking up the goal left unfinished");
                     (active.goal, Some(active.start()))
                 }
-                None => (self.next_goal(&scans).await?, None),
+                None => match self.next_goal(&scans).await {
+                    Ok(goal) => (goal, None),
+                    Err(e) => {
+                        self.goals += 1;
+                        self.fail_goal(e).await?;
+                        continue;
+                    }
+                },
             };
             self.goals += 1;
             tracing::info!(?goal, n = self.goals, "navigator: goal");
-            self.carry_out(&goal, start, &scans).await?;
+            if let Err(e) = self.carry_out(&goal, start, &scans).await {
+                self.fail_goal(e).await?;
+                continue;
+            }
             self.log.done[slot(goal.goal_type)] += 1;
             let _ = log.send(self.log.clone());
             // Cleared before the Planner hears the goal is done, so a
@@ -198,13 +199,22 @@ impl Navigator {
         scans: &rome_client::robot::Stream<Scan>,
     ) -> Result<Goal, NavError> {
         let board = self.board.clone();
-        let take = board.take_goal();
+        let take = async {
+            board.take_goal().await.map_err(|e| match e {
+                // GoalData was taken: the Planner waits for the goal's end.
+                e @ rome_client::ClientError::Decode(_) => NavError::Unreadable {
+                    what: "the goal (GoalType, GoalDistance, GoalDirection)",
+                    source: e,
+                },
+                e => e.into(),
+            })
+        };
         tokio::pin!(take);
         let mut idle = 0usize;
         loop {
             tokio::select! {
                 biased;
-                goal = &mut take => return Ok(goal?),
+                goal = &mut take => return goal,
                 _ = self.next_scan(scans), if self.is_moving() => {
                     idle += 1;
                     if idle >= self.cfg.idle_scans {
@@ -625,67 +635,6 @@ impl Navigator {
         Ok(())
     }
 
-    /// At the end of a D goal, a robot standing more than
-    /// [`OFF_LINE_MM`] across from its goal, as the side sonars measure it
-    /// against where the map puts the walls beside the goal (`left`,
-    /// `right` mm from it), steps sideways onto the goal's line: a quarter
-    /// turn, a move, a quarter turn back. Among people the robot keeps
-    /// right or steers round them, and nothing else brings it back once
-    /// the distance is driven. Side readings that do not add up to the
-    /// map's width there (a person or an open door beside the robot) are
-    /// not believed.
-    async fn onto_line(
-        &mut self,
-        scans: &rome_client::robot::Stream<Scan>,
-        at_rest: Scan,
-        goal: &Goal,
-        left_mm: f64,
-        right_mm: f64,
-    ) -> Result<(), NavError> {
-        let mut squared = false;
-        let mut scan = at_rest;
-        let (left, right) = loop {
-            // Side ranges start at the ring, a radius out from the middle.
-            let left = f64::from(scan.sonar_mm[18]) + ROBOT_RADIUS_MM;
-            let right = f64::from(scan.sonar_mm[6]) + ROBOT_RADIUS_MM;
-            tracing::debug!(
-                left,
-                right,
-                left_mm,
-                right_mm,
-                "navigator: where across the hallway the D goal ended"
-            );
-            if (left + right - (left_mm + right_mm)).abs() < WIDTH_AGREES_MM {
-                break (left, right);
-            }
-            // A robot left at an angle to the walls (steering round
-            // someone) hears no echo from them: it faces along the
-            // corridor once and looks again.
-            let err = normalize_deg(goal.direction_deg - self.pose().await?.heading.deg());
-            if squared || err.abs() < 5.0 {
-                return Ok(());
-            }
-            squared = true;
-            self.send(Drive::Turn(err)).await?;
-            scan = self.settle(scans).await?;
-        };
-        // Left of the goal's line is positive.
-        let off = ((right - left) - (right_mm - left_mm)) / 2.0;
-        if off.abs() <= OFF_LINE_MM || off.abs() > MAX_STEP_MM {
-            return Ok(());
-        }
-        tracing::info!(off, "navigator: stepping sideways onto the goal's line");
-        let quarter = if off > 0.0 { -90.0 } else { 90.0 };
-        self.send(Drive::Turn(quarter)).await?;
-        self.settle(scans).await?;
-        self.robot.move_by(off.abs(), 200.0, -1.0).await?;
-        self.settle(scans).await?;
-        self.send(Drive::Turn(-quarter)).await?;
-        self.settle(scans).await?;
-        self.last = None;
-        Ok(())
-    }
-
     /// Distances the Planner took from the map for goals of type `kind`
     /// (`EndWall`, `GoalLane`, `GoalWalls`): `None` for other goals, when
     /// it wrote none, or when what is there does not decode or is not
@@ -712,55 +661,6 @@ impl Navigator {
         }
     }
 
-    /// Check-Bumper: on contact, back off, turn away from the obstacle
-    /// (toward the goal direction, or the more open side) and go on.
-    /// Whether there was a contact.
-    async fn check_bumper(
-        &mut self,
-        pose: &Pose,
-        goal: &Goal,
-        scan: &Scan,
-        scans: &rome_client::robot::Stream<Scan>,
-    ) -> Result<bool, NavError> {
-        let b = self.robot.bumper().await?;
-        if b.front || b.rear {
-            self.log.bumps += 1;
-            tracing::warn!(front = b.front, rear = b.rear, "navigator: bumper contact");
-            let back = if b.front { -300.0 } else { 300.0 };
-            // Each is carried out before the next is sent: a command sent
-            // at once would take the place of the one before.
-            self.robot.move_by(back, 200.0, -1.0).await?;
-            self.settle(scans).await?;
-            let err = normalize_deg(goal.direction_deg - pose.heading.deg());
-            let turn = if err.abs() >= 5.0 {
-                err.clamp(-30.0, 30.0)
-            } else if scan.sonar_mm[18] > scan.sonar_mm[6] {
-                20.0
-            } else {
-                -20.0
-            };
-            self.robot.turn(-turn, 45.0, -1.0).await?;
-            self.settle(scans).await?;
-            self.last = None;
-            return Ok(true);
-        }
-        Ok(false)
-    }
-
-    /// Check-Goal: a heading far off the goal direction is turned back.
-    async fn check_goal(&mut self, pose: &Pose, goal: &Goal, corner: bool) -> Result<(), NavError> {
-        let err = normalize_deg(goal.direction_deg - pose.heading.deg());
-        if err.abs() > if corner { 10.0 } else { 20.0 } {
-            tracing::info!(
-                err,
-                "navigator: check-goal turns back to the goal direction"
-            );
-            self.send(Drive::Turn(err.clamp(-45.0, 45.0))).await?;
-            self.last = None;
-        }
-        Ok(())
-    }
-
     async fn publish(&self, goal: &Goal, pose: &Pose, corner: bool) -> Result<(), NavError> {
         let mut status = Status::at(
             self.goals,
@@ -770,11 +670,13 @@ impl Navigator {
             self.hallway.as_ref().map_or(0.0, |h| h.safe_mm),
         );
         status.blocked = self.blocked.clone();
+        status.failed = None;
         self.board.set(Var::Status, &status).await?;
         Ok(())
     }
 }
 
 pub mod blocked;
+mod recover;
 #[cfg(test)]
 mod tests;

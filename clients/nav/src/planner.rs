@@ -178,7 +178,14 @@ pub async fn run(
             || async { ds.history(&status).await.map_or(0, |h| h.seq) },
         )
         .await?;
-        if step.goal.goal_type == GoalType::L {
+        // The Navigator ended the goal on a bad value: the run ends here,
+        // with its reason (a Status that does not decode says nothing).
+        let ended = board
+            .get::<crate::board::Status>(Var::Status)
+            .await
+            .ok()
+            .and_then(|s| s.failed);
+        if step.goal.goal_type == GoalType::L && ended.is_none() {
             // The CTracker closes the segment as the count is reached.
             await_while(board, Sem::EndLMode, NAVIGATOR_SILENCE, "CTracker (the light segment was not closed after the Navigator ended it; is `rome ctracker` running?)", || async { 0 })
                 .await?;
@@ -192,9 +199,15 @@ pub async fn run(
             // answer leaves C and D unjudged rather than failing the run.
             handed.truth = t.get().await.ok();
         }
-        handed.failure = judge_step(&step, handed.truth.as_ref(), handed.track.as_ref());
+        handed.failure = ended
+            .clone()
+            .or_else(|| judge_step(&step, handed.truth.as_ref(), handed.track.as_ref()));
         progress(Progress::Done(&handed));
         out.push(handed);
+        if ended.is_some() {
+            give_back_all(board).await?;
+            break;
+        }
         for chain in chains
             .iter()
             .filter(|c| (c.first..=c.last).contains(&index))
