@@ -4,9 +4,8 @@
 
 mod common;
 
-use rome_client::{DataClient, DataOptions, RobotClient, RobotOptions};
-use rome_nav::board::{Board, Goal, GoalType, Sem, Status, Var};
-use rome_nav::navigator::{NavConfig, Navigator};
+use rome_client::DataOptions;
+use rome_nav::board::{Goal, GoalType, Sem, Status, Var};
 use rome_nav::NavError;
 use std::time::{Duration, Instant};
 
@@ -27,21 +26,11 @@ async fn an_l_goal_stops_the_robot_when_the_light_count_goes_unanswered() {
     let (mut rig, _stepper, heading, planner) = common::one_robot(1.0).await;
 
     let request_timeout = Duration::from_secs(6);
-    let ds = DataClient::connect(
-        &rig.session,
-        DataOptions {
-            request_timeout,
-            ..DataOptions::new("navigator")
-        },
-    )
-    .await
-    .expect("navigator data client");
-    let robot = RobotClient::connect(&rig.session, "r1", RobotOptions::new("navigator"))
-        .await
-        .expect("navigator robot client");
-    let board = Board::new(ds, "r1");
-    let mut nav = Navigator::new(robot, board, NavConfig::default());
-    let navigating = tokio::spawn(async move { nav.run().await });
+    let opts = DataOptions {
+        request_timeout,
+        ..DataOptions::new("navigator")
+    };
+    let navigating = common::navigator(&rig, opts).await;
 
     // Many more lights than the corridor has: the goal can only end by
     // the count, which is about to become unreadable.
@@ -98,14 +87,7 @@ async fn a_light_count_that_is_not_a_number_ends_the_goal_and_the_navigator_take
     // should be ends the L goal, with the reason, and stops the robot;
     // the Navigator then carries out the next goal. It used to exit.
     let (rig, _stepper, heading, planner) = common::one_robot(1.0).await;
-    let ds = DataClient::connect(&rig.session, DataOptions::new("navigator"))
-        .await
-        .expect("navigator data client");
-    let robot = RobotClient::connect(&rig.session, "r1", RobotOptions::new("navigator"))
-        .await
-        .expect("navigator robot client");
-    let mut nav = Navigator::new(robot, Board::new(ds, "r1"), NavConfig::default());
-    let navigating = tokio::spawn(async move { nav.run().await });
+    let navigating = common::navigator(&rig, DataOptions::new("navigator")).await;
 
     planner
         .give_goal(&Goal {

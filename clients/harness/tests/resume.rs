@@ -4,28 +4,15 @@
 
 mod common;
 
-use rome_client::{DataClient, DataOptions, RobotClient, RobotOptions};
-use rome_harness::Harness;
-use rome_nav::board::{Board, Goal, GoalType, Sem};
-use rome_nav::navigator::{NavConfig, Navigator};
+use rome_client::DataOptions;
+use rome_nav::board::{Goal, GoalType, Sem};
 use std::time::{Duration, Instant};
-
-async fn navigator(rig: &Harness) -> tokio::task::JoinHandle<Result<(), rome_nav::NavError>> {
-    let ds = DataClient::connect(&rig.session, DataOptions::new("navigator"))
-        .await
-        .expect("navigator data client");
-    let robot = RobotClient::connect(&rig.session, "r1", RobotOptions::new("navigator"))
-        .await
-        .expect("navigator robot client");
-    let mut nav = Navigator::new(robot, Board::new(ds, "r1"), NavConfig::default());
-    tokio::spawn(async move { nav.run().await })
-}
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_restarted_navigator_finishes_the_goal_its_predecessor_left() {
     let (rig, _stepper, heading, planner) = common::one_robot(2.0).await;
 
-    let first = navigator(&rig).await;
+    let first = common::navigator(&rig, DataOptions::new("navigator")).await;
     let start = rig.truth(0);
     planner
         .give_goal(&Goal {
@@ -48,7 +35,7 @@ async fn a_restarted_navigator_finishes_the_goal_its_predecessor_left() {
     first.abort();
     let _ = first.await;
 
-    let second = navigator(&rig).await;
+    let second = common::navigator(&rig, DataOptions::new("navigator")).await;
     tokio::time::timeout(Duration::from_secs(60), done)
         .await
         .expect("the goal was never finished: the new Navigator did not take it up")
@@ -83,7 +70,7 @@ async fn garbage_in_goal_active_is_no_goal() {
         )
         .await
         .expect("written");
-    let nav = navigator(&rig).await;
+    let nav = common::navigator(&rig, DataOptions::new("navigator")).await;
     planner
         .give_goal(&Goal {
             goal_type: GoalType::D,

@@ -1,11 +1,13 @@
 //! What the single-robot rig tests share: robot r1 at 350R on EB3, facing
-//! its route to 372L, the world stepping, and a planner's blackboard.
+//! its route to 372L, the world stepping, a planner's blackboard, and a
+//! Navigator for it.
 
 use rome_client::net::NetOptions;
-use rome_client::{DataClient, DataOptions};
+use rome_client::{DataClient, DataOptions, RobotClient, RobotOptions};
 use rome_harness::{Harness, RunConfig};
 use rome_maps::{Network, World};
 use rome_nav::board::Board;
+use rome_nav::navigator::{NavConfig, Navigator};
 use rome_nav::plan::Plan;
 
 /// The rig, its stepping world, the heading of the route, and the
@@ -33,4 +35,19 @@ pub async fn one_robot(speed: f64) -> (Harness, rome_sim_hardware::world::Steppe
     );
     planner.declare().await.expect("semaphores");
     (rig, stepper, heading, planner)
+}
+
+/// A Navigator for r1 on data-client options `opts`, running until it ends.
+pub async fn navigator(
+    rig: &Harness,
+    opts: DataOptions,
+) -> tokio::task::JoinHandle<Result<(), rome_nav::NavError>> {
+    let ds = DataClient::connect(&rig.session, opts)
+        .await
+        .expect("navigator data client");
+    let robot = RobotClient::connect(&rig.session, "r1", RobotOptions::new("navigator"))
+        .await
+        .expect("navigator robot client");
+    let mut nav = Navigator::new(robot, Board::new(ds, "r1"), NavConfig::default());
+    tokio::spawn(async move { nav.run().await })
 }
