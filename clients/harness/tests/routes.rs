@@ -185,3 +185,52 @@ async fn a_robot_that_cannot_move_is_given_up_as_stuck_with_its_position() {
     assert_eq!(r.modes_done.d, 0, "{}", r.table());
     assert!(r.miss_cm > 5_000.0);
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_bad_light_count_ends_the_run_with_the_navigators_reason() {
+    // While the robot counts the lights of its first L segment, someone
+    // keeps writing a JSON object where the count should be. The Navigator
+    // ends that goal and says why; the Planner ends the run there with the
+    // reason, and the robot does not drive on.
+    let map = rome_maps::load_named("eb3").expect("eb3 loads");
+    let cfg = RunConfig::new(map, "350R", "372L");
+    let mut session = None;
+    let mut writing = None;
+    let r = run::run(cfg, |e| match e {
+        run::Event::Started { session: s } => session = Some(s.clone()),
+        run::Event::Goal { handed, .. }
+            if handed.step.goal.goal_type == rome_nav::board::GoalType::L && writing.is_none() =>
+        {
+            let s = session.clone().expect("the run's session");
+            writing = Some(tokio::spawn(async move {
+                let opts = rome_client::DataOptions::new("meddler");
+                let ds = rome_client::DataClient::connect(&s, opts)
+                    .await
+                    .expect("the meddler's data client");
+                let bad = serde_json::json!({"lights": "many"});
+                // Again and again: the CTracker writes its counts between.
+                while ds.set("nav/r1/CeilingLight", &bad).await.is_ok() {
+                    tokio::time::sleep(Duration::from_millis(50)).await;
+                }
+            }));
+        }
+        _ => {}
+    })
+    .await
+    .expect("the run completes");
+    if let Some(w) = writing {
+        w.abort();
+    }
+    let ended: Vec<_> = r
+        .steps
+        .iter()
+        .filter_map(|h| h.failure.as_deref())
+        .collect();
+    let why = ended.last().expect("a goal failed");
+    assert!(
+        why.contains("CeilingLight") && why.contains("invalid type: map"),
+        "{why}"
+    );
+    assert!(!r.arrived(), "{}", r.table());
+    assert!(r.steps.len() < r.plan.steps.len(), "{}", r.table());
+}
