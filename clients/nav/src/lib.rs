@@ -7,7 +7,9 @@
 //! - [`plan`]: the Path Planner's route and its segments S^l, S^d, S^c
 //!   (§5.3); [`planner`] runs it against a Navigator.
 //! - [`navigator`]: the deterministic state machine of §5.4 (Center-Hallway,
-//!   Corner; L-, D-, E-Goal; Check-Bumper, Check-Goal); [`hallway`] is
+//!   Corner; L-, D-, E-Goal; Check-Bumper, Check-Goal; a goal ended on a
+//!   bad value without ending the Navigator; [`navigator::blocked`] tells
+//!   a blocked robot from a slow one); [`hallway`] is
 //!   what its states steer by (sonar geometry, hallway model, wall fits),
 //!   [`drive`] its settings and motion commands.
 //! - [`crew`]: a robot's crew (Navigator, CTracker, mapper, plate finder),
