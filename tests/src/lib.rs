@@ -526,6 +526,26 @@ pub fn quiet() -> rome_sim::SimConfig {
     }
 }
 
+/// A fleet dispatcher on EB3 with its own session to `server`, looking at
+/// the fleet every 200 ms, not yet running.
+pub async fn eb3_dispatcher(
+    server: &TestServer,
+) -> (rome_nav::fleet::dispatcher::Dispatcher, Session) {
+    let session = server.session().await;
+    let ds =
+        rome_client::DataClient::connect(&session, rome_client::DataOptions::new("dispatcher"))
+            .await
+            .expect("the dispatcher's data client");
+    let map = rome_maps::load_named("eb3").expect("eb3 loads");
+    let world = rome_maps::World::from_map(&map);
+    let network = rome_maps::Network::new(&map, &world);
+    let cfg = rome_nav::fleet::dispatcher::DispatchConfig {
+        every: Duration::from_millis(200),
+    };
+    let d = rome_nav::fleet::dispatcher::Dispatcher::new(ds, session.clone(), world, network, cfg);
+    (d, session)
+}
+
 #[cfg(test)]
 mod tests {
     use super::TestDir;

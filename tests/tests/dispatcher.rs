@@ -7,7 +7,7 @@
 #![allow(clippy::unwrap_used)]
 
 use rome_client::DataClient;
-use rome_nav::fleet::dispatcher::{DispatchConfig, Dispatcher, Note};
+use rome_nav::fleet::dispatcher::Note;
 use rome_nav::fleet::schema::{
     duty_var, task_var, Assignment, Duty, DutyState, Outcome, TaskSpec, TaskState, TaskStatus,
 };
@@ -27,17 +27,7 @@ async fn dispatcher(
     zenoh::Session,
     mpsc::UnboundedReceiver<Note>,
 ) {
-    let session = server.session().await;
-    let ds = DataClient::connect(&session, rome_client::DataOptions::new("dispatcher"))
-        .await
-        .unwrap();
-    let map = rome_maps::load_named("eb3").unwrap();
-    let world = rome_maps::World::from_map(&map);
-    let network = rome_maps::Network::new(&map, &world);
-    let cfg = DispatchConfig {
-        every: Duration::from_millis(200),
-    };
-    let d = Dispatcher::new(ds, session.clone(), world, network, cfg);
+    let (d, session) = rome_tests::eb3_dispatcher(server).await;
     let (tx, rx) = mpsc::unbounded_channel();
     let task = tokio::spawn(async move {
         let _ = d

@@ -87,23 +87,11 @@ async fn python_client_drives_a_robot_from_docs_alone() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn python_adds_cancels_and_does_fleet_tasks_from_docs_alone() {
-    use rome_nav::fleet::dispatcher::{DispatchConfig, Dispatcher};
     let python = tokio::task::spawn_blocking(python_with_zenoh)
         .await
         .unwrap();
     let server = TestServer::start().await;
-    let session = server.session().await;
-    let ds =
-        rome_client::DataClient::connect(&session, rome_client::DataOptions::new("dispatcher"))
-            .await
-            .unwrap();
-    let map = rome_maps::load_named("eb3").unwrap();
-    let world = rome_maps::World::from_map(&map);
-    let network = rome_maps::Network::new(&map, &world);
-    let cfg = DispatchConfig {
-        every: std::time::Duration::from_millis(200),
-    };
-    let dispatcher = Dispatcher::new(ds, session.clone(), world, network, cfg);
+    let (dispatcher, _session) = rome_tests::eb3_dispatcher(&server).await;
     let running = tokio::spawn(async move { dispatcher.run(|_| {}).await });
     run_script(python, "tasks_check.py", server.port).await;
     assert!(

@@ -21,6 +21,26 @@ async fn until(within: Duration, mut ok: impl FnMut() -> bool) -> bool {
     ok()
 }
 
+/// Hands over an L goal of more lights than the corridor has (it can only
+/// end by the count) and waits until the robot has driven half a metre.
+async fn set_off_on_l(rig: &rome_harness::Harness, planner: &rome_nav::board::Board, heading: f64) {
+    planner
+        .give_goal(&Goal {
+            goal_type: GoalType::L,
+            distance: 50,
+            direction_deg: heading,
+        })
+        .await
+        .expect("the goal is handed over");
+    let start = rig.truth(0);
+    let moved = until(Duration::from_secs(20), || {
+        let p = rig.truth(0);
+        (p.at.x - start.at.x).hypot(p.at.y - start.at.y) > 500.0
+    })
+    .await;
+    assert!(moved, "the robot never set off on its L goal");
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn an_l_goal_stops_the_robot_when_the_light_count_goes_unanswered() {
     let (mut rig, _stepper, heading, planner) = common::one_robot(1.0).await;
@@ -34,24 +54,10 @@ async fn an_l_goal_stops_the_robot_when_the_light_count_goes_unanswered() {
 
     // Many more lights than the corridor has: the goal can only end by
     // the count, which is about to become unreadable.
-    planner
-        .give_goal(&Goal {
-            goal_type: GoalType::L,
-            distance: 50,
-            direction_deg: heading,
-        })
-        .await
-        .expect("the goal is handed over");
-    let start = rig.truth(0);
+    set_off_on_l(&rig, &planner, heading).await;
     let world = rig.world.clone();
     let i = rig.index[0];
     let speed = move || world.lock().robot(i).drive.wheel_speed().abs();
-    let moved = until(Duration::from_secs(20), || {
-        let p = rig.truth(0);
-        (p.at.x - start.at.x).hypot(p.at.y - start.at.y) > 500.0
-    })
-    .await;
-    assert!(moved, "the robot never set off on its L goal");
     assert!(speed() > 100.0, "driving at {} mm/s", speed());
 
     rig.stop_data_server().await;
@@ -89,21 +95,7 @@ async fn a_light_count_that_is_not_a_number_ends_the_goal_and_the_navigator_take
     let (rig, _stepper, heading, planner) = common::one_robot(1.0).await;
     let navigating = common::navigator(&rig, DataOptions::new("navigator")).await;
 
-    planner
-        .give_goal(&Goal {
-            goal_type: GoalType::L,
-            distance: 50,
-            direction_deg: heading,
-        })
-        .await
-        .expect("the goal is handed over");
-    let start = rig.truth(0);
-    let moved = until(Duration::from_secs(20), || {
-        let p = rig.truth(0);
-        (p.at.x - start.at.x).hypot(p.at.y - start.at.y) > 500.0
-    })
-    .await;
-    assert!(moved, "the robot never set off on its L goal");
+    set_off_on_l(&rig, &planner, heading).await;
     planner
         .set(Var::CeilingLight, &serde_json::json!({"lights": "many"}))
         .await
@@ -133,18 +125,7 @@ async fn a_light_count_that_is_not_a_number_ends_the_goal_and_the_navigator_take
 
     // The next goal is carried out by the same Navigator.
     let before = rig.truth(0);
-    planner
-        .give_goal(&Goal {
-            goal_type: GoalType::D,
-            distance: 1_000,
-            direction_deg: heading,
-        })
-        .await
-        .expect("the next goal is handed over");
-    tokio::time::timeout(Duration::from_secs(30), planner.down(Sem::RobotStatus))
-        .await
-        .expect("the Navigator carries out the next goal")
-        .expect("its end is signalled");
+    common::drive_d(&planner, heading, 1_000, Duration::from_secs(30)).await;
     let after = rig.truth(0);
     let driven = (after.at.x - before.at.x).hypot(after.at.y - before.at.y);
     assert!(driven > 700.0, "drove {driven:.0} mm of 1000");

@@ -71,18 +71,7 @@ async fn garbage_in_goal_active_is_no_goal() {
         .await
         .expect("written");
     let nav = common::navigator(&rig, DataOptions::new("navigator")).await;
-    planner
-        .give_goal(&Goal {
-            goal_type: GoalType::D,
-            distance: 1_000,
-            direction_deg: heading,
-        })
-        .await
-        .expect("the goal is handed over");
-    tokio::time::timeout(Duration::from_secs(60), planner.down(Sem::RobotStatus))
-        .await
-        .expect("the Navigator carried out the goal")
-        .expect("the Planner hears it done");
+    common::drive_d(&planner, heading, 1_000, Duration::from_secs(60)).await;
     assert!(
         !nav.is_finished(),
         "the Navigator stopped on a bad GoalActive"

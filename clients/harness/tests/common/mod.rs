@@ -6,7 +6,7 @@ use rome_client::net::NetOptions;
 use rome_client::{DataClient, DataOptions, RobotClient, RobotOptions};
 use rome_harness::{Harness, RunConfig};
 use rome_maps::{Network, World};
-use rome_nav::board::Board;
+use rome_nav::board::{Board, Goal, GoalType, Sem};
 use rome_nav::navigator::{NavConfig, Navigator};
 use rome_nav::plan::Plan;
 
@@ -50,4 +50,21 @@ pub async fn navigator(
         .expect("navigator robot client");
     let mut nav = Navigator::new(robot, Board::new(ds, "r1"), NavConfig::default());
     tokio::spawn(async move { nav.run().await })
+}
+
+/// Hands the Navigator a D goal of `mm` along `heading` and waits, at most
+/// `within`, until it says the goal is done.
+pub async fn drive_d(planner: &Board, heading: f64, mm: i64, within: std::time::Duration) {
+    planner
+        .give_goal(&Goal {
+            goal_type: GoalType::D,
+            distance: mm,
+            direction_deg: heading,
+        })
+        .await
+        .expect("the goal is handed over");
+    tokio::time::timeout(within, planner.down(Sem::RobotStatus))
+        .await
+        .expect("the Navigator carries out the D goal")
+        .expect("the Planner hears it done");
 }
