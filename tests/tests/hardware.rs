@@ -11,7 +11,7 @@ use rome_hardware::device::{BaseDevice, BaseOp, BaseStatus, DeviceError};
 use rome_hardware::robot::{self, Rates, Running};
 use rome_hardware::ServerConfig;
 use rome_schema::robot::lock::{LockInfo, LockRecord};
-use rome_schema::robot::Device;
+use rome_schema::robot::{BaseState, Device};
 use rome_schema::{ErrorCode, Root};
 use rome_sim_hardware::robot::spawn_sim_robot;
 use rome_sim_hardware::world::Stepper;
@@ -39,15 +39,12 @@ impl BaseDevice for Recorder {
             *self.x.lock().unwrap() = x;
         }
         Ok(BaseStatus {
-            time_ms: 0,
             raw_x: *self.x.lock().unwrap(),
             raw_y: 0,
-            heading_deg: 0.0,
-            speed_mm_s: 0.0,
-            wheel_speed_mm_s: 0.0,
-            mode: "joystick".into(),
-            bumpers: 0,
-            watch_bumpers: false,
+            state: BaseState {
+                mode: "joystick".into(),
+                ..BaseState::default()
+            },
         })
     }
 }

@@ -232,7 +232,7 @@ pub struct ModeReply {
 ///  "speed_mm_s":300,"wheel_speed_mm_s":298.2,"mode":"go","bumpers":0,
 ///  "watch_bumpers":true,"lock":null,"queued":0}
 /// ```
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct BaseState {
     /// The robot.

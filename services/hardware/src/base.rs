@@ -112,7 +112,7 @@ impl Read {
 /// A read's answer from the device's status, read through the frame.
 fn read_body(read: Read, s: BaseStatus, frame: &mut VirtualPose) -> Body {
     // Every read of the registers follows their wraps, whatever was asked.
-    let p = frame.read(s.raw_x, s.raw_y, s.heading_deg);
+    let p = frame.read(s.raw_x, s.raw_y, s.state.heading_deg);
     match read {
         Read::Pose => Body::json(&PoseReply {
             x_mm: p.x_mm,
@@ -124,18 +124,18 @@ fn read_body(read: Read, s: BaseStatus, frame: &mut VirtualPose) -> Body {
             wraps_y: frame.y.wraps(),
         }),
         Read::Bumper => Body::json(&BumperReply {
-            status: s.bumpers,
-            front: s.bumpers & 1 != 0,
-            rear: s.bumpers & 2 != 0,
-            watch: s.watch_bumpers,
+            status: s.state.bumpers,
+            front: s.state.bumpers & 1 != 0,
+            rear: s.state.bumpers & 2 != 0,
+            watch: s.state.watch_bumpers,
         }),
         Read::Speed => Body::json(&SpeedReply {
-            speed_mm_s: s.speed_mm_s,
+            speed_mm_s: s.state.speed_mm_s,
         }),
         Read::WheelSpeed => Body::json(&WheelSpeedReply {
-            wheel_speed_mm_s: s.wheel_speed_mm_s,
+            wheel_speed_mm_s: s.state.wheel_speed_mm_s,
         }),
-        Read::Mode => Body::json(&ModeReply { mode: s.mode }),
+        Read::Mode => Body::json(&ModeReply { mode: s.state.mode }),
     }
 }
 
@@ -152,7 +152,7 @@ impl<D: BaseDevice> Base<D> {
 
     async fn status(&mut self, op: BaseOp) -> Result<(BaseStatus, Pose32), ErrorReply> {
         let status = self.device.command(op).await.map_err(device_error)?;
-        let pose = locked(&self.frame).read(status.raw_x, status.raw_y, status.heading_deg);
+        let pose = locked(&self.frame).read(status.raw_x, status.raw_y, status.state.heading_deg);
         Ok((status, pose))
     }
 
@@ -281,14 +281,14 @@ impl<D: BaseDevice> Service for Base<D> {
                 let (status, _) = self.status(op).await?;
                 Ok(Body::json(&Done {
                     command: name.into(),
-                    mode: status.mode,
+                    mode: status.state.mode,
                 }))
             }
             BaseCmd::Pose => self.read(Read::Pose).await,
             BaseCmd::SetPose(to) => {
                 let (s, _) = self.status(BaseOp::Status).await?;
                 self.set_frame(
-                    s.heading_deg,
+                    s.state.heading_deg,
                     Pose32Target {
                         x_mm: to.x_mm as f64,
                         y_mm: to.y_mm as f64,
@@ -297,13 +297,13 @@ impl<D: BaseDevice> Service for Base<D> {
                 )?;
                 Ok(Body::json(&Done {
                     command: "set-pose".into(),
-                    mode: s.mode,
+                    mode: s.state.mode,
                 }))
             }
             BaseCmd::AdjustPose(d) => {
                 let (s, p) = self.status(BaseOp::Status).await?;
                 self.set_frame(
-                    s.heading_deg,
+                    s.state.heading_deg,
                     Pose32Target {
                         x_mm: f64::from(p.x_mm) + d.dx_mm as f64,
                         y_mm: f64::from(p.y_mm) + d.dy_mm as f64,
@@ -312,7 +312,7 @@ impl<D: BaseDevice> Service for Base<D> {
                 )?;
                 Ok(Body::json(&Done {
                     command: "adjust-pose".into(),
-                    mode: s.mode,
+                    mode: s.state.mode,
                 }))
             }
             BaseCmd::Bumper => self.read(Read::Bumper).await,
@@ -347,17 +347,12 @@ impl<D: BaseDevice> Service for Base<D> {
                 "state",
                 Body::json(&BaseState {
                     robot: self.robot.clone(),
-                    time_ms: s.time_ms,
                     x_mm: p.x_mm,
                     y_mm: p.y_mm,
                     heading_deg: p.heading_deg,
-                    speed_mm_s: s.speed_mm_s,
-                    wheel_speed_mm_s: s.wheel_speed_mm_s,
-                    mode: s.mode,
-                    bumpers: s.bumpers,
-                    watch_bumpers: s.watch_bumpers,
                     lock,
                     queued,
+                    ..s.state
                 }),
             )),
             Err(e) => {

@@ -3,7 +3,7 @@
 //! The serial Pioneer backend ([`crate::serial`]) and the simulated one
 //! (`rome-sim-hardware`) implement these, and tests can script their own.
 
-use rome_schema::robot::{Move, Turn, SONARS};
+use rome_schema::robot::{BaseState, Move, Turn, SONARS};
 use std::future::Future;
 use std::sync::Arc;
 
@@ -59,26 +59,20 @@ pub enum BaseOp {
 }
 
 /// The base's registers and settings after a command.
+///
+/// Only the position registers are the device's own form; the rest is the
+/// published [`BaseState`], which the base server completes.
 #[derive(Debug, Clone, PartialEq)]
 pub struct BaseStatus {
-    /// The device's clock, ms.
-    pub time_ms: u64,
     /// x register, mm (16-bit, wraps).
     pub raw_x: i16,
     /// y register, mm (16-bit, wraps).
     pub raw_y: i16,
-    /// Heading, degrees (North 0, West 90).
-    pub heading_deg: f64,
-    /// Velocity setting, mm/s.
-    pub speed_mm_s: f64,
-    /// Mean magnitude of the wheel velocities, mm/s.
-    pub wheel_speed_mm_s: f64,
-    /// Operating mode name.
-    pub mode: String,
-    /// Bumpers: bit 0 front, bit 1 rear.
-    pub bumpers: u8,
-    /// Whether contact stops the robot.
-    pub watch_bumpers: bool,
+    /// The device's clock, heading register (North 0, West 90), velocity
+    /// setting, mean wheel speed, mode and bumpers. A device leaves `robot`,
+    /// `x_mm`, `y_mm`, `lock` and `queued` at their defaults: the server fills
+    /// them in, and puts the virtual frame's heading in place of the register's.
+    pub state: BaseState,
 }
 
 /// A robot base (the LABMATE of §4.6.3, a Pioneer, a simulated one).

@@ -126,7 +126,7 @@ async fn the_driver_speaks_p2os_byte_for_byte() {
     assert_eq!(scan.sonar_mm[12], 2_200);
     *emu.bumpers.lock().unwrap() = 0b10; // front bumper 1
     let deadline = Instant::now() + Duration::from_secs(2);
-    while robot.command(BaseOp::Status).await.unwrap().bumpers != 1 {
+    while robot.command(BaseOp::Status).await.unwrap().state.bumpers != 1 {
         assert!(Instant::now() < deadline, "front bumper not seen");
         tokio::time::sleep(Duration::from_millis(10)).await;
     }

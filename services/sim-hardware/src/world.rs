@@ -6,7 +6,7 @@ use rome_hardware::device::{
     BaseDevice, BaseOp, BaseStatus, CameraDevice, DeviceError, Frame, Peek, ProximityDevice,
     RawScan,
 };
-use rome_schema::robot::SONARS;
+use rome_schema::robot::{BaseState, SONARS};
 use rome_sim::{Camera, Pacer, Sim, SimError};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard};
@@ -339,15 +339,18 @@ fn base_status(sim: &Sim, i: usize, time_ms: u64) -> BaseStatus {
     let r = sim.robot(i);
     let regs = r.odometry.registers();
     BaseStatus {
-        time_ms,
         raw_x: regs.x,
         raw_y: regs.y,
-        heading_deg: f64::from(regs.heading_centideg) / 100.0,
-        speed_mm_s: r.drive.speed_setting,
-        wheel_speed_mm_s: r.drive.wheel_speed(),
-        mode: r.drive.mode.name().to_string(),
-        bumpers: r.bumpers.status(),
-        watch_bumpers: r.bumpers.watch,
+        state: BaseState {
+            time_ms,
+            heading_deg: f64::from(regs.heading_centideg) / 100.0,
+            speed_mm_s: r.drive.speed_setting,
+            wheel_speed_mm_s: r.drive.wheel_speed(),
+            mode: r.drive.mode.name().to_string(),
+            bumpers: r.bumpers.status(),
+            watch_bumpers: r.bumpers.watch,
+            ..BaseState::default()
+        },
     }
 }
 

@@ -17,7 +17,7 @@ pub mod proto;
 
 use crate::device::{BaseDevice, BaseOp, BaseStatus, DeviceError, ProximityDevice, RawScan};
 use proto::{Deframer, Sip};
-use rome_schema::robot::SONARS;
+use rome_schema::robot::{BaseState, SONARS};
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
@@ -219,15 +219,18 @@ impl BaseDevice for P2os {
             link.mode
         };
         Ok(BaseStatus {
-            time_ms: link.started.elapsed().as_millis() as u64,
             raw_x: s.xpos,
             raw_y: s.ypos,
-            heading_deg: (f64::from(s.thpos) * 360.0 / proto::ANGLE_UNITS).rem_euclid(360.0),
-            speed_mm_s: link.speed_setting,
-            wheel_speed_mm_s: (f64::from(s.lvel).abs() + f64::from(s.rvel).abs()) / 2.0,
-            mode: mode.to_string(),
-            bumpers: u8::from(s.front()) | (u8::from(s.rear()) << 1),
-            watch_bumpers: link.watch,
+            state: BaseState {
+                time_ms: link.started.elapsed().as_millis() as u64,
+                heading_deg: (f64::from(s.thpos) * 360.0 / proto::ANGLE_UNITS).rem_euclid(360.0),
+                speed_mm_s: link.speed_setting,
+                wheel_speed_mm_s: (f64::from(s.lvel).abs() + f64::from(s.rvel).abs()) / 2.0,
+                mode: mode.to_string(),
+                bumpers: u8::from(s.front()) | (u8::from(s.rear()) << 1),
+                watch_bumpers: link.watch,
+                ..BaseState::default()
+            },
         })
     }
 }
