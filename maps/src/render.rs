@@ -287,6 +287,140 @@ impl View {
     }
 }
 
+/// A surface the map is drawn on, in pixels. The SVG document and the
+/// image draw the same shapes at the same places, each in its own way.
+trait Canvas {
+    fn line(&mut self, from: (f64, f64), to: (f64, f64), color: Rgb, width: f64, dashed: bool);
+    fn dot(&mut self, at: (f64, f64), radius: f64, color: Rgb);
+    fn text(&mut self, at: (f64, f64), text: &str, color: Rgb, size: i64);
+}
+
+impl View {
+    /// Draws the map's shapes, then `overlay` over them, on `canvas`.
+    fn draw(&self, scene: Vec<Shape>, overlay: &[Shape], canvas: &mut impl Canvas) {
+        for shape in scene.into_iter().chain(overlay.iter().cloned()) {
+            match shape {
+                Shape::Line {
+                    a,
+                    b,
+                    color,
+                    width,
+                    dashed,
+                } => canvas.line(self.px(a), self.px(b), color, width, dashed),
+                Shape::Dot { at, radius, color } => canvas.dot(self.px(at), radius, color),
+                Shape::Text {
+                    at,
+                    text,
+                    color,
+                    size,
+                } => canvas.text(self.px(at), &text, color, size),
+            }
+        }
+    }
+}
+
+struct SvgCanvas(String);
+
+impl Canvas for SvgCanvas {
+    fn line(
+        &mut self,
+        (x1, y1): (f64, f64),
+        (x2, y2): (f64, f64),
+        color: Rgb,
+        width: f64,
+        dashed: bool,
+    ) {
+        let dash = if dashed {
+            r#" stroke-dasharray="6 4""#
+        } else {
+            ""
+        };
+        let _ = writeln!(
+            self.0,
+            r#"<line x1="{x1:.1}" y1="{y1:.1}" x2="{x2:.1}" y2="{y2:.1}" stroke="{}" stroke-width="{width}" stroke-linecap="round"{dash}/>"#,
+            hex(color)
+        );
+    }
+
+    fn dot(&mut self, (x, y): (f64, f64), radius: f64, color: Rgb) {
+        let _ = writeln!(
+            self.0,
+            r#"<circle cx="{x:.1}" cy="{y:.1}" r="{radius}" fill="{}" stroke="black" stroke-width="0.5"/>"#,
+            hex(color)
+        );
+    }
+
+    fn text(&mut self, (x, y): (f64, f64), text: &str, color: Rgb, size: i64) {
+        let _ = writeln!(
+            self.0,
+            r#"<text x="{:.1}" y="{:.1}" font-size="{}" fill="{}">{}</text>"#,
+            x + 3.0,
+            y + 10.0,
+            9 * size + 1,
+            hex(color),
+            escape(text)
+        );
+    }
+}
+
+struct RasterCanvas(image::RgbImage);
+
+impl RasterCanvas {
+    /// Sets one pixel, if it is inside the picture.
+    fn put(&mut self, x: i64, y: i64, c: Rgb) {
+        let (w, h) = (i64::from(self.0.width()), i64::from(self.0.height()));
+        if (0..w).contains(&x) && (0..h).contains(&y) {
+            self.0.put_pixel(x as u32, y as u32, image::Rgb(c));
+        }
+    }
+}
+
+impl Canvas for RasterCanvas {
+    fn line(
+        &mut self,
+        (x1, y1): (f64, f64),
+        (x2, y2): (f64, f64),
+        color: Rgb,
+        width: f64,
+        dashed: bool,
+    ) {
+        let len = (x2 - x1).hypot(y2 - y1);
+        let steps = len.ceil().max(1.0) as i64;
+        let r = (width / 2.0).round() as i64;
+        for i in 0..=steps {
+            let t = i as f64 / steps as f64;
+            if dashed && (t * len / 5.0) as i64 % 2 == 1 {
+                continue;
+            }
+            let (x, y) = (x1 + (x2 - x1) * t, y1 + (y2 - y1) * t);
+            for dy in -r..=r {
+                for dx in -r..=r {
+                    self.put(x.round() as i64 + dx, y.round() as i64 + dy, color);
+                }
+            }
+        }
+    }
+
+    fn dot(&mut self, (cx, cy): (f64, f64), radius: f64, color: Rgb) {
+        let r = radius.ceil() as i64;
+        for dy in -r - 1..=r + 1 {
+            for dx in -r - 1..=r + 1 {
+                let d = (dx as f64).hypot(dy as f64);
+                let (x, y) = (cx.round() as i64 + dx, cy.round() as i64 + dy);
+                if d <= radius {
+                    self.put(x, y, color);
+                } else if d <= radius + 1.0 {
+                    self.put(x, y, [0, 0, 0]);
+                }
+            }
+        }
+    }
+
+    fn text(&mut self, (x, y): (f64, f64), text: &str, color: Rgb, size: i64) {
+        label(&mut self.0, text, x + 3.0, y + 3.0, size, color);
+    }
+}
+
 fn hex(c: Rgb) -> String {
     format!("#{:02x}{:02x}{:02x}", c[0], c[1], c[2])
 }
@@ -303,55 +437,9 @@ pub fn svg(map: &Map, world: &World, width_px: u32, overlay: &[Shape]) -> String
         v.width, v.height, v.width, v.height
     );
     let _ = writeln!(s, r#"<rect width="100%" height="100%" fill="white"/>"#);
-    for shape in scene(map, world).into_iter().chain(overlay.iter().cloned()) {
-        match shape {
-            Shape::Line {
-                a,
-                b,
-                color,
-                width,
-                dashed,
-            } => {
-                let (x1, y1) = v.px(a);
-                let (x2, y2) = v.px(b);
-                let dash = if dashed {
-                    r#" stroke-dasharray="6 4""#
-                } else {
-                    ""
-                };
-                let _ = writeln!(
-                    s,
-                    r#"<line x1="{x1:.1}" y1="{y1:.1}" x2="{x2:.1}" y2="{y2:.1}" stroke="{}" stroke-width="{width}" stroke-linecap="round"{dash}/>"#,
-                    hex(color)
-                );
-            }
-            Shape::Dot { at, radius, color } => {
-                let (x, y) = v.px(at);
-                let _ = writeln!(
-                    s,
-                    r#"<circle cx="{x:.1}" cy="{y:.1}" r="{radius}" fill="{}" stroke="black" stroke-width="0.5"/>"#,
-                    hex(color)
-                );
-            }
-            Shape::Text {
-                at,
-                text,
-                color,
-                size,
-            } => {
-                let (x, y) = v.px(at);
-                let _ = writeln!(
-                    s,
-                    r#"<text x="{:.1}" y="{:.1}" font-size="{}" fill="{}">{}</text>"#,
-                    x + 3.0,
-                    y + 10.0,
-                    9 * size + 1,
-                    hex(color),
-                    escape(&text)
-                );
-            }
-        }
-    }
+    let mut canvas = SvgCanvas(s);
+    v.draw(scene(map, world), overlay, &mut canvas);
+    let mut s = canvas.0;
     let (bar, bar_label, title) = v.furniture(&map.name);
     let by = v.legend_y - 15.0;
     let _ = writeln!(
@@ -404,90 +492,22 @@ fn escape(text: &str) -> String {
 pub fn raster(map: &Map, world: &World, width_px: u32, overlay: &[Shape]) -> image::RgbImage {
     let legend = legend(map, overlay);
     let v = View::new(world, width_px, legend.len());
-    let mut img = image::RgbImage::from_pixel(v.width, v.height, image::Rgb([255, 255, 255]));
-    let (w, h) = (i64::from(v.width), i64::from(v.height));
-    let put = |img: &mut image::RgbImage, x: i64, y: i64, c: Rgb| {
-        if (0..w).contains(&x) && (0..h).contains(&y) {
-            img.put_pixel(x as u32, y as u32, image::Rgb(c));
-        }
-    };
-    for shape in scene(map, world).into_iter().chain(overlay.iter().cloned()) {
-        match shape {
-            Shape::Line {
-                a,
-                b,
-                color,
-                width,
-                dashed,
-            } => {
-                let (x1, y1) = v.px(a);
-                let (x2, y2) = v.px(b);
-                let len = (x2 - x1).hypot(y2 - y1);
-                let steps = len.ceil().max(1.0) as i64;
-                let r = (width / 2.0).round() as i64;
-                for i in 0..=steps {
-                    let t = i as f64 / steps as f64;
-                    if dashed && (t * len / 5.0) as i64 % 2 == 1 {
-                        continue;
-                    }
-                    let (x, y) = (x1 + (x2 - x1) * t, y1 + (y2 - y1) * t);
-                    for dy in -r..=r {
-                        for dx in -r..=r {
-                            put(
-                                &mut img,
-                                x.round() as i64 + dx,
-                                y.round() as i64 + dy,
-                                color,
-                            );
-                        }
-                    }
-                }
-            }
-            Shape::Dot { at, radius, color } => {
-                let (cx, cy) = v.px(at);
-                let r = radius.ceil() as i64;
-                for dy in -r - 1..=r + 1 {
-                    for dx in -r - 1..=r + 1 {
-                        let d = (dx as f64).hypot(dy as f64);
-                        if d <= radius {
-                            put(
-                                &mut img,
-                                cx.round() as i64 + dx,
-                                cy.round() as i64 + dy,
-                                color,
-                            );
-                        } else if d <= radius + 1.0 {
-                            put(
-                                &mut img,
-                                cx.round() as i64 + dx,
-                                cy.round() as i64 + dy,
-                                [0, 0, 0],
-                            );
-                        }
-                    }
-                }
-            }
-            Shape::Text {
-                at,
-                text,
-                color,
-                size,
-            } => {
-                let (x, y) = v.px(at);
-                label(&mut img, &text, x + 3.0, y + 3.0, size, color);
-            }
-        }
-    }
+    let mut c = RasterCanvas(image::RgbImage::from_pixel(
+        v.width,
+        v.height,
+        image::Rgb([255, 255, 255]),
+    ));
+    v.draw(scene(map, world), overlay, &mut c);
     let (bar, bar_label, title) = v.furniture(&map.name);
-    label(&mut img, &title, v.margin, 8.0, 2, [0, 0, 0]);
+    label(&mut c.0, &title, v.margin, 8.0, 2, [0, 0, 0]);
     let by = v.legend_y as i64 - 15;
     for x in v.margin as i64..(v.margin + bar) as i64 {
         for dy in -1..=1 {
-            put(&mut img, x, by + dy, [0, 0, 0]);
+            c.put(x, by + dy, [0, 0, 0]);
         }
     }
     label(
-        &mut img,
+        &mut c.0,
         &bar_label,
         v.margin + bar + 6.0,
         by as f64 - 6.0,
@@ -502,11 +522,11 @@ pub fn raster(map: &Map, world: &World, width_px: u32, overlay: &[Shape]) -> ima
                 continue;
             }
             for dy in -1..=1 {
-                put(&mut img, x + dx, y + dy, color);
+                c.put(x + dx, y + dy, color);
             }
         }
         label(
-            &mut img,
+            &mut c.0,
             text,
             (x + 28) as f64,
             (y - 6) as f64,
@@ -514,7 +534,7 @@ pub fn raster(map: &Map, world: &World, width_px: u32, overlay: &[Shape]) -> ima
             [0, 0, 0],
         );
     }
-    img
+    c.0
 }
 
 /// Pixel height of text at font scale 1.
