@@ -32,9 +32,8 @@ at=$(for l in "${lines[@]}"; do set -- $l; printf '%s,' "$1"; done)
 at=${at%,}
 
 net=(--no-multicast -e "tcp/127.0.0.1:$port")
-pids=()
-cleanup() { kill "${pids[@]}" 2>/dev/null || true; wait 2>/dev/null || true; }
-trap cleanup EXIT
+# shellcheck source=one-host.sh
+. "$here/deploy/one-host.sh"
 
 start=$(date +%s.%N)
 # A simulated run starts from nothing: its state need not outlive it.
@@ -62,17 +61,7 @@ end=$(date +%s.%N)
 
 # Peak memory of the servers and helpers, then stop them: bash's `times`
 # then holds the CPU time of every process the script started.
-rss=0
-for p in "${pids[@]}"; do
-    kb=$(awk '/VmHWM/ {print $2}' "/proc/$p/status" 2>/dev/null || echo 0)
-    rss=$((rss + ${kb:-0}))
-done
-cleanup
-trap - EXIT
-# `times` in the script's own shell (a pipe would run it in a subshell,
-# which has no children).
-times >"$logs/times"
-cpu=$(tail -n 1 "$logs/times" | awk '{ split($1, u, "m"); split($2, s, "m"); sub("s", "", u[2]); sub("s", "", s[2]); print u[1] * 60 + u[2] + s[1] * 60 + s[2] }')
+stop_and_measure
 for k in $(seq 1 "$n"); do
     grep -h -E '^[0-9]+ +r[0-9]+ ' "$logs/planner-r$k.log" || true
 done
@@ -80,5 +69,5 @@ for k in $(seq 1 "$n"); do
     tail -n 1 "$logs/planner-r$k.log"
 done
 printf 'robots: %d; processes: %d; wall: %.1f s; CPU (all processes): %.1f s; peak memory of the servers and helpers: %d MiB; logs: %s\n' \
-    "$n" $((${#pids[@]} + n)) "$(echo "$end - $start" | bc)" "$cpu" $((rss / 1024)) "$logs"
+    "$n" $((${#pids[@]} + n)) "$(echo "$end - $start" | bc)" "$cpu_s" "$rss_mib" "$logs"
 [ "$failed" -eq 0 ] || { echo "error: $failed planner(s) did not arrive" >&2; exit 1; }

@@ -40,9 +40,8 @@ done
 at=$(IFS=,; echo "${from[*]:0:$n}")
 
 net=(--no-multicast -m client -e "tcp/127.0.0.1:$port")
-pids=()
-cleanup() { kill "${pids[@]}" 2>/dev/null || true; wait 2>/dev/null || true; }
-trap cleanup EXIT
+# shellcheck source=one-host.sh
+. "$here/deploy/one-host.sh"
 spawn() { # NAME ARGS…: a rome process in the background, its output in NAME.log
     local name=$1
     shift
@@ -96,16 +95,8 @@ done_=$(grep -c '"state":"done"' "$logs/tasks.json" || true)
 load=$(cut -d' ' -f1-3 /proc/loadavg)
 task ls >"$logs/tasks.txt" 2>&1 || true
 
-rss=0
-for p in "${pids[@]}"; do
-    kb=$(awk '/VmHWM/ {print $2}' "/proc/$p/status" 2>/dev/null || echo 0)
-    rss=$((rss + ${kb:-0}))
-done
-cleanup
-trap - EXIT
-times >"$logs/times"
-cpu=$(tail -n 1 "$logs/times" | awk '{ split($1, u, "m"); split($2, s, "m"); sub("s", "", u[2]); sub("s", "", s[2]); print u[1] * 60 + u[2] + s[1] * 60 + s[2] }')
+stop_and_measure
 cat "$logs/tasks.txt"
 printf 'robots: %d; tasks done: %d of %d; processes: %d; wall: %.0f s; CPU (all processes): %.0f s; peak memory: %d MiB; load (1, 5, 15 min): %s; logs: %s\n' \
-    "$n" "$done_" "$m" "${#pids[@]}" "$(echo "$end - $start" | bc)" "$cpu" $((rss / 1024)) "$load" "$logs"
+    "$n" "$done_" "$m" "${#pids[@]}" "$(echo "$end - $start" | bc)" "$cpu_s" "$rss_mib" "$load" "$logs"
 [ "$done_" -eq "$m" ] || { echo "error: $((m - done_)) task(s) not done" >&2; exit 1; }
