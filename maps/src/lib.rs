@@ -39,8 +39,9 @@ pub use world::World;
 
 /// The maps shipped with the project, built into the program so that it
 /// runs from any directory: `eb3` (the MSU Engineering Building's third
-/// floor), `fig5_3` (Figure 5.3) and `annex` (a building of the project's
-/// own making).
+/// floor), `fig5_3` (Figure 5.3), and two buildings of the project's own
+/// making: `annex` (one block of rooms, four corridor widths) and `campus`
+/// (a grid of 24 blocks whose corridors cross).
 pub mod builtin {
     /// The EB3 reconstruction, `maps/data/eb3.stk`.
     pub const EB3: &str = include_str!("../data/eb3.stk");
@@ -54,6 +55,12 @@ pub mod builtin {
     pub const ANNEX: &str = include_str!("../data/annex.stk");
     /// Routes on the Annex, `maps/data/annex.routes`.
     pub const ANNEX_ROUTES: &str = include_str!("../data/annex.routes");
+    /// The Campus, a large floor of the project's own making whose
+    /// corridors cross, `maps/data/campus.stk` (written by
+    /// `maps/tools/campus.py`).
+    pub const CAMPUS: &str = include_str!("../data/campus.stk");
+    /// Routes on the Campus, `maps/data/campus.routes`.
+    pub const CAMPUS_ROUTES: &str = include_str!("../data/campus.routes");
 
     /// The text of a built-in map by name.
     pub fn text(name: &str) -> Option<&'static str> {
@@ -61,6 +68,7 @@ pub mod builtin {
             "eb3" => Some(EB3),
             "fig5_3" => Some(FIG5_3),
             "annex" => Some(ANNEX),
+            "campus" => Some(CAMPUS),
             _ => None,
         }
     }
@@ -70,12 +78,13 @@ pub mod builtin {
         match name {
             "eb3" => Some(EB3_ROUTES),
             "annex" => Some(ANNEX_ROUTES),
+            "campus" => Some(CAMPUS_ROUTES),
             _ => None,
         }
     }
 }
 
-/// Loads a built-in map by name (`eb3`, `fig5_3`, `annex`) or else a map file.
+/// Loads a built-in map by name (`eb3`, `fig5_3`, `annex`, `campus`) or else a map file.
 pub fn load_named(name_or_path: &str) -> Result<Map, LoadError> {
     match builtin::text(name_or_path) {
         Some(text) => from_text(format!("{name_or_path} (built in)"), text),

@@ -369,3 +369,30 @@ async fn a_robot_left_aside_by_people_steps_onto_its_goals_line() {
     assert!(steps.arrived() && steps.miss_cm < 30.0, "{}", steps.table());
     assert!(stays.miss_cm > 50.0, "not left aside: {}", stays.table());
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn turns_at_crossroads_and_t_junctions_end_heading_into_the_corridor() {
+    // The Campus's corridors cross: a turning space there has openings on
+    // every side, and no wall ahead of the robot but the far block's
+    // corner. Right and left at crossroads, and out at a T-junction.
+    let mut s = setup(900, 2);
+    s.map = rome_maps::load_named("campus").unwrap();
+    s.cruise_mm_s = Some(700.0);
+    let out = experiment::run_all(
+        &s,
+        vec![
+            trial(2, "1307R", "406L", 2),
+            trial(6, "1801R", "1106L", 6),
+            trial(5, "911L", "3038R", 5),
+            trial(9, "1707R", "2205L", 9),
+        ],
+        |_| {},
+    )
+    .await;
+    for o in &out {
+        let r = o.report.as_ref().unwrap();
+        assert!(r.arrived() && r.to_goal_cm.abs() < 50.0, "{}", r.table());
+        let corners = experiment::mode_cell(r, GoalType::C);
+        assert_eq!(corners, "1/1", "run {}:\n{}", o.trial.no, r.table());
+    }
+}

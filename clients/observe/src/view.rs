@@ -63,7 +63,7 @@ const MARKS: usize = 500;
 /// Flags of `rome view`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Map: a built-in name (eb3, annex, fig5_3) or a .stk file.
+    /// Map: a built-in name (eb3, annex, campus, fig5_3) or a .stk file.
     #[arg(long, default_value = "eb3")]
     pub map: String,
     /// The HTTP port (0: any free one).

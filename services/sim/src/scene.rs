@@ -598,7 +598,7 @@ mod tests {
     /// filed under one of them, however the wall clips a cell.
     #[test]
     fn a_ray_finds_the_nearest_wall_of_the_whole_building() {
-        for name in ["eb3", "annex", "fig5_3"] {
+        for name in ["eb3", "annex", "campus", "fig5_3"] {
             rays_find_the_nearest_wall(name);
         }
     }

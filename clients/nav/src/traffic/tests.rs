@@ -235,7 +235,7 @@ fn deadlocks(
 #[test]
 fn robots_taking_whole_chains_in_name_order_never_wait_in_a_circle() {
     let mut rng = Rng(35);
-    for map in ["eb3", "annex", "fig5_3"] {
+    for map in ["eb3", "annex", "campus", "fig5_3"] {
         for n in [2, 10, 40] {
             let routes = routes_on(map, n, &mut rng);
             assert_eq!(

@@ -15,7 +15,7 @@ use std::time::{Duration, Instant};
 /// Flags of `rome bench sim`.
 #[derive(Debug, clap::Args)]
 pub struct SimBench {
-    /// The map: a file, or a built-in map (eb3, annex, fig5_3).
+    /// The map: a file, or a built-in map (eb3, annex, campus, fig5_3).
     #[arg(long, default_value = "eb3")]
     pub map: String,
     /// Robot counts to measure.

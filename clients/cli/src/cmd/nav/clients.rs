@@ -39,7 +39,7 @@ pub struct RobotArg {
 pub struct PlannerArgs {
     #[command(flatten)]
     robot: RobotArg,
-    /// Map: a built-in name (eb3, annex, fig5_3) or a .stk file.
+    /// Map: a built-in name (eb3, annex, campus, fig5_3) or a .stk file.
     #[arg(long, default_value = "eb3")]
     map: String,
     /// Start: a door jamb like 350R; the robot is registered there.

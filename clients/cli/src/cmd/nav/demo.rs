@@ -48,7 +48,7 @@ pub struct Args {
     /// (overrides --from, --to and --robots).
     #[arg(long, value_name = "FILE")]
     pub routes: Option<PathBuf>,
-    /// Map: a built-in name (eb3, annex, fig5_3) or a .stk file.
+    /// Map: a built-in name (eb3, annex, campus, fig5_3) or a .stk file.
     #[arg(long, default_value = "eb3")]
     pub map: String,
     /// Seed of the simulated world (the same seed, the same sensor noise).

@@ -31,11 +31,11 @@ const EXPERIMENT_CRUISE_MM_S: f64 = 700.0;
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// Routes to run, one `FROM TO [SPEED]` a line (default: on eb3 the 40
-    /// runs of Tables 6.1 and 6.2, each beside the thesis' row; on annex its
-    /// built-in routes).
+    /// runs of Tables 6.1 and 6.2, each beside the thesis' row; on annex and
+    /// campus their built-in routes).
     #[arg(long, value_name = "FILE")]
     routes: Option<PathBuf>,
-    /// Map: a built-in name (eb3, annex, fig5_3) or a .stk file.
+    /// Map: a built-in name (eb3, annex, campus, fig5_3) or a .stk file.
     #[arg(long, default_value = "eb3")]
     map: String,
     /// Seed of the first run; run k has seed SEED + k.
@@ -100,7 +100,7 @@ pub async fn run(args: Args) -> anyhow::Result<u8> {
                 text,
             )?),
             None => anyhow::bail!(
-                "the default runs are Tables 6.1 and 6.2 on EB3 and the routes built in for annex; give --routes for the map '{}'",
+                "the default runs are Tables 6.1 and 6.2 on EB3 and the routes built in for annex and campus; give --routes for the map '{}'",
                 args.map
             ),
         },

@@ -26,7 +26,7 @@ use rome_nav::traffic;
 /// Flags of `rome dispatcher`.
 #[derive(Debug, clap::Args)]
 pub struct DispatcherArgs {
-    /// Map routes are measured on: a built-in name (eb3, annex, fig5_3)
+    /// Map routes are measured on: a built-in name (eb3, annex, campus, fig5_3)
     /// or a .stk file; the robots' Planners must use the same.
     #[arg(long, default_value = "eb3")]
     map: String,

@@ -11,12 +11,12 @@ use std::path::PathBuf;
 pub enum MapCmd {
     /// Check a map: every problem is printed as FILE:LINE: message (exit 1 if any).
     Check {
-        /// The map file, or a built-in map: eb3, annex, fig5_3.
+        /// The map file, or a built-in map: eb3, annex, campus, fig5_3.
         file: PathBuf,
     },
     /// Draw a map to a PNG or SVG picture (by the output's extension).
     Render {
-        /// The map file, or a built-in map: eb3, annex, fig5_3.
+        /// The map file, or a built-in map: eb3, annex, campus, fig5_3.
         file: PathBuf,
         /// The picture to write: .png or .svg.
         #[arg(short, long, value_name = "OUT")]
@@ -38,7 +38,7 @@ pub enum MapCmd {
     /// The shortest route between two positions (door jambs like 350R, or
     /// RING.NODE) along the corridors: length, corners and legs.
     Route {
-        /// The map file, or a built-in map: eb3, annex, fig5_3.
+        /// The map file, or a built-in map: eb3, annex, campus, fig5_3.
         file: PathBuf,
         /// Where to start (350R, 303.second.L, outer.NE …).
         from: String,

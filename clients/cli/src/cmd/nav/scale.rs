@@ -24,7 +24,7 @@ pub struct Args {
     /// Tasks given to every fleet (door jambs picked with the seed).
     #[arg(long, default_value_t = 50)]
     tasks: usize,
-    /// Map: a built-in name (eb3, annex, fig5_3) or a .stk file.
+    /// Map: a built-in name (eb3, annex, campus, fig5_3) or a .stk file.
     #[arg(long, default_value = "eb3")]
     map: String,
     /// Seed of the robots' starts, the tasks and the world.

@@ -13,7 +13,7 @@ use std::time::Duration;
 /// Flags of `rome sim`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// The map: a built-in name (eb3, annex, fig5_3) or a StickRep file.
+    /// The map: a built-in name (eb3, annex, campus, fig5_3) or a StickRep file.
     #[arg(long, default_value = "eb3", value_name = "MAP")]
     pub map: String,
     /// How many robots (named r1, r2, …).
