@@ -134,3 +134,60 @@ async fn a_light_count_that_is_not_a_number_ends_the_goal_and_the_navigator_take
     navigating.abort();
     rig.stop().await;
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn light_offsets_that_are_not_numbers_give_the_segment_up_and_the_ctracker_takes_the_next() {
+    // The CTracker used to exit on a segment value it could not read,
+    // leaving the robot's light segments uncounted for good.
+    let (rig, _stepper, heading, planner) = common::one_robot(1.0).await;
+    let navigating = common::navigator(&rig, DataOptions::new("navigator")).await;
+    let tracking = common::ctracker(&rig).await;
+
+    planner
+        .set(Var::LightOffset, &serde_json::json!("many"))
+        .await
+        .unwrap();
+    planner.set(Var::GoalDistance, &3i64).await.unwrap();
+    planner.set(Var::GoalDirection, &heading).await.unwrap();
+    planner.up(Sem::TrackData).await.unwrap();
+    planner
+        .give_goal(&Goal {
+            goal_type: GoalType::L,
+            distance: 3,
+            direction_deg: heading,
+        })
+        .await
+        .unwrap();
+    tokio::time::timeout(Duration::from_secs(20), planner.down(Sem::RobotStatus))
+        .await
+        .expect("the Navigator ends the goal")
+        .expect("the goal's end is signalled");
+    let status: Status = planner.get(Var::Status).await.expect("a Status");
+    let why = status.failed.expect("the Status says why the goal ended");
+    assert!(
+        why.contains("CTracker gave the light segment up") && why.contains("LightOffset"),
+        "{why}"
+    );
+    assert!(!tracking.is_finished(), "the CTracker exited: {tracking:?}");
+    assert!(!navigating.is_finished(), "the Navigator exited");
+
+    // The next segment, with good values, is taken up: the count starts
+    // again from 0.
+    planner
+        .set(Var::LightOffset, &vec![2_000.0, 4_000.0])
+        .await
+        .unwrap();
+    planner.up(Sem::TrackData).await.unwrap();
+    let counting = async {
+        while planner.get::<i64>(Var::CeilingLight).await.is_err() {
+            tokio::time::sleep(Duration::from_millis(20)).await;
+        }
+    };
+    tokio::time::timeout(Duration::from_secs(10), counting)
+        .await
+        .expect("the CTracker took up the next segment");
+    assert!(!tracking.is_finished(), "the CTracker exited: {tracking:?}");
+    tracking.abort();
+    navigating.abort();
+    rig.stop().await;
+}

@@ -30,6 +30,9 @@
 //! so the Planner judges each L segment by what happened; the Planner
 //! writes `Corridor` (where the segment's line of lights lies in the map,
 //! and its walls) for the local mapper's sideways correction.
+//! A CTracker that cannot read a segment's values writes `CeilingLight` as
+//! `{"failed":"why"}` ([`GaveUp`]) instead of a count: the Navigator stops
+//! the robot and ends the goal with that reason.
 //! The Navigator keeps `GoalActive` (the goal it is carrying out and where
 //! it measures it from, `null` between goals), so a Navigator started again
 //! after one died takes the goal up while the Planner still waits for it.
@@ -38,6 +41,17 @@ use rome_client::{ClientError, DataClient};
 use rome_maps::geometry::{Point, Pose};
 use serde::{Deserialize, Serialize};
 
+/// `CeilingLight` when the CTracker gave the light segment up:
+///
+/// ```text
+/// {"failed":"the segment's light offsets (LightOffset) could not be read: …"}
+/// ```
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GaveUp {
+    /// Why.
+    pub failed: String,
+}
 /// The semaphores of Table 5.4 (and the trackers' token).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Sem {

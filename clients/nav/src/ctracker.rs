@@ -18,7 +18,7 @@
 use crate::board::{Board, Sem, Var};
 use crate::navigator::Pose;
 use crate::NavError;
-use rome_client::RobotClient;
+use rome_client::{ClientError, RobotClient};
 use rome_maps::geometry::direction;
 use std::time::Duration;
 use tokio::sync::mpsc;
@@ -242,9 +242,19 @@ impl CTracker {
     /// One L segment: down($TrackData) … up($EndLMode).
     async fn segment(&self, rx: &mut mpsc::Receiver<Sighting>) -> Result<SegmentLog, NavError> {
         self.board.down(Sem::TrackData).await?;
-        let goal: i64 = self.board.get(Var::GoalDistance).await?;
-        let offsets: Vec<f64> = self.board.get(Var::LightOffset).await?;
-        let heading: f64 = self.board.get(Var::GoalDirection).await?;
+        let (goal, offsets, heading) = match self.segment_values().await? {
+            Ok(values) => values,
+            Err(why) => {
+                // Anyone may write the blackboard: a bad value gives this
+                // segment up, with the reason where the Navigator reads
+                // the count, and the tracker waits for the next one.
+                tracing::warn!("ctracker: segment given up: {why}");
+                self.board
+                    .set(Var::CeilingLight, &crate::board::GaveUp { failed: why })
+                    .await?;
+                return Ok(SegmentLog::default());
+            }
+        };
         self.board.set(Var::CeilingLight, &0i64).await?;
         // Sightings from before the segment are stale.
         while rx.try_recv().is_ok() {}
@@ -307,6 +317,37 @@ impl CTracker {
             self.board.up(Sem::EndLMode).await?;
         }
         Ok(log)
+    }
+
+    /// The segment's light count, light offsets and heading; a value that
+    /// does not decode is `Err` with the reason, anything else that fails
+    /// (the data server gone) the outer error.
+    async fn segment_values(&self) -> Result<Result<(i64, Vec<f64>, f64), String>, NavError> {
+        fn read<T>(r: Result<T, ClientError>, what: &str) -> Result<Result<T, String>, NavError> {
+            match r {
+                Ok(v) => Ok(Ok(v)),
+                Err(e @ ClientError::Decode(_)) => {
+                    Ok(Err(format!("{what} could not be read: {e}")))
+                }
+                Err(e) => Err(e.into()),
+            }
+        }
+        let goal = read(
+            self.board.get(Var::GoalDistance).await,
+            "the segment's light count (GoalDistance)",
+        )?;
+        let offsets = read(
+            self.board.get(Var::LightOffset).await,
+            "the segment's light offsets (LightOffset)",
+        )?;
+        let heading = read(
+            self.board.get(Var::GoalDirection).await,
+            "the segment's heading (GoalDirection)",
+        )?;
+        Ok(match (goal, offsets, heading) {
+            (Ok(g), Ok(o), Ok(h)) => Ok((g, o, h)),
+            (Err(why), _, _) | (_, Err(why), _) | (_, _, Err(why)) => Err(why),
+        })
     }
 
     async fn counted(

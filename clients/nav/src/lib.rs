@@ -66,6 +66,10 @@ pub enum NavError {
         /// Why.
         source: rome_client::ClientError,
     },
+    /// The CTracker gave the light segment up (it could not read the
+    /// segment's values); the robot was stopped.
+    #[error("the CTracker gave the light segment up, so the robot was stopped: {0}")]
+    SegmentGivenUp(String),
     /// A server went away or misbehaved.
     #[error("{0}")]
     Gone(&'static str),

@@ -255,6 +255,11 @@ impl Navigator {
                 if let Err(stop) = self.send(Drive::Halt).await {
                     tracing::warn!(error = %stop, "navigator: could not stop the robot");
                 }
+                // Not a count: the CTracker may have written why it gave
+                // the segment up instead.
+                if let Ok(g) = board.get::<crate::board::GaveUp>(Var::CeilingLight).await {
+                    return Err(NavError::SegmentGivenUp(g.failed));
+                }
                 Err(NavError::Unreadable {
                     what: "the ceiling-light count (CeilingLight)",
                     source: e,

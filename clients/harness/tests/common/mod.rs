@@ -1,6 +1,6 @@
 //! What the single-robot rig tests share: robot r1 at 350R on EB3, facing
 //! its route to 372L, the world stepping, a planner's blackboard, and a
-//! Navigator for it.
+//! Navigator and CTracker for it.
 
 use rome_client::net::NetOptions;
 use rome_client::{DataClient, DataOptions, RobotClient, RobotOptions};
@@ -50,6 +50,24 @@ pub async fn navigator(
         .expect("navigator robot client");
     let mut nav = Navigator::new(robot, Board::new(ds, "r1"), NavConfig::default());
     tokio::spawn(async move { nav.run().await })
+}
+
+/// A CTracker for r1, running until it ends.
+// Each test binary compiles this module; not every one starts a CTracker.
+#[allow(dead_code)]
+pub async fn ctracker(rig: &Harness) -> tokio::task::JoinHandle<Result<(), rome_nav::NavError>> {
+    let ds = DataClient::connect(&rig.session, DataOptions::new("ctracker"))
+        .await
+        .expect("ctracker data client");
+    let robot = RobotClient::connect(&rig.session, "r1", RobotOptions::new("ctracker"))
+        .await
+        .expect("ctracker robot client");
+    let tracker = rome_nav::ctracker::CTracker::new(
+        robot,
+        Board::new(ds, "r1"),
+        rome_nav::ctracker::TrackConfig::default(),
+    );
+    tokio::spawn(async move { tracker.run(None).await })
 }
 
 /// Hands the Navigator a D goal of `mm` along `heading` and waits, at most
