@@ -80,6 +80,9 @@ pub struct RunConfig {
     /// Give up on a robot that has not moved half a metre in this much
     /// simulated time (pinned against a wall, say).
     pub stuck: Duration,
+    /// A robot taking tasks gives one up as overdue after driving its
+    /// route's length at this speed, mm/s, plus two minutes.
+    pub slowest_mm_s: f64,
     /// How the Navigator drives.
     pub nav: NavConfig,
     /// How the CTracker tracks.
@@ -138,6 +141,7 @@ impl RunConfig {
             speed: None,
             limit: Duration::from_secs(3_600),
             stuck: Duration::from_secs(180),
+            slowest_mm_s: 100.0,
             nav: NavConfig::default(),
             track: TrackConfig::default(),
             himm: true,

@@ -179,6 +179,7 @@ async fn run_all(
         duty.facing = Some(0.0);
         duty.traffic = run.traffic;
         duty.stuck = run.stuck;
+        duty.slowest_mm_s = run.slowest_mm_s;
         let (name, etx) = (r.robot.clone(), etx.clone());
         set.spawn(rome_clock::wrap(
             &format!("{} planner", r.robot),

@@ -23,6 +23,15 @@ async fn run(
     tasks: Vec<(&str, TaskSpec)>,
     kill: Option<&str>,
 ) -> TaskReport {
+    run_with(robots, tasks, kill, |_| {}).await
+}
+
+async fn run_with(
+    robots: &[(&str, &str)],
+    tasks: Vec<(&str, TaskSpec)>,
+    kill: Option<&str>,
+    adjust: impl FnOnce(&mut RunConfig),
+) -> TaskReport {
     rome_tests::show_warnings_on_failure();
     let map = rome_maps::load_named("eb3").expect("eb3 loads");
     let routes = robots
@@ -32,6 +41,7 @@ async fn run(
     let mut cfg = RunConfig::fleet(map, routes);
     cfg.limit = Duration::from_secs(15 * 60);
     cfg.plfinder = false;
+    adjust(&mut cfg);
     let run = TaskRun {
         run: cfg,
         tasks: tasks
@@ -109,4 +119,31 @@ async fn a_task_whose_robot_dies_goes_to_another_and_says_why() {
         s.why[0].contains("r2's Planner is gone"),
         "the task says why it moved: {s:?}"
     );
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_task_that_takes_far_too_long_is_given_up_as_overdue_and_the_robot_goes_on() {
+    // Every task is allowed only its two minutes' grace, and the 78 m to
+    // 376L take longer. A robot that drives on without arriving is never
+    // blocked, and without a deadline its task never ended.
+    let r = run_with(
+        &[("r1", "350R")],
+        vec![
+            ("T1", spec("376L", Some("r1"))),
+            ("T2", spec("352L", Some("r1"))),
+        ],
+        None,
+        |cfg| cfg.slowest_mm_s = 1e9,
+    )
+    .await;
+    let t1 = status(&r, "T1");
+    assert_eq!(t1.state, TaskState::Failed, "{t1:?}");
+    assert!(
+        t1.why.iter().any(|w| w.contains("overdue at (")),
+        "the task says it was overdue, and where: {t1:?}"
+    );
+    // Once overdue, the robot stays in service and takes the next task.
+    let t2 = status(&r, "T2");
+    assert_eq!(t2.tried, vec!["r1".to_string()], "{t2:?}");
+    assert!(t2.assigned_ms >= t1.ended_ms, "{t1:?} {t2:?}");
 }

@@ -31,6 +31,14 @@ use std::time::Duration;
 /// How a task given up because the robot stood still begins its reason.
 pub const BLOCKED: &str = "blocked";
 
+/// How a task given up because it took far too long begins its reason.
+pub const OVERDUE: &str = "overdue";
+
+/// The time every task is allowed beyond its route at
+/// [`DutyConfig::slowest_mm_s`]: setting off, turning onto the route,
+/// stopping at the end.
+const OVERDUE_GRACE: Duration = Duration::from_secs(120);
+
 /// How far a robot must get from where it was, mm, within
 /// [`DutyConfig::stuck`], not to be blocked.
 const BLOCKED_RADIUS_MM: f64 = 2_000.0;
@@ -51,6 +59,11 @@ pub struct DutyConfig {
     /// this long ago, while it was not waiting its turn for a junction or
     /// passage, is given up as blocked.
     pub stuck: Duration,
+    /// A task still driving after its route's length at this speed (plus
+    /// two minutes), not counting waits for junctions and passages, is
+    /// given up as overdue: a robot that drives on without getting there
+    /// has lost its way, and is never blocked.
+    pub slowest_mm_s: f64,
 }
 
 impl DutyConfig {
@@ -62,6 +75,7 @@ impl DutyConfig {
             traffic: false,
             check_every: Duration::from_secs(1),
             stuck: Duration::from_secs(180),
+            slowest_mm_s: 100.0,
         }
     }
 }
@@ -131,6 +145,7 @@ impl OnDuty<'_> {
         let mut registered = false;
         // Where the last task was given up as blocked, if it was.
         let mut blocked_at: Option<(f64, f64)> = None;
+        let mut overdue_before = false;
         loop {
             ds.wait(&task_sem(self.name)).await?;
             let value = ds.get(&task_var(self.name)).await?;
@@ -159,6 +174,7 @@ impl OnDuty<'_> {
                     duty.at_mm = None;
                     duty.state = DutyState::Idle;
                     blocked_at = None;
+                    overdue_before = false;
                 }
                 // Stopped between named positions: it goes on from where
                 // its odometry puts it (registered at its first task's
@@ -183,6 +199,15 @@ impl OnDuty<'_> {
                             duty.state = DutyState::Lost;
                         }
                         blocked_at = blocked.then_some((x, y));
+                        // Overdue twice running: it keeps losing its way.
+                        let overdue_now = outcome
+                            .why
+                            .as_deref()
+                            .is_some_and(|w| w.starts_with(OVERDUE));
+                        if overdue_now && overdue_before {
+                            duty.state = DutyState::Lost;
+                        }
+                        overdue_before = overdue_now;
                     }
                     _ => duty.state = DutyState::Lost,
                 },
@@ -259,6 +284,7 @@ impl OnDuty<'_> {
             r = drive => r.map(|_| ()).map_err(|e| format!("the Planner stopped: {e}")),
             why = self.cancelled(a, cfg.check_every) => Err(why),
             why = self.blocked(cfg, &waiting) => Err(why),
+            why = self.overdue(cfg, &waiting, plan.route.length_mm) => Err(why),
         };
         if let Err(why) = ended {
             // Stopped where it is, holding nothing of the building.
@@ -334,6 +360,37 @@ impl OnDuty<'_> {
                     }
                 }
                 _ => anchor = Some((x, y, rome_clock::Instant::now())),
+            }
+        }
+    }
+
+    /// Resolves once the robot has driven longer than a route of
+    /// `length_mm` takes at [`DutyConfig::slowest_mm_s`], plus
+    /// [`OVERDUE_GRACE`], not counting the time it waited its turn; the
+    /// reason says where its odometry puts it.
+    async fn overdue(&self, cfg: &DutyConfig, waiting: &AtomicBool, length_mm: f64) -> String {
+        let allowed = OVERDUE_GRACE.as_secs_f64() + length_mm / cfg.slowest_mm_s.max(1.0);
+        let mut driven = Duration::ZERO;
+        loop {
+            rome_clock::sleep(cfg.check_every).await;
+            if !waiting.load(Relaxed) {
+                driven += cfg.check_every;
+            }
+            if driven.as_secs_f64() >= allowed {
+                let at = match self.robot.pose().await {
+                    Ok(p) => format!(
+                        " at ({:.1}, {:.1}) m",
+                        f64::from(p.x_mm) / 1000.0,
+                        f64::from(p.y_mm) / 1000.0
+                    ),
+                    Err(_) => String::new(),
+                };
+                return format!(
+                    "{OVERDUE}{at}: still driving after {:.0} s for a {:.0} m route (it is allowed {:.0} s)",
+                    driven.as_secs_f64(),
+                    length_mm / 1000.0,
+                    allowed
+                );
             }
         }
     }
