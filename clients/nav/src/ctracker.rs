@@ -319,16 +319,14 @@ impl CTracker {
         Ok(log)
     }
 
-    /// The segment's light count, light offsets and heading; a value that
-    /// does not decode is `Err` with the reason, anything else that fails
+    /// The segment's light count, light offsets and heading; a bad value
+    /// ([`crate::bad_value`]) is `Err` with the reason, anything else that fails
     /// (the data server gone) the outer error.
     async fn segment_values(&self) -> Result<Result<(i64, Vec<f64>, f64), String>, NavError> {
         fn read<T>(r: Result<T, ClientError>, what: &str) -> Result<Result<T, String>, NavError> {
             match r {
                 Ok(v) => Ok(Ok(v)),
-                Err(e @ ClientError::Decode(_)) => {
-                    Ok(Err(format!("{what} could not be read: {e}")))
-                }
+                Err(e) if crate::bad_value(&e) => Ok(Err(format!("{what} could not be read: {e}"))),
                 Err(e) => Err(e.into()),
             }
         }

@@ -516,8 +516,22 @@ impl Himm {
         let mapping = async {
             loop {
                 self.board.down(Sem::StartMap).await?;
-                let goal: f64 = self.board.get(Var::GoalDirection).await?;
-                let total: i64 = self.board.get(Var::GoalDistance).await?;
+                // Anyone may write the blackboard: a segment whose heading
+                // or length does not decode is not mapped, and the mapper
+                // waits for the next one.
+                let read = async {
+                    let goal: f64 = self.board.get(Var::GoalDirection).await?;
+                    let total: i64 = self.board.get(Var::GoalDistance).await?;
+                    Ok::<_, rome_client::ClientError>((goal, total))
+                };
+                let (goal, total) = match read.await {
+                    Ok(v) => v,
+                    Err(e) if crate::bad_value(&e) => {
+                        tracing::warn!(error = %e, "mapper: a segment's GoalDirection or GoalDistance cannot be read; not mapped");
+                        continue;
+                    }
+                    Err(e) => return Err(e.into()),
+                };
                 // A Planner that writes no corridor leaves the sideways
                 // offset alone.
                 let corridor: Option<Corridor> = self.board.get(Var::Corridor).await.ok();

@@ -44,6 +44,15 @@ pub mod traffic;
 
 use std::time::Duration;
 
+/// Whether `e` says a blackboard value is bad rather than unreachable: it
+/// does not decode, or it was never written although its semaphore was
+/// signalled. Anyone may write the blackboard, so such a value ends the
+/// work at hand, with the reason, and the client goes on.
+pub fn bad_value(e: &rome_client::ClientError) -> bool {
+    matches!(e, rome_client::ClientError::Decode(_))
+        || e.code() == Some(rome_schema::ErrorCode::UnknownVariable)
+}
+
 /// Why a navigation client stopped.
 #[derive(Debug, thiserror::Error)]
 pub enum NavError {

@@ -200,13 +200,16 @@ impl Navigator {
     ) -> Result<Goal, NavError> {
         let board = self.board.clone();
         let take = async {
-            board.take_goal().await.map_err(|e| match e {
-                // GoalData was taken: the Planner waits for the goal's end.
-                e @ rome_client::ClientError::Decode(_) => NavError::Unreadable {
-                    what: "the goal (GoalType, GoalDistance, GoalDirection)",
-                    source: e,
-                },
-                e => e.into(),
+            board.take_goal().await.map_err(|e| {
+                if crate::bad_value(&e) {
+                    // GoalData was taken: the Planner waits for the goal's end.
+                    NavError::Unreadable {
+                        what: "the goal (GoalType, GoalDistance, GoalDirection)",
+                        source: e,
+                    }
+                } else {
+                    e.into()
+                }
             })
         };
         tokio::pin!(take);

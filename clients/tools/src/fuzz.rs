@@ -15,7 +15,11 @@
 //!   megabyte string;
 //! - as queries, and as puts and deletes on the same keys and on the keys
 //!   servers and navigation clients subscribe to (state, scan, frame,
-//!   truth, the lock records in storage).
+//!   truth, the lock records in storage);
+//! - on every robot's blackboard (`nav/<robot>/…`, through the data
+//!   server), values of the wrong type or out of range on each variable a
+//!   navigation client reads, mostly followed by the up() that has the
+//!   client read it at once (`fuzz/board.rs`).
 //!
 //! What it checks at the end:
 //! - every server alive at the start is still alive (liveliness), and every
@@ -31,7 +35,7 @@
 //! Exit code 0 when every check holds, 1 otherwise.
 
 use anyhow::Context;
-use rome_client::alive;
+use rome_client::{alive, DataClient};
 use rome_common::args::{CommonArgs, Side};
 use rome_common::exit;
 use rome_schema::{ErrorReply, Root};
@@ -41,6 +45,11 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 use tokio::sync::Semaphore;
 use zenoh::Session;
+
+mod board;
+mod garbage;
+
+use garbage::{params, payload, pick};
 
 /// Flags of `rome fuzz`.
 #[derive(Debug, clap::Args)]
@@ -78,6 +87,8 @@ enum Target {
     Query { key: String, served: bool },
     /// A key someone subscribes to.
     Publish { key: String },
+    /// A robot's blackboard, written through the data server.
+    Board { robot: String },
 }
 
 /// What the run saw, by kind of case.
@@ -148,6 +159,15 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
         .iter()
         .any(|p| p.class == "server" && p.role == "data");
     let targets = targets(&root, data, &robots);
+    // Blackboard values go through the data server, as a client's would.
+    let ds = match data {
+        true => Some(
+            rome_client::DataClient::connect(&session, rome_client::DataOptions::new("fuzz"))
+                .await
+                .context("connecting to the data server")?,
+        ),
+        false => None,
+    };
     anyhow::ensure!(
         !targets.is_empty(),
         "no data server and no hardware server is alive under '{}': nothing to send to",
@@ -203,11 +223,11 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
         }
         let case = Case::generate(&mut rng, &targets);
         let permit = gate.clone().acquire_owned().await?;
-        let (s, tx) = (session.clone(), tx.clone());
+        let (s, tx, ds) = (session.clone(), tx.clone(), ds.clone());
         tokio::spawn(async move {
             let kind = case.kind.clone();
             let what = case.describe();
-            let outcome = case.send(&s, timeout).await;
+            let outcome = case.send(&s, ds.as_ref(), timeout).await;
             let _ = tx.send((kind, outcome, what));
             drop(permit);
         });
@@ -386,6 +406,16 @@ fn targets(root: &Root, data: bool, robots: &[(String, String)]) -> Vec<Target> 
         out.push(Target::Publish {
             key: format!("{r}/data/watch/fz/a"),
         });
+        // About one case in seven on each robot's blackboard.
+        let mut names: Vec<&String> = robots.iter().map(|(robot, _)| robot).collect();
+        names.dedup();
+        for robot in names {
+            for _ in 0..8 {
+                out.push(Target::Board {
+                    robot: robot.clone(),
+                });
+            }
+        }
     }
     for (robot, device) in robots {
         let commands: &[&str] = match device.as_str() {
@@ -429,6 +459,7 @@ struct Case {
     params: String,
     payload: Option<Vec<u8>>,
     delete: bool,
+    board: Option<board::BoardCase>,
 }
 
 enum Outcome {
@@ -449,6 +480,17 @@ impl Case {
         let (mut key, is_query) = match &target {
             Target::Query { key, .. } => (key.clone(), true),
             Target::Publish { key } => (key.clone(), false),
+            Target::Board { robot } => {
+                return Case {
+                    kind: "blackboard".into(),
+                    key: String::new(),
+                    params: String::new(),
+                    payload: None,
+                    delete: false,
+                    board: Some(board::BoardCase::generate(rng, robot)),
+                    target,
+                };
+            }
         };
         // Sometimes the name itself is the garbage.
         if pick(rng, 8) == 0 {
@@ -470,6 +512,7 @@ impl Case {
             (Target::Query { .. }, _) => format!("query/{payload_kind}"),
             (Target::Publish { .. }, true) => "delete".to_string(),
             (Target::Publish { .. }, false) => format!("put/{payload_kind}"),
+            (Target::Board { .. }, _) => "blackboard".to_string(),
         };
         Case {
             kind,
@@ -478,10 +521,14 @@ impl Case {
             params,
             payload,
             delete,
+            board: None,
         }
     }
 
     fn describe(&self) -> String {
+        if let Some(b) = &self.board {
+            return b.describe();
+        }
         let payload = match &self.payload {
             None => "no payload".to_string(),
             Some(p) if p.len() > 60 => format!("{} bytes", p.len()),
@@ -495,8 +542,19 @@ impl Case {
         format!("{}?{params} with {payload}", self.key)
     }
 
-    async fn send(self, s: &Session, timeout: Duration) -> Outcome {
+    async fn send(self, s: &Session, ds: Option<&DataClient>, timeout: Duration) -> Outcome {
         match &self.target {
+            Target::Board { .. } => {
+                let (Some(b), Some(ds)) = (&self.board, ds) else {
+                    return Outcome::Unaddressed;
+                };
+                let done = b.send(ds).await;
+                Outcome::Replied {
+                    ok: u64::from(done.is_ok()),
+                    error: u64::from(done.is_err()),
+                    undecodable: 0,
+                }
+            }
             Target::Publish { .. } => {
                 let Ok(key) = zenoh::key_expr::KeyExpr::try_from(self.key.clone()) else {
                     return Outcome::Published;
@@ -566,149 +624,6 @@ impl Case {
 
 fn is_zenoh_timeout(bytes: &[u8]) -> bool {
     bytes == b"Timeout" || bytes.is_empty()
-}
-
-fn pick(rng: &mut Rng, n: usize) -> usize {
-    (rng.next_u64() % n.max(1) as u64) as usize
-}
-
-const PARAM_NAMES: &[&str] = &[
-    "priority",
-    "fence",
-    "wait_ms",
-    "client",
-    "op",
-    "rows",
-    "back",
-    "len",
-    "value",
-    "ticket",
-    "owner",
-    "hold_ms",
-    "undo",
-    "format",
-    "hold_s",
-    "emergency",
-    "x",
-    "bak",
-    "_zenoh",
-    "",
-];
-
-fn params(rng: &mut Rng) -> String {
-    let values = [
-        String::new(),
-        "-1".into(),
-        "0".into(),
-        "1".into(),
-        "255".into(),
-        "256".into(),
-        "4294967296".into(),
-        "18446744073709551616".into(),
-        "1e309".into(),
-        "NaN".into(),
-        "true".into(),
-        "abc".into(),
-        "0-4095,0-4095,0-4095,0-4095,0-4095".into(),
-        "0-4294967295".into(),
-        "9".repeat(10_000),
-        "%ff%00".into(),
-        "a=b=c".into(),
-    ];
-    let n = pick(rng, 5);
-    (0..n)
-        .map(|_| {
-            let name = PARAM_NAMES[pick(rng, PARAM_NAMES.len())];
-            let value = &values[pick(rng, values.len())];
-            if pick(rng, 10) == 0 {
-                name.to_string()
-            } else {
-                format!("{name}={value}")
-            }
-        })
-        .collect::<Vec<_>>()
-        .join(if pick(rng, 10) == 0 { "&" } else { ";" })
-}
-
-fn payload(rng: &mut Rng) -> (&'static str, Option<Vec<u8>>) {
-    let numbers = [
-        "0",
-        "-1",
-        "1e309",
-        "-1e309",
-        "4294967296",
-        "18446744073709551616",
-        "1.5",
-        "null",
-        "\"7\"",
-        "[]",
-        "{}",
-    ];
-    let num = |rng: &mut Rng| numbers[pick(rng, numbers.len())];
-    match pick(rng, 10) {
-        0 => ("none", None),
-        1 => {
-            let n = pick(rng, 300);
-            (
-                "bytes",
-                Some((0..n).map(|_| (rng.next_u64() & 0xff) as u8).collect()),
-            )
-        }
-        2 => ("not-utf8", Some(vec![b'{', 0xff, 0xfe, b'}'])),
-        3 => {
-            let depth = 1 + pick(rng, 20_000);
-            let mut s = "[".repeat(depth);
-            s.push_str(&"]".repeat(depth));
-            ("deep", Some(s.into_bytes()))
-        }
-        4 => (
-            "huge-string",
-            Some(format!("\"{}\"", "a".repeat(1 << 20)).into_bytes()),
-        ),
-        5 => {
-            let (a, b, c) = (num(rng), num(rng), num(rng));
-            let msgs = [
-                format!("{{\"distance_mm\":{a},\"velocity_mm_s\":{b},\"accel_mm_s2\":{c}}}"),
-                format!("{{\"x_mm\":{a},\"y_mm\":{b},\"heading_deg\":{c}}}"),
-                format!("{{\"velocity_mm_s\":{a}}}"),
-                format!("{{\"rate_deg_s\":{a}}}"),
-                format!("{{\"degrees\":{a},\"velocity_deg_s\":{b}}}"),
-                format!("{{\"hold_ms\":{a},\"priority\":{b}}}"),
-                format!("{{\"sonar\":{a},\"timeout_mm\":{b}}}"),
-                format!("{{\"value\":{a}}}"),
-            ];
-            (
-                "wrong-numbers",
-                Some(msgs[pick(rng, msgs.len())].clone().into_bytes()),
-            )
-        }
-        6 => {
-            let scans = [
-                "{\"robot\":\"r1\",\"seq\":1,\"time_ms\":5,\"sonar_mm\":[1,2,3],\"ir\":[0]}"
-                    .to_string(),
-                format!(
-                    "{{\"robot\":\"r1\",\"seq\":{},\"time_ms\":{},\"sonar_mm\":[{}],\"ir\":[{}]}}",
-                    num(rng),
-                    num(rng),
-                    vec!["4294967295"; 24].join(","),
-                    vec!["7"; 24].join(",")
-                ),
-                "{\"robot\":\"r1\",\"frame\":1,\"time_ms\":1,\"camera\":\"up\",\"width\":4294967295,\"height\":4294967295}".to_string(),
-                format!("{{\"robot\":\"r1\",\"time_ms\":{},\"x_mm\":{},\"y_mm\":{},\"heading_deg\":{}}}", num(rng), num(rng), num(rng), num(rng)),
-                "{\"holder\":\"x\",\"fence\":18446744073709551615,\"expires_ms\":-5}".to_string(),
-            ];
-            (
-                "stream-shaped",
-                Some(scans[pick(rng, scans.len())].clone().into_bytes()),
-            )
-        }
-        7 => ("wrong-type", Some(num(rng).as_bytes().to_vec())),
-        8 => (
-            "extra-fields",
-            Some(br#"{"velocity_mm_s":100,"x":1,"__proto__":{}}"#.to_vec()),
-        ),
-        _ => ("empty", Some(Vec::new())),
-    }
 }
 
 /// Requests every server must still answer after the run.

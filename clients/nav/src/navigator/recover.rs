@@ -19,17 +19,15 @@ impl Navigator {
     /// Ends the goal at hand because a value it depends on is bad: the
     /// robot is stopped, the reason goes to `Status.failed`, and the
     /// Planner is told the goal is over, so this Navigator goes on to the
-    /// next goal. Anything but a value that does not decode, or a segment
-    /// the CTracker gave up, (a server gone, a blackboard that cannot be
-    /// written) is returned, and ends the Navigator.
+    /// next goal. Anything but a bad value ([`crate::bad_value`]) or a
+    /// segment the CTracker gave up (a server gone, a blackboard that
+    /// cannot be written) is returned, and ends the Navigator.
     pub(super) async fn fail_goal(&mut self, e: NavError) -> Result<(), NavError> {
-        let bad_value = matches!(
-            e,
-            NavError::Unreadable {
-                source: rome_client::ClientError::Decode(_),
-                ..
-            } | NavError::SegmentGivenUp(_)
-        );
+        let bad_value = match &e {
+            NavError::Unreadable { source, .. } => crate::bad_value(source),
+            NavError::SegmentGivenUp(_) => true,
+            _ => false,
+        };
         if !bad_value {
             return Err(e);
         }
