@@ -121,6 +121,8 @@ pub enum Command {
     Mapper(cmd::nav::clients::RobotArg),
     /// Door-plate finder, PlFinder (§5.7): report the door plates the side camera sees.
     Plfinder(cmd::nav::clients::PlFinderArgs),
+    /// A robot's navigation clients as processes, each started again when it ends (as `ros2 launch` with respawn).
+    Crew(cmd::nav::crew::Args),
     /// The fleet's dispatcher: hand each task to the free robot with the shortest route to it.
     Dispatcher(cmd::nav::fleet::DispatcherArgs),
     /// Add, list and cancel the fleet's tasks.
@@ -311,7 +313,8 @@ impl Command {
     fn ends_on_interrupt(&self) -> bool {
         match self {
             Command::Colony(cmd::nav::colony::ColonyCmd::Behave(_)) => true,
-            #[cfg(feature = "observe")]
+            // It stops its members first.
+            Command::Crew(_) => true,
             Command::Record(_) | Command::View(_) | Command::Foxglove(_) => true,
             _ => false,
         }
@@ -370,6 +373,7 @@ async fn run_command(cli: Cli) -> anyhow::Result<u8> {
         Command::Colony(c) => cmd::nav::colony::run(&common, c).await,
         Command::Planner(args) => cmd::nav::clients::planner(&common, args).await,
         Command::Dispatcher(args) => cmd::nav::fleet::dispatcher(&common, args).await,
+        Command::Crew(args) => cmd::nav::crew::run(&common, args).await,
         Command::Task(c) => cmd::nav::fleet::task(&common, c).await,
         Command::Navigator(args) => cmd::nav::clients::navigator(&common, args).await,
         Command::Ctracker(args) => cmd::nav::clients::ctracker(&common, args).await,

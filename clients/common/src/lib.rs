@@ -8,12 +8,15 @@
 //! - [`exit`]: the exit codes, documented in `rome --help`, the interrupt
 //!   signal, and [`out!`] for output that may go to a closed pipe.
 //! - [`progress`]: progress bars on a terminal, plain lines elsewhere.
+//! - [`supervise`]: keeps a set of `rome` processes running, restarting
+//!   each that ends with a back-off (`rome crew`).
 //! - Here: reaching the data server from the flags, and the checks of
 //!   flags several commands take.
 
 pub mod args;
 pub mod exit;
 pub mod progress;
+pub mod supervise;
 
 use anyhow::Context;
 use args::{CommonArgs, Side};

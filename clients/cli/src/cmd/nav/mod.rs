@@ -4,6 +4,7 @@
 //!   client a process of its own.
 //! - [`demo`] and [`experiment`]: everything in one process, one run or
 //!   Chapter 6's tables (cargo feature `sim`).
+//! - [`crew`]: `rome crew`, a robot's clients kept running as processes.
 //! - [`fleet`]: `rome dispatcher`, `rome task` and `rome planner --tasks`.
 //! - [`scale`]: `rome fleet`, fleets of several sizes measured (cargo
 //!   feature `sim`).
@@ -12,6 +13,7 @@
 
 pub mod clients;
 pub mod colony;
+pub mod crew;
 #[cfg(feature = "sim")]
 pub mod demo;
 #[cfg(feature = "sim")]

@@ -1,0 +1,162 @@
+//! `rome crew` keeps a robot's navigation clients running: a member killed
+//! with SIGKILL is started again, a Navigator killed in the middle of a
+//! goal is started again and takes the goal up, and the run arrives;
+//! SIGTERM stops every member.
+
+#![allow(clippy::unwrap_used)]
+
+use rome_tests::{listening_port, spawn_logged};
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+const ROME: &str = env!("CARGO_BIN_EXE_rome");
+
+/// Waits until a line of `log` after the first `skip` lines contains
+/// `what`; returns it and its index.
+fn line_with(log: &Path, what: &str, skip: usize, within: Duration) -> (String, usize) {
+    let deadline = Instant::now() + within;
+    loop {
+        let text = std::fs::read_to_string(log).unwrap_or_default();
+        if let Some((i, l)) = text
+            .lines()
+            .enumerate()
+            .skip(skip)
+            .find(|(_, l)| l.contains(what))
+        {
+            return (l.to_string(), i);
+        }
+        assert!(
+            Instant::now() < deadline,
+            "no line with {what:?} in {}:\n{text}",
+            log.display()
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+/// The pid in a line like `crew r1: navigator started (pid 4121)`.
+fn pid_of(line: &str) -> u32 {
+    let tail = line.rsplit("(pid ").next().unwrap();
+    tail.trim_end_matches(')').parse().unwrap()
+}
+
+fn signal(pid: u32, name: &str) {
+    let ok = std::process::Command::new("kill")
+        .args([format!("-{name}"), pid.to_string()])
+        .status()
+        .unwrap()
+        .success();
+    assert!(ok, "kill -{name} {pid}");
+}
+
+fn running(pid: u32) -> bool {
+    std::fs::read_to_string(format!("/proc/{pid}/stat"))
+        .map(|s| !s.contains(") Z "))
+        .unwrap_or(false)
+}
+
+#[test]
+fn a_killed_member_is_started_again_and_the_crew_still_drives() {
+    let dir = rome_tests::TestDir::new("rome-crew-test");
+    let ds_log = dir.join("data-server.log");
+    let _ds = spawn_logged(ROME, &rome_tests::DATA_SERVER, &ds_log);
+    let port = listening_port(&ds_log, Duration::from_secs(60));
+    let sim = rome_tests::joined_to(port, &["sim", "--robots", "1", "--at", "350R"]);
+    let _sim = spawn_logged(ROME, &sim, &dir.join("sim.log"));
+    let crew_log = dir.join("crew.log");
+    let args = rome_tests::joined_to(
+        port,
+        &["crew", "--robot", "r1", "--no-plfinder", "--no-mapper"],
+    );
+    // Its own lines and its members' standard error, and their standard
+    // output, all in one log.
+    let log = || {
+        std::fs::OpenOptions::new()
+            .create(true)
+            .append(true)
+            .open(&crew_log)
+            .unwrap()
+    };
+    let mut crew = rome_tests::ChildGuard(Some(
+        std::process::Command::new(ROME)
+            .args(&args)
+            .stdin(std::process::Stdio::null())
+            .stdout(log())
+            .stderr(log())
+            .spawn()
+            .unwrap(),
+    ));
+    let minute = Duration::from_secs(60);
+
+    let (line, at) = line_with(&crew_log, "navigator started (pid ", 0, minute);
+    let first = pid_of(&line);
+    line_with(&crew_log, "waiting for goals", at, minute);
+    signal(first, "KILL");
+    let (ended, at) = line_with(&crew_log, "navigator ended", at, minute);
+    assert!(
+        ended.contains("killed by signal 9") && ended.contains("again in 0.5 s (restart 1)"),
+        "{ended}"
+    );
+    let (line, at) = line_with(&crew_log, "navigator started (pid ", at, minute);
+    let second = pid_of(&line);
+    assert_ne!(first, second);
+    line_with(&crew_log, "waiting for goals", at, minute);
+
+    // The crew, with its Navigator started again, carries a run out; its
+    // Navigator killed again in the middle of a goal, the one started
+    // after it takes the goal up and the run arrives.
+    let planner = rome_tests::joined_to(
+        port,
+        &["planner", "--robot", "r1", "--from", "350R", "--to", "356R"],
+    );
+    let run = std::process::Command::new(ROME)
+        .args(&planner)
+        .stdin(std::process::Stdio::null())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let get = rome_tests::joined_to(port, &["data", "get", "nav/r1/GoalActive"]);
+    let deadline = Instant::now() + minute;
+    loop {
+        let out = std::process::Command::new(ROME)
+            .args(&get)
+            .output()
+            .unwrap();
+        let value = String::from_utf8_lossy(&out.stdout);
+        if out.status.success() && value.contains("goal") {
+            break;
+        }
+        assert!(Instant::now() < deadline, "the Navigator never took a goal");
+    }
+    signal(second, "KILL");
+    let (line, at) = line_with(&crew_log, "navigator started (pid ", at, minute);
+    let third = pid_of(&line);
+    // Arriving is the proof: a Navigator that did not take the goal up
+    // would leave the Planner waiting until it gave the run up.
+    let out = run.wait_with_output().unwrap();
+    assert!(
+        out.status.success(),
+        "{}\n{}\n{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr),
+        rome_tests::tail_logs(&dir, 20)
+    );
+    let said = String::from_utf8_lossy(&out.stdout);
+    assert!(said.contains("from 356R"), "{said}");
+
+    // SIGTERM: the crew stops every member and ends.
+    let crew_pid = crew.0.as_ref().unwrap().id();
+    signal(crew_pid, "TERM");
+    let deadline = Instant::now() + minute;
+    let status = loop {
+        if let Some(s) = crew.0.as_mut().unwrap().try_wait().unwrap() {
+            break s;
+        }
+        assert!(Instant::now() < deadline, "the crew did not end");
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    assert!(status.success(), "{status:?}");
+    line_with(&crew_log, "crew r1: stopped", at, minute);
+    assert!(!running(third), "the Navigator outlived its crew");
+}

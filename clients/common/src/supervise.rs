@@ -1,0 +1,286 @@
+//! Keeps a set of `rome` processes running, as `ros2 launch` with respawn
+//! or systemd's `Restart=` would: each member that ends is started again
+//! after a back-off that doubles with each quick end, and every line a
+//! member writes is passed on with its name in front (standard error to
+//! standard error, where the set's own lines go too).
+//!
+//! ```text
+//! crew r1: navigator started (pid 4121)
+//! [navigator] rome navigator: robot r1's base reached; waiting for goals
+//! crew r1: navigator ended (killed by signal 9) after 12.4 s; again in 0.5 s (restart 1)
+//! crew r1: navigator started (pid 4188)
+//! ```
+
+use std::path::PathBuf;
+use std::process::Stdio;
+use std::time::Duration;
+use tokio::io::{AsyncBufReadExt, AsyncRead, BufReader};
+use tokio::process::{Child, Command};
+use tokio::sync::mpsc;
+
+/// One process of the set.
+#[derive(Debug, Clone)]
+pub struct Member {
+    /// How it is named in the output.
+    pub name: String,
+    /// Its arguments, after the program's name.
+    pub args: Vec<String>,
+}
+
+/// The program every member runs, and what its environment changes.
+#[derive(Debug, Clone)]
+pub struct Launch {
+    /// The program (this one, for `rome crew`).
+    pub program: PathBuf,
+    /// Variables set for every member.
+    pub env: Vec<(String, String)>,
+    /// Variables taken away from every member's environment.
+    pub unset: Vec<String>,
+}
+
+/// When a member that ended is started again.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Restart {
+    /// Whatever the exit status.
+    Always,
+    /// Unless it exited with status 0 (a Planner whose run arrived).
+    OnFailure,
+    /// Never: the set ends when every member has.
+    Never,
+}
+
+/// How the set is kept.
+#[derive(Debug, Clone)]
+pub struct Policy {
+    /// When to start a member again.
+    pub restart: Restart,
+    /// The first back-off; it doubles with each end that came sooner than
+    /// [`Policy::settled`] after its start.
+    pub backoff: Duration,
+    /// The longest back-off.
+    pub max_backoff: Duration,
+    /// A member that ran this long starts the doubling again from
+    /// [`Policy::backoff`].
+    pub settled: Duration,
+}
+
+impl Default for Policy {
+    fn default() -> Self {
+        Policy {
+            restart: Restart::OnFailure,
+            backoff: Duration::from_millis(500),
+            max_backoff: Duration::from_secs(30),
+            settled: Duration::from_secs(60),
+        }
+    }
+}
+
+impl Policy {
+    /// The wait before the next start of a member that ran for `ran`,
+    /// after a wait of `last` before this start (`None`: its first).
+    pub fn next_backoff(&self, last: Option<Duration>, ran: Duration) -> Duration {
+        match last {
+            Some(last) if ran < self.settled => (last * 2).min(self.max_backoff),
+            _ => self.backoff,
+        }
+    }
+}
+
+/// Member `i` ended: how (for people), whether with status 0, after how long.
+enum Event {
+    Ended(usize, String, bool, Duration),
+}
+
+/// Runs `members` of `launch` under `policy` until `stop` completes (every
+/// member is then sent SIGTERM, and SIGKILL 3 s later) or, with
+/// [`Restart::Never`] or members that exit 0 under
+/// [`Restart::OnFailure`], until none is left. `say` prefixes the set's
+/// own lines (`crew r1`).
+pub async fn supervise(
+    launch: Launch,
+    members: Vec<Member>,
+    policy: Policy,
+    say: &str,
+    stop: impl std::future::Future<Output = ()>,
+) -> anyhow::Result<()> {
+    let (tx, mut rx) = mpsc::unbounded_channel::<Event>();
+    let mut pids: Vec<Option<u32>> = vec![None; members.len()];
+    let mut backoffs: Vec<Option<Duration>> = vec![None; members.len()];
+    let mut restarts = vec![0u64; members.len()];
+    for (i, m) in members.iter().enumerate() {
+        pids[i] = Some(start(&launch, m, i, say, tx.clone())?);
+    }
+    tokio::pin!(stop);
+    loop {
+        let live = pids.iter().filter(|p| p.is_some()).count();
+        if live == 0 {
+            eprintln!("{say}: every member has ended");
+            return Ok(());
+        }
+        let event = tokio::select! {
+            _ = &mut stop => break,
+            e = rx.recv() => e,
+        };
+        let Some(Event::Ended(i, how, success, ran)) = event else {
+            break;
+        };
+        pids[i] = None;
+        let m = &members[i];
+        let again = match policy.restart {
+            Restart::Always => true,
+            Restart::OnFailure => !success,
+            Restart::Never => false,
+        };
+        if !again {
+            eprintln!(
+                "{say}: {} ended ({how}) after {:.1} s",
+                m.name,
+                ran.as_secs_f64()
+            );
+            continue;
+        }
+        let wait = policy.next_backoff(backoffs[i], ran);
+        backoffs[i] = Some(wait);
+        restarts[i] += 1;
+        eprintln!(
+            "{say}: {} ended ({how}) after {:.1} s; again in {:.1} s (restart {})",
+            m.name,
+            ran.as_secs_f64(),
+            wait.as_secs_f64(),
+            restarts[i]
+        );
+        tokio::select! {
+            _ = &mut stop => break,
+            _ = tokio::time::sleep(wait) => {}
+        }
+        pids[i] = Some(start(&launch, m, i, say, tx.clone())?);
+    }
+    // Stopped: every member is asked to end, then made to.
+    for pid in pids.iter().flatten() {
+        signal(*pid, "TERM");
+    }
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(3);
+    while pids.iter().any(Option::is_some) {
+        match tokio::time::timeout_at(deadline, rx.recv()).await {
+            Ok(Some(Event::Ended(i, ..))) => pids[i] = None,
+            _ => {
+                for pid in pids.iter().flatten() {
+                    signal(*pid, "KILL");
+                }
+                break;
+            }
+        }
+    }
+    eprintln!("{say}: stopped");
+    Ok(())
+}
+
+/// Starts member `i`, passing its output on and reporting its end.
+fn start(
+    launch: &Launch,
+    m: &Member,
+    i: usize,
+    say: &str,
+    tx: mpsc::UnboundedSender<Event>,
+) -> anyhow::Result<u32> {
+    let mut cmd = Command::new(&launch.program);
+    cmd.args(&m.args)
+        .envs(launch.env.iter().map(|(k, v)| (k, v)));
+    for k in &launch.unset {
+        cmd.env_remove(k);
+    }
+    let mut child: Child = cmd
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        // A member must not outlive the set when the set's task is dropped.
+        .kill_on_drop(true)
+        .spawn()
+        .map_err(|e| {
+            anyhow::anyhow!(
+                "cannot start {} ({}): {e}",
+                m.name,
+                launch.program.display()
+            )
+        })?;
+    let pid = child.id().unwrap_or(0);
+    eprintln!("{say}: {} started (pid {pid})", m.name);
+    let tag = format!("[{}]", m.name);
+    if let Some(out) = child.stdout.take() {
+        tokio::spawn(pass_on(out, tag.clone(), false));
+    }
+    if let Some(err) = child.stderr.take() {
+        tokio::spawn(pass_on(err, tag, true));
+    }
+    let started = std::time::Instant::now();
+    tokio::spawn(async move {
+        let (how, success) = match child.wait().await {
+            Ok(status) => (describe(status), status.success()),
+            Err(e) => (format!("could not be waited for: {e}"), false),
+        };
+        let _ = tx.send(Event::Ended(i, how, success, started.elapsed()));
+    });
+    Ok(pid)
+}
+
+/// Passes each line of `from` on, with `tag` in front: to standard error
+/// if it came from there, else to standard output.
+async fn pass_on(from: impl AsyncRead + Unpin, tag: String, to_stderr: bool) {
+    let mut lines = BufReader::new(from).lines();
+    while let Ok(Some(line)) = lines.next_line().await {
+        if to_stderr {
+            eprintln!("{tag} {line}");
+        } else {
+            crate::out!("{tag} {line}");
+        }
+    }
+}
+
+fn describe(status: std::process::ExitStatus) -> String {
+    #[cfg(unix)]
+    {
+        use std::os::unix::process::ExitStatusExt;
+        if let Some(sig) = status.signal() {
+            return format!("killed by signal {sig}");
+        }
+    }
+    match status.code() {
+        Some(c) => format!("exit status {c}"),
+        None => "ended".to_string(),
+    }
+}
+
+/// Sends a signal by name to `pid` with the system's `kill`, which needs
+/// no binding to the C library.
+fn signal(pid: u32, name: &str) {
+    let _ = std::process::Command::new("kill")
+        .args([format!("-{name}"), pid.to_string()])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .status();
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_backoff_doubles_for_quick_ends_and_starts_again_after_a_settled_run() {
+        let p = Policy::default();
+        let quick = Duration::from_secs(1);
+        let first = p.next_backoff(None, quick);
+        assert_eq!(first, Duration::from_millis(500));
+        let second = p.next_backoff(Some(first), quick);
+        assert_eq!(second, Duration::from_secs(1));
+        let mut w = second;
+        for _ in 0..10 {
+            w = p.next_backoff(Some(w), quick);
+        }
+        assert_eq!(w, Duration::from_secs(30), "capped");
+        assert_eq!(
+            p.next_backoff(Some(w), Duration::from_secs(61)),
+            Duration::from_millis(500),
+            "a settled run starts the doubling again"
+        );
+    }
+}
