@@ -12,6 +12,8 @@ corridor off the north one with a door at its end. Edit here and run
 Units here are millimetres.
 """
 
+from stk import run
+
 W, H = 60000, 30000  # outer walls: x 0..W, y 0..H
 WEST, NORTH, EAST, SOUTH = 2000, 2400, 3000, 3600  # corridor widths
 SPUR_X, SPUR_W, SPUR_L = 24000, 2000, 12000  # dead end off the north corridor
@@ -21,37 +23,6 @@ out = []
 
 def emit(s=""):
     out.append(s)
-
-
-def run(length, doors, lights, lateral, plates=True, first_kind="wall"):
-    """Edges along one straight wall of `length`: doors (start offset,
-    width, number), lights at offsets from the run's start; every edge
-    carries `lateral`. Yields the text of the edges and jamb nodes."""
-    cuts = []
-    pos = 0
-    for start, width, number in sorted(doors):
-        cuts.append(("wall", pos, start, None))
-        cuts.append(("door", start, start + width, number))
-        pos = start + width
-    cuts.append(("wall", pos, length, None))
-    lines = []
-    for i, (kind, a, b, number) in enumerate(cuts):
-        opts = [f"lateral {lateral}"]
-        here = [l - a for l in lights if a < l <= b]
-        if here:
-            opts.append("lights " + " ".join(str(x) for x in here))
-        if number is not None:
-            opts.append(f"number {number}")
-        elif plates and i + 1 < len(cuts):
-            # The plate beside the next door, 300 mm before it.
-            nxt = cuts[i + 1][3]
-            if nxt is not None and b - a > 600:
-                opts.append(f"plate {nxt} {b - a - 300}")
-        lines.append(f"  {kind} {b - a} " + " ".join(opts))
-        if i + 1 < len(cuts):
-            jamb = f"{cuts[i + 1][3] or number}{'a' if kind == 'wall' else 'b'}"
-            lines.append(f"  node {jamb} 180")
-    return lines
 
 
 def spaced(length, every, first):

@@ -15,6 +15,8 @@ Units here are millimetres. Door numbers: block k (1 … 24, row by row from
 the south-west) has doors k01 … k12; the outer wall has 3001 onwards.
 """
 
+from stk import run
+
 COLS, ROWS = 6, 4  # blocks
 BW, BH = 14000, 9000  # a block's size
 P, V, HZ = 3000, 2400, 2800  # corridor widths: perimeter, between columns, between rows
@@ -32,40 +34,12 @@ def emit(s=""):
     out.append(s)
 
 
-def run(length, doors, lights, lateral):
-    """Edges along one straight wall of `length`: doors (start offset,
-    number), lights at offsets from the run's start, a plate 300 mm before
-    each door; every edge carries `lateral`."""
-    cuts = []
-    pos = 0
-    for start, number in sorted(doors):
-        cuts.append(("wall", pos, start, None))
-        cuts.append(("door", start, start + DOOR, number))
-        pos = start + DOOR
-    cuts.append(("wall", pos, length, None))
-    lines = []
-    for i, (kind, a, b, number) in enumerate(cuts):
-        opts = [f"lateral {lateral}"]
-        here = [l - a for l in lights if a < l <= b]
-        if here:
-            opts.append("lights " + " ".join(str(x) for x in here))
-        if number is not None:
-            opts.append(f"number {number}")
-        elif i + 1 < len(cuts) and b - a > 600:
-            opts.append(f"plate {cuts[i + 1][3]} {b - a - 300}")
-        lines.append(f"  {kind} {b - a} " + " ".join(opts))
-        if i + 1 < len(cuts):
-            jamb = f"{cuts[i + 1][3] or number}{'a' if kind == 'wall' else 'b'}"
-            lines.append(f"  node {jamb} 180")
-    return lines
-
-
 def spaced(length):
     return list(range(LIGHTS_FIRST, length, LIGHTS_EVERY))
 
 
 def doors_every(length, first, every, numbers):
-    return [(s, next(numbers)) for s in range(first, length - first, every)]
+    return [(s, DOOR, next(numbers)) for s in range(first, length - first, every)]
 
 
 emit("# A large floor of the project's own making (maps/tools/campus.py writes it):")
@@ -104,16 +78,16 @@ for r in range(ROWS):
         emit()
         emit(f"ring b{k} at {x0 + BW} {y0 + BH} heading 90")
         emit("  node NE -90")
-        doors = [(s, next(numbers)) for s in LONG_DOORS]
+        doors = [(s, DOOR, next(numbers)) for s in LONG_DOORS]
         out += run(BW, doors, spaced(BW) if r < ROWS - 1 else [], north)
         emit("  node NW -90")
-        doors = [(s, next(numbers)) for s in SHORT_DOORS]
+        doors = [(s, DOOR, next(numbers)) for s in SHORT_DOORS]
         out += run(BH, doors, [], west)
         emit("  node SW -90")
-        doors = [(s, next(numbers)) for s in LONG_DOORS]
+        doors = [(s, DOOR, next(numbers)) for s in LONG_DOORS]
         out += run(BW, doors, [], south)
         emit("  node SE -90")
-        doors = [(s, next(numbers)) for s in SHORT_DOORS]
+        doors = [(s, DOOR, next(numbers)) for s in SHORT_DOORS]
         out += run(BH, doors, spaced(BH) if c < COLS - 1 else [], east)
         emit("end")
 

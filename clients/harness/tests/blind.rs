@@ -21,6 +21,17 @@ async fn until(within: Duration, mut ok: impl FnMut() -> bool) -> bool {
     ok()
 }
 
+/// Waits for the Navigator to end the goal at hand, and returns why it
+/// says it ended it.
+async fn goal_failure(planner: &rome_nav::board::Board) -> String {
+    tokio::time::timeout(Duration::from_secs(20), planner.down(Sem::RobotStatus))
+        .await
+        .expect("the Navigator ends the goal")
+        .expect("the goal's end is signalled");
+    let status: Status = planner.get(Var::Status).await.expect("a Status");
+    status.failed.expect("the Status says why the goal ended")
+}
+
 /// Hands over an L goal of more lights than the corridor has (it can only
 /// end by the count) and waits until the robot has driven half a metre.
 async fn set_off_on_l(rig: &rome_harness::Harness, planner: &rome_nav::board::Board, heading: f64) {
@@ -100,12 +111,7 @@ async fn a_light_count_that_is_not_a_number_ends_the_goal_and_the_navigator_take
         .set(Var::CeilingLight, &serde_json::json!({"lights": "many"}))
         .await
         .expect("the bad value is written");
-    tokio::time::timeout(Duration::from_secs(20), planner.down(Sem::RobotStatus))
-        .await
-        .expect("the Navigator ends the goal")
-        .expect("the goal's end is signalled");
-    let status: Status = planner.get(Var::Status).await.expect("a Status");
-    let why = status.failed.expect("the Status says why the goal ended");
+    let why = goal_failure(&planner).await;
     assert!(
         why.contains("CeilingLight") && why.contains("invalid type: map"),
         "{why}"
@@ -158,12 +164,7 @@ async fn light_offsets_that_are_not_numbers_give_the_segment_up_and_the_ctracker
         })
         .await
         .unwrap();
-    tokio::time::timeout(Duration::from_secs(20), planner.down(Sem::RobotStatus))
-        .await
-        .expect("the Navigator ends the goal")
-        .expect("the goal's end is signalled");
-    let status: Status = planner.get(Var::Status).await.expect("a Status");
-    let why = status.failed.expect("the Status says why the goal ended");
+    let why = goal_failure(&planner).await;
     assert!(
         why.contains("CTracker gave the light segment up") && why.contains("LightOffset"),
         "{why}"

@@ -59,6 +59,29 @@ async fn with_and_without(
     )
 }
 
+/// `trials` on the built-in `map`, two at a time, cruising at 0.7 m/s.
+async fn cruising_on(map: &str, trials: Vec<Trial>) -> Vec<experiment::Outcome> {
+    let mut s = setup(900, 2);
+    s.map = rome_maps::load_named(map).unwrap();
+    s.cruise_mm_s = Some(700.0);
+    experiment::run_all(&s, trials, |_| {}).await
+}
+
+/// Every run arrived within 0.5 m, and no corner is judged failed.
+fn every_run_arrives_and_every_corner_is_clean(out: &[experiment::Outcome]) {
+    for o in out {
+        let r = o.report.as_ref().unwrap();
+        assert!(r.arrived() && r.to_goal_cm.abs() < 50.0, "{}", r.table());
+        let corners = experiment::mode_cell(r, GoalType::C);
+        assert!(
+            !corners.contains('*'),
+            "run {}: C {corners}\n{}",
+            o.trial.no,
+            r.table()
+        );
+    }
+}
+
 fn trial(no: usize, from: &str, to: &str, seed: u64) -> Trial {
     Trial {
         no,
@@ -267,33 +290,18 @@ async fn the_annex_narrow_lightless_corridor_is_driven_and_the_plates_after_it_r
     // turned into (runs 4 and 10 ended their corners 24-29° off); a plate
     // on the north corridor's 2.4 m is taller on the image than EB3's 120
     // rows (run 5 missed 201, 203 and 205).
-    let map = rome_maps::load_named("annex").unwrap();
-    let world = World::from_map(&map);
-    let mut s = setup(900, 2);
-    s.map = map;
-    s.cruise_mm_s = Some(700.0);
-    let out = experiment::run_all(
-        &s,
+    let world = World::from_map(&rome_maps::load_named("annex").unwrap());
+    let out = cruising_on(
+        "annex",
         vec![
             trial(4, "112L", "292R", 4),
             trial(5, "110R", "207L", 5),
             trial(10, "221R", "110L", 10),
             trial(2, "223R", "299L", 2),
         ],
-        |_| {},
     )
     .await;
-    for o in &out {
-        let r = o.report.as_ref().unwrap();
-        assert!(r.arrived(), "{}", r.table());
-        let corners = experiment::mode_cell(r, GoalType::C);
-        assert!(
-            !corners.contains('*'),
-            "run {}: C {corners}\n{}",
-            o.trial.no,
-            r.table()
-        );
-    }
+    every_run_arrives_and_every_corner_is_clean(&out);
     let run = |no: usize| {
         out.iter()
             .find(|o| o.trial.no == no)
@@ -375,24 +383,15 @@ async fn turns_at_crossroads_and_t_junctions_end_heading_into_the_corridor() {
     // The Campus's corridors cross: a turning space there has openings on
     // every side, and no wall ahead of the robot but the far block's
     // corner. Right and left at crossroads, and out at a T-junction.
-    let mut s = setup(900, 2);
-    s.map = rome_maps::load_named("campus").unwrap();
-    s.cruise_mm_s = Some(700.0);
-    let out = experiment::run_all(
-        &s,
+    let out = cruising_on(
+        "campus",
         vec![
             trial(2, "1307R", "406L", 2),
             trial(6, "1801R", "1106L", 6),
             trial(5, "911L", "3038R", 5),
             trial(9, "1707R", "2205L", 9),
         ],
-        |_| {},
     )
     .await;
-    for o in &out {
-        let r = o.report.as_ref().unwrap();
-        assert!(r.arrived() && r.to_goal_cm.abs() < 50.0, "{}", r.table());
-        let corners = experiment::mode_cell(r, GoalType::C);
-        assert_eq!(corners, "1/1", "run {}:\n{}", o.trial.no, r.table());
-    }
+    every_run_arrives_and_every_corner_is_clean(&out);
 }
