@@ -256,6 +256,18 @@ pub fn main(cli: Cli) -> ExitCode {
         }
     };
     let code = runtime.block_on(async {
+        // A member of a `rome crew` whose crew was killed ends with it.
+        tokio::spawn(async {
+            rome_common::supervise::end_when_orphaned().await;
+            // Its standard error was a pipe to the crew, which has gone:
+            // a failed write must not keep it from ending.
+            use std::io::Write;
+            let _ = writeln!(
+                std::io::stderr(),
+                "error: the `rome crew` that started this program has gone; ending"
+            );
+            std::process::exit(i32::from(exit::ERROR));
+        });
         let result = if own_interrupt {
             // A server takes the interrupt as its shutdown signal and exits 0.
             run(cli).await

@@ -55,37 +55,75 @@ fn running(pid: u32) -> bool {
         .unwrap_or(false)
 }
 
+/// Starts `rome ARGS` with its standard output and error, its members'
+/// lines included, in `log`.
+fn spawn_crew(args: &[String], log: &Path) -> rome_tests::ChildGuard {
+    let file = || {
+        std::fs::OpenOptions::new()
+            .create(true)
+            .append(true)
+            .open(log)
+            .unwrap()
+    };
+    rome_tests::ChildGuard(Some(
+        std::process::Command::new(ROME)
+            .args(args)
+            .stdin(std::process::Stdio::null())
+            .stdout(file())
+            .stderr(file())
+            .spawn()
+            .unwrap(),
+    ))
+}
+
+/// A data server and one simulated robot at 350R; the port joined to.
+fn world(dir: &Path) -> (u16, [rome_tests::ChildGuard; 2]) {
+    let ds_log = dir.join("data-server.log");
+    let ds = spawn_logged(ROME, &rome_tests::DATA_SERVER, &ds_log);
+    let port = listening_port(&ds_log, Duration::from_secs(60));
+    let sim = rome_tests::joined_to(port, &["sim", "--robots", "1", "--at", "350R"]);
+    let sim = spawn_logged(ROME, &sim, &dir.join("sim.log"));
+    (port, [ds, sim])
+}
+
+#[test]
+fn a_crew_killed_with_sigkill_takes_its_members_with_it() {
+    let dir = rome_tests::TestDir::new("rome-crew-kill-test");
+    let (port, _world) = world(&dir);
+    let log = dir.join("crew.log");
+    let args = rome_tests::joined_to(
+        port,
+        &["crew", "--robot", "r1", "--no-plfinder", "--no-mapper"],
+    );
+    let mut crew = spawn_crew(&args, &log);
+    let minute = Duration::from_secs(60);
+    let (line, _) = line_with(&log, "navigator started (pid ", 0, minute);
+    let navigator = pid_of(&line);
+    let (line, _) = line_with(&log, "ctracker started (pid ", 0, minute);
+    let ctracker = pid_of(&line);
+    line_with(&log, "waiting for goals", 0, minute);
+    crew.kill();
+    let deadline = Instant::now() + Duration::from_secs(10);
+    while running(navigator) || running(ctracker) {
+        assert!(
+            Instant::now() < deadline,
+            "members outlived their crew by 10 s\n{}",
+            std::fs::read_to_string(&log).unwrap_or_default()
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
 #[test]
 fn a_killed_member_is_started_again_and_the_crew_still_drives() {
     let dir = rome_tests::TestDir::new("rome-crew-test");
-    let ds_log = dir.join("data-server.log");
-    let _ds = spawn_logged(ROME, &rome_tests::DATA_SERVER, &ds_log);
-    let port = listening_port(&ds_log, Duration::from_secs(60));
-    let sim = rome_tests::joined_to(port, &["sim", "--robots", "1", "--at", "350R"]);
-    let _sim = spawn_logged(ROME, &sim, &dir.join("sim.log"));
+    let (port, _world) = world(&dir);
     let crew_log = dir.join("crew.log");
     let args = rome_tests::joined_to(
         port,
         &["crew", "--robot", "r1", "--no-plfinder", "--no-mapper"],
     );
-    // Its own lines and its members' standard error, and their standard
-    // output, all in one log.
-    let log = || {
-        std::fs::OpenOptions::new()
-            .create(true)
-            .append(true)
-            .open(&crew_log)
-            .unwrap()
-    };
-    let mut crew = rome_tests::ChildGuard(Some(
-        std::process::Command::new(ROME)
-            .args(&args)
-            .stdin(std::process::Stdio::null())
-            .stdout(log())
-            .stderr(log())
-            .spawn()
-            .unwrap(),
-    ));
+    let mut crew = spawn_crew(&args, &crew_log);
     let minute = Duration::from_secs(60);
 
     let (line, at) = line_with(&crew_log, "navigator started (pid ", 0, minute);

@@ -38,6 +38,30 @@ pub struct Launch {
     pub unset: Vec<String>,
 }
 
+/// The variable that gives a member its supervisor's process id: a member
+/// whose parent is no longer that process ends ([`end_when_orphaned`]).
+pub const PARENT_VAR: &str = "ROME_SUPERVISOR_PID";
+
+/// For a program started by [`supervise`]: resolves once the supervisor
+/// that started it has gone (it was killed with SIGKILL, say, and could not
+/// stop its members), so that the member ends with it. Never resolves in a
+/// program started otherwise.
+pub async fn end_when_orphaned() {
+    let Some(parent) = std::env::var(PARENT_VAR)
+        .ok()
+        .and_then(|p| p.parse::<u32>().ok())
+    else {
+        return std::future::pending().await;
+    };
+    loop {
+        #[cfg(unix)]
+        if std::os::unix::process::parent_id() != parent {
+            return;
+        }
+        tokio::time::sleep(Duration::from_secs(1)).await;
+    }
+}
+
 /// When a member that ended is started again.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum Restart {
@@ -185,7 +209,8 @@ fn start(
 ) -> anyhow::Result<u32> {
     let mut cmd = Command::new(&launch.program);
     cmd.args(&m.args)
-        .envs(launch.env.iter().map(|(k, v)| (k, v)));
+        .envs(launch.env.iter().map(|(k, v)| (k, v)))
+        .env(PARENT_VAR, std::process::id().to_string());
     for k in &launch.unset {
         cmd.env_remove(k);
     }
