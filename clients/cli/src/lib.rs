@@ -7,9 +7,9 @@
 //!   from `rome-common`) flattened in.
 //! - [`cmd`]: the commands, grouped: `data` (data-server, data, sem),
 //!   `robot` (sim, pioneer, robot, storage), `nav` (planner, navigator,
-//!   ctracker, mapper, plfinder, dispatcher, task, demo, experiment, colony, map), `observe`
-//!   (ls, echo, record, replay, view, foxglove), `deploy` (router, certs)
-//!   and `tools` (bench, soak, fuzz).
+//!   ctracker, mapper, plfinder, crew, dispatcher, task, demo, experiment,
+//!   fleet, colony, map), `observe` (ls, echo, record, replay, view,
+//!   foxglove), `deploy` (router, certs) and `tools` (bench, soak, fuzz).
 //! - [`main`] and [`run`]: the runtime, the interrupt, the lock-step clock
 //!   a command may follow, and the exit code.
 //!
