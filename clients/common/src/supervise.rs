@@ -115,6 +115,55 @@ enum Event {
     Ended(usize, String, bool, Duration),
 }
 
+/// One member's place in the set.
+struct Slot {
+    /// Its process, while it runs.
+    pid: Option<u32>,
+    /// When it is to be started (again).
+    due: Option<tokio::time::Instant>,
+    /// The last back-off it waited.
+    backoff: Option<Duration>,
+    /// How many times it was started again.
+    restarts: u64,
+}
+
+impl Slot {
+    /// The member `name` ended (`how`, with status 0 or not, after `ran`):
+    /// it is due again after its back-off, or not at all.
+    fn ended(
+        &mut self,
+        policy: &Policy,
+        say: &str,
+        name: &str,
+        how: &str,
+        success: bool,
+        ran: Duration,
+    ) {
+        let again = match policy.restart {
+            Restart::Always => true,
+            Restart::OnFailure => !success,
+            Restart::Never => false,
+        };
+        if !again {
+            eprintln!(
+                "{say}: {name} ended ({how}) after {:.1} s",
+                ran.as_secs_f64()
+            );
+            return;
+        }
+        let wait = policy.next_backoff(self.backoff, ran);
+        self.backoff = Some(wait);
+        self.restarts += 1;
+        eprintln!(
+            "{say}: {name} ended ({how}) after {:.1} s; again in {:.1} s (restart {})",
+            ran.as_secs_f64(),
+            wait.as_secs_f64(),
+            self.restarts
+        );
+        self.due = Some(tokio::time::Instant::now() + wait);
+    }
+}
+
 /// Runs `members` of `launch` under `policy` until `stop` completes (every
 /// member is then sent SIGTERM, and SIGKILL 3 s later) or, with
 /// [`Restart::Never`] or members that exit 0 under
@@ -128,57 +177,52 @@ pub async fn supervise(
     stop: impl std::future::Future<Output = ()>,
 ) -> anyhow::Result<()> {
     let (tx, mut rx) = mpsc::unbounded_channel::<Event>();
-    let mut pids: Vec<Option<u32>> = vec![None; members.len()];
-    let mut backoffs: Vec<Option<Duration>> = vec![None; members.len()];
-    let mut restarts = vec![0u64; members.len()];
-    for (i, m) in members.iter().enumerate() {
-        pids[i] = Some(start(&launch, m, i, say, tx.clone())?);
-    }
+    let now = tokio::time::Instant::now();
+    // Each member waits out its own back-off while the others are watched
+    // and started again.
+    let mut slots: Vec<Slot> = members
+        .iter()
+        .map(|_| Slot {
+            pid: None,
+            due: Some(now),
+            backoff: None,
+            restarts: 0,
+        })
+        .collect();
     tokio::pin!(stop);
     loop {
-        let live = pids.iter().filter(|p| p.is_some()).count();
-        if live == 0 {
+        if slots.iter().all(|s| s.pid.is_none() && s.due.is_none()) {
             eprintln!("{say}: every member has ended");
             return Ok(());
         }
-        let event = tokio::select! {
-            _ = &mut stop => break,
-            e = rx.recv() => e,
+        let next = slots.iter().filter_map(|s| s.due).min();
+        let wake = async {
+            match next {
+                Some(t) => tokio::time::sleep_until(t).await,
+                None => std::future::pending().await,
+            }
         };
-        let Some(Event::Ended(i, how, success, ran)) = event else {
-            break;
-        };
-        pids[i] = None;
-        let m = &members[i];
-        let again = match policy.restart {
-            Restart::Always => true,
-            Restart::OnFailure => !success,
-            Restart::Never => false,
-        };
-        if !again {
-            eprintln!(
-                "{say}: {} ended ({how}) after {:.1} s",
-                m.name,
-                ran.as_secs_f64()
-            );
-            continue;
-        }
-        let wait = policy.next_backoff(backoffs[i], ran);
-        backoffs[i] = Some(wait);
-        restarts[i] += 1;
-        eprintln!(
-            "{say}: {} ended ({how}) after {:.1} s; again in {:.1} s (restart {})",
-            m.name,
-            ran.as_secs_f64(),
-            wait.as_secs_f64(),
-            restarts[i]
-        );
         tokio::select! {
             _ = &mut stop => break,
-            _ = tokio::time::sleep(wait) => {}
+            _ = wake => {
+                let now = tokio::time::Instant::now();
+                for (i, slot) in slots.iter_mut().enumerate() {
+                    if slot.due.is_some_and(|t| t <= now) {
+                        slot.due = None;
+                        match start(&launch, &members[i], i, say, tx.clone()) {
+                            Ok(pid) => slot.pid = Some(pid),
+                            Err(how) => slot.ended(&policy, say, &members[i].name, &how, false, Duration::ZERO),
+                        }
+                    }
+                }
+            }
+            Some(Event::Ended(i, how, success, ran)) = rx.recv() => {
+                slots[i].pid = None;
+                slots[i].ended(&policy, say, &members[i].name, &how, success, ran);
+            }
         }
-        pids[i] = Some(start(&launch, m, i, say, tx.clone())?);
     }
+    let mut pids: Vec<Option<u32>> = slots.iter().map(|s| s.pid).collect();
     // Stopped: every member is asked to end, then made to.
     for pid in pids.iter().flatten() {
         signal(*pid, "TERM");
@@ -199,14 +243,16 @@ pub async fn supervise(
     Ok(())
 }
 
-/// Starts member `i`, passing its output on and reporting its end.
+/// Starts member `i`, passing its output on and reporting its end; `Err`
+/// says why it could not be started (its program replaced as it was
+/// upgraded, say), and it is tried again as a member that ended.
 fn start(
     launch: &Launch,
     m: &Member,
     i: usize,
     say: &str,
     tx: mpsc::UnboundedSender<Event>,
-) -> anyhow::Result<u32> {
+) -> Result<u32, String> {
     let mut cmd = Command::new(&launch.program);
     cmd.args(&m.args)
         .envs(launch.env.iter().map(|(k, v)| (k, v)))
@@ -214,20 +260,22 @@ fn start(
     for k in &launch.unset {
         cmd.env_remove(k);
     }
-    let mut child: Child = cmd
+    let spawned = cmd
         .stdin(Stdio::null())
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         // A member must not outlive the set when the set's task is dropped.
         .kill_on_drop(true)
-        .spawn()
-        .map_err(|e| {
-            anyhow::anyhow!(
-                "cannot start {} ({}): {e}",
-                m.name,
+        .spawn();
+    let mut child: Child = match spawned {
+        Ok(c) => c,
+        Err(e) => {
+            return Err(format!(
+                "could not be started from {}: {e}",
                 launch.program.display()
-            )
-        })?;
+            ))
+        }
+    };
     let pid = child.id().unwrap_or(0);
     eprintln!("{say}: {} started (pid {pid})", m.name);
     let tag = format!("[{}]", m.name);
@@ -288,6 +336,66 @@ fn signal(pid: u32, name: &str) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn launch(program: &str) -> Launch {
+        Launch {
+            program: program.into(),
+            env: Vec::new(),
+            unset: Vec::new(),
+        }
+    }
+
+    fn member(name: &str, args: &[&str]) -> Member {
+        Member {
+            name: name.into(),
+            args: args.iter().map(|a| a.to_string()).collect(),
+        }
+    }
+
+    #[tokio::test]
+    async fn without_restarts_the_set_ends_when_every_member_has() {
+        let policy = Policy {
+            restart: Restart::Never,
+            ..Policy::default()
+        };
+        let members = vec![
+            member("a", &["-c", "exit 0"]),
+            member("b", &["-c", "exit 3"]),
+        ];
+        let ended = tokio::time::timeout(
+            Duration::from_secs(20),
+            supervise(
+                launch("/bin/sh"),
+                members,
+                policy,
+                "test",
+                std::future::pending(),
+            ),
+        )
+        .await;
+        assert!(matches!(ended, Ok(Ok(()))), "{ended:?}");
+    }
+
+    #[tokio::test]
+    async fn a_member_that_cannot_be_started_is_tried_again_and_the_set_goes_on() {
+        // It used to end the whole set with the error.
+        let policy = Policy {
+            restart: Restart::Always,
+            backoff: Duration::from_millis(10),
+            ..Policy::default()
+        };
+        let members = vec![member("gone", &[])];
+        let (stopped_tx, stopped) = tokio::sync::oneshot::channel::<()>();
+        let stop = async move {
+            tokio::time::sleep(Duration::from_millis(300)).await;
+            let _ = stopped_tx.send(());
+        };
+        let r = supervise(launch("/nonexistent/rome"), members, policy, "test", stop).await;
+        assert!(r.is_ok(), "{r:?}");
+        // It kept trying until it was stopped, rather than ending with no
+        // member left.
+        assert!(stopped.await.is_ok(), "the set ended before it was stopped");
+    }
 
     #[test]
     fn the_backoff_doubles_for_quick_ends_and_starts_again_after_a_settled_run() {
