@@ -1,6 +1,7 @@
 //! `rome fuzz` against a deployment of processes: a data server, a
-//! simulated robot's hardware servers and the robot's four navigation
-//! clients. Thousands of generated requests and publications later, every
+//! simulated robot's hardware servers, the robot's four navigation
+//! clients, and the long-running observers (`rome view`, `rome foxglove`,
+//! `rome record`) and dispatcher. Thousands of generated requests and publications later, every
 //! process still runs, every query addressed to a server was answered
 //! (errors with a RoME error naming the problem), and the servers still
 //! serve good requests.
@@ -44,6 +45,25 @@ async fn generated_garbage_from_the_network_breaks_no_server_and_no_client() {
         procs.push((
             role.into(),
             spawn_logged(ROME, &args, &dir.join(format!("{role}.log"))),
+        ));
+    }
+
+    // The long-running observers and the dispatcher read what anyone
+    // publishes too: they must outlive the garbage as the clients do.
+    let mcap = dir.join("fuzz.mcap");
+    let mcap = mcap.to_str().unwrap();
+    let others: [(&str, Vec<&str>); 4] = [
+        ("view", vec!["view", "--port", "0"]),
+        ("foxglove", vec!["foxglove", "--port", "0"]),
+        ("record", vec!["record", "--output", mcap]),
+        ("dispatcher", vec!["dispatcher"]),
+    ];
+    for (name, rest) in others {
+        let mut args = vec!["--no-multicast", "--mode", "client", "--connect", &endpoint];
+        args.extend(rest);
+        procs.push((
+            name.into(),
+            spawn_logged(ROME, &args, &dir.join(format!("{name}.log"))),
         ));
     }
 
