@@ -327,6 +327,7 @@ impl Command {
             Command::Colony(cmd::nav::colony::ColonyCmd::Behave(_)) => true,
             // It stops its members first.
             Command::Crew(_) => true,
+            #[cfg(feature = "observe")]
             Command::Record(_) | Command::View(_) | Command::Foxglove(_) => true,
             _ => false,
         }
