@@ -276,7 +276,10 @@ fn start(
             ))
         }
     };
-    let pid = child.id().unwrap_or(0);
+    // Known until the child is reaped, which only its waiter below does.
+    let Some(pid) = child.id() else {
+        return Err("ended before its process id could be read".into());
+    };
     eprintln!("{say}: {} started (pid {pid})", m.name);
     let tag = format!("[{}]", m.name);
     if let Some(out) = child.stdout.take() {
