@@ -52,6 +52,7 @@ pub struct GaveUp {
     /// Why.
     pub failed: String,
 }
+
 /// The semaphores of Table 5.4 (and the trackers' token).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Sem {

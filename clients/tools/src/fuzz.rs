@@ -408,6 +408,7 @@ fn targets(root: &Root, data: bool, robots: &[(String, String)]) -> Vec<Target> 
         });
         // About one case in seven on each robot's blackboard.
         let mut names: Vec<&String> = robots.iter().map(|(robot, _)| robot).collect();
+        names.sort();
         names.dedup();
         for robot in names {
             for _ in 0..8 {
