@@ -51,9 +51,26 @@ pub enum ErrorCode {
     /// A command that acts came from a lower priority than one carried out
     /// less than that one's `suppress_ms` ago: it was not carried out.
     Suppressed,
+    /// The client speaks another protocol than the server (see
+    /// [`crate::version`]); the message names both builds and which to
+    /// upgrade. Nothing was done.
+    Version,
 }
 
 impl ErrorCode {
+    /// Whether a server answers this when it did not understand the
+    /// request: from a peer of another build as likely as from a mistake,
+    /// so the versions are worth naming with it.
+    pub fn misunderstood(self) -> bool {
+        matches!(
+            self,
+            ErrorCode::UnknownKey
+                | ErrorCode::BadParameter
+                | ErrorCode::BadJson
+                | ErrorCode::WrongType
+        )
+    }
+
     /// The code as it appears on the wire (`"unknown_semaphore"` …).
     pub fn as_str(self) -> &'static str {
         match self {
@@ -75,6 +92,7 @@ impl ErrorCode {
             ErrorCode::Quota => "quota",
             ErrorCode::Wildcard => "wildcard",
             ErrorCode::Suppressed => "suppressed",
+            ErrorCode::Version => "version",
         }
     }
 }

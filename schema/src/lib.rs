@@ -14,6 +14,8 @@
 //! - [`params`]: strict selector-parameter parsing shared by every server.
 //! - [`error`]: the error reply every server sends instead of a silent drop.
 //! - [`codec`]: the one encode and the one strict decode entry point.
+//! - [`version`]: this build and its protocol number, as every program
+//!   says them on its liveliness token and in its requests and replies.
 //!
 //! The crate deliberately does not depend on Zenoh: it is plain data, so any
 //! program (and any other language) can follow `docs/keys.md` without it.
@@ -25,8 +27,10 @@ pub mod keys;
 pub mod params;
 pub mod robot;
 pub mod sim;
+pub mod version;
 
 pub use codec::{decode, encode, DecodeError};
 pub use error::{ErrorCode, ErrorReply};
 pub use keys::{DataKey, KeyError, Name, Root};
 pub use params::Params;
+pub use version::Speaks;

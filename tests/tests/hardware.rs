@@ -1220,3 +1220,39 @@ fn every_read_a_server_lists_is_a_read_to_the_schema() {
         );
     }
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_hardware_server_refuses_another_protocol_by_name_and_says_its_version() {
+    use rome_schema::version::{Speaks, PROTOCOL};
+    let rig = Harness::sim(Duration::from_millis(500)).await;
+    let session = c_session(&rig).await;
+    let newer = Speaks {
+        version: "9.0.0".into(),
+        protocol: PROTOCOL + 1,
+    };
+    let reply = session
+        .get("rome/robot/r1/base/pose")
+        .attachment(newer.to_tag())
+        .timeout(Duration::from_secs(5))
+        .await
+        .unwrap()
+        .recv_async()
+        .await
+        .unwrap();
+    let err = reply.result().expect_err("refused");
+    let e: rome_schema::ErrorReply =
+        rome_schema::decode(&err.payload().to_bytes(), "error reply").unwrap();
+    assert_eq!(e.code, ErrorCode::Version, "{e}");
+    assert!(e.message.contains("robot r1 base"), "names the server: {e}");
+    assert!(e.message.contains(&Speaks::this().to_string()), "{e}");
+    // A command of this build is served, and says the server's build.
+    let c = rig.client("c", 128).await;
+    c.pose().await.unwrap();
+    let said = rome_client::alive::versions(&session, &Root::default(), Duration::from_secs(1))
+        .await
+        .unwrap();
+    let base = said
+        .iter()
+        .find(|(k, _)| k == "rome/alive/server/robot/r1/base");
+    assert_eq!(base.map(|(_, s)| s), Some(&Speaks::this()), "{said:?}");
+}

@@ -248,6 +248,29 @@ async fn an_observer_reads_but_cannot_move_or_write_and_an_operator_can() {
         .await
         .unwrap();
     let before = ob_robot.pose().await.unwrap();
+    // Anyone may ask each program's version, through the access control.
+    let said = rome_client::alive::versions(
+        &observer,
+        &rome_schema::Root::default(),
+        Duration::from_secs(2),
+    )
+    .await
+    .unwrap();
+    let keys: Vec<&str> = said.iter().map(|(k, _)| k.as_str()).collect();
+    assert!(
+        keys.contains(&"rome/alive/server/robot/r1/base"),
+        "{keys:?}"
+    );
+    assert!(
+        keys.iter()
+            .any(|k| k.starts_with("rome/alive/server/data/")),
+        "{keys:?}"
+    );
+    assert!(
+        keys.iter()
+            .any(|k| k.starts_with("rome/alive/client/operator/")),
+        "{keys:?}"
+    );
 
     // Writes do not: the acknowledged one is never answered …
     assert!(ob_data.set("Goal", &"HACKED").await.is_err());

@@ -53,6 +53,19 @@ pub async fn list(
     Ok(out)
 }
 
+/// The build and protocol each live program says beside its liveliness
+/// token, by token key. A program missing here said nothing: a build from
+/// before protocol versions (or the router's access control hid it).
+pub async fn versions(
+    session: &Session,
+    root: &Root,
+    timeout: Duration,
+) -> Result<Vec<(String, rome_schema::Speaks)>, ClientError> {
+    rome_serve::presence::versions(session, &root.alive_all(), timeout)
+        .await
+        .map_err(ClientError::zenoh)
+}
+
 /// Waits until a server's liveliness token exists (`kind` `robot`, `id`
 /// `r1/base`, as the server declares it): for starting clients right
 /// after their servers without racing them.

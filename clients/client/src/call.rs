@@ -60,9 +60,9 @@ pub(crate) async fn attempt(
     if let Some(p) = payload {
         get = get.payload(p.to_vec()).encoding(Encoding::APPLICATION_JSON);
     }
-    if let Some(stamp) = rome_clock::stamp() {
-        get = get.attachment(stamp.to_bytes().to_vec());
-    }
+    // The version tag rides on every request, so that a server of
+    // another protocol refuses it by name instead of misreading it.
+    get = get.attachment(rome_serve::presence::attachment(rome_clock::stamp()));
     let replies = get.await.map_err(ClientError::zenoh)?;
     // Waits ride on the same receiver: the first reply is the answer.
     let answer = replies.recv_async();
@@ -88,6 +88,39 @@ pub(crate) fn refusal(body: &[u8]) -> Result<Option<ErrorReply>, ClientError> {
         return Ok(None);
     }
     Ok(Some(decode(body, "error reply")?))
+}
+
+/// How long a client asks a server's presence for its version, after the
+/// server refused a request it did not understand.
+const VERSION_PATIENCE: Duration = Duration::from_millis(500);
+
+/// The error for a refusal `e` from the server called `name`, whose
+/// liveliness token is `presence`: a request the server did not
+/// understand, from a server of another protocol or one that says nothing
+/// of its version, is named as versions differing.
+pub(crate) async fn refused(
+    session: &Session,
+    e: ErrorReply,
+    presence: &str,
+    name: &str,
+) -> ClientError {
+    if !e.code.misunderstood() {
+        return ClientError::Server(e);
+    }
+    let said = rome_serve::presence::versions(session, presence, VERSION_PATIENCE)
+        .await
+        .unwrap_or_default();
+    let me = rome_schema::Speaks::this();
+    // Several data servers may answer (a follower beside the leader):
+    // any one of another protocol, or none at all, is worth naming.
+    let other = said.iter().find(|(_, s)| s.protocol != me.protocol);
+    if !said.is_empty() && other.is_none() {
+        return ClientError::Server(e);
+    }
+    ClientError::Versions {
+        versions: rome_schema::version::differ(&me, name, other.map(|(_, s)| s)),
+        refused: e,
+    }
 }
 
 /// A key with its selector parameters, `key?a=1;b=2`.

@@ -16,7 +16,8 @@ use rome_schema::data::{
     Committed, CreateReply, HistoryInfo, SemState, SignalReply, WaitStatus, MAX_HOLD_MS,
 };
 use rome_schema::keys::DataOp;
-use rome_schema::{decode, ErrorCode, Name, Root};
+use rome_schema::{decode, ErrorCode, ErrorReply, Name, Root};
+use rome_serve::presence::{self, Presence};
 use serde::de::DeserializeOwned;
 use serde::Serialize;
 use serde_json::Value;
@@ -24,7 +25,6 @@ use std::collections::HashMap;
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
-use zenoh::liveliness::LivelinessToken;
 use zenoh::pubsub::Subscriber;
 use zenoh::qos::Priority;
 use zenoh::sample::Sample;
@@ -93,7 +93,7 @@ struct Inner {
     owner: String,
     next_id: AtomicU64,
     retries: AtomicU64,
-    _token: LivelinessToken,
+    _token: Presence,
 }
 
 /// A connection to the data server. Cheap to clone; clones share one
@@ -109,9 +109,7 @@ impl DataClient {
         let n = NEXT_CLIENT.fetch_add(1, Ordering::Relaxed);
         let owner = format!("{}-{n}", session.zid());
         let role = Name::new(options.role.as_str())?;
-        let token = session
-            .liveliness()
-            .declare_token(options.root.alive_client(role.as_str(), &owner))
+        let token = presence::declare(session, &options.root.alive_client(role.as_str(), &owner))
             .await
             .map_err(ClientError::zenoh)?;
         let client = DataClient {
@@ -268,10 +266,17 @@ impl DataClient {
                 Some(Answer::Refused(e)) if e.code == ErrorCode::Busy => {
                     self.busy(&mut backoff, left).await
                 }
-                Some(Answer::Refused(e)) => return Err(ClientError::Server(e)),
+                Some(Answer::Refused(e)) => return Err(self.refused(e).await),
                 None => self.silence(&mut backoff, tried, left).await,
             }
         }
+    }
+
+    /// A refusal, with the versions named if they may be why.
+    async fn refused(&self, e: ErrorReply) -> ClientError {
+        let o = &self.inner.options;
+        let presence = o.root.alive_server("data", "*");
+        call::refused(&self.inner.session, e, &presence, "the data server").await
     }
 
     /// An attempt tried at `tried` got no reply: counts the retry and, if
@@ -626,7 +631,7 @@ impl DataClient {
                 Some(Answer::Refused(e)) if e.code == ErrorCode::Busy => {
                     self.busy(&mut backoff, Duration::MAX).await
                 }
-                Some(Answer::Refused(e)) => return Err(ClientError::Server(e)),
+                Some(Answer::Refused(e)) => return Err(self.refused(e).await),
                 Some(Answer::Reply { body, .. }) => {
                     let reply: <Wait as Command>::Reply = decode(&body, "wait reply")?;
                     match reply.status {

@@ -29,6 +29,15 @@ pub enum ClientError {
     /// are not strings …); nothing was sent.
     #[error("cannot write the value as JSON: {0}")]
     Value(String),
+    /// The server refused a request it did not understand, and it speaks
+    /// another protocol than this client (or says nothing of its version).
+    #[error("{refused}; {versions}")]
+    Versions {
+        /// The server's refusal.
+        refused: ErrorReply,
+        /// Both builds, and which to upgrade.
+        versions: String,
+    },
     /// Zenoh itself failed (bad configuration, session closed …).
     #[error("zenoh: {0}")]
     Zenoh(String),
@@ -42,7 +51,7 @@ impl ClientError {
     /// The server's error code, if the server refused the request.
     pub fn code(&self) -> Option<rome_schema::ErrorCode> {
         match self {
-            ClientError::Server(e) => Some(e.code),
+            ClientError::Server(e) | ClientError::Versions { refused: e, .. } => Some(e.code),
             _ => None,
         }
     }

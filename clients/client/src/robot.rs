@@ -29,6 +29,7 @@ use rome_schema::robot::{
     WheelSpeedReply, DEFAULT_LOCK_TTL_MS, DEFAULT_PRIORITY, SONARS,
 };
 use rome_schema::{decode, ErrorCode, Name, Root};
+use rome_serve::presence::{self, Presence};
 use serde::de::DeserializeOwned;
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -36,7 +37,6 @@ use std::sync::{Arc, Mutex};
 use std::time::Duration;
 use zenoh::bytes::Encoding;
 use zenoh::handlers::RingChannel;
-use zenoh::liveliness::LivelinessToken;
 use zenoh::qos::Priority;
 use zenoh::Session;
 
@@ -126,7 +126,7 @@ struct Inner {
     robot: Name,
     owner: String,
     fences: Mutex<HashMap<String, u64>>,
-    _token: LivelinessToken,
+    _token: Presence,
 }
 
 /// A client of one robot's hardware servers. Cheap to clone; clones share
@@ -219,9 +219,7 @@ impl RobotClient {
         let role = Name::new(options.role.as_str())?;
         let n = NEXT_CLIENT.fetch_add(1, Ordering::Relaxed);
         let owner = format!("{}-r{n}", session.zid());
-        let token = session
-            .liveliness()
-            .declare_token(options.root.alive_client(role.as_str(), &owner))
+        let token = presence::declare(session, &options.root.alive_client(role.as_str(), &owner))
             .await
             .map_err(ClientError::zenoh)?;
         Ok(RobotClient {
@@ -330,7 +328,11 @@ impl RobotClient {
             .await?;
             match answer {
                 Some(Answer::Reply { body, encoding }) => return Ok((body, encoding)),
-                Some(Answer::Refused(e)) => return Err(ClientError::Server(e)),
+                Some(Answer::Refused(e)) => {
+                    let name = format!("{}/{}", self.inner.robot, device.path());
+                    let presence = o.root.alive_server("robot", &name);
+                    return Err(call::refused(&self.inner.session, e, &presence, &name).await);
+                }
                 None => {}
             }
             // A silence that came at once: nobody serves the key right now

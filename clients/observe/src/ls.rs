@@ -3,9 +3,9 @@
 //!
 //! ```text
 //! $ rome ls
-//! CLASS   ROLE              ID
-//! server  robot/r1          base
-//! server  robot/r1/camera   up
+//! CLASS   ROLE              ID                                VERSION   PROTO
+//! server  robot/r1          base                              0.1.0         1
+//! server  robot/r1/camera   up                                0.1.0         1
 //! …
 //! ROBOT  DEVICE      STREAM  RATE Hz  BYTES
 //! r1     base        state     10.00    291
@@ -64,7 +64,12 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
     };
     // Peers learn each other's tokens just after connecting; a liveliness
     // subscriber with history waits for that instead of guessing.
-    let people = rome_client::alive::list(&session, &root, window).await?;
+    let (people, versions) = tokio::join!(
+        rome_client::alive::list(&session, &root, window),
+        rome_client::alive::versions(&session, &root, window)
+    );
+    let (people, versions) = (people?, versions?);
+    let speaks = |key: &str| versions.iter().find(|(k, _)| k == key).map(|(_, s)| s);
     // The streams are counted over the whole window, however soon the
     // tokens came.
     tokio::time::sleep_until((started + window).into()).await;
@@ -98,7 +103,7 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
         let rows: Vec<_> = people
             .iter()
             .map(
-                |p| serde_json::json!({"class": p.class, "role": p.role, "id": p.id, "key": p.key}),
+                |p| serde_json::json!({"class": p.class, "role": p.role, "id": p.id, "key": p.key, "speaks": speaks(&p.key)}),
             )
             .collect();
         println!(
@@ -114,9 +119,32 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
         );
         return Ok(exit::OK);
     }
-    println!("{:6}  {:16}  ID", "CLASS", "ROLE");
+    let me = rome_schema::Speaks::this();
+    println!(
+        "{:6}  {:16}  {:32}  {:8}  {:>5}",
+        "CLASS", "ROLE", "ID", "VERSION", "PROTO"
+    );
+    let mut differ = 0;
     for p in &people {
-        println!("{:6}  {:16}  {}", p.class, p.role, p.id);
+        let (version, protocol) = match speaks(&p.key) {
+            Some(s) => (s.version.clone(), s.protocol.to_string()),
+            None => ("-".to_string(), "-".to_string()),
+        };
+        if speaks(&p.key).is_none_or(|s| s.protocol != me.protocol) {
+            differ += 1;
+        }
+        println!(
+            "{:6}  {:16}  {:32}  {:8}  {:>5}",
+            p.class, p.role, p.id, version, protocol
+        );
+    }
+    if differ > 0 {
+        use std::io::Write;
+        let _ = std::io::stdout().flush();
+        eprintln!(
+            "mixed builds: this is {me}, and {differ} of {} speak another protocol or did not say (`-`: older than protocol versions); they may misread each other's requests",
+            people.len()
+        );
     }
     // Every device with a server, with its streams or none heard.
     let mut devices: Vec<(String, String)> = people

@@ -21,8 +21,13 @@
 //! - [`Undeclared`]: a server that could not declare itself on Zenoh.
 //! - [`parties`]: the processes that follow a lock-step clock, as the
 //!   clock's driver and every party hear them.
+//! - [`presence`]: a program's liveliness token with its version beside
+//!   it, and the attachment (stamp, version tag) of requests and replies.
+//!   A request from another protocol is refused here, before any server
+//!   parses it ([`ErrorCode::Version`]).
 
 pub mod parties;
+pub mod presence;
 
 use rome_clock::Held;
 use rome_schema::{encode, ErrorCode, ErrorReply};
@@ -144,6 +149,14 @@ impl<T: Send + 'static> Inbox<T> {
         let (hold, reads) = (self.hold.clone(), self.reads.clone());
         let held_refusal = busy(&queue.label, queue.capacity, "waiting for their round");
         move |q| {
+            if let (_, Some(client)) = presence::split(q.attachment()) {
+                if client.protocol != rome_schema::version::PROTOCOL {
+                    let e = other_protocol(&queue.label, &client);
+                    tracing::warn!(server = %queue.label, %client, "request from another protocol refused");
+                    queue.runtime.spawn(async move { reply_err(&q, &e).await });
+                    return;
+                }
+            }
             let q = match hold.as_ref().filter(|h| h.active()) {
                 None => q,
                 Some(h) => {
@@ -296,9 +309,22 @@ impl<T: Send + 'static> Queue<T> {
     }
 }
 
-/// A message's round stamp, if its attachment is one.
+/// A message's round stamp, if its attachment starts with one.
 fn stamp_of(attachment: Option<&zenoh::bytes::ZBytes>) -> Option<rome_clock::Stamp> {
-    rome_clock::Stamp::from_bytes(&attachment?.to_bytes())
+    presence::split(attachment).0
+}
+
+/// The refusal of a request from a client of another protocol, from
+/// server `label`.
+fn other_protocol(label: &str, client: &rome_schema::Speaks) -> ErrorReply {
+    let me = rome_schema::Speaks::this();
+    ErrorReply::new(
+        ErrorCode::Version,
+        format!(
+            "versions differ: {label} is {me}, the client is {client}; {}; nothing was done",
+            me.upgrade_advice(label, client, "the client")
+        ),
+    )
 }
 
 /// The answer to a request that found `capacity` others `waiting` (in the
@@ -318,7 +344,8 @@ pub async fn reply(
     bytes: impl Into<zenoh::bytes::ZBytes>,
     encoding: Encoding,
 ) {
-    if let Err(e) = query.reply(key, bytes).encoding(encoding).await {
+    let reply = query.reply(key, bytes).encoding(encoding);
+    if let Err(e) = reply.attachment(presence::attachment(None)).await {
         tracing::warn!(%key, error = %e, "reply failed");
     }
 }
@@ -330,13 +357,31 @@ pub fn reply_now(
     bytes: impl Into<zenoh::bytes::ZBytes>,
     encoding: Encoding,
 ) {
-    if let Err(e) = zenoh::Wait::wait(query.reply(key, bytes).encoding(encoding)) {
+    let reply = query.reply(key, bytes).encoding(encoding);
+    if let Err(e) = zenoh::Wait::wait(reply.attachment(presence::attachment(None))) {
         tracing::warn!(%key, error = %e, "reply failed");
     }
 }
 
-/// Answers `query` with an error reply carrying `e` as JSON.
+/// Answers `query` with an error reply carrying `e` as JSON. A request
+/// the server did not understand, from a client that did not say its
+/// version, is told which build the server is: a RoME client that says
+/// nothing is older than protocol versions.
 pub async fn reply_err(query: &Query, e: &ErrorReply) {
+    let told;
+    let e = if e.code.misunderstood() && presence::split(query.attachment()).1.is_none() {
+        told = ErrorReply::new(
+            e.code,
+            format!(
+                "{} (this server is {}; the client did not say its version: if it is a rome program, it is older, so upgrade it)",
+                e.message,
+                rome_schema::Speaks::this()
+            ),
+        );
+        &told
+    } else {
+        e
+    };
     if let Err(err) = query
         .reply_err(encode(e))
         .encoding(Encoding::APPLICATION_JSON)

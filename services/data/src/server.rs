@@ -308,9 +308,8 @@ pub async fn run(
         .await
         .map_err(|e| declare_err("the liveliness subscriber", e))?;
     // Declared last: a client that sees this token can query at once.
-    let _token = session
-        .liveliness()
-        .declare_token(root.alive_server("data", &session.zid().to_string()))
+    let alive = root.alive_server("data", &session.zid().to_string());
+    let _token = rome_serve::presence::declare(&session, &alive)
         .await
         .map_err(|e| declare_err("the liveliness token", e))?;
     tracing::info!(root = root.as_str(), zid = %session.zid(), "data server ready");

@@ -268,10 +268,7 @@ pub async fn run<S: Service>(
         server.restore_lock().await;
     }
     server.settle();
-    let _token = server
-        .session
-        .liveliness()
-        .declare_token(&alive_key)
+    let _token = rome_serve::presence::declare(&server.session, &alive_key)
         .await
         .map_err(|e| declare_err("the liveliness token", e))?;
     tracing::info!(server = %server.config.label(), "ready");

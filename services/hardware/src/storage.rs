@@ -158,10 +158,8 @@ pub async fn run_on(
     };
     let updates = session.declare_subscriber(&key_expr).await?;
     let queries = session.declare_queryable(&key_expr).complete(true).await?;
-    let _token = session
-        .liveliness()
-        .declare_token(root.alive_server(STORE_KIND, &session.zid().to_string()))
-        .await?;
+    let alive = root.alive_server(STORE_KIND, &session.zid().to_string());
+    let _token = rome_serve::presence::declare(&session, &alive).await?;
     tracing::info!(%key_expr, records = stored.len(), file = ?file.as_ref().map(|f| f.path.display().to_string()), "storage ready");
     tokio::pin!(shutdown);
     loop {

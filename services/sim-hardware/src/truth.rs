@@ -65,9 +65,7 @@ pub async fn run(
         .callback(inbox.on_query())
         .await
         .map_err(|e| declare_err("the truth queryable", e))?;
-    let _token = session
-        .liveliness()
-        .declare_token(root.alive_server("sim", "truth"))
+    let _token = rome_serve::presence::declare(&session, &root.alive_server("sim", "truth"))
         .await
         .map_err(|e| declare_err("the liveliness token", e))?;
     let mut server = TruthServer {
