@@ -323,9 +323,17 @@ async fn navigation_over_a_lossy_slow_delayed_link_arrives_exactly_once() {
             &["data", "set", "Probe", &v],
             Stdio::piped(),
         );
-        tokio::task::spawn_blocking(move || w.output())
+        let done = tokio::task::spawn_blocking(move || w.try_output())
             .await
             .unwrap();
+        // Its stderr went to its log: a failure shows that log.
+        if let Err(e) = done {
+            let said = std::fs::read_to_string(log(&format!("set-{i}"))).unwrap_or_default();
+            panic!(
+                "write {i} from the station failed: {e}\n--- its log ---\n{said}\n{}",
+                logs(&dir.join("logs"))
+            );
+        }
     }
     let history = ds.history("Probe").await.unwrap();
     assert_eq!(history.stored, writes, "{history:?}");
