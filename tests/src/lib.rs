@@ -327,6 +327,13 @@ pub fn spawn_logged<S: AsRef<std::ffi::OsStr>>(
     ))
 }
 
+/// The `rome` program a test runs: `built` (the test's own
+/// `CARGO_BIN_EXE_rome`), or `ROME_EXE` when set, so a slow test can be
+/// run many times against one build while the tree is rebuilt.
+pub fn rome_exe(built: &str) -> String {
+    std::env::var("ROME_EXE").unwrap_or_else(|_| built.to_string())
+}
+
 /// A child process killed (SIGKILL) when dropped.
 pub struct ChildGuard(pub Option<Child>);
 

@@ -17,7 +17,9 @@ use std::process::Command;
 use std::time::{Duration, Instant};
 use zenoh::Session;
 
-const ROME: &str = env!("CARGO_BIN_EXE_rome");
+fn exe() -> String {
+    rome_tests::rome_exe(env!("CARGO_BIN_EXE_rome"))
+}
 
 fn router_config() -> String {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -27,7 +29,7 @@ fn router_config() -> String {
 }
 
 fn rome(args: &[&str], log: &Path) -> ChildGuard {
-    rome_tests::spawn_logged(ROME, args, log)
+    rome_tests::spawn_logged(&exe(), args, log)
 }
 
 fn net(port: u16, secrets: Option<Secrets>) -> NetOptions {
@@ -94,14 +96,14 @@ async fn deploy() -> Deployment {
     let secrets = dir.join("secrets");
     let secrets_s = secrets.display().to_string();
     let log = dir.join("rome.log");
-    let made = Command::new(ROME)
+    let made = Command::new(exe())
         .args(["certs", &secrets_s])
         .output()
         .unwrap();
     assert!(made.status.success(), "rome certs: {made:?}");
     let config = router_config();
     let (router, port, _) = rome_tests::spawn_listening(
-        ROME,
+        &exe(),
         &[
             "-c",
             &config,
@@ -188,7 +190,7 @@ async fn sessions_without_the_right_credentials_are_refused() {
 
     // A certificate from another authority, with the right password.
     let stranger = d.dir.parent().unwrap().join("stranger");
-    let made = Command::new(ROME)
+    let made = Command::new(exe())
         .args(["certs", stranger.to_str().unwrap(), "--names", "observer"])
         .output()
         .unwrap();

@@ -29,7 +29,9 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::Duration;
 
-const ROME: &str = env!("CARGO_BIN_EXE_rome");
+fn rome() -> String {
+    rome_tests::rome_exe(env!("CARGO_BIN_EXE_rome"))
+}
 
 /// Runs a setup command; panics with its output if it fails.
 fn sh(args: &[&str]) {
@@ -145,10 +147,10 @@ fn rome_in(ns: Option<&str>, args: &[&str], log: &Path, stdout: Stdio) -> ChildG
     let mut cmd = match ns {
         Some(ns) => {
             let mut c = Command::new("ip");
-            c.args(["netns", "exec", ns, ROME]);
+            c.args(["netns", "exec", ns, &rome()]);
             c
         }
-        None => Command::new(ROME),
+        None => Command::new(rome()),
     };
     ChildGuard(Some(
         cmd.args(args)
