@@ -23,7 +23,8 @@
 //! ```text
 //! rome data-server (durable, in DIR/data) ── listens on P
 //!   ├─ rome sim --first k --robots 1   one world per robot, connected to P
-//!   ├─ relay k ── rK's navigator, ctracker, mapper, plfinder, planner
+//!   ├─ relay k ── rK's crew (`rome crew`: navigator, ctracker, mapper,
+//!   │             plfinder, each restarted by the crew) and planner
 //!   └─ relay D ── the writers and waiters (tasks of `rome soak`)
 //! ```
 //!
@@ -80,6 +81,9 @@ pub struct Args {
     /// Mean seconds between two faults.
     #[arg(long, default_value_t = 6.0)]
     pub fault_every: f64,
+    /// The faults to throw, comma-separated (default: every kind).
+    #[arg(long, value_delimiter = ',', value_parser = clap::builder::PossibleValuesParser::new(FAULTS.iter().copied()))]
+    pub faults: Vec<String>,
     /// Seed of the faults and of the worlds.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
@@ -163,7 +167,13 @@ impl Drop for Proc {
 /// How navigation runs ended.
 #[derive(Debug, Default, serde::Serialize)]
 struct Runs {
+    /// Ended with the Planner's success and, by ground truth, within
+    /// [`ARRIVED_WITHIN_M`] of the goal (or with no truth to ask).
     arrived: u64,
+    /// Of those, ones whose world did not answer for ground truth.
+    arrived_unjudged: u64,
+    /// The farthest an arrived run ended from its goal, m.
+    worst_miss_m: f64,
     failed_with_reason: u64,
     failed_without_reason: u64,
     killed_by_soak: u64,
@@ -286,25 +296,22 @@ pub async fn run(_common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
         }
         let mut sim = Proc::new(&dir, &format!("sim-{robot}"), sim_args);
         sim.start(&exe)?;
-        let mut clients = Vec::new();
-        for role in ["navigator", "ctracker", "mapper", "plfinder"] {
-            let mut p = Proc::new(
-                &dir,
-                &format!("{role}-{robot}"),
-                strings(&[
-                    "--no-multicast",
-                    "--mode",
-                    "client",
-                    "--connect",
-                    &link,
-                    role,
-                    "--robot",
-                    &robot,
-                ]),
-            );
-            p.start(&exe)?;
-            clients.push(p);
-        }
+        // Its crew restarts a killed member itself, as on a robot's host.
+        let mut crew = Proc::new(
+            &dir,
+            &format!("crew-{robot}"),
+            strings(&[
+                "--no-multicast",
+                "--mode",
+                "client",
+                "--connect",
+                &link,
+                "crew",
+                "--robot",
+                &robot,
+            ]),
+        );
+        crew.start(&exe)?;
         robots.push(RobotRig {
             robot,
             from: from.clone(),
@@ -313,7 +320,7 @@ pub async fn run(_common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
             relay,
             link,
             sim,
-            clients,
+            crew,
             planner: None,
             runs: 0,
         });
@@ -346,8 +353,13 @@ pub async fn run(_common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
         .map(|i| Waiter::start(i, data_port, pool, shared.clone(), &mut rng))
         .collect();
 
-    // Watches every robot's base state for lock releases.
+    // Watches every robot's base state for lock releases, and asks the
+    // worlds where a run truly ended.
     let watcher = NetOptions::loopback_client(port).open().await?;
+    let judge = Judge {
+        session: watcher.clone(),
+        world: rome_maps::world::World::from_map(&rome_maps::load_named("eb3")?),
+    };
 
     let mut summary = Summary {
         units: args.units,
@@ -357,6 +369,11 @@ pub async fn run(_common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
     let started = Instant::now();
     let end = started + Duration::from_secs_f64(args.minutes * 60.0);
     let mut next_fault = started + exp_secs(&mut rng, args.fault_every);
+    let kinds: Vec<&str> = if args.faults.is_empty() {
+        FAULTS.to_vec()
+    } else {
+        args.faults.iter().map(String::as_str).collect()
+    };
     let mut pending: Vec<(Instant, Restart)> = Vec::new();
     let mut watches: Vec<tokio::task::JoinHandle<(Released, Option<Duration>)>> = Vec::new();
     let mut paused: Vec<(Instant, usize)> = Vec::new();
@@ -371,7 +388,6 @@ pub async fn run(_common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
             match r {
                 Restart::DataServer => start_again(&mut ds, &exe),
                 Restart::Sim(k) => start_again(&mut robots[k].sim, &exe),
-                Restart::Client(k, c) => start_again(&mut robots[k].clients[c], &exe),
                 Restart::Waiter(i) => {
                     waiters[i] = Waiter::start(i, data_port, pool, shared.clone(), &mut rng)
                 }
@@ -397,21 +413,15 @@ pub async fn run(_common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
             if r.sim.ended().is_some() && !pending.iter().any(|(_, p)| restarting(p)) {
                 start_again(&mut r.sim, &exe);
             }
-            for c in 0..r.clients.len() {
-                let waiting = pending
-                    .iter()
-                    .any(|(_, p)| matches!(p, Restart::Client(j, i) if *j == k && *i == c));
-                if r.clients[c].ended().is_some() && !waiting {
-                    start_again(&mut r.clients[c], &exe);
-                }
+            if r.crew.ended().is_some() {
+                start_again(&mut r.crew, &exe);
             }
-            r.judge_planner(&mut summary.runs, &exe)?;
+            r.judge_planner(&mut summary.runs, &exe, &judge).await?;
         }
         // A fault.
         if now >= next_fault {
             next_fault = now + exp_secs(&mut rng, args.fault_every);
-            let kind = pick(&mut rng, FAULTS.len());
-            let name = FAULTS[kind];
+            let name = kinds[pick(&mut rng, kinds.len())];
             let back = now + Duration::from_millis(1_000 + rng.next_u64() % 2_000);
             let k = pick(&mut rng, robots.len());
             match name {
@@ -420,7 +430,7 @@ pub async fn run(_common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
                     let moving = base_state(&watcher, &robots[k].robot)
                         .await
                         .is_some_and(|s| s.wheel_speed_mm_s.abs() > 1.0);
-                    robots[k].clients[0].kill();
+                    robots[k].kill_member("navigator");
                     if moving {
                         watches.push(tokio::spawn(released(
                             watcher.clone(),
@@ -429,7 +439,6 @@ pub async fn run(_common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
                             Instant::now(),
                         )));
                     }
-                    pending.push((back, Restart::Client(k, 0)));
                 }
                 "kill-lock-holder" => {
                     // Someone takes the robot's base lock and dies holding it.
@@ -464,9 +473,8 @@ pub async fn run(_common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
                     }
                 }
                 "kill-nav-client" => {
-                    let c = 1 + pick(&mut rng, robots[k].clients.len() - 1);
-                    robots[k].clients[c].kill();
-                    pending.push((back, Restart::Client(k, c)));
+                    let role = ["ctracker", "mapper", "plfinder"][pick(&mut rng, 3)];
+                    robots[k].kill_member(role);
                 }
                 "kill-planner" => {
                     if let Some(p) = robots[k].planner.as_mut() {
@@ -489,7 +497,7 @@ pub async fn run(_common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
                     let l = pick(&mut rng, robots.len() + 1);
                     link_of(&robots, &data_relay, l).pause();
                     paused.push((
-                        now + Duration::from_millis(1_000 + rng.next_u64() % 5_000),
+                        now + Duration::from_millis(1_000 + rng.next_u64() % 4_000),
                         l,
                     ));
                 }
@@ -539,7 +547,7 @@ pub async fn run(_common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
         if let Some(mut p) = r.planner.take() {
             if p.ended().is_some() {
                 r.planner = Some(p);
-                r.judge_planner(&mut summary.runs, &exe)?;
+                r.judge_planner(&mut summary.runs, &exe, &judge).await?;
             } else {
                 p.kill();
                 summary.runs.cut_short_by_end += 1;
@@ -752,9 +760,17 @@ fn print_summary(s: &Summary) {
         s.locks_not_taken
     );
     let r = &s.runs;
+    let judged = r.arrived + r.failed_with_reason + r.failed_without_reason;
     println!(
-        "navigation runs: {} arrived, {} failed with a reason, {} failed without one, {} killed by the soak, {} cut short by the end",
-        r.arrived, r.failed_with_reason, r.failed_without_reason, r.killed_by_soak, r.cut_short_by_end
+        "navigation runs: {} of {judged} arrived within {ARRIVED_WITHIN_M} m by ground truth ({:.0} %; worst {:.2} m; {} with no truth to ask), {} failed with a reason, {} failed without one; apart: {} killed by the soak, {} cut short by the end",
+        r.arrived,
+        100.0 * r.arrived as f64 / judged.max(1) as f64,
+        r.worst_miss_m,
+        r.arrived_unjudged,
+        r.failed_with_reason,
+        r.failed_without_reason,
+        r.killed_by_soak,
+        r.cut_short_by_end
     );
     for (why, n) in &r.reasons {
         println!("  {n} × {why}");

@@ -24,7 +24,6 @@ pub(super) const FAULTS: &[&str] = &[
 pub(super) enum Restart {
     DataServer,
     Sim(usize),
-    Client(usize, usize),
     Waiter(usize),
     Writer(usize),
 }
@@ -38,16 +37,23 @@ pub(super) struct RobotRig {
     pub(super) relay: Relay,
     pub(super) link: String,
     pub(super) sim: Proc,
-    /// navigator, ctracker, mapper, plfinder.
-    pub(super) clients: Vec<Proc>,
+    /// `rome crew`: navigator, ctracker, mapper, plfinder, each started
+    /// again by the crew when it is killed.
+    pub(super) crew: Proc,
     pub(super) planner: Option<Proc>,
     pub(super) runs: u32,
 }
 
 impl RobotRig {
-    /// Judges a planner that ended, and starts the next run when the
-    /// robot's world and clients are up.
-    pub(super) fn judge_planner(&mut self, runs: &mut Runs, exe: &Path) -> anyhow::Result<()> {
+    /// Judges a planner that ended, by its exit and by where the robot
+    /// truly stands, and starts the next run when the robot's world and
+    /// crew are up.
+    pub(super) async fn judge_planner(
+        &mut self,
+        runs: &mut Runs,
+        exe: &Path,
+        judge: &Judge,
+    ) -> anyhow::Result<()> {
         if let Some(p) = self.planner.as_mut() {
             let Some(status) = p.ended() else {
                 return Ok(());
@@ -55,22 +61,41 @@ impl RobotRig {
             let out = std::fs::read_to_string(p.log.with_extension("out")).unwrap_or_default();
             let err = std::fs::read_to_string(&p.log).unwrap_or_default();
             self.planner = None;
-            if status.success() {
-                runs.arrived += 1;
-                self.at_start = !self.at_start;
-            } else {
-                match reason(&out, &err) {
-                    Some(why) => {
-                        runs.failed_with_reason += 1;
-                        *runs.reasons.entry(why).or_default() += 1;
-                    }
-                    None => runs.failed_without_reason += 1,
+            let goal = if self.at_start { &self.to } else { &self.from };
+            let verdict = if status.success() {
+                match judge.miss_m(&self.robot, goal).await {
+                    Some(m) if m <= ARRIVED_WITHIN_M => Ok(Some(m)),
+                    Some(m) => Err(Some(format!(
+                        "done by the Planner's account, but {m:.2} m from its goal by ground truth"
+                    ))),
+                    None => Ok(None),
                 }
-                // Back to the start, in a fresh world.
-                self.reset(exe);
+            } else {
+                Err(reason(&out, &err))
+            };
+            match verdict {
+                Ok(miss) => {
+                    runs.arrived += 1;
+                    match miss {
+                        Some(m) => runs.worst_miss_m = runs.worst_miss_m.max(m),
+                        None => runs.arrived_unjudged += 1,
+                    }
+                    self.at_start = !self.at_start;
+                }
+                Err(why) => {
+                    match why {
+                        Some(why) => {
+                            runs.failed_with_reason += 1;
+                            *runs.reasons.entry(shorten(&why)).or_default() += 1;
+                        }
+                        None => runs.failed_without_reason += 1,
+                    }
+                    // Back to the start, in a fresh world.
+                    self.reset(exe);
+                }
             }
         }
-        if self.planner.is_none() && self.sim.running() && self.clients.iter().all(Proc::running) {
+        if self.planner.is_none() && self.sim.running() && self.crew.running() {
             self.runs += 1;
             let (from, to) = if self.at_start {
                 (&self.from, &self.to)
@@ -104,10 +129,50 @@ impl RobotRig {
         Ok(())
     }
 
+    /// Kills the crew's member `role` with SIGKILL (the crew starts it
+    /// again); false if it was not found (between a death and its restart).
+    pub(super) fn kill_member(&self, role: &str) -> bool {
+        let Some(crew) = self.crew.child.as_ref().map(Child::id) else {
+            return false;
+        };
+        match member_pid(crew, role) {
+            Some(pid) => Command::new("kill")
+                .args(["-KILL", &pid.to_string()])
+                .status()
+                .is_ok_and(|s| s.success()),
+            None => false,
+        }
+    }
+
     pub(super) fn reset(&mut self, exe: &Path) {
         self.sim.kill();
         start_again(&mut self.sim, exe);
         self.at_start = true;
+    }
+}
+
+/// How far from its goal, by ground truth, a run may end and count as
+/// arrived.
+pub(super) const ARRIVED_WITHIN_M: f64 = 1.0;
+
+/// Ground truth, to judge where a run really ended.
+pub(super) struct Judge {
+    pub(super) session: zenoh::Session,
+    pub(super) world: rome_maps::world::World,
+}
+
+impl Judge {
+    /// How far robot `robot` truly stands from position `goal`'s point on
+    /// the line of lights, m; `None` when its world does not answer.
+    pub(super) async fn miss_m(&self, robot: &str, goal: &str) -> Option<f64> {
+        let at = self.world.position(goal)?.in_corridor();
+        let root = rome_schema::Root::default();
+        let truth = rome_client::sim::TruthClient::new(&self.session, &root, robot)
+            .ok()?
+            .get()
+            .await
+            .ok()?;
+        Some(((truth.x_mm - at.x).powi(2) + (truth.y_mm - at.y).powi(2)).sqrt() / 1000.0)
     }
 }
 
@@ -134,6 +199,24 @@ pub(super) fn shorten(line: &str) -> String {
         .map(|c| if c.is_ascii_digit() { '#' } else { c })
         .collect();
     words.chars().take(140).collect()
+}
+
+/// The process id of `parent`'s child running `rome <role> …` (Linux:
+/// each of the parent's threads lists the children it started).
+fn member_pid(parent: u32, role: &str) -> Option<u32> {
+    let tasks = std::fs::read_dir(format!("/proc/{parent}/task")).ok()?;
+    tasks
+        .flatten()
+        .filter_map(|t| std::fs::read_to_string(t.path().join("children")).ok())
+        .flat_map(|c| {
+            c.split_whitespace()
+                .filter_map(|p| p.parse::<u32>().ok())
+                .collect::<Vec<_>>()
+        })
+        .find(|pid| {
+            std::fs::read(format!("/proc/{pid}/cmdline"))
+                .is_ok_and(|cmd| cmd.split(|b| *b == 0).nth(1) == Some(role.as_bytes()))
+        })
 }
 
 pub(super) fn start_again(p: &mut Proc, exe: &Path) {
