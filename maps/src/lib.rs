@@ -16,11 +16,14 @@
 //!   corridors' centre lines.
 //! - [`render`]: a picture of the map, as SVG or PNG, optionally with a
 //!   route or a trajectory drawn on it; labels in DejaVu Sans.
+//! - [`building`]: several floors joined by elevators (§5.4.6), and
+//!   routes that ride them (`3:350R` → `4:450R`).
 //! - [`font`]: the 5×7 lettering of the simulated door plates.
 //!
 //! The format is described in `docs/stickrep.md`; `maps/data/` holds the
 //! maps.
 
+pub mod building;
 pub mod font;
 pub mod geometry;
 pub mod model;
@@ -62,10 +65,21 @@ pub mod builtin {
     /// Routes on the Campus, `maps/data/campus.routes`.
     pub const CAMPUS_ROUTES: &str = include_str!("../data/campus.routes");
 
+    /// The EB3 tower, `maps/data/tower.bldg`: EB3 and two floors above it
+    /// (`maps/data/tower-4.stk`, `tower-5.stk`, written by
+    /// `maps/tools/tower.py`), joined by its elevators.
+    pub const TOWER: &str = include_str!("../data/tower.bldg");
+    /// The tower's fourth floor.
+    pub const TOWER_4: &str = include_str!("../data/tower-4.stk");
+    /// The tower's fifth floor.
+    pub const TOWER_5: &str = include_str!("../data/tower-5.stk");
+
     /// The text of a built-in map by name.
     pub fn text(name: &str) -> Option<&'static str> {
         match name {
             "eb3" => Some(EB3),
+            "tower-4" => Some(TOWER_4),
+            "tower-5" => Some(TOWER_5),
             "fig5_3" => Some(FIG5_3),
             "annex" => Some(ANNEX),
             "campus" => Some(CAMPUS),
@@ -90,6 +104,22 @@ pub fn load_named(name_or_path: &str) -> Result<Map, LoadError> {
         Some(text) => from_text(format!("{name_or_path} (built in)"), text),
         None => load(std::path::Path::new(name_or_path)),
     }
+}
+
+/// Whether `name_or_path` names a building (the built-in `tower`, or a
+/// `.bldg` file) rather than one floor's map.
+pub fn is_building(name_or_path: &str) -> bool {
+    name_or_path == "tower" || name_or_path.ends_with(".bldg")
+}
+
+/// Loads the built-in building `tower`, or else a building file.
+pub fn load_building_named(name_or_path: &str) -> Result<building::Building, LoadError> {
+    if name_or_path == "tower" {
+        return building::building_from_text("tower (built in)", builtin::TOWER, |m| {
+            load_named(m.strip_suffix(".stk").unwrap_or(m))
+        });
+    }
+    building::load_building(std::path::Path::new(name_or_path))
 }
 
 /// Reads, parses and validates a map file; every problem is reported.
@@ -126,6 +156,10 @@ pub enum LoadError {
     /// The text does not follow the format.
     #[error(transparent)]
     Parse(ParseError),
+    /// A building's floors or elevators are not sound: every problem, a
+    /// line each, `FILE:LINE: message`.
+    #[error("{0}")]
+    Building(String),
     /// The map breaks rules of StickRep.
     #[error("{}", problems.iter().map(|p| format!("{file}:{p}")).collect::<Vec<_>>().join("\n"))]
     Invalid {

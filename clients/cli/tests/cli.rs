@@ -550,6 +550,43 @@ fn map_route_measures_table_6_1_routes_and_names_unknown_rooms() {
 }
 
 #[test]
+fn map_commands_take_a_building_of_floors() {
+    let out = offline_ok(["map", "check", "tower"]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("3 floor(s), 2 elevator(s)"), "{text}");
+    assert!(text.contains("elevator acs.elev: floors 3, 4, 5"), "{text}");
+    let out = offline_ok(["map", "route", "tower", "3:350R", "5:576L"]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("riding elevator"), "{text}");
+    assert!(text.contains("floor 3: 350R ->") && text.contains("floor 5: "), "{text}");
+    let err = offline_err(["map", "route", "tower", "4:350R", "3:376L"]);
+    assert!(err.contains("no position '4:350R'") && err.contains("4:450R"), "{err}");
+
+    let dir = rome_tests::TestDir::new("building");
+    let file = dir.path().join("two.bldg");
+    std::fs::write(&file, "building two\nfloor 3 eb3\nfloor 1 annex\n").unwrap();
+    let err = offline_err([OsStr::new("map"), OsStr::new("check"), file.as_os_str()]);
+    assert!(
+        err.contains("elevator 'acs.elev' is on floor '3' only") && err.contains("two.bldg:2"),
+        "{err}"
+    );
+    let out = offline_ok([
+        OsStr::new("map"),
+        OsStr::new("render"),
+        OsStr::new("tower"),
+        OsStr::new("-o"),
+        dir.path().join("t.png").as_os_str(),
+        OsStr::new("--route"),
+        OsStr::new("3:350R"),
+        OsStr::new("5:576L"),
+    ]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    for floor in ["3", "4", "5"] {
+        assert!(dir.path().join(format!("t-{floor}.png")).exists(), "{text}");
+    }
+}
+
+#[test]
 fn bench_sim_reports_each_robot_count() {
     let out = offline_ok([
         "bench",
