@@ -146,6 +146,19 @@ impl Proc {
         }
     }
 
+    /// Asks it to stop (SIGTERM: a crew stops its members first) and
+    /// waits up to 5 s, then kills it.
+    fn stop(&mut self) {
+        if let Some(c) = self.child.as_mut() {
+            let _ = Command::new("kill").args(["-TERM", &c.id().to_string()]).status();
+            let deadline = Instant::now() + Duration::from_secs(5);
+            while Instant::now() < deadline && matches!(c.try_wait(), Ok(None)) {
+                std::thread::sleep(Duration::from_millis(50));
+            }
+        }
+        self.kill();
+    }
+
     /// The exit status if it ended by itself.
     fn ended(&mut self) -> Option<std::process::ExitStatus> {
         let status = self.child.as_mut()?.try_wait().ok()??;

@@ -144,9 +144,16 @@ impl RobotRig {
         }
     }
 
+    /// Puts the robot back at its start, as an operator would after a
+    /// failed or killed run: a fresh world, and its crew started afresh.
+    /// A crew left running would carry on with the goal it had, measured
+    /// in the old world's odometry, and drive the teleported robot into
+    /// walls while the next run's Planner waits for it.
     pub(super) fn reset(&mut self, exe: &Path) {
         self.sim.kill();
+        self.crew.stop();
         start_again(&mut self.sim, exe);
+        start_again(&mut self.crew, exe);
         self.at_start = true;
     }
 }
