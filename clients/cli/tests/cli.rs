@@ -558,9 +558,15 @@ fn map_commands_take_a_building_of_floors() {
     let out = offline_ok(["map", "route", "tower", "3:350R", "5:576L"]);
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(text.contains("riding elevator"), "{text}");
-    assert!(text.contains("floor 3: 350R ->") && text.contains("floor 5: "), "{text}");
+    assert!(
+        text.contains("floor 3: 350R ->") && text.contains("floor 5: "),
+        "{text}"
+    );
     let err = offline_err(["map", "route", "tower", "4:350R", "3:376L"]);
-    assert!(err.contains("no position '4:350R'") && err.contains("4:450R"), "{err}");
+    assert!(
+        err.contains("no position '4:350R'") && err.contains("4:450R"),
+        "{err}"
+    );
 
     let dir = rome_tests::TestDir::new("building");
     let file = dir.path().join("two.bldg");

@@ -94,7 +94,10 @@ impl Default for Policy {
             restart: Restart::OnFailure,
             backoff: Duration::from_millis(500),
             max_backoff: Duration::from_secs(30),
-            settled: Duration::from_secs(60),
+            // A member that ran this long is not failing at once: killed
+            // or crashed in the middle of its work, it is wanted back
+            // soon (a Navigator's Planner gives up on a long silence).
+            settled: Duration::from_secs(10),
         }
     }
 }
@@ -414,7 +417,7 @@ mod tests {
         }
         assert_eq!(w, Duration::from_secs(30), "capped");
         assert_eq!(
-            p.next_backoff(Some(w), Duration::from_secs(61)),
+            p.next_backoff(Some(w), Duration::from_secs(11)),
             Duration::from_millis(500),
             "a settled run starts the doubling again"
         );

@@ -150,7 +150,9 @@ impl Proc {
     /// waits up to 5 s, then kills it.
     fn stop(&mut self) {
         if let Some(c) = self.child.as_mut() {
-            let _ = Command::new("kill").args(["-TERM", &c.id().to_string()]).status();
+            let _ = Command::new("kill")
+                .args(["-TERM", &c.id().to_string()])
+                .status();
             let deadline = Instant::now() + Duration::from_secs(5);
             while Instant::now() < deadline && matches!(c.try_wait(), Ok(None)) {
                 std::thread::sleep(Duration::from_millis(50));

@@ -45,7 +45,7 @@ pub struct Args {
     #[arg(long, value_enum, default_value = "on-failure")]
     restart: Restart,
     /// The first wait before a restart, seconds; it doubles while a member
-    /// keeps ending within a minute, up to 30 s.
+    /// keeps ending within 10 s of its start, up to 30 s.
     #[arg(long, default_value_t = 0.5, value_name = "SECS")]
     backoff: f64,
 }
