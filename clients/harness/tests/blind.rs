@@ -192,3 +192,52 @@ async fn light_offsets_that_are_not_numbers_give_the_segment_up_and_the_ctracker
     navigating.abort();
     rig.stop().await;
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_ctracker_killed_while_a_light_is_in_view_gives_its_token_back() {
+    // A child took $LightToken without undo: a CTracker killed while a
+    // light was in view kept the token from every later CTracker of the
+    // robot, which then counted no light again (every one "missed").
+    let (rig, _stepper, heading, planner) = common::one_robot(2.0).await;
+    let navigating = common::navigator(&rig, DataOptions::new("navigator")).await;
+    let tracking = common::ctracker(&rig).await;
+    planner
+        .set(Var::LightOffset, &vec![1_024.0, 6_000.0, 6_000.0])
+        .await
+        .unwrap();
+    planner.set(Var::GoalDistance, &3i64).await.unwrap();
+    planner.set(Var::GoalDirection, &heading).await.unwrap();
+    planner.up(Sem::TrackData).await.unwrap();
+    planner
+        .give_goal(&Goal {
+            goal_type: GoalType::L,
+            distance: 3,
+            direction_deg: heading,
+        })
+        .await
+        .unwrap();
+    let token = planner.sem_name(Sem::LightToken);
+    let value = || async { planner.client().semaphore(&token).await.unwrap().value };
+    let held = async {
+        while value().await != 0 {
+            tokio::time::sleep(Duration::from_millis(5)).await;
+        }
+    };
+    tokio::time::timeout(Duration::from_secs(60), held)
+        .await
+        .expect("a child took the token under the first light");
+    // Killed while it holds it: its process (here its task and its data
+    // client) is gone.
+    tracking.abort();
+    let _ = tracking.await;
+    let back = async {
+        while value().await != 1 {
+            tokio::time::sleep(Duration::from_millis(20)).await;
+        }
+    };
+    tokio::time::timeout(Duration::from_secs(10), back)
+        .await
+        .expect("the data server gave the dead CTracker's token back");
+    navigating.abort();
+    rig.stop().await;
+}

@@ -439,6 +439,19 @@ impl Board {
         self.ds.try_wait(&self.sem_name(sem)).await
     }
 
+    /// down() without waiting, with an undo unit (§4.6.1): if this client
+    /// dies holding it, the data server gives it back. For a token that
+    /// one of several processes holds for a moment, which a process killed
+    /// while holding it would otherwise keep from the others for good.
+    pub async fn try_down_undo(&self, sem: Sem) -> Result<bool, ClientError> {
+        self.ds.try_wait_undo(&self.sem_name(sem)).await
+    }
+
+    /// Gives back a unit taken with [`Board::try_down_undo`].
+    pub async fn give_back(&self, sem: Sem) -> Result<(), ClientError> {
+        self.ds.give_back(&self.sem_name(sem)).await.map(|_| ())
+    }
+
     /// Planner: writes a goal's three variables and does up($GoalData).
     pub async fn give_goal(&self, goal: &Goal) -> Result<(), ClientError> {
         self.set(Var::GoalType, &goal.goal_type).await?;

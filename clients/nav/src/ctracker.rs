@@ -398,7 +398,10 @@ impl Child {
             let lines = [0, 1, 2].map(|k| img.row(k).is_some_and(|r| line_has_light(r, self.edge)));
             let lit = lines.iter().any(|l| *l);
             if lit && !lit_before {
-                holding = self.board.try_down(Sem::LightToken).await?;
+                // With undo: a tracker killed while a light is in view
+                // must not take the token with it, or no light would ever
+                // be reported again.
+                holding = self.board.try_down_undo(Sem::LightToken).await?;
                 reported = false;
             }
             if lit && holding && !reported && (lines[1] || lines[2]) {
@@ -422,13 +425,13 @@ impl Child {
                 }
             }
             if !lit && lit_before && holding {
-                self.board.up(Sem::LightToken).await?;
+                self.board.give_back(Sem::LightToken).await?;
                 holding = false;
             }
             lit_before = lit;
         }
         if holding {
-            self.board.up(Sem::LightToken).await?;
+            self.board.give_back(Sem::LightToken).await?;
         }
         Ok(())
     }
