@@ -86,11 +86,13 @@ pub async fn versions(
 /// The attachment of a request or reply: `stamp`, if any, then this
 /// build's version tag.
 pub fn attachment(stamp: Option<Stamp>) -> ZBytes {
-    let mut b = Vec::with_capacity(Stamp::LEN + 16);
+    // Made once: every request and reply carries it.
+    static TAG: std::sync::LazyLock<Vec<u8>> = std::sync::LazyLock::new(|| Speaks::this().to_tag());
+    let mut b = Vec::with_capacity(Stamp::LEN + TAG.len());
     if let Some(s) = stamp {
         b.extend_from_slice(&s.to_bytes());
     }
-    b.extend_from_slice(&Speaks::this().to_tag());
+    b.extend_from_slice(&TAG);
     ZBytes::from(b)
 }
 
