@@ -32,6 +32,36 @@ async fn goal_failure(planner: &rome_nav::board::Board) -> String {
     status.failed.expect("the Status says why the goal ended")
 }
 
+/// As the Planner hands the CTracker and the Navigator an L segment of
+/// three lights along `heading`, with `offsets` as its `LightOffset`.
+async fn hand_l_segment(
+    planner: &rome_nav::board::Board,
+    offsets: serde_json::Value,
+    heading: f64,
+) {
+    planner
+        .set(Var::LightOffset, &offsets)
+        .await
+        .expect("LightOffset");
+    planner
+        .set(Var::GoalDistance, &3i64)
+        .await
+        .expect("GoalDistance");
+    planner
+        .set(Var::GoalDirection, &heading)
+        .await
+        .expect("GoalDirection");
+    planner.up(Sem::TrackData).await.expect("up($TrackData)");
+    planner
+        .give_goal(&Goal {
+            goal_type: GoalType::L,
+            distance: 3,
+            direction_deg: heading,
+        })
+        .await
+        .expect("the L goal is handed over");
+}
+
 /// Hands over an L goal of more lights than the corridor has (it can only
 /// end by the count) and waits until the robot has driven half a metre.
 async fn set_off_on_l(rig: &rome_harness::Harness, planner: &rome_nav::board::Board, heading: f64) {
@@ -149,21 +179,7 @@ async fn light_offsets_that_are_not_numbers_give_the_segment_up_and_the_ctracker
     let navigating = common::navigator(&rig, DataOptions::new("navigator")).await;
     let tracking = common::ctracker(&rig).await;
 
-    planner
-        .set(Var::LightOffset, &serde_json::json!("many"))
-        .await
-        .unwrap();
-    planner.set(Var::GoalDistance, &3i64).await.unwrap();
-    planner.set(Var::GoalDirection, &heading).await.unwrap();
-    planner.up(Sem::TrackData).await.unwrap();
-    planner
-        .give_goal(&Goal {
-            goal_type: GoalType::L,
-            distance: 3,
-            direction_deg: heading,
-        })
-        .await
-        .unwrap();
+    hand_l_segment(&planner, serde_json::json!("many"), heading).await;
     let why = goal_failure(&planner).await;
     assert!(
         why.contains("CTracker gave the light segment up") && why.contains("LightOffset"),
@@ -201,21 +217,12 @@ async fn a_ctracker_killed_while_a_light_is_in_view_gives_its_token_back() {
     let (rig, _stepper, heading, planner) = common::one_robot(2.0).await;
     let navigating = common::navigator(&rig, DataOptions::new("navigator")).await;
     let tracking = common::ctracker(&rig).await;
-    planner
-        .set(Var::LightOffset, &vec![1_024.0, 6_000.0, 6_000.0])
-        .await
-        .unwrap();
-    planner.set(Var::GoalDistance, &3i64).await.unwrap();
-    planner.set(Var::GoalDirection, &heading).await.unwrap();
-    planner.up(Sem::TrackData).await.unwrap();
-    planner
-        .give_goal(&Goal {
-            goal_type: GoalType::L,
-            distance: 3,
-            direction_deg: heading,
-        })
-        .await
-        .unwrap();
+    hand_l_segment(
+        &planner,
+        serde_json::json!([1_024.0, 6_000.0, 6_000.0]),
+        heading,
+    )
+    .await;
     let token = planner.sem_name(Sem::LightToken);
     let value = || async { planner.client().semaphore(&token).await.unwrap().value };
     let held = async {
