@@ -29,7 +29,9 @@
 //! ```
 //!
 //! Each robot has a world of its own so a robot that failed can be put
-//! back at its start by restarting its simulator.
+//! back at its start by restarting its simulator afresh. A world killed
+//! as a fault is started again on its state file (`rome sim --state`),
+//! with the robot where it stood.
 
 use anyhow::Context;
 use rome_client::net::NetOptions;
@@ -307,6 +309,10 @@ pub async fn run(_common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
             "--seed",
             &(args.seed + n as u64).to_string(),
         ]);
+        // A killed world is taken up where it stood, as a real robot
+        // stands where it was when its computer restarts.
+        let state = dir.join(format!("world-{robot}.json"));
+        sim_args.extend(["--state".to_string(), state.to_string_lossy().into_owned()]);
         if n > 1 {
             // One storage of lock records is enough (the first world's).
             sim_args.push("--no-storage".into());
@@ -337,6 +343,7 @@ pub async fn run(_common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
             relay,
             link,
             sim,
+            state,
             crew,
             planner: None,
             runs: 0,

@@ -142,10 +142,21 @@ fn read_body(read: Read, s: BaseStatus, frame: &mut VirtualPose) -> Body {
 impl<D: BaseDevice> Base<D> {
     /// A base server for `device`, publishing its state every `state_period`.
     pub fn new(robot: &str, device: D, state_period: Option<Duration>) -> Self {
+        Self::with_frame(robot, device, state_period, Arc::default())
+    }
+
+    /// A base server whose virtual coordinate frame is `frame`, shared with
+    /// whoever keeps it across a restart of the server.
+    pub fn with_frame(
+        robot: &str,
+        device: D,
+        state_period: Option<Duration>,
+        frame: Arc<Mutex<VirtualPose>>,
+    ) -> Self {
         Base {
             robot: robot.to_string(),
             device,
-            frame: Arc::new(Mutex::new(VirtualPose::default())),
+            frame,
             state_period,
         }
     }

@@ -100,6 +100,54 @@ impl VirtualPose {
     }
 }
 
+/// What a [`VirtualPose`] holds, to keep it across a restart of its
+/// server: a base controller keeps its registers when the computer that
+/// serves it restarts, so the server must take up the same unwrapping
+/// and frame, or every pose it reports jumps.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct SavedFrame {
+    /// The x register's last read, and its net wraps.
+    pub x: (Option<i16>, i32),
+    /// The y register's last read, and its net wraps.
+    pub y: (Option<i16>, i32),
+    /// Rotation of the frame, degrees.
+    pub turn_deg: f64,
+    /// Translation of the frame, mm.
+    pub shift_mm: (f64, f64),
+}
+
+impl VirtualPose {
+    /// The state to keep.
+    pub fn save(&self) -> SavedFrame {
+        let t = self.frame.translation.vector;
+        SavedFrame {
+            x: (self.x.last, self.x.wraps),
+            y: (self.y.last, self.y.wraps),
+            turn_deg: self.turn_deg,
+            shift_mm: (t.x, t.y),
+        }
+    }
+
+    /// The virtual pose as it was saved: the same reads give the same
+    /// poses, to the bit.
+    pub fn restore(s: &SavedFrame) -> VirtualPose {
+        let turn = UnitComplex::new(s.turn_deg.to_radians());
+        let shift = nalgebra::Translation2::new(s.shift_mm.0, s.shift_mm.1);
+        VirtualPose {
+            x: Unwrap {
+                last: s.x.0,
+                wraps: s.x.1,
+            },
+            y: Unwrap {
+                last: s.y.0,
+                wraps: s.y.1,
+            },
+            turn_deg: s.turn_deg,
+            frame: Isometry2::from_parts(shift, turn),
+        }
+    }
+}
+
 /// Where Set Position puts the robot (f64 so Adjust can add without
 /// rounding twice).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -158,6 +206,31 @@ mod tests {
         let (u, seen) = run(path.clone());
         assert_eq!(seen, path);
         assert_eq!(u.wraps(), 0, "back at -1000 mm: every overflow undone");
+    }
+
+    #[test]
+    fn a_restored_frame_reads_as_the_saved_one() {
+        let mut v = VirtualPose::default();
+        // Past a wrap, and turned by Set Position.
+        for i in 0..100_i64 {
+            let mm = 30_000 + i * 700;
+            v.read(mm.rem_euclid(65_536) as u16 as i16, 1_000, 10.0);
+        }
+        v.set(
+            10.0,
+            Pose32Target {
+                x_mm: 12_345.5,
+                y_mm: -7_000.0,
+                heading_deg: 97.25,
+            },
+        );
+        let mut w = VirtualPose::restore(&v.save());
+        assert_eq!(w, v);
+        assert_eq!(w.read(-20_000, 1_500, 12.0), v.read(-20_000, 1_500, 12.0));
+        // The JSON form keeps every bit too.
+        let json = serde_json::to_string(&v.save()).expect("encodes");
+        let back: SavedFrame = serde_json::from_str(&json).expect("decodes");
+        assert_eq!(VirtualPose::restore(&back), v);
     }
 
     #[test]

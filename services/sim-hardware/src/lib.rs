@@ -12,7 +12,10 @@
 //!   follow its clock over the network.
 //! - [`truth`]: the simulator's ground truth (`<root>/sim/<robot>/truth`),
 //!   which navigation never reads.
+//! - [`keep`]: the world's state in a file, so a world killed and started
+//!   again takes up its robots where they stood.
 
+pub mod keep;
 pub mod lockstep;
 pub mod robot;
 pub mod truth;

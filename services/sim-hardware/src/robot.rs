@@ -79,7 +79,12 @@ pub fn spawn_sim_robot(
     out.push(spawn(
         session,
         ServerConfig::new(root, robot, Device::Base)?,
-        Base::new(robot, world.base(robot).map_err(sim_err)?, rates.state),
+        Base::with_frame(
+            robot,
+            world.base(robot).map_err(sim_err)?,
+            rates.state,
+            world.frame(robot),
+        ),
     ));
     out.push(spawn(
         session,

@@ -6,8 +6,10 @@ use rome_hardware::device::{
     BaseDevice, BaseOp, BaseStatus, CameraDevice, DeviceError, Frame, Peek, ProximityDevice,
     RawScan,
 };
+use rome_hardware::vxy::VirtualPose;
 use rome_schema::robot::{BaseState, SONARS};
 use rome_sim::{Camera, Pacer, Sim, SimError};
+use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard};
 
@@ -15,6 +17,10 @@ use std::sync::{Arc, Mutex, MutexGuard};
 #[derive(Clone)]
 pub struct SimWorld {
     sim: Arc<Mutex<Sim>>,
+    /// Each robot's base server's virtual coordinate frame, by robot: kept
+    /// here so the world's state can be saved and taken up whole
+    /// ([`crate::keep`]).
+    frames: Arc<Mutex<BTreeMap<String, Arc<Mutex<VirtualPose>>>>>,
 }
 
 /// The stepping thread (or lock-step task); stops when dropped.
@@ -99,7 +105,16 @@ impl SimWorld {
     pub fn new(sim: Sim) -> Self {
         SimWorld {
             sim: Arc::new(Mutex::new(sim)),
+            frames: Arc::default(),
         }
+    }
+
+    /// Robot `robot`'s base frame, shared with its base server.
+    pub fn frame(&self, robot: &str) -> Arc<Mutex<VirtualPose>> {
+        rome_hardware::locked(&self.frames)
+            .entry(robot.to_string())
+            .or_default()
+            .clone()
     }
 
     /// The world, locked (a device that panicked mid-step leaves it usable).

@@ -275,6 +275,12 @@ impl Sim {
         self.time_ms
     }
 
+    /// Takes up a world saved at `time_ms`: its clock goes on from there.
+    /// The robots are put back through [`Sim::robot_mut`].
+    pub fn resume_at(&mut self, time_ms: u64) {
+        self.time_ms = time_ms;
+    }
+
     /// The robots, in the order they were added.
     pub fn robots(&self) -> &[Robot] {
         &self.robots

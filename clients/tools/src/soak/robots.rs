@@ -5,7 +5,7 @@
 use super::*;
 use rome_client::relay::Relay;
 use rome_schema::robot::BaseState;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 pub(super) const FAULTS: &[&str] = &[
@@ -37,6 +37,9 @@ pub(super) struct RobotRig {
     pub(super) relay: Relay,
     pub(super) link: String,
     pub(super) sim: Proc,
+    /// The world's state file (`rome sim --state`): a killed world is
+    /// taken up where it stood.
+    pub(super) state: PathBuf,
     /// `rome crew`: navigator, ctracker, mapper, plfinder, each started
     /// again by the crew when it is killed.
     pub(super) crew: Proc,
@@ -151,6 +154,9 @@ impl RobotRig {
     /// walls while the next run's Planner waits for it.
     pub(super) fn reset(&mut self, exe: &Path) {
         self.sim.kill();
+        // A world started without its state file puts the robot at its
+        // start.
+        let _ = std::fs::remove_file(&self.state);
         self.crew.stop();
         start_again(&mut self.sim, exe);
         start_again(&mut self.crew, exe);

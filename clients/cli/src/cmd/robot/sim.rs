@@ -8,6 +8,7 @@ use rome_hardware::robot::Rates;
 use rome_sim::{Noise, Sim, SimConfig};
 use rome_sim_hardware::robot::spawn_sim_robot;
 use rome_sim_hardware::world::SimWorld;
+use std::path::PathBuf;
 use std::time::Duration;
 
 /// Flags of `rome sim`.
@@ -73,6 +74,13 @@ pub struct Args {
     /// robot).
     #[arg(long, default_value_t = 0, value_name = "N", value_parser = clap::value_parser!(u32).range(0..=1000))]
     pub people: u32,
+    /// Keep the robots' state in FILE: where each truly stands, its
+    /// odometry and its base's virtual frame, written every 100 ms of
+    /// simulated time. Started again on the same file, the world takes
+    /// them up, as a real robot stands where it was when the computer
+    /// serving it restarts. Without the file, robots start as placed.
+    #[arg(long, value_name = "FILE")]
+    pub state: Option<PathBuf>,
 }
 
 fn period(hz: f64, flag: &str) -> anyhow::Result<Option<Duration>> {
@@ -152,6 +160,33 @@ pub fn world(args: &Args) -> anyhow::Result<(Sim, Vec<String>)> {
     Ok((sim, names))
 }
 
+/// Takes up the world's state from `path` if it is there, and keeps it
+/// there from now on.
+fn take_up(
+    world: &SimWorld,
+    path: &std::path::Path,
+    pace: f64,
+) -> anyhow::Result<tokio::task::JoinHandle<()>> {
+    use rome_sim_hardware::keep;
+    if let Some(kept) = keep::read(path)? {
+        let unknown = keep::restore(world, &kept);
+        eprintln!(
+            "rome sim: took up the state in {} ({:.1} s of simulated time)",
+            path.display(),
+            kept.time_ms as f64 / 1000.0
+        );
+        if !unknown.is_empty() {
+            eprintln!(
+                "rome sim: {} names robot(s) not in this world, left out: {}",
+                path.display(),
+                unknown.join(", ")
+            );
+        }
+    }
+    let task = keep::spawn_keeper(world.clone(), path.to_path_buf(), pace);
+    Ok(task)
+}
+
 /// Runs the world and its servers.
 pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
     anyhow::ensure!(
@@ -177,6 +212,10 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
     let root = common.root()?;
     let (session, net) = common.open_server().await?;
     let world = SimWorld::new(sim);
+    let _keeper = match &args.state {
+        Some(path) => Some(take_up(&world, path, pace)?),
+        None => None,
+    };
     let clock = args
         .lockstep
         .then(|| rome_clock::LockStep::new(world.lock().time_ms()));
