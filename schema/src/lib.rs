@@ -10,6 +10,8 @@
 //! - [`robot`]: the hardware servers' commands, replies and streams (base,
 //!   proximity, cameras; §4.6.2–4.6.4), with their priority and lock
 //!   parameters.
+//! - [`elevator`]: the elevator server's commands, state and button
+//!   presses (§5.4.6), under `<root>/building/elevator/<name>/…`.
 //! - [`sim`]: the simulator's ground truth, which navigation never reads.
 //! - [`params`]: strict selector-parameter parsing shared by every server.
 //! - [`error`]: the error reply every server sends instead of a silent drop.
@@ -22,6 +24,7 @@
 
 pub mod codec;
 pub mod data;
+pub mod elevator;
 pub mod error;
 pub mod keys;
 pub mod params;

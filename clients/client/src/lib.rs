@@ -11,6 +11,8 @@
 //!   `DataSignal`, `DataWait` …) as typed async methods.
 //! - [`robot`]: [`RobotClient`], the hardware servers' libraries (base,
 //!   proximity, cameras: `RobotMove`, `ProxReadSonar`, `CameraGrabRow` …).
+//! - [`elevator`]: [`elevator::ElevatorClient`], an elevator server's
+//!   library (call, go, open, close, the session, the buttons).
 //! - [`sim`]: [`sim::TruthClient`], a simulated robot's ground truth (for
 //!   judging runs, never for navigation).
 //! - [`simtime`]: following the simulator's clock from another process
@@ -36,6 +38,7 @@
 pub mod alive;
 mod call;
 pub mod data;
+pub mod elevator;
 pub mod error;
 mod inflight;
 pub mod net;

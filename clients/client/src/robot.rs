@@ -124,6 +124,9 @@ struct Inner {
     session: Session,
     options: RobotOptions,
     robot: Name,
+    /// Whether `robot` names an elevator (`<root>/building/elevator/…`,
+    /// one device) rather than a robot.
+    elevator: bool,
     owner: String,
     fences: Mutex<HashMap<String, u64>>,
     _token: Presence,
@@ -215,7 +218,17 @@ impl RobotClient {
         robot: &str,
         options: RobotOptions,
     ) -> Result<Self, ClientError> {
-        let robot = robot_name(robot)?;
+        Self::connect_to(session, robot_name(robot)?, false, options).await
+    }
+
+    /// A client of robot or elevator `name`'s servers (see
+    /// [`crate::elevator`]).
+    pub(crate) async fn connect_to(
+        session: &Session,
+        robot: Name,
+        elevator: bool,
+        options: RobotOptions,
+    ) -> Result<Self, ClientError> {
         let role = Name::new(options.role.as_str())?;
         let n = NEXT_CLIENT.fetch_add(1, Ordering::Relaxed);
         let owner = format!("{}-r{n}", session.zid());
@@ -227,6 +240,7 @@ impl RobotClient {
                 session: session.clone(),
                 options,
                 robot,
+                elevator,
                 owner,
                 fences: Mutex::new(HashMap::new()),
                 _token: token,
@@ -262,6 +276,25 @@ impl RobotClient {
         }
     }
 
+    /// The key of `chunk` on `device` (an elevator has one device).
+    fn key(&self, device: &Device, chunk: &str) -> String {
+        let o = &self.inner.options;
+        if self.inner.elevator {
+            o.root.elevator(&self.inner.robot, chunk)
+        } else {
+            o.root.robot(&self.inner.robot, device, chunk)
+        }
+    }
+
+    /// The server's liveliness kind and name, and what to call it.
+    fn server(&self, device: &Device) -> (&'static str, String) {
+        if self.inner.elevator {
+            ("building", format!("elevator/{}", self.inner.robot))
+        } else {
+            ("robot", format!("{}/{}", self.inner.robot, device.path()))
+        }
+    }
+
     /// One command, sent as its schema type encodes it, with the
     /// parameters every command carries; the reply's bytes and encoding.
     async fn raw<C: Command>(
@@ -271,7 +304,7 @@ impl RobotClient {
         queued: bool,
     ) -> Result<(Vec<u8>, Encoding), ClientError> {
         let o = &self.inner.options;
-        let key = o.root.robot(&self.inner.robot, device, C::NAME);
+        let key = self.key(device, C::NAME);
         let payload = command.payload();
         let mut params = command.params();
         let explicit_fence = params.iter().any(|(k, _)| *k == param::FENCE);
@@ -329,8 +362,8 @@ impl RobotClient {
             match answer {
                 Some(Answer::Reply { body, encoding }) => return Ok((body, encoding)),
                 Some(Answer::Refused(e)) => {
-                    let name = format!("{}/{}", self.inner.robot, device.path());
-                    let presence = o.root.alive_server("robot", &name);
+                    let (kind, name) = self.server(device);
+                    let presence = o.root.alive_server(kind, &name);
                     return Err(call::refused(&self.inner.session, e, &presence, &name).await);
                 }
                 None => {}
@@ -353,11 +386,12 @@ impl RobotClient {
                 break;
             }
         }
+        let device = (!self.inner.elevator).then_some(device);
         Err(no_reply(device, key, started.elapsed()))
     }
 
     /// One command whose reply is JSON, decoded as the command's reply.
-    async fn json<C: Command>(
+    pub(crate) async fn json<C: Command>(
         &self,
         device: &Device,
         command: &C,
@@ -568,7 +602,7 @@ impl RobotClient {
 
     // ----- locks and streams ----------------------------------------------
 
-    async fn lock_device(&self, device: Device) -> Result<Lock, ClientError> {
+    pub(crate) async fn lock_device(&self, device: Device) -> Result<Lock, ClientError> {
         let o = &self.inner.options;
         let take = TakeLock {
             owner: Some(self.inner.owner.clone()),
@@ -587,16 +621,12 @@ impl RobotClient {
         })
     }
 
-    async fn stream<T: DeserializeOwned>(
+    pub(crate) async fn stream<T: DeserializeOwned>(
         &self,
         device: &Device,
         chunk: &str,
     ) -> Result<Stream<T>, ClientError> {
-        let key = self
-            .inner
-            .options
-            .root
-            .robot(&self.inner.robot, device, chunk);
+        let key = self.key(device, chunk);
         // A ring: a reader that falls behind loses the oldest messages
         // rather than holding up every other subscriber of the session.
         let subscriber = self
@@ -644,12 +674,13 @@ async fn renew(client: RobotClient, device: Device, fence: u64, ttl: Duration) {
     }
 }
 
-fn no_reply(device: &Device, key: String, waited: Duration) -> ClientError {
+fn no_reply(device: Option<&Device>, key: String, waited: Duration) -> ClientError {
     ClientError::NoReply {
         what: match device {
-            Device::Base => "the base server",
-            Device::Proximity => "the proximity server",
-            Device::Camera(_) => "the camera server",
+            Some(Device::Base) => "the base server",
+            Some(Device::Proximity) => "the proximity server",
+            Some(Device::Camera(_)) => "the camera server",
+            None => "the elevator server",
         },
         key,
         waited,

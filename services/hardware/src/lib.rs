@@ -7,6 +7,8 @@
 //!   the lock's storage record and liveliness watch, the publication stream.
 //! - [`base`] (RServer, Table 4.1), [`proximity`] (PServer) and [`camera`]
 //!   (CServer): each device's commands, one `parse` and one `apply`.
+//! - [`elevator`]: a building's elevator as a device of its own (§5.4.6),
+//!   with the same session (lock) and state stream, and its buttons.
 //! - [`vxy`]: virtual 32-bit coordinates over 16-bit registers (§4.6.3).
 //! - [`device`]: one trait per device kind; [`serial`] implements them for
 //!   a Pioneer base over a serial line (P2OS/ARCOS), and `rome-sim-hardware`
@@ -20,6 +22,7 @@
 pub mod base;
 pub mod camera;
 pub mod device;
+pub mod elevator;
 pub mod gate;
 pub mod proximity;
 pub mod robot;

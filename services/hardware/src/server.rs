@@ -26,7 +26,7 @@ use zenoh::query::Query;
 use zenoh::Session;
 mod config;
 mod watch;
-pub use config::{declare_err, ServerConfig, ServerError};
+pub use config::{declare_err, Place, ServerConfig, ServerError};
 
 /// How many requests may wait for a server (in its channel, and again in
 /// its priority queue) before it answers `busy`.
@@ -230,7 +230,7 @@ pub async fn run<S: Service>(
     let quick_reads = Arc::new(AtomicU64::new(0));
     let answer_now = quick_answer(service.quick(), quiet.clone(), quick_reads.clone());
     let _queryable = session
-        .declare_queryable(config.root.robot_device_all(&config.robot, &config.device))
+        .declare_queryable(config.key("*"))
         .callback(inbox.on_query_or(answer_now))
         .await
         .map_err(|e| declare_err("the device queryable", e))?;
@@ -496,11 +496,7 @@ impl<S: Service> Server<S> {
     /// error reply: those need one robot and device named.
     async fn sweep_query(&mut self, query: Query) {
         let wanted = query.key_expr().clone();
-        let key_of = |chunk: &str| {
-            self.config
-                .root
-                .robot(&self.config.robot, &self.config.device, chunk)
-        };
+        let key_of = |chunk: &str| self.config.key(chunk);
         let matches = |chunk: &str| {
             zenoh::key_expr::KeyExpr::new(key_of(chunk)).is_ok_and(|k| wanted.intersects(&k))
         };

@@ -12,9 +12,12 @@
 //!   follow its clock over the network.
 //! - [`truth`]: the simulator's ground truth (`<root>/sim/<robot>/truth`),
 //!   which navigation never reads.
+//! - [`elevator`]: simulated elevator cars as the elevator server's
+//!   devices.
 //! - [`keep`]: the world's state in a file, so a world killed and started
 //!   again takes up its robots where they stood.
 
+pub mod elevator;
 pub mod keep;
 pub mod lockstep;
 pub mod robot;

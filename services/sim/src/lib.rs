@@ -14,6 +14,8 @@
 //!   sideways one (walls, doors, plates with digits, posters, glass bricks).
 //! - [`world`]: [`Sim`], the running world: robots, bumpers, wheel slip
 //!   (worse on metal), elevators, simulated time in fixed steps.
+//! - [`elevator`]: an elevator car travelling between floors, with doors
+//!   that open and close.
 //! - [`people`]: people walking the corridors to and fro.
 //! - [`pace`]: simulated time as fast as possible or at a multiple of real
 //!   time.
@@ -32,6 +34,7 @@
 
 pub mod camera;
 pub mod drive;
+pub mod elevator;
 pub mod pace;
 pub mod people;
 pub mod rng;

@@ -82,10 +82,7 @@ impl<S: Service> Server<S> {
         // subscriber sees the reading's age (`rome bench robot`, recordings).
         let read_at = self.session.new_timestamp();
         if let Some((chunk, body)) = self.service.tick(lock, queued).await {
-            let key = self
-                .config
-                .root
-                .robot(&self.config.robot, &self.config.device, chunk);
+            let key = self.config.key(chunk);
             let (bytes, encoding) = body.into_parts();
             self.last.insert(chunk, (bytes.clone(), encoding.clone()));
             rome_clock::sending(&key);
@@ -104,10 +101,7 @@ impl<S: Service> Server<S> {
 
     /// Writes the lock state to the storage.
     pub(super) async fn persist(&self) {
-        let key = self
-            .config
-            .root
-            .lock_store(&self.config.robot, &self.config.device);
+        let key = self.config.lock_store();
         let record = LockRecord {
             holder: self.lock(),
             last_fence: self.gate.last_fence(),
@@ -189,10 +183,7 @@ impl<S: Service> Server<S> {
 
     /// The lock record in the storage, if one answers with a readable one.
     async fn stored(&self) -> Lookup {
-        let key = self
-            .config
-            .root
-            .lock_store(&self.config.robot, &self.config.device);
+        let key = self.config.lock_store();
         let replies = match self
             .session
             .get(&key)
