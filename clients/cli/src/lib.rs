@@ -6,7 +6,7 @@
 //!   [`CommonArgs`](args::CommonArgs) (the Zenoh and deployment flags,
 //!   from `rome-common`) flattened in.
 //! - [`cmd`]: the commands, grouped: `data` (data-server, data, sem),
-//!   `robot` (sim, pioneer, robot, storage), `nav` (planner, navigator,
+//!   `robot` (sim, pioneer, robot, storage, elevator-server, elevator), `nav` (planner, navigator,
 //!   ctracker, mapper, plfinder, crew, dispatcher, task, demo, experiment,
 //!   fleet, colony, map), `observe` (ls, echo, record, replay, view,
 //!   foxglove), `deploy` (router, certs) and `tools` (bench, soak, fuzz).
@@ -94,6 +94,11 @@ pub enum Command {
     Pioneer(cmd::robot::pioneer::Args),
     /// Send commands to a robot's hardware servers (base, proximity, cameras).
     Robot(cmd::robot::commands::Args),
+    /// Run a building's elevators as simulated cars, each with its server (call, go, open, close, session, buttons).
+    #[cfg(feature = "sim")]
+    ElevatorServer(cmd::robot::elevator_server::Args),
+    /// Send commands to an elevator's server, or press its buttons as a person would.
+    Elevator(cmd::robot::elevator::Args),
     /// Keep the servers' lock state in memory (a Zenoh storage on ROOT/store/**).
     Storage(cmd::robot::storage::Args),
     /// Run a Zenoh router with the storage manager and REST plugins built in.
@@ -314,7 +319,7 @@ impl Command {
         match self {
             Command::DataServer(_) | Command::Storage(_) | Command::Pioneer(_) => true,
             #[cfg(feature = "sim")]
-            Command::Sim(_) => true,
+            Command::Sim(_) | Command::ElevatorServer(_) => true,
             #[cfg(feature = "router")]
             Command::Router(_) => true,
             _ => false,
@@ -339,7 +344,11 @@ impl Command {
         match self {
             Command::Storage(_) | Command::Pioneer(_) => true,
             #[cfg(feature = "sim")]
-            Command::Sim(_) | Command::Demo(_) | Command::Experiment(_) | Command::Fleet(_) => true,
+            Command::Sim(_)
+            | Command::ElevatorServer(_)
+            | Command::Demo(_)
+            | Command::Experiment(_)
+            | Command::Fleet(_) => true,
             #[cfg(feature = "tools")]
             Command::Bench(_) | Command::Soak(_) => true,
             #[cfg(feature = "router")]
@@ -372,6 +381,9 @@ async fn run_command(cli: Cli) -> anyhow::Result<u8> {
         Command::Sim(args) => cmd::robot::sim::run(&common, args).await,
         Command::Pioneer(args) => cmd::robot::pioneer::run(&common, args).await,
         Command::Robot(args) => cmd::robot::commands::run(&common, args).await,
+        #[cfg(feature = "sim")]
+        Command::ElevatorServer(args) => cmd::robot::elevator_server::run(&common, args).await,
+        Command::Elevator(args) => cmd::robot::elevator::run(&common, args).await,
         Command::Storage(args) => cmd::robot::storage::run(&common, args).await,
         #[cfg(feature = "router")]
         Command::Router(args) => cmd::deploy::router::run(&common, args).await,

@@ -176,7 +176,7 @@ pub enum CameraCmd {
     },
 }
 
-fn print(value: &impl Serialize) -> anyhow::Result<()> {
+pub(super) fn print(value: &impl Serialize) -> anyhow::Result<()> {
     println!("{}", serde_json::to_string(value)?);
     Ok(())
 }
@@ -196,7 +196,7 @@ fn describe(img: &Image) -> serde_json::Value {
 }
 
 /// Prints a stream's messages, `count` of them or until it ends.
-async fn follow<T: serde::de::DeserializeOwned + Serialize>(
+pub(super) async fn follow<T: serde::de::DeserializeOwned + Serialize>(
     stream: Stream<T>,
     count: Option<u64>,
 ) -> anyhow::Result<()> {
@@ -211,7 +211,7 @@ async fn follow<T: serde::de::DeserializeOwned + Serialize>(
     Ok(())
 }
 
-async fn hold(lock: Lock, secs: Option<f64>) -> anyhow::Result<u8> {
+pub(super) async fn hold(lock: Lock, secs: Option<f64>) -> anyhow::Result<u8> {
     print(lock.grant())?;
     match secs {
         Some(s) => {

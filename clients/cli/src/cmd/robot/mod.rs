@@ -4,9 +4,16 @@
 //!   (cargo feature `sim`).
 //! - [`pioneer`]: `rome pioneer`, a Pioneer base on a serial line.
 //! - [`commands`]: `rome robot`, one command to a robot's servers.
+//! - [`elevator_server`]: `rome elevator-server`, a building's elevators
+//!   as simulated cars with their servers (cargo feature `sim`).
+//! - [`elevator`]: `rome elevator`, one command to an elevator's server,
+//!   or a button pressed.
 //! - [`storage`]: `rome storage`, the servers' lock records in memory.
 
 pub mod commands;
+pub mod elevator;
+#[cfg(feature = "sim")]
+pub mod elevator_server;
 pub mod pioneer;
 #[cfg(feature = "sim")]
 pub mod sim;
