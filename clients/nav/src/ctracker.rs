@@ -390,10 +390,23 @@ impl Child {
         let rows = scan_lines(size.height);
         let (mut lit_before, mut holding, mut reported) = (false, false, false);
         while let Some(frame) = frames.next().await {
-            let frame = frame?;
-            let img = self.robot.camera_rows(&self.camera, &rows).await?;
-            // Where the rows' image was grabbed, not where the robot is now.
-            let pose = track.at(&self.robot, img.time_ms).await?;
+            // A frame that cannot be read, or whose pose cannot be had (the
+            // robot's servers restarting), is skipped: the next frames come
+            // once they are back, and the segment goes on.
+            let read = async {
+                let frame = frame?;
+                let img = self.robot.camera_rows(&self.camera, &rows).await?;
+                // Where the rows' image was grabbed, not where the robot is now.
+                let pose = track.at(&self.robot, img.time_ms).await?;
+                Ok::<_, NavError>((frame, img, pose))
+            };
+            let (frame, img, pose) = match read.await {
+                Ok(read) => read,
+                Err(e) => {
+                    tracing::warn!(camera = %self.camera, error = %e, "ctracker: a frame skipped");
+                    continue;
+                }
+            };
             // camera_rows checked the reply carries the three rows asked for.
             let lines = [0, 1, 2].map(|k| img.row(k).is_some_and(|r| line_has_light(r, self.edge)));
             let lit = lines.iter().any(|l| *l);
@@ -425,15 +438,28 @@ impl Child {
                 }
             }
             if !lit && lit_before && holding {
-                self.board.give_back(Sem::LightToken).await?;
+                give_back(&self.board).await?;
                 holding = false;
             }
             lit_before = lit;
         }
         if holding {
-            self.board.give_back(Sem::LightToken).await?;
+            give_back(&self.board).await?;
         }
         Ok(())
+    }
+}
+
+/// Gives the light token back. A data server that restarted while the
+/// token was held has taken it back already (its holder's token seemed
+/// gone), and says `conflict`: the token is back either way.
+async fn give_back(board: &Board) -> Result<(), NavError> {
+    match board.give_back(Sem::LightToken).await {
+        Err(e) if e.code() == Some(rome_schema::ErrorCode::Conflict) => {
+            tracing::warn!(error = %e, "ctracker: the light token was back already");
+            Ok(())
+        }
+        other => Ok(other?),
     }
 }
 

@@ -64,14 +64,26 @@ fn pose_at(states: &VecDeque<(u64, Pose)>, time_ms: u64) -> Option<Pose> {
     })
 }
 
+/// How many pose reads in a row may go unanswered before a client gives up.
+const UNANSWERED: u32 = 3;
+
 /// The base's pose. A read kept waiting behind someone else's lock past
 /// its wait is asked again: a client that only reads must not end because
-/// another holds the robot.
+/// another holds the robot. So is one the server never answered, a few
+/// times.
 pub async fn pose_waiting(robot: &RobotClient) -> Result<rome_schema::robot::PoseReply, NavError> {
+    let mut unanswered = 0;
     loop {
         match robot.pose().await {
             Err(e) if e.code() == Some(rome_schema::ErrorCode::TimedOut) => {
                 tracing::warn!(error = %e, "pose read kept waiting behind a lock; asking again");
+            }
+            // A base server that died with the request in hand (restarting
+            // with its world): asked again, the client library waits for
+            // it to serve again.
+            Err(e @ rome_client::ClientError::NoReply { .. }) if unanswered < UNANSWERED => {
+                unanswered += 1;
+                tracing::warn!(error = %e, "pose read unanswered; asking again");
             }
             other => return Ok(other?),
         }
