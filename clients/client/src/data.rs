@@ -198,7 +198,8 @@ impl DataClient {
             Waiting::Busy
         };
         let selector = selector(key, params);
-        call::attempt(
+        let started = std::time::Instant::now();
+        let answer = call::attempt(
             &self.inner.session,
             &selector,
             payload,
@@ -206,7 +207,11 @@ impl DataClient {
             self.band(),
             waiting,
         )
-        .await
+        .await;
+        // Timed only when the server answers at once and did answer.
+        let answered = waiting == Waiting::Busy && matches!(answer, Ok(Some(_)));
+        crate::load::DATA.record(answered.then(|| started.elapsed()));
+        answer
     }
 
     /// A request, sent as its schema type encodes it; what it answers is

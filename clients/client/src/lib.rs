@@ -17,6 +17,8 @@
 //!   judging runs, never for navigation).
 //! - [`simtime`]: following the simulator's clock from another process
 //!   (`use_sim_time`), in lock-step with it or not.
+//! - [`load`]: how many requests this process sent the data server, and
+//!   how long their replies took.
 //! - [`alive`]: who is alive (servers and clients), from liveliness tokens.
 //! - [`relay`]: a TCP relay standing for a wireless link (delay, pause,
 //!   cut), for tests and `rome soak`.
@@ -41,6 +43,7 @@ pub mod data;
 pub mod elevator;
 pub mod error;
 mod inflight;
+pub mod load;
 pub mod net;
 pub mod relay;
 pub mod robot;

@@ -70,6 +70,15 @@ pub struct ScaleRow {
     pub stuck: usize,
     /// Wall time of the run, s.
     pub wall_s: f64,
+    /// Requests to the data server in the run.
+    pub data_requests: u64,
+    /// Of them, per second of wall time.
+    pub data_per_s: f64,
+    /// Median and 99th-percentile reply time of the requests the server
+    /// answers at once (not waits), ms of wall time.
+    pub data_p50_ms: f64,
+    /// See [`ScaleRow::data_p50_ms`].
+    pub data_p99_ms: f64,
     /// Where each contact began.
     pub contact_places: Vec<ContactAt>,
 }
@@ -121,6 +130,7 @@ pub async fn sweep(
         run.traffic = cfg.traffic;
         // The plate finder reads camera images that no task needs.
         run.plfinder = false;
+        let load = rome_client::load::DATA.snapshot();
         let r = run_tasks(
             TaskRun {
                 run,
@@ -157,6 +167,8 @@ pub async fn sweep(
             .map(|s| r.traffic_wait_s.get(&s.id).copied().unwrap_or(0.0))
             .collect();
         let one = rows.iter().find(|r| r.robots == 1).map(|r| r.throughput_h);
+        let load = rome_client::load::DATA.snapshot().since(&load);
+        let ms = |q: f64| load.quantile(q).map_or(0.0, |d| d.as_secs_f64() * 1e3);
         let row = ScaleRow {
             robots: n,
             tasks: cfg.tasks,
@@ -183,6 +195,10 @@ pub async fn sweep(
                 .filter(|s| **s > cfg.stuck.as_secs_f64())
                 .count(),
             wall_s: r.wall.as_secs_f64(),
+            data_requests: load.requests,
+            data_per_s: load.requests as f64 / r.wall.as_secs_f64().max(1e-3),
+            data_p50_ms: ms(0.5),
+            data_p99_ms: ms(0.99),
             contact_places: r.contact_places,
         };
         progress(ScaleEvent::End(&row));
@@ -193,12 +209,12 @@ pub async fn sweep(
 
 /// The table's header.
 pub const HEADER: &str =
-    "robots,tasks,done,failed,wait_mean_s,wait_max_s,traffic_wait_mean_s,traffic_wait_max_s,sim_h,throughput_per_h,efficiency,wall_contacts,robot_contacts,stuck,wall_s";
+    "robots,tasks,done,failed,wait_mean_s,wait_max_s,traffic_wait_mean_s,traffic_wait_max_s,sim_h,throughput_per_h,efficiency,wall_contacts,robot_contacts,stuck,wall_s,data_requests,data_per_s,data_p50_ms,data_p99_ms";
 
 /// A row as a line of the CSV.
 pub fn csv_line(r: &ScaleRow) -> String {
     format!(
-        "{},{},{},{},{:.1},{:.1},{:.1},{:.1},{:.3},{:.1},{},{},{},{},{:.1}",
+        "{},{},{},{},{:.1},{:.1},{:.1},{:.1},{:.3},{:.1},{},{},{},{},{:.1},{},{:.0},{:.2},{:.2}",
         r.robots,
         r.tasks,
         r.done,
@@ -213,7 +229,11 @@ pub fn csv_line(r: &ScaleRow) -> String {
         r.wall_contacts,
         r.robot_contacts,
         r.stuck,
-        r.wall_s
+        r.wall_s,
+        r.data_requests,
+        r.data_per_s,
+        r.data_p50_ms,
+        r.data_p99_ms
     )
 }
 
