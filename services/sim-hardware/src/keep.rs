@@ -1,12 +1,15 @@
 //! A world that outlives its process (`rome sim --state FILE`).
 //!
 //! When the computer serving a real robot restarts, the robot stays where
-//! it stood, and its base controller keeps its position registers. A
+//! it stood, and its base controller keeps its position registers and
+//! goes on with the command it was given (a move of 2 m goes on to its
+//! end). A
 //! simulated world killed and started again would put its robots back at
 //! their start with fresh odometry, so a navigation run in progress could
 //! only fail. With a state file the world writes, every
 //! [`KEEP_EVERY_MS`] of simulated time, each robot's true pose, its
-//! odometry registers and its base server's virtual frame; started again
+//! odometry registers, its motion controller and its base server's virtual
+//! frame; started again
 //! on the same file, it takes them up. What happened between the last
 //! write and the kill is lost for truth and odometry alike, so the robot
 //! seems to have been set back a few centimetres, and both still agree.
@@ -45,6 +48,8 @@ pub struct KeptRobot {
     pub frame: SavedFrame,
     /// Distance it had truly travelled, mm.
     pub travelled_mm: f64,
+    /// Its motion controller: the command it was carrying out goes on.
+    pub drive: rome_sim::Drive,
 }
 
 /// A state file that cannot be read or written.
@@ -79,6 +84,7 @@ pub fn snapshot(world: &SimWorld) -> Kept {
                 odometry: (r.odometry.x, r.odometry.y, r.odometry.heading),
                 frame: VirtualPose::default().save(),
                 travelled_mm: r.travelled_mm,
+                drive: r.drive.clone(),
             })
             .collect();
         (sim.time_ms(), robots)
@@ -130,6 +136,7 @@ pub fn restore(world: &SimWorld, kept: &Kept) -> Vec<String> {
             r.odometry.y = k.odometry.1;
             r.odometry.heading = k.odometry.2;
             r.travelled_mm = k.travelled_mm;
+            r.drive = k.drive.clone();
         }
     }
     for k in kept.robots.iter().filter(|k| !unknown.contains(&k.name)) {

@@ -8,7 +8,7 @@
 use crate::spec::{MAX_SPEED_MM_S, MAX_TURN_DEG_S, WHEEL_BASE_MM};
 
 /// An operating mode (§4.6.3).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub enum Mode {
     /// Joystick mode: the power-up default; the robot holds still.
     Joystick,
@@ -95,8 +95,10 @@ fn check(what: &'static str, value: f64, max: f64, range: &'static str) -> Resul
     }
 }
 
-/// The controller: mode, settings and the speeds it commands.
-#[derive(Debug, Clone, PartialEq)]
+/// The controller: mode, settings and the speeds it commands. It can be
+/// saved whole: a base controller keeps its command going while the
+/// computer that serves it restarts.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Drive {
     /// Current mode.
     pub mode: Mode,
