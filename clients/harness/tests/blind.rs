@@ -248,3 +248,60 @@ async fn a_ctracker_killed_while_a_light_is_in_view_gives_its_token_back() {
     navigating.abort();
     rig.stop().await;
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_ctracker_killed_mid_segment_and_started_again_takes_the_segment_up() {
+    // A CTracker started again used to wait for the next segment: the
+    // Navigator never heard the rest of the count, and the robot drove
+    // past its lights until it was stopped.
+    let (rig, _stepper, heading, planner) = common::one_robot(2.0).await;
+    let navigating = common::navigator(&rig, DataOptions::new("navigator")).await;
+    let first = common::ctracker(&rig).await;
+    let start = rig.truth(0);
+    hand_l_segment(
+        &planner,
+        serde_json::json!([1_024.0, 6_000.0, 6_000.0]),
+        heading,
+    )
+    .await;
+    // The Planner waits for the goal's end, as it does.
+    let goal_done = {
+        let planner = planner.clone();
+        tokio::spawn(async move { planner.down(Sem::RobotStatus).await })
+    };
+    let counted = tokio::time::timeout(Duration::from_secs(60), async {
+        while !planner
+            .get::<i64>(Var::CeilingLight)
+            .await
+            .is_ok_and(|n| n == 1)
+        {
+            tokio::time::sleep(Duration::from_millis(20)).await;
+        }
+    });
+    counted.await.expect("the first light is counted");
+    first.abort();
+    let _ = first.await;
+    let second = common::ctracker(&rig).await;
+    tokio::time::timeout(Duration::from_secs(60), goal_done)
+        .await
+        .expect("the L goal ends by its count, told by the CTracker started again")
+        .expect("the wait task")
+        .expect("down($RobotStatus)");
+    tokio::time::timeout(Duration::from_secs(10), planner.down(Sem::EndLMode))
+        .await
+        .expect("the segment is closed")
+        .expect("down($EndLMode)");
+    let log: rome_nav::ctracker::SegmentLog = planner.get(Var::TrackLog).await.expect("TrackLog");
+    assert_eq!(log.seen + log.missed, 3, "each light counted once: {log:?}");
+    // By ground truth the robot stopped at the third light, not before
+    // and not a light later.
+    let end = rig.truth(0);
+    let along = (end.at.x - start.at.x).hypot(end.at.y - start.at.y);
+    assert!(
+        (12_000.0..14_500.0).contains(&along),
+        "stopped {along:.0} mm along; the third light is 13 024 mm"
+    );
+    second.abort();
+    navigating.abort();
+    rig.stop().await;
+}

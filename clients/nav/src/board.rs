@@ -132,6 +132,10 @@ pub enum Var {
     /// The goal the Navigator is carrying out, and where it started it,
     /// so a Navigator started again takes it up; `null` between goals.
     GoalActive,
+    /// The L segment the CTracker is counting: lights so far and where
+    /// the last was, so a CTracker started again takes it up
+    /// ([`crate::ctracker::Tracking`]).
+    Tracking,
     /// The route the Planner follows, for people watching (`rome view`).
     Route,
     /// For an E goal: how far the wall ahead stands from the middle of the
@@ -168,6 +172,7 @@ impl Var {
             Var::TrackLog => "TrackLog",
             Var::Corridor => "Corridor",
             Var::GoalActive => "GoalActive",
+            Var::Tracking => "Tracking",
             Var::Route => "Route",
             Var::EndWall => "EndWall",
             Var::GoalLane => "GoalLane",

@@ -159,6 +159,27 @@ pub struct SegmentLog {
     pub found_late: usize,
 }
 
+/// Where an L segment stands, on the blackboard (`Tracking`) after every
+/// light: a CTracker killed in the middle of a segment and started again
+/// takes it up from here instead of waiting for the next one, which
+/// would leave the Navigator waiting for a count that never comes.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Tracking {
+    /// Whether the segment is still being counted.
+    pub open: bool,
+    /// The segment: the history number of the `LightOffset` the Planner
+    /// wrote for it, so a segment of a run that has ended since is not
+    /// taken up.
+    pub segment: u64,
+    /// Lights counted.
+    pub count: usize,
+    /// Where the last counted light was (or the segment began), mm along
+    /// the segment's heading in odometry.
+    pub last_mm: f64,
+    /// The segment's log so far.
+    pub log: SegmentLog,
+}
+
 impl SegmentLog {
     /// Why the segment failed, if it did: the robot lost the lights (more
     /// than a third missed) or the segment ended on distance alone.
@@ -215,6 +236,7 @@ impl CTracker {
             }));
         }
         drop(tx);
+        let mut resume = self.left_open().await?;
         loop {
             tokio::select! {
                 biased;
@@ -224,7 +246,7 @@ impl CTracker {
                         _ => Err(NavError::Gone("a ceiling-light child tracker stopped")),
                     };
                 }
-                seg = self.segment(&mut rx) => {
+                seg = self.segment(&mut rx, resume.take()) => {
                     let seg = seg?;
                     tracing::info!(?seg, "ctracker: segment done");
                     if let Some(log) = &log {
@@ -239,9 +261,55 @@ impl CTracker {
         Ok(Pose::from(&crate::track::pose_waiting(&self.robot).await?))
     }
 
-    /// One L segment: down($TrackData) … up($EndLMode).
-    async fn segment(&self, rx: &mut mpsc::Receiver<Sighting>) -> Result<SegmentLog, NavError> {
-        self.board.down(Sem::TrackData).await?;
+    /// A segment a CTracker before this one left open, if it is still the
+    /// Planner's latest and a Planner waits for the goal or the segment's
+    /// end.
+    async fn left_open(&self) -> Result<Option<Tracking>, NavError> {
+        let t = match self.board.get::<Option<Tracking>>(Var::Tracking).await {
+            Ok(Some(t)) if t.open => t,
+            Ok(_) => return Ok(None),
+            Err(e) if crate::bad_value(&e) => {
+                tracing::warn!(error = %e, "ctracker: Tracking does not decode; ignored");
+                return Ok(None);
+            }
+            Err(e) => return Err(e.into()),
+        };
+        let latest = self.segment_seq().await?;
+        let ds = self.board.client();
+        let mut waits = false;
+        for sem in [Sem::RobotStatus, Sem::EndLMode] {
+            waits |= ds.semaphore(&self.board.sem_name(sem)).await?.waiters > 0;
+        }
+        if t.segment == latest && waits {
+            tracing::info!(count = t.count, "ctracker: taking up the segment left open");
+            Ok(Some(t))
+        } else {
+            tracing::info!("ctracker: a segment was left open, but it is over");
+            self.board.set(Var::Tracking, &None::<Tracking>).await?;
+            Ok(None)
+        }
+    }
+
+    /// The history number of the segment's `LightOffset`.
+    async fn segment_seq(&self) -> Result<u64, NavError> {
+        let name = self.board.var_name(Var::LightOffset);
+        match self.board.client().history(&name).await {
+            Ok(h) => Ok(h.seq),
+            Err(e) if crate::bad_value(&e) => Ok(0),
+            Err(e) => Err(e.into()),
+        }
+    }
+
+    /// One L segment: down($TrackData) … up($EndLMode), or the rest of one
+    /// taken up.
+    async fn segment(
+        &self,
+        rx: &mut mpsc::Receiver<Sighting>,
+        resume: Option<Tracking>,
+    ) -> Result<SegmentLog, NavError> {
+        if resume.is_none() {
+            self.board.down(Sem::TrackData).await?;
+        }
         let (goal, offsets, heading) = match self.segment_values().await? {
             Ok(values) => values,
             Err(why) => {
@@ -249,24 +317,46 @@ impl CTracker {
                 // segment up, with the reason where the Navigator reads
                 // the count, and the tracker waits for the next one.
                 tracing::warn!("ctracker: segment given up: {why}");
+                self.board.set(Var::Tracking, &None::<Tracking>).await?;
                 self.board
                     .set(Var::CeilingLight, &crate::board::GaveUp { failed: why })
                     .await?;
                 return Ok(SegmentLog::default());
             }
         };
-        self.board.set(Var::CeilingLight, &0i64).await?;
         // Sightings from before the segment are stale.
         while rx.try_recv().is_ok() {}
         let axis = direction(heading);
         let along = |p: &Pose| p.at.x * axis.x + p.at.y * axis.y;
-        let mut last = along(&self.pose().await?);
-        let mut count = 0usize;
         let total = usize::try_from(goal).unwrap_or(0).min(offsets.len());
-        let mut log = SegmentLog {
-            lights: total,
-            ..SegmentLog::default()
+        let segment = self.segment_seq().await?;
+        let (mut last, mut count, mut log) = match resume {
+            Some(t) => (t.last_mm, t.count.min(total), t.log),
+            None => {
+                self.board.set(Var::CeilingLight, &0i64).await?;
+                let log = SegmentLog {
+                    lights: total,
+                    ..SegmentLog::default()
+                };
+                (along(&self.pose().await?), 0, log)
+            }
         };
+        let mut tracking = Tracking {
+            open: true,
+            segment,
+            count,
+            last_mm: last,
+            log: log.clone(),
+        };
+        self.board.set(Var::Tracking, &Some(&tracking)).await?;
+        if count > 0 {
+            // Taken up: the count the tracker before may not have said.
+            if count == total {
+                self.counted(count, total, last, &mut log, along).await?;
+            } else {
+                self.board.set(Var::CeilingLight, &(count as i64)).await?;
+            }
+        }
         let mut tick = rome_clock::interval(self.cfg.check_every);
         while count < total {
             let expected = offsets[count];
@@ -283,6 +373,7 @@ impl CTracker {
                             log.seen += 1;
                             log.last_missed = false;
                             last = at;
+                            self.keep(&mut tracking, count, last, &log).await?;
                             self.counted(count, total, last, &mut log, along).await?;
                         }
                         Verdict::TooEarly if log.last_missed && seen_late(&self.cfg, at - last, expected) => {
@@ -306,6 +397,7 @@ impl CTracker {
                         log.first_missed |= count == 1;
                         last += expected;
                         tracing::warn!(light = count, "ctracker: light missed; counted by distance");
+                        self.keep(&mut tracking, count, last, &log).await?;
                         self.counted(count, total, last, &mut log, along).await?;
                     }
                 }
@@ -316,6 +408,8 @@ impl CTracker {
             self.board.set(Var::TrackLog, &log).await?;
             self.board.up(Sem::EndLMode).await?;
         }
+        // Closed: the segment's end is said.
+        self.board.set(Var::Tracking, &None::<Tracking>).await?;
         Ok(log)
     }
 
@@ -346,6 +440,22 @@ impl CTracker {
             (Ok(g), Ok(o), Ok(h)) => Ok((g, o, h)),
             (Err(why), _, _) | (_, Err(why), _) | (_, _, Err(why)) => Err(why),
         })
+    }
+
+    /// Keeps where the segment stands on the blackboard, before the count
+    /// is said: a tracker killed in between says it again when it takes
+    /// the segment up.
+    async fn keep(
+        &self,
+        tracking: &mut Tracking,
+        count: usize,
+        last: f64,
+        log: &SegmentLog,
+    ) -> Result<(), NavError> {
+        tracking.count = count;
+        tracking.last_mm = last;
+        tracking.log.clone_from(log);
+        Ok(self.board.set(Var::Tracking, &Some(&*tracking)).await?)
     }
 
     async fn counted(
