@@ -229,21 +229,31 @@ pub(super) async fn hold(lock: Lock, secs: Option<f64>) -> anyhow::Result<u8> {
     Ok(exit::OK)
 }
 
-/// Runs one robot command.
-pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
+/// A client session and the options of a one-command client at
+/// `priority`, waiting at most `wait` seconds behind another's lock.
+pub(super) async fn one_command(
+    common: &CommonArgs,
+    priority: u8,
+    wait: f64,
+) -> anyhow::Result<(zenoh::Session, RobotOptions)> {
     anyhow::ensure!(
-        args.wait.is_finite() && args.wait >= 0.0,
-        "--wait must be a number of seconds, got {}",
-        args.wait
+        wait.is_finite() && wait >= 0.0,
+        "--wait must be a number of seconds, got {wait}"
     );
     let session = common.open(Side::Client).await?;
     let mut options = RobotOptions::new("cli");
     options.root = common.root()?;
-    options.priority = args.priority;
-    options.queue_wait = Duration::from_secs_f64(args.wait);
+    options.priority = priority;
+    options.queue_wait = Duration::from_secs_f64(wait);
     // `rome robot r1 go 300` starts the robot and exits: the base must not
     // take the exit for a dead controller.
     options.deadman = false;
+    Ok((session, options))
+}
+
+/// Runs one robot command.
+pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
+    let (session, options) = one_command(common, args.priority, args.wait).await?;
     let r = RobotClient::connect(&session, &args.robot, options).await?;
     let what = || format!("robot '{}'", args.robot);
     match args.command {

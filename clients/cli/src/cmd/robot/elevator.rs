@@ -3,12 +3,11 @@
 //! operator will help the robot to operate the elevator by pushing the
 //! buttons"). Replies print as one JSON line, streams a line a message.
 
-use super::commands::{follow, hold, print};
-use crate::args::{CommonArgs, Side};
+use super::commands::{follow, hold, one_command, print};
+use crate::args::CommonArgs;
 use crate::exit;
 use anyhow::Context;
 use rome_client::elevator::ElevatorClient;
-use rome_client::RobotOptions;
 use std::time::Duration;
 
 /// Flags of `rome elevator`.
@@ -71,17 +70,7 @@ pub enum ElevatorCmd {
 
 /// Runs one elevator command.
 pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
-    anyhow::ensure!(
-        args.wait.is_finite() && args.wait >= 0.0,
-        "--wait must be a number of seconds, got {}",
-        args.wait
-    );
-    let session = common.open(Side::Client).await?;
-    let mut options = RobotOptions::new("cli");
-    options.root = common.root()?;
-    options.priority = args.priority;
-    options.queue_wait = Duration::from_secs_f64(args.wait);
-    options.deadman = false;
+    let (session, options) = one_command(common, args.priority, args.wait).await?;
     let e = ElevatorClient::connect(&session, &args.elevator, options).await?;
     let what = || format!("elevator '{}'", args.elevator);
     match args.command {
