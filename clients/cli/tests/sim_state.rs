@@ -98,6 +98,14 @@ async fn a_world_killed_mid_move_takes_its_robot_up_where_it_stood_and_finishes_
         resumed.travelled_mm,
         resumed.time_ms
     );
+    // The sonar ring's scans go on from where they were, not from 0.
+    let scans = robot.scans().await.unwrap();
+    let scan = scans.next().await.unwrap().unwrap();
+    assert!(
+        scan.time_ms + 2_000 >= kept_ms,
+        "the first scan is of {} ms; the file was written at {kept_ms} ms",
+        scan.time_ms
+    );
     // The base controller goes on with its move, to its end.
     rome_tests::eventually(Duration::from_secs(20), "r1 finishes its 2 m", || async {
         truth.get().await.is_ok_and(|t| t.travelled_mm > 1_940.0)

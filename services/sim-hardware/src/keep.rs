@@ -8,8 +8,8 @@
 //! their start with fresh odometry, so a navigation run in progress could
 //! only fail. With a state file the world writes, every
 //! [`KEEP_EVERY_MS`] of simulated time, each robot's true pose, its
-//! odometry registers, its motion controller and its base server's virtual
-//! frame; started again
+//! odometry registers, its motion controller, its last sonar scan and its
+//! base server's virtual frame; started again
 //! on the same file, it takes them up. What happened between the last
 //! write and the kill is lost for truth and odometry alike, so the robot
 //! seems to have been set back a few centimetres, and both still agree.
@@ -50,6 +50,9 @@ pub struct KeptRobot {
     pub travelled_mm: f64,
     /// Its motion controller: the command it was carrying out goes on.
     pub drive: rome_sim::Drive,
+    /// Its sonar ring's last complete cycle (mm) and when it ended, ms:
+    /// a scan's time must not go back to 0 when the world is taken up.
+    pub scan: (Vec<u16>, u64),
 }
 
 /// A state file that cannot be read or written.
@@ -85,6 +88,7 @@ pub fn snapshot(world: &SimWorld) -> Kept {
                 frame: VirtualPose::default().save(),
                 travelled_mm: r.travelled_mm,
                 drive: r.drive.clone(),
+                scan: (r.scan.to_vec(), r.sonar_at_ms),
             })
             .collect();
         (sim.time_ms(), robots)
@@ -137,6 +141,11 @@ pub fn restore(world: &SimWorld, kept: &Kept) -> Vec<String> {
             r.odometry.heading = k.odometry.2;
             r.travelled_mm = k.travelled_mm;
             r.drive = k.drive.clone();
+            if let Ok(ranges) = <[u16; rome_sim::spec::SONARS]>::try_from(k.scan.0.as_slice()) {
+                r.scan = ranges;
+                r.sonar = ranges;
+            }
+            r.sonar_at_ms = k.scan.1;
         }
     }
     for k in kept.robots.iter().filter(|k| !unknown.contains(&k.name)) {
