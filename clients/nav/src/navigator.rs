@@ -59,6 +59,10 @@ fn slot(t: GoalType) -> usize {
     }
 }
 
+/// A command's round trip longer than this (and than three times the
+/// estimate) is taken as an outage, not as the link's speed, s.
+const OUTAGE_S: f64 = 0.25;
+
 /// The Navigator of one robot.
 pub struct Navigator {
     robot: RobotClient,
@@ -336,6 +340,12 @@ impl Navigator {
             }
         };
         let rtt = (sent.elapsed().as_secs_f64() / f64::from(trips)).min(2.0);
+        // A command that waited out a server restarting or a link cut says
+        // nothing of the link: taken whole, a few of them would make the
+        // stopping distance of a D goal longer than the goal, and the
+        // goal would end where it began. A link truly slower is still
+        // learnt, by at most 40 % a command.
+        let rtt = rtt.min((3.0 * self.rtt_s).max(OUTAGE_S));
         self.rtt_s = if self.rtt_s == 0.0 {
             rtt
         } else {
