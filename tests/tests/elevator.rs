@@ -97,6 +97,22 @@ async fn a_floor_it_does_not_serve_is_refused_by_name() {
             .contains("no floor '7' here: it serves 3, 4, 5"),
         "{err}"
     );
+    // A payload on a command that takes none is refused by name.
+    let raw = NetOptions::loopback_client(shaft.port)
+        .open()
+        .await
+        .unwrap();
+    let reply = raw
+        .get("rome/building/elevator/acs.elev/open")
+        .payload("{\"hold\":true}")
+        .await
+        .unwrap()
+        .recv_async()
+        .await
+        .unwrap();
+    let refusal = reply.result().expect_err("refused");
+    let text = refusal.payload().try_to_string().unwrap().into_owned();
+    assert!(text.contains("'open' takes no payload"), "{text}");
     // The server serves on.
     assert_eq!(e.state().await.unwrap().floor, "3");
 }

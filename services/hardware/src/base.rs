@@ -24,9 +24,9 @@
 //! the server watch that client: when its token goes, the base is stopped,
 //! so a robot does not drive on after its controller died.
 
-use crate::device::{BaseDevice, BaseOp, BaseStatus, DeviceError};
+use crate::device::{device_error, BaseDevice, BaseOp, BaseStatus};
 use crate::locked;
-use crate::server::{Body, QuickRead, Service};
+use crate::server::{no_payload, Body, QuickRead, Service};
 use crate::vxy::{Pose32, Pose32Target, VirtualPose};
 use rome_schema::robot::command::{
     parse_payload, Command, ReadBumper, ReadMode, ReadPose, ReadSpeed, ReadWheelSpeed,
@@ -191,13 +191,6 @@ impl<D: BaseDevice> Base<D> {
     }
 }
 
-fn device_error(e: DeviceError) -> ErrorReply {
-    match e {
-        DeviceError::OutOfRange(m) => ErrorReply::new(ErrorCode::OutOfRange, m),
-        other => ErrorReply::new(ErrorCode::Device, other.to_string()),
-    }
-}
-
 impl<D: BaseDevice> Service for Base<D> {
     type Cmd = BaseCmd;
 
@@ -226,14 +219,7 @@ impl<D: BaseDevice> Service for Base<D> {
         body: Option<&[u8]>,
     ) -> Result<BaseCmd, ErrorReply> {
         params.finish(command, &["priority", "fence", "wait_ms", "client", "op"])?;
-        let no_payload = |cmd: BaseCmd| -> Result<BaseCmd, ErrorReply> {
-            match body {
-                Some(b) if !b.is_empty() && b.iter().any(|c| !c.is_ascii_whitespace()) => Err(
-                    ErrorReply::new(ErrorCode::BadJson, format!("'{command}' takes no payload")),
-                ),
-                _ => Ok(cmd),
-            }
-        };
+        let bare = |cmd: BaseCmd| no_payload(command, body).map(|()| cmd);
         Ok(match command {
             Move::NAME => BaseCmd::Op(BaseOp::Move(parse_payload(body)?)),
             Turn::NAME => BaseCmd::Op(BaseOp::Turn(parse_payload(body)?)),
@@ -252,11 +238,11 @@ impl<D: BaseDevice> Service for Base<D> {
             SetBumper::NAME => {
                 BaseCmd::Op(BaseOp::SetBumper(parse_payload::<SetBumper>(body)?.watch))
             }
-            ReadPose::NAME => no_payload(BaseCmd::Pose)?,
-            ReadBumper::NAME => no_payload(BaseCmd::Bumper)?,
-            ReadSpeed::NAME => no_payload(BaseCmd::Speed)?,
-            ReadWheelSpeed::NAME => no_payload(BaseCmd::WheelSpeed)?,
-            ReadMode::NAME => no_payload(BaseCmd::Mode)?,
+            ReadPose::NAME => bare(BaseCmd::Pose)?,
+            ReadBumper::NAME => bare(BaseCmd::Bumper)?,
+            ReadSpeed::NAME => bare(BaseCmd::Speed)?,
+            ReadWheelSpeed::NAME => bare(BaseCmd::WheelSpeed)?,
+            ReadMode::NAME => bare(BaseCmd::Mode)?,
             other => {
                 return Err(ErrorReply::new(
                     ErrorCode::UnknownKey,

@@ -12,6 +12,16 @@ use std::sync::Arc;
 /// say), and the caller goes the usual way.
 pub type Peek<T> = Arc<dyn Fn() -> Option<T> + Send + Sync>;
 
+/// A device's failure as the server answers it: a value outside what the
+/// device takes is `out_of_range`, anything else `device`.
+pub fn device_error(e: DeviceError) -> rome_schema::ErrorReply {
+    use rome_schema::{ErrorCode, ErrorReply};
+    match e {
+        DeviceError::OutOfRange(m) => ErrorReply::new(ErrorCode::OutOfRange, m),
+        other => ErrorReply::new(ErrorCode::Device, other.to_string()),
+    }
+}
+
 /// A device could not carry out a command.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum DeviceError {

@@ -8,9 +8,9 @@
 //! Its buttons are not commands: presses are puts on `…/press`, taken by
 //! the car whoever holds the session, as a button wired to the car is.
 
-use crate::device::DeviceError;
+use crate::device::{device_error, DeviceError};
 use crate::robot::{spawn, Running};
-use crate::server::{declare_err, Body, Place, ServerConfig, ServerError, Service};
+use crate::server::{declare_err, no_payload, Body, Place, ServerConfig, ServerError, Service};
 use rome_schema::elevator::{
     Call, Close, ElevatorDone, ElevatorState, GoTo, Open, Press, ReadState, COMMANDS, PRESS,
 };
@@ -78,10 +78,7 @@ impl<D: ElevatorDevice> Elevator<D> {
     }
 
     async fn state(&self, op: CarOp, lock: Option<LockInfo>) -> Result<ElevatorState, ErrorReply> {
-        let mut s = self.device.command(op).await.map_err(|e| match e {
-            DeviceError::OutOfRange(m) => ErrorReply::new(ErrorCode::OutOfRange, m),
-            other => ErrorReply::new(ErrorCode::Device, other.to_string()),
-        })?;
+        let mut s = self.device.command(op).await.map_err(device_error)?;
         s.elevator.clone_from(&self.name);
         s.lock = lock;
         Ok(s)
@@ -110,13 +107,7 @@ impl<D: ElevatorDevice> Service for Elevator<D> {
         body: Option<&[u8]>,
     ) -> Result<ElevatorCmd, ErrorReply> {
         params.finish(command, &["priority", "fence", "wait_ms", "client", "op"])?;
-        let none = |cmd: ElevatorCmd| match body {
-            Some(b) if b.iter().any(|c| !c.is_ascii_whitespace()) => Err(ErrorReply::new(
-                ErrorCode::BadJson,
-                format!("'{command}' takes no payload"),
-            )),
-            _ => Ok(cmd),
-        };
+        let none = |cmd: ElevatorCmd| no_payload(command, body).map(|()| cmd);
         match command {
             Call::NAME => Ok(ElevatorCmd::Stop(
                 Call::NAME,

@@ -77,6 +77,17 @@ impl Body {
 /// answer so, parameters it would refuse, a device busy right now).
 pub type QuickRead = Arc<dyn Fn(&str, Params) -> Option<Body> + Send + Sync>;
 
+/// Refuses a payload on `command`, which takes none (white space aside).
+pub fn no_payload(command: &str, body: Option<&[u8]>) -> Result<(), ErrorReply> {
+    match body {
+        Some(b) if b.iter().any(|c| !c.is_ascii_whitespace()) => Err(ErrorReply::new(
+            ErrorCode::BadJson,
+            format!("'{command}' takes no payload"),
+        )),
+        _ => Ok(()),
+    }
+}
+
 /// A device's commands: what a hardware server needs to know of them.
 pub trait Service: Send + Sync + 'static {
     /// A parsed command.
