@@ -167,6 +167,34 @@ pub fn building_from_text(
             f.source, e.number, f.name, f.line
         ));
     }
+    // Each elevator has its own code, the same on every floor, so a robot
+    // knows the car by its marker wherever it stands.
+    let mut codes: Vec<(crate::marker::Code, &str)> = Vec::new();
+    for e in &elevators {
+        let mut first: Option<(crate::marker::Code, &str)> = None;
+        for &fi in &e.floors {
+            let f = &floors[fi];
+            let Some((code, at)) = marker_of(&f.map, &e.number) else {
+                continue;
+            };
+            match first {
+                Some((c, name)) if c != code => problems.push(format!(
+                    "{}:{at}: elevator '{}' has marker {code} on floor '{}' but {c} on floor '{name}': an elevator carries one code on every floor",
+                    f.source, e.number, f.name
+                )),
+                Some(_) => {}
+                None => first = Some((code, &f.name)),
+            }
+            if let Some((_, other)) = codes.iter().find(|(c, n)| *c == code && *n != e.number) {
+                problems.push(format!(
+                    "{}:{at}: elevator '{}' has marker {code}, as elevator '{other}' has: each elevator has its own code",
+                    f.source, e.number
+                ));
+            } else if !codes.iter().any(|(c, _)| *c == code) {
+                codes.push((code, &e.number));
+            }
+        }
+    }
     if problems.is_empty() && floor_errors.is_empty() {
         return Ok(Building {
             name,
@@ -204,6 +232,15 @@ fn elevator_numbers(map: &Map) -> Vec<String> {
         .filter(|e| e.kind == EdgeKind::Elevator)
         .filter_map(|e| e.number.clone())
         .collect()
+}
+
+/// The marker on an elevator's door on one floor, and its line.
+fn marker_of(map: &Map, number: &str) -> Option<(crate::marker::Code, usize)> {
+    map.rings
+        .iter()
+        .flat_map(|r| &r.edges)
+        .filter(|e| e.kind == EdgeKind::Elevator && e.number.as_deref() == Some(number))
+        .find_map(|e| Some((crate::marker::of_edge(e)?.ok()?, e.line)))
 }
 
 fn elevator_line(map: &Map, number: &str) -> Option<usize> {

@@ -19,6 +19,7 @@
 //! - [`building`]: several floors joined by elevators (§5.4.6), and
 //!   routes that ride them (`3:350R` → `4:450R`).
 //! - [`font`]: the 5×7 lettering of the simulated door plates.
+//! - [`marker`]: the barcode-like markers on elevator doors (Fig. 5.11).
 //!
 //! The format is described in `docs/stickrep.md`; `maps/data/` holds the
 //! maps.
@@ -26,6 +27,7 @@
 pub mod building;
 pub mod font;
 pub mod geometry;
+pub mod marker;
 pub mod model;
 pub mod parse;
 pub mod render;

@@ -33,6 +33,7 @@ pub fn validate(map: &Map) -> Vec<Problem> {
     let mut rings: HashMap<&str, usize> = HashMap::new();
     let mut numbers: HashMap<&str, usize> = HashMap::new();
     let mut plates: HashMap<&str, usize> = HashMap::new();
+    let mut markers: HashMap<crate::marker::Code, usize> = HashMap::new();
     // One trace per ring, by position: names may repeat in a broken map.
     let traces: Vec<Trace> = map.rings.iter().map(trace).collect();
     for (ri, ring) in map.rings.iter().enumerate() {
@@ -112,6 +113,19 @@ pub fn validate(map: &Map) -> Vec<Problem> {
                         format!("plate '{}' is already on line {first}", plate.label),
                     );
                 }
+            }
+            match crate::marker::of_edge(edge) {
+                Some(_) if edge.kind != EdgeKind::Elevator => say(
+                    edge.line,
+                    format!("a {kind} has no marker; markers are pasted on elevator doors"),
+                ),
+                Some(Err(e)) => say(edge.line, e),
+                Some(Ok(code)) => {
+                    if let Some(first) = markers.insert(code, edge.line) {
+                        say(edge.line, format!("marker {code} is already on line {first}: each elevator has its own code"));
+                    }
+                }
+                None => {}
             }
             if let Some(number) = &edge.number {
                 if matches!(edge.kind, EdgeKind::Wall | EdgeKind::Window) {

@@ -250,3 +250,46 @@ fn syntax_errors_name_file_and_line() {
     let e = parse_error("map empty\n");
     assert!(e.contains("the map has no rings"), "{e}");
 }
+
+#[test]
+fn a_marker_that_is_bad_misplaced_or_shared() {
+    let l = line_of("door 1000 number 302");
+    let elevator = |marker: &str| format!("  elevator 1000 number 302 marker={marker}");
+    assert!(problems(&broken(l, &elevator("101"))).is_empty());
+    assert_problem(
+        &broken(l, &elevator("110")),
+        l,
+        &["marker '110'", "side by side"],
+    );
+    assert_problem(&broken(l, &elevator("1012")), l, &["3 binary digits"]);
+    assert_problem(
+        &broken(l, "  door 1000 number 302 marker=101"),
+        l,
+        &["a door has no marker", "elevator doors"],
+    );
+    // Two elevators with one code: the second is named.
+    let m = line_of("door 1000 number 301");
+    let text = broken(l, &elevator("010"));
+    let text = text
+        .lines()
+        .enumerate()
+        .map(|(i, s)| {
+            if i + 1 == m {
+                "  elevator 1000 number 301 marker=010"
+            } else {
+                s
+            }
+        })
+        .collect::<Vec<_>>()
+        .join("\n");
+    let (first, second) = (l.min(m), l.max(m));
+    assert_problem(
+        &text,
+        second,
+        &[
+            "marker 010 is already on line",
+            &first.to_string(),
+            "its own code",
+        ],
+    );
+}

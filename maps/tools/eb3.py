@@ -25,9 +25,9 @@ X_N = 60.0  # corridor N (new wing, middle)
 X_J = 112.0  # corridor J (new wing, east)
 
 
-def door(number, a, b, kind="door", plate=True):
+def door(number, a, b, kind="door", plate=True, **tags):
     """A door between the axis coordinates a and b (either order)."""
-    return {"kind": kind, "a": min(a, b), "b": max(a, b), "number": number, "plate": plate}
+    return {"kind": kind, "a": min(a, b), "b": max(a, b), "number": number, "plate": plate, "tags": tags}
 
 
 def jamb(number, first, width, toward, **kw):
@@ -170,7 +170,7 @@ island_a = {
             "lateral": OLD,
             "lights": [],
             "features": [
-                jamb("acs.elev", 123.0, 2.0, -1, kind="elevator"),
+                jamb("acs.elev", 123.0, 2.0, -1, kind="elevator", marker="010"),
                 jamb("346", 119.5, 0.9, -1),
                 jamb("350.1", 116.4, 0.9, -1),
                 jamb("350.2", 114.9, 0.9, -1),
@@ -182,7 +182,7 @@ island_a = {
                 feature("wall", 74.0, 75.5, poster="750"),
                 jamb("364", 72.0, 0.9, -1),
                 jamb("368", 66.0, 0.9, -1),
-                jamb("old.elevator", 61.0, 2.0, -1, kind="elevator"),
+                jamb("old.elevator", 61.0, 2.0, -1, kind="elevator", marker="101"),
                 jamb("372", 51.289, 0.9, -1),
                 jamb("376", 32.848, 0.9, -1),
             ]

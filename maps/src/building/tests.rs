@@ -124,3 +124,45 @@ fn bad_statements_and_floors_are_errors_with_their_line() {
     );
     assert!(e.contains("cannot read nowhere.stk"), "{e}");
 }
+
+#[test]
+fn an_elevator_carries_one_code_on_every_floor_and_no_other_has_it() {
+    let tower = tower();
+    let codes: Vec<String> = tower
+        .elevators
+        .iter()
+        .map(|e| {
+            let (code, _) = marker_of(&tower.floors[0].map, &e.number).expect("a marker");
+            format!("{} {code}", e.number)
+        })
+        .collect();
+    assert_eq!(codes, ["acs.elev 010", "old.elevator 101"]);
+    // Floor 4 repaints acs.elev; floor 5 gives old.elevator acs.elev's code.
+    let repaint = |name: &str| {
+        let mut map = load_named(name)?;
+        let (number, code) = match name {
+            "tower-4" => ("acs.elev", "100"),
+            "tower-5" => ("old.elevator", "010"),
+            _ => return Ok(map),
+        };
+        for e in map.rings.iter_mut().flat_map(|r| r.edges.iter_mut()) {
+            if e.number.as_deref() == Some(number) {
+                e.tags.insert("marker".into(), code.into());
+            }
+        }
+        Ok(map)
+    };
+    let text = "building b\nfloor 3 eb3\nfloor 4 tower-4\nfloor 5 tower-5\n";
+    let e = building_from_text("b.bldg", text, repaint)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("elevator 'acs.elev' has marker 100 on floor '4' but 010 on floor '3'"),
+        "{e}"
+    );
+    assert!(
+        e.contains("elevator 'old.elevator' has marker 010, as elevator 'acs.elev' has"),
+        "{e}"
+    );
+    assert!(e.starts_with("tower-4:"), "{e}");
+}

@@ -22,6 +22,11 @@ pub const PLATE_GREY: u8 = 15;
 /// Grey of a plate's digits.
 pub const DIGIT_GREY: u8 = 245;
 
+/// Grey of a marker's black stripes.
+pub const MARKER_BLACK: u8 = 20;
+/// Grey of a marker's paper.
+pub const MARKER_WHITE: u8 = 230;
+
 const FLOOR_GREY: u8 = 70;
 const UPPER_CEILING_GREY: u8 = 205;
 const FAR_GREY: u8 = 30;
@@ -31,7 +36,8 @@ pub const PERSON_GREY: u8 = 95;
 /// A person's height, mm: taller than the door plates, so a person
 /// between the camera and a plate hides it.
 pub const PERSON_HEIGHT_MM: f64 = 1_750.0;
-pub(crate) const SIDE_RANGE_MM: f64 = 15_000.0;
+/// How far the sideways camera sees, mm.
+pub const SIDE_RANGE_MM: f64 = 15_000.0;
 
 /// Pixel noise drawn once per world: a table of Gaussian grey-level
 /// offsets, read from a random place for each image (drawing a normal per
@@ -230,6 +236,7 @@ pub fn side_image(
             // look only at the door frame's heights: three runs of rows.
             let plain = wall.plates.is_empty()
                 && wall.posters.is_empty()
+                && wall.marker.is_none()
                 && !(wall.kind == EdgeKind::Window && wall.bricks);
             let mut runs = None;
             if plain {
@@ -386,7 +393,12 @@ fn surface(scene: &Scene, wi: usize, u: f64, z: f64) -> u8 {
                 105
             }
         }
-        EdgeKind::Elevator => 140,
+        // Metal doors, with the marker's black stripes on white paper.
+        EdgeKind::Elevator => match wall.marker.and_then(|m| m.ink(wall.len, u, z)) {
+            Some(true) => MARKER_BLACK,
+            Some(false) => MARKER_WHITE,
+            None => 140,
+        },
         EdgeKind::Glass => 185,
         EdgeKind::Window if wall.bricks => {
             // Glass bricks: a grid of dark mortar and bright blocks.

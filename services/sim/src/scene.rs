@@ -36,6 +36,8 @@ pub struct Wall {
     pub plates: Vec<(String, f64)>,
     /// Door number, if any.
     pub number: Option<String>,
+    /// The barcode-like marker on an elevator door (Fig. 5.11).
+    pub marker: Option<rome_maps::marker::Code>,
 }
 
 impl Wall {
@@ -55,6 +57,7 @@ impl Wall {
             posters: Vec::new(),
             plates: Vec::new(),
             number: None,
+            marker: None,
         }
     }
 }
@@ -227,6 +230,7 @@ impl Scene {
                 .collect();
             wall.bricks = edge.tags.get("bricks").map(String::as_str) == Some("yes");
             wall.number = edge.number.clone();
+            wall.marker = rome_maps::marker::of_edge(edge).and_then(Result::ok);
             walls.push(wall);
         }
         // Walls of the map come first, in the order of `world.segments`.
