@@ -18,6 +18,7 @@
 //! - [`himm`]: the local mapper's histogram grid and Hough transform for
 //!   heading correction (§5.5).
 //! - [`plfinder`]: door-plate detection from the side camera (§5.7).
+//! - [`barcode`]: the reader of the elevator markers (§5.4.6, Fig. 5.11).
 //! - [`report`]: how a run is judged by what happened (lights seen, ground
 //!   truth, contacts) and reported as rows of Tables 6.1–6.2 and a picture.
 //! - [`track`]: where the robot was when a scan or frame was taken, from
@@ -27,6 +28,7 @@
 //! - [`traffic`]: the junctions and narrow passages a robot reserves
 //!   before it drives into them, in an order that cannot deadlock.
 
+pub mod barcode;
 pub mod board;
 pub mod crew;
 pub mod ctracker;
