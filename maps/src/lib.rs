@@ -18,6 +18,8 @@
 //!   route or a trajectory drawn on it; labels in DejaVu Sans.
 //! - [`building`]: several floors joined by elevators (§5.4.6), and
 //!   routes that ride them (`3:350R` → `4:450R`).
+//! - [`plane`]: a building's floors side by side on one plane, as the
+//!   simulator holds them.
 //! - [`font`]: the 5×7 lettering of the simulated door plates.
 //! - [`marker`]: the barcode-like markers on elevator doors (Fig. 5.11).
 //!
@@ -30,6 +32,7 @@ pub mod geometry;
 pub mod marker;
 pub mod model;
 pub mod parse;
+pub mod plane;
 pub mod render;
 pub mod route;
 pub mod validate;

@@ -163,6 +163,25 @@ impl Car {
         }
     }
 
+    /// Something stands in the doorway: open doors wait a whole dwell
+    /// again, closing doors open again (an elevator's door edge never
+    /// shuts on a body).
+    pub fn obstructed(&mut self) {
+        match self.doors {
+            DoorState::Open { .. } if !self.held => {
+                self.doors = DoorState::Open {
+                    left_ms: self.spec.dwell_ms,
+                }
+            }
+            DoorState::Closing { left_ms } => {
+                self.doors = DoorState::Opening {
+                    left_ms: self.spec.doors_ms.saturating_sub(left_ms),
+                }
+            }
+            _ => {}
+        }
+    }
+
     /// Advances the car by `dt_ms`.
     pub fn step(&mut self, dt_ms: u64) {
         let mut left = dt_ms;

@@ -502,6 +502,30 @@ impl Scene {
         }
     }
 
+    /// Whether `p` (a robot's centre) is inside elevator `e`'s cabin: behind
+    /// its door, within the door's width and the cabin's depth.
+    pub fn in_cabin(&self, e: usize, p: Point) -> bool {
+        let w = &self.walls[self.elevators[e].door];
+        let d = p - w.a;
+        let (u, back) = (d.dot(&w.dir), -d.dot(&w.normal));
+        (0.0..=w.len).contains(&u) && (0.0..=CABIN_MM).contains(&back)
+    }
+
+    /// Moves a pose from elevator `from`'s cabin to the same place in
+    /// elevator `to`'s: the same offset from the door and the same heading
+    /// against it (a car carries its riders).
+    pub fn carry(&self, from: usize, to: usize, at: Point, heading_deg: f64) -> (Point, f64) {
+        let (a, b) = (
+            &self.walls[self.elevators[from].door],
+            &self.walls[self.elevators[to].door],
+        );
+        let d = at - a.a;
+        let (u, n) = (d.dot(&a.dir), d.dot(&a.normal));
+        let turn =
+            rome_maps::geometry::heading_to(b.a, b.b) - rome_maps::geometry::heading_to(a.a, a.b);
+        (b.a + b.dir * u + b.normal * n, heading_deg + turn)
+    }
+
     /// Whether `p` is on a metal floor.
     pub fn on_metal(&self, p: Point) -> bool {
         self.metal.iter().any(|q| inside(q, p))

@@ -44,6 +44,7 @@ pub enum SimError {
 
 /// The true pose of a robot: the one pose type of the project.
 pub use rome_maps::geometry::Pose;
+mod cars;
 mod sense;
 
 /// The bumpers.
@@ -207,6 +208,8 @@ pub struct Sim {
     cells_fresh: bool,
     near: Vec<Body>,
     pixel_noise: camera::PixelNoise,
+    /// Elevator cars of a building ([`Sim::add_car`]).
+    cars: Vec<cars::WorldCar>,
 }
 
 /// A person walking to and fro between two points of the corridors.
@@ -257,6 +260,7 @@ impl Sim {
             centres: Vec::new(),
             cells_fresh: false,
             near: Vec::new(),
+            cars: Vec::new(),
         }
     }
 
@@ -423,6 +427,12 @@ impl Sim {
             .iter()
             .position(|e| e.number == number)
             .ok_or_else(|| SimError::NoElevator(number.to_string()))?;
+        // A car's door: the call brings the car to that floor.
+        if let Some((car, floor)) = self.car_of_door(e) {
+            return car
+                .stop_at(&floor)
+                .map_err(|e| SimError::BadSetting(e.to_string()));
+        }
         if self.doors[e] == Door::Closed {
             self.doors[e] = Door::Opening {
                 at_ms: self.time_ms + (self.config.elevator_delay_s * 1000.0) as u64,
@@ -460,6 +470,9 @@ impl Sim {
                 }
                 _ => {}
             }
+        }
+        if !self.cars.is_empty() {
+            self.step_cars(dt_ms);
         }
         if !self.cells_fresh {
             self.rebuild_cells();
