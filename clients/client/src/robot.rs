@@ -248,6 +248,12 @@ impl RobotClient {
         })
     }
 
+    /// The session and options this client was made with, for a client
+    /// of another server beside it (an elevator the robot rides).
+    pub(crate) fn parts(&self) -> (&Session, &RobotOptions) {
+        (&self.inner.session, &self.inner.options)
+    }
+
     /// The robot's name.
     pub fn robot(&self) -> &str {
         self.inner.robot.as_str()
@@ -611,7 +617,12 @@ impl RobotClient {
         };
         let grant = self.json(&device, &take, true).await?;
         self.fences().insert(device.path(), grant.fence);
-        let renew = tokio::spawn(renew(self.clone(), device.clone(), grant.fence, o.lock_ttl));
+        // A participant of a lock-step clock: the grant is renewed in the
+        // simulated time its server counts it in.
+        let renew = rome_clock::spawn(
+            "lock renewal",
+            renew(self.clone(), device.clone(), grant.fence, o.lock_ttl),
+        );
         Ok(Lock {
             client: self.clone(),
             device,
