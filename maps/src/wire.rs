@@ -40,6 +40,7 @@ pub fn truth(
         heading_deg: pose.heading.deg(),
         travelled_mm,
         contacts,
+        floor: None,
     }
 }
 

@@ -133,6 +133,10 @@ pub struct Truth {
     pub travelled_mm: f64,
     /// Touches so far.
     pub contacts: ContactCount,
+    /// The floor it is on, in a world of several floors (`x_mm`, `y_mm`
+    /// are then that floor's map coordinates); absent in a world of one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub floor: Option<String>,
 }
 
 /// How often a robot has come to touch something (each touch counts once).

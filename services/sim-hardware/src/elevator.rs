@@ -86,3 +86,48 @@ impl ElevatorDevice for SimCar {
         Ok(state_of(&car))
     }
 }
+
+/// A car of a building's world ([`rome_sim::Sim::for_building`]) as the
+/// elevator server's device: commands go to the world's car, which the
+/// world steps with its robots (in lock-step too) and whose door on each
+/// floor robots meet.
+#[derive(Clone)]
+pub struct WorldCar {
+    world: crate::world::SimWorld,
+    number: String,
+}
+
+impl WorldCar {
+    /// The world's car of shaft `number`.
+    pub fn new(world: crate::world::SimWorld, number: &str) -> Result<Self, rome_sim::SimError> {
+        if world.lock().car(number).is_none() {
+            return Err(rome_sim::SimError::NoElevator(number.to_string()));
+        }
+        Ok(WorldCar {
+            world,
+            number: number.to_string(),
+        })
+    }
+}
+
+impl ElevatorDevice for WorldCar {
+    async fn command(&self, op: CarOp) -> Result<ElevatorState, DeviceError> {
+        let mut sim = self.world.lock();
+        let car = sim
+            .car_mut(&self.number)
+            .ok_or_else(|| DeviceError::Disconnected {
+                device: format!("car '{}'", self.number),
+                why: "the world has no such car".into(),
+            })?;
+        match op {
+            CarOp::Status => {}
+            CarOp::StopAt(floor) => car
+                .stop_at(&floor)
+                .map_err(|e| DeviceError::OutOfRange(e.to_string()))?,
+            CarOp::Open => car.open(),
+            CarOp::Close => car.close(),
+            CarOp::Release => car.release(),
+        }
+        Ok(state_of(car))
+    }
+}

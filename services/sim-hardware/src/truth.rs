@@ -6,6 +6,7 @@
 
 use crate::world::SimWorld;
 use rome_hardware::server::{declare_err, ServerError};
+use rome_maps::plane::Plane;
 use rome_schema::robot::robot_name;
 use rome_schema::sim::{ContactCount, Truth};
 use rome_schema::{encode, Root};
@@ -20,20 +21,29 @@ use zenoh::Session;
 /// How many queries may wait before new ones are answered `busy`.
 const QUERY_QUEUE: usize = 1024;
 
-fn truth(r: &rome_sim::Robot, time_ms: u64) -> Truth {
+/// A robot's truth; in a building's world, on its floor's map.
+fn truth(r: &rome_sim::Robot, time_ms: u64, plane: Option<&Plane>) -> Truth {
     let c = r.contacts;
     let contacts = ContactCount {
         wall: c.wall,
         robot: c.robot,
         bumper: c.bumper,
     };
-    rome_maps::wire::truth(&r.name, time_ms, &r.pose, r.travelled_mm, contacts)
+    let mut pose = r.pose;
+    let floor = plane.and_then(|p| p.local(r.pose.at)).map(|(floor, at)| {
+        pose.at = at;
+        floor.to_string()
+    });
+    Truth {
+        floor,
+        ..rome_maps::wire::truth(&r.name, time_ms, &pose, r.travelled_mm, contacts)
+    }
 }
 
 /// Robot `i`'s truth now.
 pub fn truth_of(world: &SimWorld, i: usize) -> Truth {
     let sim = world.lock();
-    truth(sim.robot(i), sim.time_ms())
+    truth(sim.robot(i), sim.time_ms(), world.plane())
 }
 
 /// Every robot's truth now, with its key.
@@ -45,7 +55,7 @@ pub fn snapshot(world: &SimWorld, root: &Root) -> Vec<(String, Truth)> {
         .filter_map(|r| {
             // A robot whose name is no key chunk has no truth key.
             let key = root.sim_truth(&robot_name(&r.name).ok()?);
-            Some((key, truth(r, time_ms)))
+            Some((key, truth(r, time_ms, world.plane())))
         })
         .collect()
 }

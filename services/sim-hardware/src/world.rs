@@ -21,6 +21,9 @@ pub struct SimWorld {
     /// here so the world's state can be saved and taken up whole
     /// ([`crate::keep`]).
     frames: Arc<Mutex<BTreeMap<String, Arc<Mutex<VirtualPose>>>>>,
+    /// The floors of a building's world ([`Sim::for_building`]): where
+    /// each lies on the world's plane.
+    plane: Option<Arc<rome_maps::plane::Plane>>,
 }
 
 /// The stepping thread (or lock-step task); stops when dropped.
@@ -106,7 +109,21 @@ impl SimWorld {
         SimWorld {
             sim: Arc::new(Mutex::new(sim)),
             frames: Arc::default(),
+            plane: None,
         }
+    }
+
+    /// Shares a world of a building's floors laid out on `plane`.
+    pub fn on_plane(sim: Sim, plane: rome_maps::plane::Plane) -> Self {
+        SimWorld {
+            plane: Some(Arc::new(plane)),
+            ..SimWorld::new(sim)
+        }
+    }
+
+    /// The floors' layout, in a world of a building.
+    pub fn plane(&self) -> Option<&rome_maps::plane::Plane> {
+        self.plane.as_deref()
     }
 
     /// Robot `robot`'s base frame, shared with its base server.

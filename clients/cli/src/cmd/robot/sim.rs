@@ -17,6 +17,13 @@ pub struct Args {
     /// The map: a built-in name (eb3, annex, campus, fig5_3) or a StickRep file.
     #[arg(long, default_value = "eb3", value_name = "MAP")]
     pub map: String,
+    /// A building of several floors instead of one map: the built-in
+    /// `tower` or a .bldg file. Its floors lie side by side in one world,
+    /// a car runs in every elevator shaft, each with its elevator server
+    /// (`<root>/building/elevator/<name>/…`), positions are `FLOOR:POS`
+    /// (`3:350R`) and ground truth names each robot's floor.
+    #[arg(long, value_name = "BUILDING", conflicts_with = "map")]
+    pub building: Option<String>,
     /// How many robots (named r1, r2, …).
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=1000))]
     pub robots: u32,
@@ -91,10 +98,19 @@ fn period(hz: f64, flag: &str) -> anyhow::Result<Option<Duration>> {
     Ok((hz > 0.0).then(|| Duration::from_secs_f64(1.0 / hz)))
 }
 
-/// Builds the world with its robots placed; returns it and the names.
-pub fn world(args: &Args) -> anyhow::Result<(Sim, Vec<String>)> {
-    let map = rome_maps::load_named(&args.map)
-        .with_context(|| format!("cannot load the map '{}'", args.map))?;
+/// A world as the flags ask: robots placed, and for a building the
+/// floors' layout.
+pub struct Built {
+    /// The world.
+    pub sim: Sim,
+    /// Its robots' names.
+    pub names: Vec<String>,
+    /// Where a building's floors lie (`None`: one map).
+    pub plane: Option<rome_maps::plane::Plane>,
+}
+
+/// Builds the world with its robots placed.
+pub fn world(args: &Args) -> anyhow::Result<Built> {
     let config = SimConfig {
         seed: args.seed,
         noise: if args.no_noise {
@@ -105,7 +121,20 @@ pub fn world(args: &Args) -> anyhow::Result<(Sim, Vec<String>)> {
         camera_period_ms: 0,
         ..SimConfig::default()
     };
-    let mut sim = Sim::new(&map, config);
+    let (mut sim, map, plane) = match &args.building {
+        Some(b) => {
+            let building = rome_maps::load_building_named(b)
+                .with_context(|| format!("cannot load the building '{b}'"))?;
+            let (sim, plane) =
+                Sim::for_building(&building, config, rome_sim::elevator::CarSpec::default())?;
+            (sim, plane.map.clone(), Some(plane))
+        }
+        None => {
+            let map = rome_maps::load_named(&args.map)
+                .with_context(|| format!("cannot load the map '{}'", args.map))?;
+            (Sim::new(&map, config), map, None)
+        }
+    };
     let n = args.robots as usize;
     anyhow::ensure!(
         args.at.is_empty() || args.at.len() == n,
@@ -126,7 +155,7 @@ pub fn world(args: &Args) -> anyhow::Result<(Sim, Vec<String>)> {
             names.push(name);
         }
         sim.add_people(&map, args.people as usize, args.seed)?;
-        return Ok((sim, names));
+        return Ok(Built { sim, names, plane });
     }
     let mut spots: Vec<(String, f64)> = sim
         .scene()
@@ -157,7 +186,7 @@ pub fn world(args: &Args) -> anyhow::Result<(Sim, Vec<String>)> {
         names.len()
     );
     sim.add_people(&map, args.people as usize, args.seed)?;
-    Ok((sim, names))
+    Ok(Built { sim, names, plane })
 }
 
 /// Takes up the world's state from `path` if it is there, and keeps it
@@ -208,10 +237,14 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
         camera: sim_time(Duration::from_millis(args.camera_period_ms)),
     };
     let truth_every = period(args.truth_hz, "--truth-hz")?.map(sim_time);
-    let (sim, names) = world(&args)?;
+    let Built { sim, names, plane } = world(&args)?;
+    let cars: Vec<String> = sim.cars().map(|(n, _)| n.to_string()).collect();
     let root = common.root()?;
     let (session, net) = common.open_server().await?;
-    let world = SimWorld::new(sim);
+    let world = match plane {
+        Some(plane) => SimWorld::on_plane(sim, plane),
+        None => SimWorld::new(sim),
+    };
     let _keeper = match &args.state {
         Some(path) => Some(take_up(&world, path, pace)?),
         None => None,
@@ -239,12 +272,22 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
         for name in &names {
             servers.extend(spawn_sim_robot(&session, &root, &world, name, rates)?);
         }
-        anyhow::Ok(servers)
+        let mut buttons = Vec::new();
+        for car in &cars {
+            let config = rome_hardware::ServerConfig::elevator(&root, car)?;
+            let device = rome_sim_hardware::elevator::WorldCar::new(world.clone(), car)?;
+            let (server, pressed) =
+                rome_hardware::elevator::spawn_elevator(&session, config, device, rates.state)
+                    .await?;
+            servers.push(server);
+            buttons.push(pressed);
+        }
+        anyhow::Ok((servers, buttons))
     };
     // In lock-step the servers are the clock's participants: spawned in one.
-    let (mut servers, _stepper) = match &clock {
+    let (mut servers, _buttons, _stepper) = match &clock {
         Some(clock) => {
-            let servers = clock.participate("rome sim", spawn_servers).await?;
+            let (servers, buttons) = clock.participate("rome sim", spawn_servers).await?;
             let parties =
                 rome_sim_hardware::lockstep::Parties::follow(&session, &root, clock).await?;
             if args.parties > 0 {
@@ -275,10 +318,10 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
             let stepper = rome_sim_hardware::lockstep::start_lockstep_with(
                 &session, &root, &world, clock, parties,
             );
-            (servers, stepper)
+            (servers, buttons, stepper)
         }
         None => {
-            let mut servers = spawn_servers.await?;
+            let (mut servers, buttons) = spawn_servers.await?;
             servers.push(rome_sim_hardware::robot::spawn_clock(
                 &session,
                 &root,
@@ -286,21 +329,37 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
                 sim_time(Duration::from_millis(rome_schema::sim::CLOCK_EVERY_MS)),
                 false,
             ));
-            (servers, world.start((!args.free).then_some(args.speed)))
+            let stepper = world.start((!args.free).then_some(args.speed));
+            (servers, buttons, stepper)
         }
     };
     {
         let sim = world.lock();
         for r in sim.robots() {
+            let (floor, at) = match world.plane().and_then(|p| p.local(r.pose.at)) {
+                Some((f, at)) => (format!(" on floor {f}"), at),
+                None => (String::new(), r.pose.at),
+            };
             eprintln!(
-                "{}: at ({:.0}, {:.0}) mm heading {:.0}°",
-                r.name, r.pose.at.x, r.pose.at.y, r.pose.heading
+                "{}: at ({:.0}, {:.0}) mm{floor} heading {:.0}°",
+                r.name, at.x, at.y, r.pose.heading
+            );
+        }
+        for (number, car) in sim.cars() {
+            eprintln!(
+                "elevator {number}: floors {}, at {}; serving '{}/building/elevator/{number}/…'",
+                car.floors().join(", "),
+                car.floor(),
+                root.as_str()
             );
         }
     }
+    let place = match &args.building {
+        Some(b) => format!("building '{b}'"),
+        None => format!("map '{}'", args.map),
+    };
     eprintln!(
-        "rome sim: map '{}', {} robot(s), {} (listen {:?}, connect {:?}); serving '{}/robot/<robot>/{{base,proximity,camera/up,camera/side}}/*' and ground truth on '{}'; Ctrl-C to stop",
-        args.map,
+        "rome sim: {place}, {} robot(s), {} (listen {:?}, connect {:?}); serving '{}/robot/<robot>/{{base,proximity,camera/up,camera/side}}/*' and ground truth on '{}'; Ctrl-C to stop",
         names.len(),
         if args.lockstep {
             "in lock-step with its clients".to_string()
