@@ -41,6 +41,13 @@ impl ElevatorClient {
         })
     }
 
+    /// A client of elevator `name` on the session and with the options of
+    /// `robot`'s client: the client of the robot that rides it.
+    pub async fn beside(robot: &RobotClient, name: &str) -> Result<Self, ClientError> {
+        let (session, options) = robot.parts();
+        Self::connect(session, name, options.clone()).await
+    }
+
     /// `call`: the car is wanted at `floor`; it comes and opens there.
     pub async fn call(&self, floor: &str) -> Result<ElevatorDone, ClientError> {
         let c = Call {

@@ -113,7 +113,8 @@ impl Counts {
                         c.c_mode
                             .add(ok && left.is_some_and(|n| n.failure.is_none()));
                     }
-                    GoalType::C | GoalType::D => {}
+                    // §6.3's automaton has no elevator rides.
+                    GoalType::C | GoalType::D | GoalType::V => {}
                 }
             }
         }
@@ -228,7 +229,7 @@ pub fn input_string(plan: &Plan) -> String {
         .filter_map(|(i, s)| match s.goal.goal_type {
             GoalType::L => Some('l'),
             GoalType::E => Some('c'),
-            GoalType::C => None,
+            GoalType::C | GoalType::V => None,
             GoalType::D => (i + 1 == n).then_some('d'),
         })
         .collect()

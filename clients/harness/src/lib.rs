@@ -22,7 +22,6 @@
 use rome_client::net::NetOptions;
 use rome_client::sim::TruthClient;
 use rome_client::{DataClient, DataOptions, RobotClient, RobotOptions};
-use rome_hardware::robot::Rates;
 use rome_maps::geometry::Point;
 use rome_maps::{Map, Network, World};
 use rome_nav::board::{Board, Var};
@@ -36,8 +35,7 @@ use rome_nav::plfinder::PlConfig;
 use rome_nav::report::{Ended, Report};
 use rome_nav::NavError;
 use rome_schema::Root;
-use rome_sim::{Noise, Pose, Sim, SimConfig};
-use rome_sim_hardware::robot::{spawn_sim_robot, spawn_truth};
+use rome_sim::{Noise, Pose};
 use rome_sim_hardware::world::SimWorld;
 use std::time::{Duration, Instant};
 use tokio::sync::mpsc;
@@ -45,12 +43,15 @@ use tokio::sync::mpsc;
 pub mod confidence;
 pub mod events;
 pub mod experiment;
+pub mod floors;
 pub mod plates;
+pub mod rig;
 pub mod routes;
 pub mod scale;
 pub mod tasks;
 
 pub use events::{Event, FleetReport, PartState, RobotTick};
+pub use rig::Harness;
 pub use rome_nav::report::ARRIVED_CM;
 pub use routes::{parse_routes, pick_routes, RouteSpec};
 
@@ -59,6 +60,11 @@ pub use routes::{parse_routes, pick_routes, RouteSpec};
 pub struct RunConfig {
     /// The map.
     pub map: Map,
+    /// A building of several floors instead of one map (`None`: the map):
+    /// the world holds every floor and a car in every shaft, routes name
+    /// `FLOOR:POSITION`, and starts are on the world's plane
+    /// ([`rome_maps::plane::Plane`]).
+    pub building: Option<rome_maps::building::Building>,
     /// Each robot's route, in order (robot k's colour and row).
     pub routes: Vec<RouteSpec>,
     /// Seed of the simulated world.
@@ -134,6 +140,7 @@ impl RunConfig {
     pub fn fleet(map: Map, routes: Vec<RouteSpec>) -> RunConfig {
         RunConfig {
             map,
+            building: None,
             routes,
             seed: 1,
             noise: Noise::default(),
@@ -158,141 +165,6 @@ impl RunConfig {
 /// Simulated time per real time of a run against the wall clock with no
 /// speed given.
 pub const DEFAULT_WALL_SPEED: f64 = 4.0;
-
-/// The world side of a run: the simulated robots put down at their plans'
-/// starts facing their routes, their hardware servers, the ground-truth
-/// server and a data server, on one Zenoh session. The world does not step
-/// until [`SimWorld::start`] is called on [`Harness::world`].
-pub struct Harness {
-    /// The session the servers use.
-    pub session: zenoh::Session,
-    /// The simulated world.
-    pub world: SimWorld,
-    /// Each robot's index in it, in the order of the plans.
-    pub index: Vec<usize>,
-    servers: Vec<rome_hardware::robot::Running>,
-    data: Option<rome_data::Running>,
-}
-
-impl Harness {
-    /// Builds the world with robots put down at `starts` (robot name, true
-    /// pose) and starts the servers on a session opened with `net`;
-    /// returns once every server is alive.
-    pub async fn start(
-        cfg: &RunConfig,
-        starts: &[(String, Pose)],
-        net: NetOptions,
-    ) -> Result<Harness, NavError> {
-        if let Some(speed) = cfg.speed.filter(|s| !(s.is_finite() && *s > 0.0)) {
-            return Err(NavError::Config(format!(
-                "the simulation speed must be a positive number, got {speed}"
-            )));
-        }
-        let mut sim = Sim::new(
-            &cfg.map,
-            SimConfig {
-                seed: cfg.seed,
-                noise: cfg.noise.clone(),
-                ..SimConfig::default()
-            },
-        );
-        let mut index = Vec::new();
-        for (robot, start) in starts {
-            let i = sim
-                .add_robot(robot, *start)
-                .map_err(|e| NavError::Config(e.to_string()))?;
-            index.push(i);
-        }
-        sim.add_people(&cfg.map, cfg.people, cfg.seed)
-            .map_err(|e| NavError::Config(e.to_string()))?;
-        for name in &cfg.covered {
-            let i = sim
-                .index(name)
-                .map_err(|e| NavError::Config(e.to_string()))?;
-            sim.cover_camera(i, rome_sim::Camera::Up);
-        }
-        let world = SimWorld::new(sim);
-        // The servers' clocks follow the simulated one: in lock-step their
-        // periods are simulated time already.
-        let scale = |ms: f64| cfg.period(ms);
-        let rates = Rates {
-            state: Some(scale(100.0)),
-            scan: Some(scale(25.0)),
-            camera: scale(500.0),
-        };
-        let session = net
-            .open()
-            .await
-            .map_err(|e| NavError::Config(e.to_string()))?;
-        let root = Root::default();
-        let data = rome_data::spawn(
-            session.clone(),
-            rome_data::ServerConfig {
-                root: root.clone(),
-                ..Default::default()
-            },
-        );
-        let mut servers = vec![
-            spawn_truth(&session, &root, &world, Some(scale(500.0))),
-            rome_sim_hardware::robot::spawn_clock(
-                &session,
-                &root,
-                &world,
-                scale(rome_schema::sim::CLOCK_EVERY_MS as f64),
-                cfg.lockstep,
-            ),
-        ];
-        for (robot, _) in starts {
-            servers.extend(
-                spawn_sim_robot(&session, &root, &world, robot, rates)
-                    .map_err(|e| NavError::Config(e.to_string()))?,
-            );
-        }
-        for (robot, _) in starts {
-            for device in ["base", "proximity", "camera/up", "camera/side"] {
-                rome_client::alive::await_server(
-                    &session,
-                    &root,
-                    "robot",
-                    &format!("{robot}/{device}"),
-                    Duration::from_secs(10),
-                )
-                .await?;
-            }
-        }
-        rome_client::alive::await_server(&session, &root, "sim", "truth", Duration::from_secs(10))
-            .await?;
-        Ok(Harness {
-            session,
-            world,
-            index,
-            servers,
-            data: Some(data),
-        })
-    }
-
-    /// Where robot `k` (in the order of the plans) truly is.
-    pub fn truth(&self, k: usize) -> Pose {
-        self.world.lock().robot(self.index[k]).pose
-    }
-
-    /// Stops the data server alone (a fault to inject); the hardware
-    /// servers and the world go on.
-    pub async fn stop_data_server(&mut self) {
-        if let Some(data) = self.data.take() {
-            let _ = data.stop().await;
-        }
-    }
-
-    /// Stops the servers and closes the session.
-    pub async fn stop(mut self) {
-        for s in std::mem::take(&mut self.servers) {
-            let _ = s.stop().await;
-        }
-        self.stop_data_server().await;
-        let _ = self.session.close().await;
-    }
-}
 
 /// Each robot's start: its plan's first point, facing along the route.
 pub fn starts(plans: &[(String, Plan)]) -> Vec<(String, Pose)> {

@@ -154,6 +154,8 @@ pub enum Var {
     /// waits for ([`crate::traffic::TrafficState`]), written by the
     /// Planner as they change, for people watching.
     Traffic,
+    /// For a V goal: the elevator ride ([`RideInfo`]).
+    Ride,
 }
 
 impl Var {
@@ -178,6 +180,7 @@ impl Var {
             Var::GoalLane => "GoalLane",
             Var::GoalWalls => "GoalWalls",
             Var::Traffic => "Traffic",
+            Var::Ride => "Ride",
         }
     }
 }
@@ -193,6 +196,37 @@ pub enum GoalType {
     E,
     /// S^c: leaving the corner, Corner + D-Goal.
     C,
+    /// An elevator ride (§5.4.6): locate the door by its marker, wait for
+    /// the car, enter, turn round, ride and leave; what the ride needs is
+    /// in `Ride` ([`RideInfo`]).
+    V,
+}
+
+/// `Ride`: what the Navigator needs for an elevator ride, written by the
+/// Planner before it hands the V goal over. Directions are the goal's: the
+/// goal's `direction_deg` is the heading from the corridor into the door.
+///
+/// ```text
+/// {"elevator":"acs.elev","marker":"010","from":"3","to":"5","door_mm":1830,"exit_mm":1830,"wait_s":120.0}
+/// ```
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RideInfo {
+    /// The elevator (its server's name).
+    pub elevator: String,
+    /// The code of the marker on its door (`010`).
+    pub marker: String,
+    /// The floor the robot gets in at.
+    pub from: String,
+    /// The floor it gets out at.
+    pub to: String,
+    /// How far the door is from where the ride starts, mm.
+    pub door_mm: i64,
+    /// How far from the door the robot stops on the way out, mm: the
+    /// corridor's line of lights on the floor it gets out at.
+    pub exit_mm: i64,
+    /// How long to wait for the car (to come, or to arrive), seconds.
+    pub wait_s: f64,
 }
 
 /// One goal as the Planner hands it to the Navigator.

@@ -23,6 +23,7 @@
 //!   truth, contacts) and reported as rows of Tables 6.1–6.2 and a picture.
 //! - [`track`]: where the robot was when a scan or frame was taken, from
 //!   the base's state stream, so readings are placed right over a slow link.
+//! - [`floors`]: runs between floors, riding an elevator (§5.4.6).
 //! - [`fleet`]: tasks for a fleet, the dispatcher that hands them out and
 //!   a robot's Planner taking them.
 //! - [`traffic`]: the junctions and narrow passages a robot reserves
@@ -34,6 +35,7 @@ pub mod crew;
 pub mod ctracker;
 pub mod drive;
 pub mod fleet;
+pub mod floors;
 pub mod hallway;
 pub mod himm;
 pub mod navigator;
@@ -81,6 +83,10 @@ pub enum NavError {
     /// segment's values); the robot was stopped.
     #[error("the CTracker gave the light segment up, so the robot was stopped: {0}")]
     SegmentGivenUp(String),
+    /// An elevator ride could not be done (no marker seen, no car came);
+    /// the robot was stopped.
+    #[error("the elevator ride failed, so the robot was stopped: {0}")]
+    Ride(String),
     /// A server went away or misbehaved.
     #[error("{0}")]
     Gone(&'static str),

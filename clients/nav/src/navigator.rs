@@ -42,8 +42,8 @@ pub use rome_maps::geometry::Pose;
 /// What the Navigator did: goals carried out per mode, and each failure.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct NavLog {
-    /// Goals done: L, E, C, D.
-    pub done: [usize; 4],
+    /// Goals done: L, E, C, D, V.
+    pub done: [usize; 5],
     /// In-place turns made by Center-Hallway.
     pub turns: usize,
     /// Bumper contacts handled.
@@ -56,6 +56,7 @@ fn slot(t: GoalType) -> usize {
         GoalType::E => 1,
         GoalType::C => 2,
         GoalType::D => 3,
+        GoalType::V => 4,
     }
 }
 
@@ -168,7 +169,12 @@ impl Navigator {
             };
             self.goals += 1;
             tracing::info!(?goal, n = self.goals, "navigator: goal");
-            if let Err(e) = self.carry_out(&goal, start, &scans).await {
+            let done = if goal.goal_type == GoalType::V {
+                self.ride(&goal, &scans).await
+            } else {
+                self.carry_out(&goal, start, &scans).await
+            };
+            if let Err(e) = done {
                 self.fail_goal(e).await?;
                 continue;
             }
@@ -489,7 +495,8 @@ impl Navigator {
                     counted_low && n >= goal.distance
                 }
                 GoalType::D => travelled + stopping >= goal.distance as f64,
-                GoalType::C => travelled >= goal.distance as f64,
+                // A ride is not driven here ([`Navigator::ride`]).
+                GoalType::C | GoalType::V => travelled >= goal.distance as f64,
                 GoalType::E => {
                     let ahead = f64::from(
                         scan.sonar_mm[sonar_towards(goal.direction_deg - pose.heading.deg())],
@@ -647,7 +654,7 @@ impl Navigator {
                 }
                 self.hallway = None;
             }
-            GoalType::C => {}
+            GoalType::C | GoalType::V => {}
         }
         self.publish(goal, &pose, corner).await?;
         Ok(())
@@ -696,5 +703,6 @@ impl Navigator {
 
 pub mod blocked;
 mod recover;
+mod ride;
 #[cfg(test)]
 mod tests;

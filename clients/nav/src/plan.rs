@@ -68,6 +68,9 @@ pub struct Step {
     /// For the last D step: how far the corridor's left and right walls
     /// stand from the goal, mm, if both are in reach.
     pub goal_walls_mm: Option<(f64, f64)>,
+    /// For a V step: the ride; `from` is in the floor it starts on, `to`
+    /// in the floor it ends on.
+    pub ride: Option<crate::board::RideInfo>,
 }
 
 impl Step {
@@ -130,6 +133,8 @@ pub struct ModeCount {
     pub c: usize,
     /// Dead-reckoning segments.
     pub d: usize,
+    /// Elevator rides (§5.4.6).
+    pub v: usize,
 }
 
 /// A route as tables name it: `341R to 381R`, with `via 301.secondL, …`
@@ -297,6 +302,7 @@ impl Plan {
                     walls_mm: walls_beside(world, at(t), at(prev), heading),
                     end_wall_mm: None,
                     goal_walls_mm: None,
+                    ride: None,
                 });
                 t = prev;
             }
@@ -315,6 +321,7 @@ impl Plan {
                     .then(|| ray(world, b, heading, END_WALL_REACH_MM))
                     .flatten(),
                 goal_walls_mm: last.then(|| goal_walls(world, b, heading)).flatten(),
+                ride: None,
             });
             if !last {
                 let (_, _, next_len, next_heading) = legs[i + 1];
@@ -333,6 +340,7 @@ impl Plan {
                     walls_mm: None,
                     end_wall_mm: None,
                     goal_walls_mm: None,
+                    ride: None,
                 });
             }
         }
@@ -363,6 +371,7 @@ impl Plan {
                 GoalType::L => m.l += 1,
                 GoalType::C => m.c += 1,
                 GoalType::D => m.d += 1,
+                GoalType::V => m.v += 1,
                 GoalType::E => {}
             }
         }
@@ -412,6 +421,13 @@ impl Plan {
                         "S{}^c  leave the corner: turn to {:.0}° and go {} mm",
                         s.subpath, s.goal.direction_deg, s.goal.distance
                     ),
+                    GoalType::V => match &s.ride {
+                        Some(r) => format!(
+                            "S{}^v  ride elevator {} (marker {}) from floor {} to floor {}",
+                            s.subpath, r.elevator, r.marker, r.from, r.to
+                        ),
+                        None => format!("S{}^v  ride an elevator", s.subpath),
+                    },
                 };
                 format!("{what}  (heading {:.0}°)", s.goal.direction_deg)
             })
@@ -600,7 +616,15 @@ mod tests {
         let plan = Plan::new(&world, &net, "350R", "376L").expect("plan");
         let kinds: Vec<GoalType> = plan.steps.iter().map(|s| s.goal.goal_type).collect();
         assert_eq!(kinds, vec![GoalType::L, GoalType::D]);
-        assert_eq!(plan.modes(), ModeCount { l: 1, c: 0, d: 1 });
+        assert_eq!(
+            plan.modes(),
+            ModeCount {
+                l: 1,
+                c: 0,
+                d: 1,
+                v: 0
+            }
+        );
         let l = &plan.steps[0];
         assert_eq!(l.goal.distance as usize, l.light_offsets_mm.len());
         assert!(l.goal.distance >= 5, "78 m of corridor has many lights");

@@ -145,6 +145,7 @@ pub async fn run(
                 }
             }
             GoalType::C => {}
+            GoalType::V => board.set(Var::Ride, &step.ride).await?,
         }
         let stretch = matches!(step.goal.goal_type, GoalType::D | GoalType::E)
             && step.goal.distance >= crate::plan::MAP_STRETCH_MM;
@@ -166,18 +167,7 @@ pub async fn run(
             failure: None,
         };
         progress(Progress::Handed(&handed));
-        // The Navigator writes its Status every second of robot time while
-        // it works on a goal: silence means it died with the goal.
-        let status = board.var_name(Var::Status);
-        let ds = board.client();
-        await_while(
-            board,
-            Sem::RobotStatus,
-            NAVIGATOR_SILENCE,
-            "Navigator (no Status written while it has a goal; is `rome navigator` running?)",
-            || async { ds.history(&status).await.map_or(0, |h| h.seq) },
-        )
-        .await?;
+        await_status(board).await?;
         // The Navigator ended the goal on a bad value: the run ends here,
         // with its reason (a Status that does not decode says nothing).
         let ended = board
@@ -244,6 +234,22 @@ pub async fn give_back_all(board: &Board) -> Result<(), NavError> {
     }
     board.set(Var::Traffic, &TrafficState::default()).await?;
     Ok(())
+}
+
+/// Waits on `$RobotStatus`: the Navigator is done with the goal. The
+/// Navigator writes its Status every second of robot time while it works
+/// on a goal: silence means it died with the goal.
+pub(crate) async fn await_status(board: &Board) -> Result<(), NavError> {
+    let status = board.var_name(Var::Status);
+    let ds = board.client();
+    await_while(
+        board,
+        Sem::RobotStatus,
+        NAVIGATOR_SILENCE,
+        "Navigator (no Status written while it has a goal; is `rome navigator` running?)",
+        || async { ds.history(&status).await.map_or(0, |h| h.seq) },
+    )
+    .await
 }
 
 /// How long the Planner waits for a sign of life from the Navigator (a new

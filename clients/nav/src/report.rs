@@ -54,6 +54,9 @@ pub const CORNER_HEADING_DEG: f64 = 20.0;
 /// How far the robot may be from the outgoing corridor's centre line after
 /// a Leave-Corner segment, mm.
 pub const CORNER_LATERAL_MM: f64 = 1_000.0;
+/// How far from the corridor point outside the destination floor's door a
+/// ride may end, by ground truth, mm.
+pub const RIDE_ARRIVED_MM: f64 = 500.0;
 
 /// A duration as the tables print run times, `m:ss`.
 pub fn mmss(d: Duration) -> String {
@@ -102,6 +105,25 @@ pub fn judge_step(
             }
         }
         GoalType::E => None,
+        GoalType::V => {
+            // Judged on the floor it should end on: the floor first.
+            let t = truth?;
+            let to = step.ride.as_ref().map(|r| r.to.as_str());
+            if t.floor.is_some() && t.floor.as_deref() != to {
+                return Some(format!(
+                    "ended on floor {}, not {}",
+                    t.floor.as_deref().unwrap_or("?"),
+                    to.unwrap_or("?")
+                ));
+            }
+            let miss = distance(Pose::from(t).at, step.to);
+            (miss > RIDE_ARRIVED_MM).then(|| {
+                format!(
+                    "left the elevator {:.2} m from the corridor point outside its door",
+                    miss / 1_000.0
+                )
+            })
+        }
     }
 }
 
@@ -204,6 +226,7 @@ impl Report {
                 GoalType::L => done.l += 1,
                 GoalType::C => done.c += 1,
                 GoalType::D => done.d += 1,
+                GoalType::V => done.v += 1,
                 GoalType::E => {}
             }
         }
@@ -338,6 +361,7 @@ impl Report {
                     GoalType::E | GoalType::C => "C",
                     GoalType::L => "L",
                     GoalType::D => "D",
+                    GoalType::V => "V",
                 };
                 Some(format!(
                     "* {}: {column} (goal {}, subpath {}): {why}",
@@ -473,6 +497,7 @@ mod tests {
             walls_mm: None,
             end_wall_mm: None,
             goal_walls_mm: None,
+            ride: None,
         }
     }
 
@@ -485,6 +510,7 @@ mod tests {
             heading_deg: heading,
             travelled_mm: 0.0,
             contacts: ContactCount::default(),
+            floor: None,
         }
     }
 

@@ -25,7 +25,7 @@ impl Navigator {
     pub(super) async fn fail_goal(&mut self, e: NavError) -> Result<(), NavError> {
         let bad_value = match &e {
             NavError::Unreadable { source, .. } => crate::bad_value(source),
-            NavError::SegmentGivenUp(_) => true,
+            NavError::SegmentGivenUp(_) | NavError::Ride(_) => true,
             _ => false,
         };
         if !bad_value {
