@@ -72,6 +72,8 @@ pub struct Car {
     /// Held open by `open`.
     held: bool,
     stops: VecDeque<usize>,
+    /// Out of order (a fault to inject): it takes calls and does nothing.
+    broken: bool,
 }
 
 impl Car {
@@ -85,6 +87,7 @@ impl Car {
             doors: DoorState::Closed,
             held: false,
             stops: VecDeque::new(),
+            broken: false,
         };
         car.position = car.index(at)? as f64;
         Ok(car)
@@ -182,8 +185,18 @@ impl Car {
         }
     }
 
+    /// Puts the car out of order (`true`): it still takes calls, but
+    /// neither moves nor opens its doors, as a car stuck on a floor whose
+    /// buttons still light up.
+    pub fn out_of_order(&mut self, broken: bool) {
+        self.broken = broken;
+    }
+
     /// Advances the car by `dt_ms`.
     pub fn step(&mut self, dt_ms: u64) {
+        if self.broken {
+            return;
+        }
         let mut left = dt_ms;
         // Each pass spends time on one thing (doors or travel); a few
         // passes cover any step.
@@ -384,5 +397,35 @@ mod tests {
         let e = c.stop_at("7").unwrap_err();
         assert_eq!(e.to_string(), "no floor '7' here: it serves 3, 4, 5");
         assert!(Car::new(vec!["1".into()], "2", CarSpec::default()).is_err());
+    }
+
+    #[test]
+    fn a_car_out_of_order_takes_calls_and_stays_shut_until_mended() {
+        let mut c = car();
+        c.out_of_order(true);
+        c.stop_at("5").unwrap();
+        c.step(60_000);
+        assert_eq!((c.at_floor(), c.doors()), (Some("3"), DoorState::Closed));
+        assert_eq!(c.stops(), ["5"]);
+        c.out_of_order(false);
+        c.step(8_000);
+        assert_eq!(c.at_floor(), Some("5"));
+    }
+
+    #[test]
+    fn a_body_in_the_doorway_keeps_the_doors_open_and_reopens_closing_ones() {
+        let mut c = car();
+        c.stop_at("3").unwrap();
+        c.step(2_000);
+        assert!(matches!(c.doors(), DoorState::Open { .. }));
+        for _ in 0..5 {
+            c.step(9_000);
+            c.obstructed();
+        }
+        assert!(matches!(c.doors(), DoorState::Open { .. }), "45 s later");
+        c.step(10_500);
+        assert!(matches!(c.doors(), DoorState::Closing { .. }));
+        c.obstructed();
+        assert!(matches!(c.doors(), DoorState::Opening { .. }));
     }
 }
