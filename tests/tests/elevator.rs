@@ -210,3 +210,32 @@ async fn doors_held_by_a_rider_that_dies_close_after_the_dwell() {
     )
     .await;
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_session_given_back_is_free_at_once_for_the_next_rider() {
+    let shaft = shaft().await;
+    let (_s1, first) = rider(shaft.port, "first").await;
+    let (_s2, second) = rider(shaft.port, "second").await;
+    let ride = first.session().await.unwrap();
+    // The state stream says who rides.
+    let states = first.states().await.unwrap();
+    let held = states.next().await.unwrap().unwrap();
+    assert_eq!(held.lock.map(|l| l.fence), Some(ride.fence()));
+    // Given back: the next rider has it without waiting out a lapse (the
+    // grant would outlive 2.5 s unrenewed).
+    ride.unlock().await.unwrap();
+    let next = tokio::time::timeout(Duration::from_secs(1), second.session())
+        .await
+        .expect("the next rider's session is granted at once")
+        .unwrap();
+    let shows_next = async {
+        while let Some(Ok(s)) = states.next().await {
+            if s.lock.map(|l| l.fence) == Some(next.fence()) {
+                return;
+            }
+        }
+    };
+    tokio::time::timeout(Duration::from_secs(5), shows_next)
+        .await
+        .expect("the state stream names the next rider");
+}
