@@ -25,8 +25,10 @@ pub struct Harness {
     /// Each robot's index in it, in the order of the plans.
     pub index: Vec<usize>,
     servers: Vec<rome_hardware::robot::Running>,
-    /// The elevators' button subscribers, kept for the run.
-    _buttons: Vec<zenoh::pubsub::Subscriber<()>>,
+    /// Each car's elevator server and button subscriber, by shaft
+    /// (`None` while stopped, [`Harness::stop_elevator`]).
+    elevators: Vec<(String, Option<ElevatorServer>)>,
+    elevator_state: Option<Duration>,
     data: Option<rome_data::Running>,
 }
 
@@ -114,18 +116,10 @@ impl Harness {
                     .map_err(|e| NavError::Config(e.to_string()))?,
             );
         }
-        let mut buttons = Vec::new();
+        let mut elevators = Vec::new();
         for car in &cars {
-            let config = rome_hardware::ServerConfig::elevator(&root, car)
-                .map_err(|e| NavError::Config(e.to_string()))?;
-            let device = rome_sim_hardware::elevator::WorldCar::new(world.clone(), car)
-                .map_err(|e| NavError::Config(e.to_string()))?;
-            let (server, pressed) =
-                rome_hardware::elevator::spawn_elevator(&session, config, device, rates.state)
-                    .await
-                    .map_err(|e| NavError::Config(e.to_string()))?;
-            servers.push(server);
-            buttons.push(pressed);
+            let running = spawn_car(&session, &root, &world, car, rates.state).await?;
+            elevators.push((car.clone(), Some(running)));
         }
         for car in &cars {
             rome_client::alive::await_server(
@@ -156,7 +150,8 @@ impl Harness {
             world,
             index,
             servers,
-            _buttons: buttons,
+            elevators,
+            elevator_state: rates.state,
             data: Some(data),
         })
     }
@@ -164,6 +159,31 @@ impl Harness {
     /// Where robot `k` (in the order of the plans) truly is.
     pub fn truth(&self, k: usize) -> Pose {
         self.world.lock().robot(self.index[k]).pose
+    }
+
+    /// Stops elevator `car`'s server alone (a fault to inject): the car
+    /// goes on as it was told, and nobody can tell it more.
+    pub async fn stop_elevator(&mut self, car: &str) {
+        for (name, running) in &mut self.elevators {
+            if name == car {
+                if let Some((server, _buttons)) = running.take() {
+                    let _ = server.stop().await;
+                }
+            }
+        }
+    }
+
+    /// Starts elevator `car`'s server again after [`Harness::stop_elevator`].
+    pub async fn start_elevator(&mut self, car: &str) -> Result<(), NavError> {
+        for (name, running) in &mut self.elevators {
+            if name == car && running.is_none() {
+                let root = Root::default();
+                *running = Some(
+                    spawn_car(&self.session, &root, &self.world, car, self.elevator_state).await?,
+                );
+            }
+        }
+        Ok(())
     }
 
     /// Stops the data server alone (a fault to inject); the hardware
@@ -179,7 +199,32 @@ impl Harness {
         for s in std::mem::take(&mut self.servers) {
             let _ = s.stop().await;
         }
+        for (_, running) in std::mem::take(&mut self.elevators) {
+            if let Some((server, _)) = running {
+                let _ = server.stop().await;
+            }
+        }
         self.stop_data_server().await;
         let _ = self.session.close().await;
     }
+}
+
+/// An elevator server and the subscriber of its buttons.
+type ElevatorServer = (rome_hardware::robot::Running, zenoh::pubsub::Subscriber<()>);
+
+/// Serves the world's car `car`.
+async fn spawn_car(
+    session: &zenoh::Session,
+    root: &Root,
+    world: &SimWorld,
+    car: &str,
+    state: Option<Duration>,
+) -> Result<ElevatorServer, NavError> {
+    let config = rome_hardware::ServerConfig::elevator(root, car)
+        .map_err(|e| NavError::Config(e.to_string()))?;
+    let device = rome_sim_hardware::elevator::WorldCar::new(world.clone(), car)
+        .map_err(|e| NavError::Config(e.to_string()))?;
+    rome_hardware::elevator::spawn_elevator(session, config, device, state)
+        .await
+        .map_err(|e| NavError::Config(e.to_string()))
 }

@@ -515,6 +515,31 @@ mod tests {
     }
 
     #[test]
+    fn a_ride_is_judged_by_the_floor_and_then_by_where_it_left_the_car() {
+        let mut s = step(GoalType::V, pt(0.0, 0.0), pt(5_000.0, 0.0), 90.0);
+        s.ride = Some(crate::board::RideInfo {
+            elevator: "acs.elev".into(),
+            marker: "010".into(),
+            from: "3".into(),
+            to: "5".into(),
+            door_mm: 1_830,
+            exit_mm: 1_830,
+            wait_s: 60.0,
+        });
+        let on = |floor: &str, x: f64| Truth {
+            floor: Some(floor.into()),
+            ..truth(x, 0.0, 0.0)
+        };
+        assert_eq!(
+            judge_step(&s, Some(&on("4", 5_000.0)), None),
+            Some("ended on floor 4, not 5".into())
+        );
+        assert_eq!(judge_step(&s, Some(&on("5", 5_100.0)), None), None);
+        let far = judge_step(&s, Some(&on("5", 5_600.0)), None).unwrap_or_default();
+        assert!(far.contains("0.60 m from the corridor point"), "{far}");
+    }
+
+    #[test]
     fn a_d_segment_fails_beyond_a_metre_from_its_goal() {
         let s = step(GoalType::D, pt(0.0, 0.0), pt(0.0, 10_000.0), 0.0);
         assert_eq!(

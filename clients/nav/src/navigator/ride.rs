@@ -1,13 +1,15 @@
 //! Entering and exiting an elevator (§5.4.6), the Navigator's V goal:
 //!
+//! 0. take the elevator's session where the robot stands: robots take
+//!    turns through it, and one waiting keeps off the door;
 //! 1. *locate*: turn the side camera (it looks along sonar 18, to the
 //!    left) to the door, and sweep about ±45° until a marker with the
 //!    door's code is seen in the middle half of the image
 //!    ([`crate::barcode`]); turn until it is straight abeam;
 //! 2. *approach*: face the door and drive to [`APPROACH_MM`] from it;
-//! 3. *wait*: take the elevator's session (robots take turns through it),
-//!    call the car, and wait until the front sonar sees into the cabin:
-//!    sonar tells only whether the doors are open, as in the thesis;
+//! 3. *wait*: call the car and wait until the front sonar sees into the
+//!    cabin: sonar tells only whether the doors are open, as in the
+//!    thesis;
 //! 4. *enter* on infrared only: creep in until the forward detectors see
 //!    the back wall (sonar inside a metal cabin is not to be trusted);
 //! 5. *turn round* in place;
@@ -18,7 +20,10 @@
 //!    session back.
 //!
 //! A marker that is not found, a car that does not come or does not
-//! arrive within `wait_s` ends the goal with the reason ([`NavError::Ride`]).
+//! arrive within `wait_s`, an elevator server that stops answering end the
+//! goal with the reason ([`NavError::Ride`]); the robot is stopped where
+//! it is, and the session is given back (or, the server gone, freed when
+//! it comes back and finds this client gone).
 
 use super::*;
 use crate::barcode::{self, ReaderConfig};
@@ -73,10 +78,46 @@ impl Navigator {
             .parse()
             .map_err(|e| NavError::Ride(format!("elevator {}: {e}", ride.elevator)))?;
         let wait = Duration::from_secs_f64(ride.wait_s.clamp(1.0, 3_600.0));
+        // An elevator server gone or refusing ends the ride, not the
+        // Navigator: the robot stops where it is, with the reason.
+        let lift = |e: rome_client::ClientError| {
+            NavError::Ride(format!("elevator {}: {e}", ride.elevator))
+        };
         self.hallway = None;
         self.carry = None;
         self.send(Drive::Halt).await?;
         self.settle(scans).await?;
+
+        // The session first: a robot waits its turn where it stands, off
+        // the door, and looks for the marker once the doors are shut.
+        let car = ElevatorClient::beside(&self.robot, &ride.elevator)
+            .await
+            .map_err(lift)?;
+        let deadline = rome_clock::Instant::now() + wait;
+        let session = self.take_session(&car, &ride, goal, deadline).await?;
+        let done = self.ride_in_session(goal, &ride, code, &car, scans).await;
+        // Given back whatever happened, before the Planner hears of it:
+        // the next robot waits for it. A server that is gone frees it
+        // when it comes back and finds this client gone.
+        if let Err(e) = session.unlock().await {
+            tracing::warn!(error = %e, "navigator: the elevator's session was not given back");
+        }
+        done
+    }
+
+    /// The ride once the robot holds the elevator's session.
+    async fn ride_in_session(
+        &mut self,
+        goal: &Goal,
+        ride: &RideInfo,
+        code: Code,
+        car: &ElevatorClient,
+        scans: &rome_client::robot::Stream<Scan>,
+    ) -> Result<(), NavError> {
+        let wait = Duration::from_secs_f64(ride.wait_s.clamp(1.0, 3_600.0));
+        let lift = |e: rome_client::ClientError| {
+            NavError::Ride(format!("elevator {}: {e}", ride.elevator))
+        };
 
         // 1. Locate the marker with the side camera.
         self.stage(goal, "elevator: locating the marker").await?;
@@ -103,11 +144,9 @@ impl Navigator {
         let at_door = self.pose().await?;
         let gap = f64::from(before.sonar_mm[FORWARD]).min(APPROACH_MM + 200.0);
 
-        // 3. The car: take the session, call it, wait for the doors.
-        let car = ElevatorClient::beside(&self.robot, &ride.elevator).await?;
+        // 3. Call the car and wait for the doors.
         let deadline = rome_clock::Instant::now() + wait;
-        let session = self.take_session(&car, &ride, goal, deadline).await?;
-        car.call(&ride.from).await?;
+        car.call(&ride.from).await.map_err(lift)?;
         self.stage(goal, "elevator: waiting for the doors").await?;
         let mut open = 0;
         while open < OPEN_SCANS {
@@ -125,7 +164,7 @@ impl Navigator {
             };
             self.stage(goal, "elevator: waiting for the doors").await?;
         }
-        car.open().await?;
+        car.open().await.map_err(lift)?;
 
         // 4. In, on infrared only.
         self.stage(goal, "elevator: entering").await?;
@@ -158,12 +197,12 @@ impl Navigator {
         self.settle(scans).await?;
 
         // 6. Ride.
-        car.go(&ride.to).await?;
-        car.close().await?;
+        car.go(&ride.to).await.map_err(lift)?;
+        car.close().await.map_err(lift)?;
         self.stage(goal, "elevator: riding").await?;
         let deadline = rome_clock::Instant::now() + wait;
         loop {
-            let s = car.state().await?;
+            let s = car.state().await.map_err(lift)?;
             if s.floor == ride.to && !s.moving && s.doors == Doors::Open {
                 break;
             }
@@ -176,7 +215,7 @@ impl Navigator {
             self.stage(goal, "elevator: riding").await?;
             rome_clock::sleep(POLL).await;
         }
-        car.open().await?;
+        car.open().await.map_err(lift)?;
 
         // 7. Out to the corridor's line of lights.
         self.stage(goal, "elevator: leaving").await?;
@@ -184,9 +223,6 @@ impl Navigator {
         self.robot.move_by(out, MOVE_MM_S, -1.0).await?;
         self.last = None;
         self.settle(scans).await?;
-        if let Err(e) = session.unlock().await {
-            tracing::warn!(error = %e, "navigator: the elevator's session was not given back; it lapses");
-        }
         let pose = self.pose().await?;
         self.publish(goal, &pose, false).await
     }
@@ -269,7 +305,7 @@ impl Navigator {
                     }
                     rome_clock::sleep(POLL).await;
                 }
-                Err(e) => return Err(e.into()),
+                Err(e) => return Err(NavError::Ride(format!("elevator {}: {e}", ride.elevator))),
             }
         }
     }
