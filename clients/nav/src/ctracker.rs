@@ -268,6 +268,8 @@ impl CTracker {
         let t = match self.board.get::<Option<Tracking>>(Var::Tracking).await {
             Ok(Some(t)) if t.open => t,
             Ok(_) => return Ok(None),
+            // Never written: no CTracker has tracked for this robot yet.
+            Err(e) if e.code() == Some(rome_schema::ErrorCode::UnknownVariable) => return Ok(None),
             Err(e) if crate::bad_value(&e) => {
                 tracing::warn!(error = %e, "ctracker: Tracking does not decode; ignored");
                 return Ok(None);
