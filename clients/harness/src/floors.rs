@@ -54,6 +54,9 @@ pub struct FloorsReport {
     pub wall_time: Duration,
     /// Why the run ended before its goal, if it did.
     pub failure: Option<String>,
+    /// Where it truly went, as its floor's name and that floor's
+    /// coordinates.
+    pub trail: Vec<(String, rome_maps::geometry::Point)>,
 }
 
 impl FloorsReport {
@@ -246,10 +249,17 @@ pub async fn run_floors(
         }
         let mut robots = Vec::new();
         for (k, ((fp, _), r)) in plans.iter().zip(&cfg.routes).enumerate() {
-            let (end, contacts) = {
+            let (end, contacts, trail) = {
                 let i = rig.index[k];
                 let end = rome_sim_hardware::truth::truth_of(&rig.world, i);
-                (end, rig.world.lock().robot(i).contacts.total())
+                let sim = rig.world.lock();
+                let r = sim.robot(i);
+                let trail = r
+                    .trail
+                    .iter()
+                    .filter_map(|p| plane.local(p.at).map(|(f, at)| (f.to_string(), at)))
+                    .collect();
+                (end, r.contacts.total(), trail)
             };
             let (failure, t1) = ended[k].clone().unwrap_or((None, t0));
             let miss_mm = fp.walks.last().and_then(|(floor, plan)| {
@@ -274,6 +284,7 @@ pub async fn run_floors(
                 run_time: Duration::from_millis(t1 - t0),
                 wall_time: wall.elapsed(),
                 failure,
+                trail,
             });
         }
         rig.stop().await;

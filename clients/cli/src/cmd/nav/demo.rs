@@ -51,6 +51,25 @@ pub struct Args {
     /// Map: a built-in name (eb3, annex, campus, fig5_3) or a .stk file.
     #[arg(long, default_value = "eb3")]
     pub map: String,
+    /// A building of several floors instead of one map (the built-in
+    /// `tower`, or a .bldg file): --from and --to are `FLOOR:POSITION`
+    /// (`3:350R`), robots ride elevators between floors (§5.4.6), and one
+    /// picture a floor is drawn (`rome-demo-3.png` …).
+    #[arg(long, value_name = "BUILDING", conflicts_with_all = ["map", "robots", "record", "traffic"])]
+    pub building: Option<String>,
+    /// With --building: cover this robot's sideways camera (a fault to
+    /// inject: it cannot see an elevator's marker). Repeatable.
+    #[arg(long, value_name = "ROBOT", requires = "building")]
+    pub cover_side: Vec<String>,
+    /// With --building: put this elevator's car out of order (a fault to
+    /// inject: it takes calls and never comes). Repeatable.
+    #[arg(long, value_name = "ELEVATOR", requires = "building")]
+    pub out_of_order: Vec<String>,
+    /// With --building: stop this elevator's server as soon as its car
+    /// first moves with a robot in it, and start it again SECS simulated
+    /// seconds later (a fault to inject).
+    #[arg(long, value_name = "ELEVATOR:SECS", requires = "building")]
+    pub elevator_outage: Option<String>,
     /// Seed of the simulated world (the same seed, the same sensor noise).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
@@ -97,6 +116,77 @@ pub struct Args {
     /// ceiling light, and its L segments are reported failed). Repeatable.
     #[arg(long, value_name = "ROBOT")]
     pub cover_camera: Vec<String>,
+}
+
+/// `rome demo --building`: the same settings, on a building's floors.
+async fn building(
+    name: &str,
+    args: &Args,
+    mut cfg: RunConfig,
+    routes: Vec<RouteSpec>,
+) -> anyhow::Result<u8> {
+    let building = rome_maps::load_building_named(name)
+        .with_context(|| format!("cannot load the building '{name}'"))?;
+    cfg.seed = args.seed;
+    cfg.speed = args.speed;
+    cfg.lockstep = !args.wall_clock;
+    cfg.himm = !args.no_himm;
+    cfg.covered = args.cover_camera.clone();
+    cfg.people = args.people as usize;
+    cfg.limit = Duration::from_secs_f64(args.limit_min * 60.0);
+    if args.no_noise {
+        cfg.noise = Noise::none();
+    }
+    let outage = match &args.elevator_outage {
+        Some(spec) => {
+            let (car, secs) = spec.rsplit_once(':').with_context(|| {
+                format!("--elevator-outage '{spec}': give ELEVATOR:SECS, such as old.elevator:30")
+            })?;
+            let secs: f64 = secs
+                .parse()
+                .ok()
+                .filter(|s: &f64| s.is_finite() && (0.0..=3_600.0).contains(s))
+                .with_context(|| format!("--elevator-outage '{spec}': SECS must be 0 … 3600"))?;
+            Some((car.to_string(), Duration::from_secs_f64(secs)))
+        }
+        None => None,
+    };
+    let known: Vec<&str> = building
+        .elevators
+        .iter()
+        .map(|e| e.number.as_str())
+        .collect();
+    for car in args
+        .out_of_order
+        .iter()
+        .chain(outage.iter().map(|(c, _)| c))
+    {
+        anyhow::ensure!(
+            known.contains(&car.as_str()),
+            "the building '{}' has no elevator '{car}'; it has {}",
+            building.name,
+            known.join(", ")
+        );
+    }
+    for name in &args.cover_side {
+        anyhow::ensure!(
+            routes.iter().any(|r| &r.robot == name),
+            "--cover-side {name}: no such robot in this run"
+        );
+    }
+    let faults = rome_harness::floors::FloorFaults {
+        side_covered: args.cover_side.clone(),
+        out_of_order: args.out_of_order.clone(),
+        outage,
+    };
+    super::floors::run(super::floors::FloorsDemo {
+        building,
+        routes,
+        cfg,
+        faults,
+        output: args.output.clone(),
+    })
+    .await
 }
 
 /// The routes the flags ask for.
@@ -155,6 +245,9 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
     }
     let n = routes.len();
     let mut cfg = RunConfig::fleet(map.clone(), routes.clone());
+    if let Some(b) = &args.building {
+        return building(b, &args, cfg, routes).await;
+    }
     cfg.seed = args.seed;
     cfg.speed = args.speed;
     cfg.lockstep = !args.wall_clock;

@@ -3,7 +3,8 @@
 //! - [`clients`]: `rome planner|navigator|ctracker|mapper|plfinder`, each
 //!   client a process of its own.
 //! - [`demo`] and [`experiment`]: everything in one process, one run or
-//!   Chapter 6's tables (cargo feature `sim`).
+//!   Chapter 6's tables (cargo feature `sim`); [`floors`] is the demo on
+//!   a building of several floors.
 //! - [`crew`]: `rome crew`, a robot's clients kept running as processes.
 //! - [`fleet`]: `rome dispatcher`, `rome task` and `rome planner --tasks`.
 //! - [`scale`]: `rome fleet`, fleets of several sizes measured (cargo
@@ -19,6 +20,8 @@ pub mod demo;
 #[cfg(feature = "sim")]
 pub mod experiment;
 pub mod fleet;
+#[cfg(feature = "sim")]
+pub mod floors;
 pub mod map;
 #[cfg(feature = "sim")]
 pub mod scale;
