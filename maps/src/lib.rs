@@ -78,6 +78,8 @@ pub mod builtin {
     pub const TOWER_4: &str = include_str!("../data/tower-4.stk");
     /// The tower's fifth floor.
     pub const TOWER_5: &str = include_str!("../data/tower-5.stk");
+    /// Routes between the tower's floors, `maps/data/tower.routes`.
+    pub const TOWER_ROUTES: &str = include_str!("../data/tower.routes");
 
     /// The text of a built-in map by name.
     pub fn text(name: &str) -> Option<&'static str> {
@@ -98,6 +100,7 @@ pub mod builtin {
             "eb3" => Some(EB3_ROUTES),
             "annex" => Some(ANNEX_ROUTES),
             "campus" => Some(CAMPUS_ROUTES),
+            "tower" => Some(TOWER_ROUTES),
             _ => None,
         }
     }

@@ -10,6 +10,7 @@
 //! rome experiment --routes my.routes       # one FROM TO a line
 //! rome experiment --repeats 3 --seed 100   # each route three times, seeds 100, 101, …
 //! rome experiment --out results/           # where runs.md and runs.csv go
+//! rome experiment --building tower         # runs between floors, riding elevators
 //! ```
 //!
 //! Every run is lock-step with its own seed, so the tables are the same
@@ -38,6 +39,12 @@ pub struct Args {
     /// Map: a built-in name (eb3, annex, campus, fig5_3) or a .stk file.
     #[arg(long, default_value = "eb3")]
     map: String,
+    /// Runs between the floors of a building instead (§5.4.6): the
+    /// built-in `tower` (its routes: maps/data/tower.routes) or a .bldg
+    /// file with --routes of `FLOOR:POSITION` pairs; each run is judged by
+    /// ground truth, floor included.
+    #[arg(long, value_name = "BUILDING", conflicts_with_all = ["map", "plates", "people"])]
+    building: Option<String>,
     /// Seed of the first run; run k has seed SEED + k.
     #[arg(long, default_value_t = 1)]
     seed: u64,
@@ -74,11 +81,50 @@ pub struct Args {
     out: PathBuf,
 }
 
+/// `rome experiment --building`: the routes between floors.
+async fn building(name: &str, args: &Args) -> anyhow::Result<u8> {
+    let building = rome_maps::load_building_named(name)
+        .with_context(|| format!("cannot load the building '{name}'"))?;
+    let routes = match &args.routes {
+        Some(path) => {
+            let text = std::fs::read_to_string(path)
+                .with_context(|| format!("cannot read the routes file {}", path.display()))?;
+            rome_harness::parse_routes(&path.display().to_string(), &text)?
+        }
+        None => match rome_maps::builtin::routes(name) {
+            Some(text) => rome_harness::parse_routes(&format!("{name} routes (built in)"), text)?,
+            None => anyhow::bail!("the building '{name}' has no routes built in; give --routes"),
+        },
+    };
+    let mut cfg = rome_harness::RunConfig::fleet(building.floors[0].map.clone(), Vec::new());
+    if args.no_noise {
+        cfg.noise = Noise::none();
+    }
+    cfg.limit = Duration::from_secs_f64(args.limit_min * 60.0);
+    cfg.nav.cruise_mm_s = args.cruise;
+    super::floors::experiment(super::floors::FloorsExperiment {
+        building,
+        routes,
+        repeats: args.repeats as usize,
+        seed: args.seed,
+        jobs: args.jobs.map_or_else(
+            || std::thread::available_parallelism().map_or(1, |n| n.get()),
+            |j| j as usize,
+        ),
+        cfg,
+        out: args.out.clone(),
+    })
+    .await
+}
+
 /// Runs the experiment; exit status 1 when a run did not arrive.
 pub async fn run(args: Args) -> anyhow::Result<u8> {
     rome_common::check_positive("--limit-min", args.limit_min, "minutes")?;
     rome_common::check_positive("--wall-limit-min", args.wall_limit_min, "minutes")?;
     rome_common::check_cruise(args.cruise)?;
+    if let Some(b) = &args.building {
+        return building(b, &args).await;
+    }
     let map = rome_maps::load_named(&args.map)?;
     let routes = match &args.routes {
         Some(path) => {
