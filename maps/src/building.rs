@@ -196,6 +196,7 @@ pub fn building_from_text(
         }
     }
     if problems.is_empty() && floor_errors.is_empty() {
+        paint(&mut floors, &elevators, &codes);
         return Ok(Building {
             name,
             floors,
@@ -204,6 +205,32 @@ pub fn building_from_text(
     }
     problems.extend(floor_errors);
     Err(LoadError::Building(problems.join("\n")))
+}
+
+/// Gives every elevator without a `marker=` on any floor the first code no
+/// other elevator of the building has, in the order of their numbers, on
+/// all its floors: a building drawn without markers can still be ridden.
+/// Past the five codes there are, an elevator stays unmarked.
+fn paint(floors: &mut [Floor], elevators: &[Elevator], taken: &[(crate::marker::Code, &str)]) {
+    let mut free = crate::marker::Code::all()
+        .into_iter()
+        .filter(|c| !taken.iter().any(|(t, _)| t == c));
+    for e in elevators {
+        if taken.iter().any(|(_, n)| *n == e.number) {
+            continue;
+        }
+        let Some(code) = free.next() else {
+            return;
+        };
+        for &fi in &e.floors {
+            let f = &mut floors[fi];
+            for edge in f.map.rings.iter_mut().flat_map(|r| r.edges.iter_mut()) {
+                if edge.kind == EdgeKind::Elevator && edge.number.as_deref() == Some(&e.number) {
+                    edge.tags.insert("marker".into(), code.to_string());
+                }
+            }
+        }
+    }
 }
 
 /// Every elevator number and the floors that have a door with it.
@@ -252,6 +279,15 @@ fn elevator_line(map: &Map, number: &str) -> Option<usize> {
 }
 
 impl Building {
+    /// The marker on elevator `number`'s doors, if it has one (the same on
+    /// every floor).
+    pub fn marker(&self, number: &str) -> Option<crate::marker::Code> {
+        self.floors
+            .iter()
+            .find_map(|f| marker_of(&f.map, number))
+            .map(|(c, _)| c)
+    }
+
     /// The floor of that name.
     pub fn floor(&self, name: &str) -> Option<usize> {
         self.floors.iter().position(|f| f.name == name)

@@ -166,3 +166,25 @@ fn an_elevator_carries_one_code_on_every_floor_and_no_other_has_it() {
     );
     assert!(e.starts_with("tower-4:"), "{e}");
 }
+
+#[test]
+fn elevators_drawn_without_markers_get_the_codes_no_other_has() {
+    // The tower with old.elevator's marker left off every floor: it gets
+    // the first code acs.elev (010) does not have.
+    let bare = |name: &str| {
+        let mut map = load_named(name)?;
+        for e in map.rings.iter_mut().flat_map(|r| r.edges.iter_mut()) {
+            if e.number.as_deref() == Some("old.elevator") {
+                e.tags.remove("marker");
+            }
+        }
+        Ok(map)
+    };
+    let text = "building b\nfloor 3 eb3\nfloor 4 tower-4\n";
+    let b = building_from_text("b.bldg", text, bare).expect("loads");
+    for f in 0..2 {
+        let code = |n: &str| marker_of(&b.floors[f].map, n).map(|(c, _)| c.to_string());
+        assert_eq!(code("acs.elev").as_deref(), Some("010"));
+        assert_eq!(code("old.elevator").as_deref(), Some("000"), "floor {f}");
+    }
+}

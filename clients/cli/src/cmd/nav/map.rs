@@ -161,7 +161,14 @@ fn check_building(name: &str) -> anyhow::Result<u8> {
             .iter()
             .map(|&k| b.floors[k].name.as_str())
             .collect();
-        println!("  elevator {}: floors {}", e.number, floors.join(", "));
+        let marker = b
+            .marker(&e.number)
+            .map_or("no marker".to_string(), |c| format!("marker {c}"));
+        println!(
+            "  elevator {}: floors {}, {marker}",
+            e.number,
+            floors.join(", ")
+        );
     }
     Ok(exit::OK)
 }
