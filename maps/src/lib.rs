@@ -78,8 +78,27 @@ pub mod builtin {
     pub const TOWER_4: &str = include_str!("../data/tower-4.stk");
     /// The tower's fifth floor.
     pub const TOWER_5: &str = include_str!("../data/tower-5.stk");
+    /// The Twin, `maps/data/twin.bldg`: the Annex's plan on two floors
+    /// (`maps/data/twin-1.stk`, `twin-2.stk`, written by
+    /// `maps/tools/annex.py`), joined by two elevators.
+    pub const TWIN: &str = include_str!("../data/twin.bldg");
+    /// The Twin's first floor.
+    pub const TWIN_1: &str = include_str!("../data/twin-1.stk");
+    /// The Twin's second floor.
+    pub const TWIN_2: &str = include_str!("../data/twin-2.stk");
+    /// Routes between the Twin's floors, `maps/data/twin.routes`.
+    pub const TWIN_ROUTES: &str = include_str!("../data/twin.routes");
     /// Routes between the tower's floors, `maps/data/tower.routes`.
     pub const TOWER_ROUTES: &str = include_str!("../data/tower.routes");
+
+    /// The text of a built-in building by name (`tower`, `twin`).
+    pub fn building(name: &str) -> Option<&'static str> {
+        match name {
+            "tower" => Some(TOWER),
+            "twin" => Some(TWIN),
+            _ => None,
+        }
+    }
 
     /// The text of a built-in map by name.
     pub fn text(name: &str) -> Option<&'static str> {
@@ -87,6 +106,8 @@ pub mod builtin {
             "eb3" => Some(EB3),
             "tower-4" => Some(TOWER_4),
             "tower-5" => Some(TOWER_5),
+            "twin-1" => Some(TWIN_1),
+            "twin-2" => Some(TWIN_2),
             "fig5_3" => Some(FIG5_3),
             "annex" => Some(ANNEX),
             "campus" => Some(CAMPUS),
@@ -94,13 +115,15 @@ pub mod builtin {
         }
     }
 
-    /// A built-in map's fleet routes (`FROM TO` a line), if it has some.
+    /// A built-in map's fleet routes or building's routes between floors
+    /// (`FROM TO` a line), if it has some.
     pub fn routes(name: &str) -> Option<&'static str> {
         match name {
             "eb3" => Some(EB3_ROUTES),
             "annex" => Some(ANNEX_ROUTES),
             "campus" => Some(CAMPUS_ROUTES),
             "tower" => Some(TOWER_ROUTES),
+            "twin" => Some(TWIN_ROUTES),
             _ => None,
         }
     }
@@ -114,16 +137,16 @@ pub fn load_named(name_or_path: &str) -> Result<Map, LoadError> {
     }
 }
 
-/// Whether `name_or_path` names a building (the built-in `tower`, or a
-/// `.bldg` file) rather than one floor's map.
+/// Whether `name_or_path` names a building (a built-in one, `tower` or
+/// `twin`, or a `.bldg` file) rather than one floor's map.
 pub fn is_building(name_or_path: &str) -> bool {
-    name_or_path == "tower" || name_or_path.ends_with(".bldg")
+    builtin::building(name_or_path).is_some() || name_or_path.ends_with(".bldg")
 }
 
-/// Loads the built-in building `tower`, or else a building file.
+/// Loads a built-in building (`tower`, `twin`), or else a building file.
 pub fn load_building_named(name_or_path: &str) -> Result<building::Building, LoadError> {
-    if name_or_path == "tower" {
-        return building::building_from_text("tower (built in)", builtin::TOWER, |m| {
+    if let Some(text) = builtin::building(name_or_path) {
+        return building::building_from_text(&format!("{name_or_path} (built in)"), text, |m| {
             load_named(m.strip_suffix(".stk").unwrap_or(m))
         });
     }
