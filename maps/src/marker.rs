@@ -25,8 +25,8 @@ pub const Q_MM: f64 = 152.4;
 /// height, so the marker is in the middle rows of the image).
 pub const HEIGHT_MM: f64 = 1_346.2;
 /// White paper around the stripes, mm, on every side: two stripes, so a
-/// reader can tell the marker's edge from a row of even stripes that goes
-/// on (a grille, blinds).
+/// reader sees white all round the stripes (bars that go on, a grille or
+/// blinds, have none).
 pub const MARGIN_MM: f64 = 2.0 * P_MM;
 
 /// A marker's code: N bits, no two 1s side by side.

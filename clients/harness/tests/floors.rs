@@ -159,3 +159,25 @@ async fn an_elevator_server_stopped_mid_ride_leaves_the_robot_stopped_and_the_se
         run.sessions
     );
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 4)]
+async fn in_a_narrow_corridor_the_robot_backs_away_to_see_the_marker_and_rides() {
+    // The Twin's north elevator opens onto a 2.4 m corridor: from the
+    // corridor's middle the camera is 0.8 m from the door, too near to
+    // hold the marker. Its doors carry no marker= in the map: the
+    // building gave them one.
+    let mut cfg = tower(&[("r1", "2:2207R", "1:1104L")]);
+    cfg.building = Some(rome_maps::load_building_named("twin").expect("the twin loads"));
+    cfg.nav.cruise_mm_s = 700.0;
+    cfg.seed = 45;
+    let run = run(cfg, FloorFaults::default()).await;
+    let r = &run.robots[0];
+    let ride = r.ride().expect("a ride was handed over and judged");
+    assert_eq!(
+        ride.step.ride.as_ref().map(|x| x.marker.as_str()),
+        Some("000")
+    );
+    assert_eq!(ride.failure, None);
+    assert!(r.arrived_within(500.0), "{r:?}");
+    assert_eq!(r.contacts, 0);
+}

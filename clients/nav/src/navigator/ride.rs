@@ -3,9 +3,10 @@
 //! 0. take the elevator's session where the robot stands: robots take
 //!    turns through it, and one waiting keeps off the door;
 //! 1. *locate*: turn the side camera (it looks along sonar 18, to the
-//!    left) to the door, and sweep about ±45° until a marker with the
-//!    door's code is seen in the middle half of the image
-//!    ([`crate::barcode`]); turn until it is straight abeam;
+//!    left) to the door, back away from it if it is too near for the
+//!    camera to hold the marker (a narrow corridor), and sweep about ±45°
+//!    until a marker with the door's code is seen in the middle half of
+//!    the image ([`crate::barcode`]); turn until it is straight abeam;
 //! 2. *approach*: face the door and drive to [`APPROACH_MM`] from it;
 //! 3. *wait*: call the car and wait until the front sonar sees into the
 //!    cabin: sonar tells only whether the doors are open, as in the
@@ -35,6 +36,15 @@ use rome_schema::robot::body::SIDE_FOV_DEG;
 
 /// How far from the door (the front sonar's reading) the robot waits, mm.
 pub const APPROACH_MM: f64 = 600.0;
+/// How far from the door the side camera looks for the marker, at the
+/// least, mm: nearer, its 50° do not hold the marker and its paper.
+const VIEW_MM: f64 = 1_250.0;
+/// How near the wall behind a robot that backs away from the door may
+/// come, mm.
+const BACK_CLEARANCE_MM: f64 = 250.0;
+/// The sonars looking left (where the side camera looks) and right.
+const LEFT: usize = 18;
+const RIGHT: usize = 6;
 /// The doors are open when the front sonar reads this much farther than
 /// the door stood, mm (the cabin is two metres deep).
 const OPEN_BEYOND_MM: f64 = 1_000.0;
@@ -43,7 +53,7 @@ const OPEN_SCANS: u32 = 3;
 /// How far either way the robot sweeps for the marker, and in what steps,
 /// degrees.
 const SWEEP_DEG: f64 = 45.0;
-const SWEEP_STEP_DEG: f64 = 15.0;
+const SWEEP_STEP_DEG: f64 = 7.5;
 /// How slowly it creeps into the cabin, mm/s.
 const ENTER_MM_S: f64 = 150.0;
 /// Speed of the approach and the way out, mm/s.
@@ -122,8 +132,29 @@ impl Navigator {
         // 1. Locate the marker with the side camera.
         self.stage(goal, "elevator: locating the marker").await?;
         let heading = self.pose().await?.heading.deg();
-        let abeam = normalize_deg(goal.direction_deg - 90.0 - heading);
-        let (bearing, range) = self.sweep(code, abeam, scans).await?.ok_or_else(|| {
+        self.send(Drive::Turn(normalize_deg(
+            goal.direction_deg - 90.0 - heading,
+        )))
+        .await?;
+        let abeam = self.settle(scans).await?;
+        // Too near the door for the camera to hold the marker and its
+        // paper (a narrow corridor): back away from it, as far as the
+        // wall behind allows.
+        let near = f64::from(abeam.sonar_mm[LEFT]);
+        let room = f64::from(abeam.sonar_mm[RIGHT]) - BACK_CLEARANCE_MM;
+        let back = (VIEW_MM - near).min(room);
+        if back > 50.0 {
+            self.stage(goal, "elevator: backing away from the door")
+                .await?;
+            self.send(Drive::Turn(-90.0)).await?;
+            self.settle(scans).await?;
+            self.robot.move_by(back, MOVE_MM_S, -1.0).await?;
+            self.last = None;
+            self.settle(scans).await?;
+            self.send(Drive::Turn(90.0)).await?;
+            self.settle(scans).await?;
+        }
+        let (bearing, range) = self.sweep(code, 0.0, scans).await?.ok_or_else(|| {
             NavError::Ride(format!(
                 "the marker {code} of elevator {} was not seen in a sweep of ±{SWEEP_DEG:.0}° about the door's bearing",
                 ride.elevator
