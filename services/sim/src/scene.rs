@@ -38,6 +38,9 @@ pub struct Wall {
     pub number: Option<String>,
     /// The barcode-like marker on an elevator door (Fig. 5.11).
     pub marker: Option<rome_maps::marker::Code>,
+    /// A bare metal wall of an elevator's cabin (`cabin=metal`): sonar
+    /// and infrared get spurious readings off it (§5.4.6).
+    pub metal: bool,
 }
 
 impl Wall {
@@ -58,6 +61,7 @@ impl Wall {
             plates: Vec::new(),
             number: None,
             marker: None,
+            metal: false,
         }
     }
 }
@@ -129,6 +133,8 @@ pub struct Scene {
     pub lamps: Vec<Lamp>,
     /// Metal floor patches (quadrilaterals).
     pub metal: Vec<[Point; 4]>,
+    /// The bare metal walls of elevator cabins, by index into `walls`.
+    pub metal_walls: Vec<usize>,
     /// Elevators.
     pub elevators: Vec<Elevator>,
     /// The map's positions.
@@ -202,9 +208,10 @@ impl Scene {
                     door: walls.len(),
                 });
                 let back = |p: Point| p - normal * CABIN_MM;
-                cabins.push((s.a, back(s.a)));
-                cabins.push((back(s.a), back(s.b)));
-                cabins.push((back(s.b), s.b));
+                let bare = edge.tags.get("cabin").map(String::as_str) == Some("metal");
+                cabins.push((s.a, back(s.a), bare));
+                cabins.push((back(s.a), back(s.b), bare));
+                cabins.push((back(s.b), s.b, bare));
                 Some(elevators.len() - 1)
             } else {
                 None
@@ -234,11 +241,11 @@ impl Scene {
             walls.push(wall);
         }
         // Walls of the map come first, in the order of `world.segments`.
-        walls.extend(
-            cabins
-                .into_iter()
-                .map(|(a, b)| Wall::plain(a, b, EdgeKind::Wall)),
-        );
+        walls.extend(cabins.into_iter().map(|(a, b, metal)| Wall {
+            metal,
+            ..Wall::plain(a, b, EdgeKind::Wall)
+        }));
+        let metal_walls = (0..walls.len()).filter(|&i| walls[i].metal).collect();
         // Corners: nodes where the wall changes direction.
         let mut reflectors = Vec::new();
         for (ri, ring) in map.rings.iter().enumerate() {
@@ -269,6 +276,7 @@ impl Scene {
             reflectors,
             lamps,
             metal,
+            metal_walls,
             elevators,
             world,
             lo,

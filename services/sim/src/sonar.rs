@@ -243,6 +243,12 @@ pub fn fire(
                 .ray_dir(s, dir, (len - 20.0).max(0.0), Sense::Sound, open, skip)
                 .is_some();
             if !hidden {
+                let metal = scene.walls.get(wi).is_some_and(|w| w.metal);
+                if metal && rng.chance(METAL_SONAR_SPURIOUS) {
+                    // Off a mirror to sound the echo comes back the long way.
+                    let late = range * (1.5 + 1.5 * rng.uniform());
+                    return reading(late.min(f64::from(timeout) + 1.0), timeout, noise, rng);
+                }
                 return reading(range, timeout, noise, rng);
             }
         }
@@ -388,9 +394,20 @@ fn reading(range: f64, timeout: u16, noise: &Noise, rng: &mut Rng) -> u16 {
     noisy.clamp(SONAR_MIN_MM, timeout).round() as u16
 }
 
+/// A bare metal wall (an elevator's cabin, `cabin=metal`) is a mirror to
+/// sound (§5.4.6): this share of the echoes off it come back the long way,
+/// late, and read 1.5 to 3 times as far.
+pub const METAL_SONAR_SPURIOUS: f64 = 0.4;
+/// ... and it throws infrared back hard: a detector looking at one within
+/// this reach, mm, twice its range, fires half the time whatever is near.
+pub const METAL_IR_REACH_MM: f64 = 2.0 * IR_RANGE_MM;
+/// How often such a detector fires.
+pub const METAL_IR_SPURIOUS: f64 = 0.5;
+
 /// Reads the infrared sensors: bit `i` set when something is within
 /// [`IR_RANGE_MM`] of sensor `i`, along its axis or 10° either side (glass
-/// is not seen).
+/// is not seen); a bare metal wall within [`METAL_IR_REACH_MM`] sets it at
+/// random (drawn from `rng` only then).
 pub fn infrared(
     scene: &Scene,
     open: &[bool],
@@ -398,6 +415,7 @@ pub fn infrared(
     heading: f64,
     others: &[Body],
     scratch: &mut Scratch,
+    rng: &mut Rng,
 ) -> u32 {
     // A ray's hit lies within this of the centre: a wall whose line is
     // farther cannot be seen (the cells give a superset, in no order, which
@@ -420,7 +438,17 @@ pub fn infrared(
             .map(|o| o.at),
     );
     let close = &scratch.close;
-    if walls.is_empty() && close.is_empty() {
+    let metal: Vec<usize> = scene
+        .metal_walls
+        .iter()
+        .copied()
+        .filter(|&w| {
+            let l = &scene.lines[w];
+            (at - l.a).dot(&l.normal).abs() <= ROBOT_RADIUS_MM + METAL_IR_REACH_MM
+                && scene.blocks(w, Sense::Sound, open)
+        })
+        .collect();
+    if walls.is_empty() && close.is_empty() && metal.is_empty() {
         return 0;
     }
     let forward = direction(heading);
@@ -442,6 +470,17 @@ pub fn infrared(
                     && dist > -ROBOT_RADIUS_MM
                     && normalize_deg(heading_to(s, o) - b).abs() <= 30.0
             });
+        }
+        if !seen && !metal.is_empty() {
+            let glare = turns[1..].iter().any(|&turn| {
+                let r = turned(forward, turn);
+                metal.iter().any(|&w| {
+                    let w = &scene.lines[w];
+                    crate::scene::hit(s, r, w.a, w.dir, w.len)
+                        .is_some_and(|(t, _)| t <= METAL_IR_REACH_MM)
+                })
+            });
+            seen = glare && rng.chance(METAL_IR_SPURIOUS);
         }
         if seen {
             bits |= 1 << i;

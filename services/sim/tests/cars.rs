@@ -164,3 +164,70 @@ fn the_doors_wait_for_a_robot_in_the_doorway_and_floors_do_not_see_each_other() 
     other.sense(0);
     assert_eq!(alone, other.robot(0).sonar, "r2 is on another floor");
 }
+
+/// The tower with acs.elev's cabin on floor 3 bare metal (`metal`) or
+/// covered, noise on, and r1 standing in its open doorway, facing in.
+fn in_the_cabin(metal: bool) -> Sim {
+    let mut building = rome_maps::load_building_named("tower").expect("the tower loads");
+    if metal {
+        for e in building.floors[0]
+            .map
+            .rings
+            .iter_mut()
+            .flat_map(|r| r.edges.iter_mut())
+        {
+            if e.number.as_deref() == Some("acs.elev") {
+                e.tags.insert("cabin".into(), "metal".into());
+            }
+        }
+    }
+    let (mut sim, _) = Sim::for_building(&building, SimConfig::default(), CarSpec::default())
+        .expect("a world of the tower");
+    sim.call_elevator("3:acs.elev").expect("call");
+    run_until(&mut sim, 20_000, "the doors open on 3", |s| {
+        doors_open_at(s, "3")
+    });
+    let (middle, normal, _) = door(&sim, "3:acs.elev");
+    let at = middle - normal * 400.0;
+    sim.add_robot("r1", Pose::new(at.x, at.y, heading_to(middle, at)))
+        .expect("r1 in the doorway");
+    sim
+}
+
+#[test]
+fn a_bare_metal_cabin_gives_spurious_sonar_and_infrared_readings() {
+    let forward_ir = |bits: u32| bits & 0b0110 != 0;
+    let mut counts = Vec::new();
+    for metal in [false, true] {
+        let mut sim = in_the_cabin(metal);
+        let (mut ir, mut far) = (0, 0);
+        for _ in 0..200 {
+            sim.step();
+            sim.sense(0);
+            let r = sim.robot(0);
+            ir += usize::from(forward_ir(r.infrared));
+            // The back wall is 1.2 m ahead of the sonar ring.
+            far += usize::from(f64::from(r.sonar[12]) > 1_700.0);
+        }
+        counts.push((ir, far));
+    }
+    // Covered (as the thesis' robot rode it): the back wall is out of the
+    // detectors' reach and the sonar reads it (but for an echo missed now
+    // and then, 0.2 %); bare: both lie often.
+    assert_eq!(counts[0].0, 0, "covered: infrared");
+    assert!(
+        counts[0].1 <= 2,
+        "covered: sonar read long {} times",
+        counts[0].1
+    );
+    let (ir, far) = counts[1];
+    // Each of the two detectors half the time: three times in four.
+    assert!(
+        (120..=180).contains(&ir),
+        "forward infrared fired {ir} of 200 times"
+    );
+    assert!(
+        (40..=120).contains(&far),
+        "forward sonar read long {far} of 200 times"
+    );
+}

@@ -65,6 +65,7 @@ impl Sim {
                     heading,
                     &near,
                     &mut self.scratch,
+                    &mut r.rng,
                 );
                 self.near = near;
             }
@@ -102,6 +103,7 @@ impl Sim {
             r.pose.heading.deg(),
             &others,
             &mut self.scratch,
+            &mut r.rng,
         );
         r.scan = r.sonar;
         r.sonar_at_ms = self.time_ms;
