@@ -181,3 +181,34 @@ async fn in_a_narrow_corridor_the_robot_backs_away_to_see_the_marker_and_rides()
     assert!(r.arrived_within(500.0), "{r:?}");
     assert_eq!(r.contacts, 0);
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 4)]
+async fn a_bare_metal_cabin_stops_the_robot_short_and_the_ride_says_why() {
+    let mut cfg = tower(&[("r1", "3:364L", "4:472L")]);
+    if let Some(b) = cfg.building.as_mut() {
+        for e in b.floors[0]
+            .map
+            .rings
+            .iter_mut()
+            .flat_map(|r| r.edges.iter_mut())
+        {
+            if e.number.as_deref() == Some("old.elevator") {
+                e.tags.insert("cabin".into(), "metal".into());
+            }
+        }
+    }
+    let run = run(cfg, FloorFaults::default()).await;
+    let r = &run.robots[0];
+    let why = r.failure.clone().unwrap_or_default();
+    assert!(
+        why.contains("not inside: its infrared saw a wall too soon"),
+        "{why}"
+    );
+    assert_eq!(r.end.floor.as_deref(), Some("3"));
+    assert_eq!(r.contacts, 0);
+    assert!(
+        run.sessions.iter().all(|(_, h)| h.is_none()),
+        "{:?}",
+        run.sessions
+    );
+}

@@ -63,6 +63,9 @@ const IR_AHEAD: [usize; 2] = [1, 2];
 /// The cabin's depth as far as a robot may creep, mm: farther means the
 /// back wall was not seen.
 const CABIN_MAX_MM: f64 = 2_400.0;
+/// How far past the doors' line the robot's back must be before it turns
+/// round, mm.
+const INSIDE_MARGIN_MM: f64 = 100.0;
 /// How often the car's state is asked while the robot waits for it.
 const POLL: Duration = Duration::from_millis(500);
 
@@ -220,7 +223,20 @@ impl Navigator {
         }
         self.send(Drive::Halt).await?;
         self.settle(scans).await?;
-        let inside = self.pose().await?.dist(&at_door) - gap - ROBOT_RADIUS_MM;
+        let went = self.pose().await?.dist(&at_door);
+        let inside = went - gap - ROBOT_RADIUS_MM;
+        if inside < ROBOT_RADIUS_MM + INSIDE_MARGIN_MM {
+            // Not clear of the doors: no turning round here. Back out, so
+            // the doors can shut and the car serve others.
+            self.robot.move_by(-went, ENTER_MM_S, -1.0).await?;
+            self.last = None;
+            self.settle(scans).await?;
+            return Err(NavError::Ride(format!(
+                "stopped {:.2} m past the doors of elevator {}, not inside: its infrared saw a wall too soon (bare metal walls throw infrared back; the thesis covered them)",
+                inside / 1_000.0,
+                ride.elevator
+            )));
+        }
 
         // 5. Turn round.
         self.stage(goal, "elevator: turning round").await?;
