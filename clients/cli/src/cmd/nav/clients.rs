@@ -42,6 +42,13 @@ pub struct PlannerArgs {
     /// Map: a built-in name (eb3, annex, campus, fig5_3) or a .stk file.
     #[arg(long, default_value = "eb3")]
     map: String,
+    /// A building instead of one map (the built-in `tower` or `twin`, or a
+    /// .bldg file): --from and --to are `FLOOR:POSITION`, and a route
+    /// between floors rides an elevator (§5.4.6), which the robot's
+    /// Navigator operates through the elevator's server (`rome sim
+    /// --building`).
+    #[arg(long, value_name = "BUILDING", conflicts_with_all = ["map", "tasks", "via", "traffic", "timeout"])]
+    building: Option<String>,
     /// Start: a door jamb like 350R; the robot is registered there.
     #[arg(long)]
     from: String,
@@ -153,6 +160,28 @@ async fn connect(
 /// 6.1 and where ground truth puts the robot. Exits 1 when the robot ended
 /// more than a metre from the goal.
 pub async fn planner(common: &CommonArgs, args: PlannerArgs) -> anyhow::Result<u8> {
+    if let Some(b) = &args.building {
+        let building = rome_maps::load_building_named(b)
+            .with_context(|| format!("cannot load the building '{b}'"))?;
+        let to = args.to.clone().context("--to is needed with --building")?;
+        let fp = rome_nav::floors::FloorPlan::new(&building, &args.from, &to)?;
+        super::between::describe(&fp);
+        if args.dry_run {
+            return Ok(exit::OK);
+        }
+        let robot_name = &args.robot.robot;
+        let (board, robot) = connect(common, robot_name, "planner").await?;
+        let session = common.open(Side::Client).await?;
+        let truth = TruthClient::new(&session, &common.root()?, robot_name)?;
+        let truth = match truth.get().await {
+            Ok(_) => Some(truth),
+            Err(e) => {
+                eprintln!("rome planner: no ground truth ({e}); arrival is by odometry");
+                None
+            }
+        };
+        return super::between::drive(&board, &robot, truth.as_ref(), &fp, args.heading).await;
+    }
     let wall = std::time::Instant::now();
     let map = rome_maps::load_named(&args.map)?;
     let world = rome_maps::World::from_map(&map);

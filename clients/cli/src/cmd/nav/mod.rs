@@ -1,7 +1,8 @@
 //! Navigation: Chapter 5's clients, Chapter 6's runs and the maps.
 //!
 //! - [`clients`]: `rome planner|navigator|ctracker|mapper|plfinder`, each
-//!   client a process of its own.
+//!   client a process of its own; [`between`] is `rome planner
+//!   --building`, a run between floors.
 //! - [`demo`] and [`experiment`]: everything in one process, one run or
 //!   Chapter 6's tables (cargo feature `sim`); [`floors`] is the demo on
 //!   a building of several floors.
@@ -12,6 +13,7 @@
 //! - [`colony`]: §4.8.2's colony-style networks as prioritised clients.
 //! - [`map`]: `rome map check|render|route`.
 
+pub mod between;
 pub mod clients;
 pub mod colony;
 pub mod crew;
