@@ -188,11 +188,7 @@ pub async fn run(
     };
     progress(Progress::Handed(&handed));
     planner::await_status(board).await?;
-    let ended = board
-        .get::<crate::board::Status>(Var::Status)
-        .await
-        .ok()
-        .and_then(|s| s.failed);
+    let ended = planner::failed(board).await;
     if let Some(t) = truth {
         handed.truth = t.get().await.ok();
     }

@@ -170,11 +170,7 @@ pub async fn run(
         await_status(board).await?;
         // The Navigator ended the goal on a bad value: the run ends here,
         // with its reason (a Status that does not decode says nothing).
-        let ended = board
-            .get::<crate::board::Status>(Var::Status)
-            .await
-            .ok()
-            .and_then(|s| s.failed);
+        let ended = failed(board).await;
         if step.goal.goal_type == GoalType::L && ended.is_none() {
             // The CTracker closes the segment as the count is reached.
             await_while(board, Sem::EndLMode, NAVIGATOR_SILENCE, "CTracker (the light segment was not closed after the Navigator ended it; is `rome ctracker` running?)", || async { 0 })
@@ -250,6 +246,17 @@ pub(crate) async fn await_status(board: &Board) -> Result<(), NavError> {
         || async { ds.history(&status).await.map_or(0, |h| h.seq) },
     )
     .await
+}
+
+/// Why the Navigator ended the goal it was given, if it did, from its
+/// Status: the run ends there, with that reason (a Status that does not
+/// decode says nothing).
+pub(crate) async fn failed(board: &Board) -> Option<String> {
+    board
+        .get::<crate::board::Status>(Var::Status)
+        .await
+        .ok()
+        .and_then(|s| s.failed)
 }
 
 /// How long the Planner waits for a sign of life from the Navigator (a new

@@ -71,19 +71,23 @@ pub fn state_of(car: &Car) -> ElevatorState {
     }
 }
 
+/// Does `op` to `car`; the state it leaves.
+fn apply(car: &mut Car, op: CarOp) -> Result<ElevatorState, DeviceError> {
+    match op {
+        CarOp::Status => {}
+        CarOp::StopAt(floor) => car
+            .stop_at(&floor)
+            .map_err(|e| DeviceError::OutOfRange(e.to_string()))?,
+        CarOp::Open => car.open(),
+        CarOp::Close => car.close(),
+        CarOp::Release => car.release(),
+    }
+    Ok(state_of(car))
+}
+
 impl ElevatorDevice for SimCar {
     async fn command(&self, op: CarOp) -> Result<ElevatorState, DeviceError> {
-        let mut car = rome_hardware::locked(&self.car);
-        match op {
-            CarOp::Status => {}
-            CarOp::StopAt(floor) => car
-                .stop_at(&floor)
-                .map_err(|e| DeviceError::OutOfRange(e.to_string()))?,
-            CarOp::Open => car.open(),
-            CarOp::Close => car.close(),
-            CarOp::Release => car.release(),
-        }
-        Ok(state_of(&car))
+        apply(&mut rome_hardware::locked(&self.car), op)
     }
 }
 
@@ -119,15 +123,6 @@ impl ElevatorDevice for WorldCar {
                 device: format!("car '{}'", self.number),
                 why: "the world has no such car".into(),
             })?;
-        match op {
-            CarOp::Status => {}
-            CarOp::StopAt(floor) => car
-                .stop_at(&floor)
-                .map_err(|e| DeviceError::OutOfRange(e.to_string()))?,
-            CarOp::Open => car.open(),
-            CarOp::Close => car.close(),
-            CarOp::Release => car.release(),
-        }
-        Ok(state_of(car))
+        apply(car, op)
     }
 }

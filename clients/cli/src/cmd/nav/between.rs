@@ -15,6 +15,22 @@ use rome_nav::planner::{self, Progress};
 /// have arrived, mm.
 const ARRIVED_MM: f64 = 500.0;
 
+/// A goal handed over, as a line says it: `V ride old.elevator from
+/// floor 3 to 5`, `L 9 light(s) heading 90°`, `D 2153 mm heading 90°`.
+pub fn goal(h: &rome_nav::planner::Handed) -> String {
+    let g = &h.step.goal;
+    match (&h.step.ride, g.goal_type) {
+        (Some(x), GoalType::V) => {
+            format!("V ride {} from floor {} to {}", x.elevator, x.from, x.to)
+        }
+        (_, GoalType::L) => format!("L {} light(s) heading {:.0}°", g.distance, g.direction_deg),
+        _ => format!(
+            "{:?} {} mm heading {:.0}°",
+            g.goal_type, g.distance, g.direction_deg
+        ),
+    }
+}
+
 /// Prints the plan of a run between floors.
 pub fn describe(fp: &FloorPlan) {
     let ride = fp.ride.as_ref().and_then(|s| s.ride.as_ref());
@@ -49,22 +65,7 @@ pub async fn drive(
         .context("cannot register the robot at the start")?;
     let total = fp.steps().len();
     let handed = floors::run(board, robot, fp, truth, |p| match p {
-        Progress::Handed(h) => {
-            let g = &h.step.goal;
-            let what = match (&h.step.ride, g.goal_type) {
-                (Some(x), GoalType::V) => {
-                    format!("V ride {} from floor {} to {}", x.elevator, x.from, x.to)
-                }
-                (_, GoalType::L) => {
-                    format!("L {} light(s) heading {:.0}°", g.distance, g.direction_deg)
-                }
-                _ => format!(
-                    "{:?} {} mm heading {:.0}°",
-                    g.goal_type, g.distance, g.direction_deg
-                ),
-            };
-            println!("[goal {}/{total}] {what}", h.index + 1);
-        }
+        Progress::Handed(h) => println!("[goal {}/{total}] {}", h.index + 1, goal(h)),
         Progress::Done(h) => match &h.failure {
             Some(why) => println!("[goal {}/{total}] failed: {why}", h.index + 1),
             None => println!("[goal {}/{total}] done", h.index + 1),

@@ -71,20 +71,7 @@ pub async fn run(demo: FloorsDemo) -> anyhow::Result<u8> {
         let name = &names[k];
         match p {
             Progress::Handed(h) => {
-                let g = &h.step.goal;
-                let what = match (&h.step.ride, g.goal_type) {
-                    (Some(x), GoalType::V) => {
-                        format!("V ride {} from floor {} to {}", x.elevator, x.from, x.to)
-                    }
-                    (_, GoalType::L) => {
-                        format!("L {} light(s) heading {:.0}°", g.distance, g.direction_deg)
-                    }
-                    _ => format!(
-                        "{:?} {} mm heading {:.0}°",
-                        g.goal_type, g.distance, g.direction_deg
-                    ),
-                };
-                println!("[{name} goal {}] {what}", h.index + 1);
+                println!("[{name} goal {}] {}", h.index + 1, super::between::goal(h));
             }
             Progress::Done(h) => {
                 if let Some(why) = &h.failure {
