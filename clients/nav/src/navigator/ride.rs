@@ -309,6 +309,10 @@ impl Navigator {
     /// camera's axis) and range, mm.
     async fn look_for(&self, code: Code, since_ms: u64) -> Result<Option<(f64, f64)>, NavError> {
         let camera = "side";
+        // One whole grab, so that every row is of one moment (rows are
+        // served 64 to a request, and a camera grabs between them); the
+        // reader scans its middle half row by row, as the thesis did with
+        // CameraGetRow().
         let mut img = self.robot.camera_grab(camera).await?;
         for _ in 0..50 {
             if img.time_ms >= since_ms {
