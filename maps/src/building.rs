@@ -304,9 +304,11 @@ impl Building {
         };
         let k = self.floor(floor).ok_or_else(|| RouteError::Unknown {
             name: position.to_string(),
+            // The floors that have such a position.
             similar: self
                 .floors
                 .iter()
+                .filter(|f| f.world.position(pos).is_some())
                 .map(|f| format!("{}:{pos}", f.name))
                 .collect(),
         })?;

@@ -79,6 +79,8 @@ fn positions_name_their_floor_and_a_wrong_one_is_named() {
     let t = tower();
     let e = t.route("9:350R", "3:376L").unwrap_err().to_string();
     assert!(e.contains("'9:350R'") && e.contains("3:350R"), "{e}");
+    // Only floors that have a 350R are suggested.
+    assert!(!e.contains("4:350R"), "{e}");
     let e = t.route("4:350R", "3:376L").unwrap_err().to_string();
     assert!(e.contains("'4:350R'") && e.contains("4:350"), "{e}");
 }
