@@ -15,7 +15,9 @@
 //! 4. finds the corners where the chain code turns sharply (curvature from
 //!    the chain code over arms of k links), and takes their bounding box;
 //! 5. accepts the box if its size and shape fit a plate at the distance the
-//!    sideways sonar (18) measures.
+//!    sideways sonar (18) measures and it carries a number: dark digits
+//!    in its middle (a black bar of an elevator's marker, §5.4.6, has the
+//!    size of a plate but is solid).
 //!
 //! Two grabs overlap when the distance D between them is less than r1 + l2
 //! (Fig. 5.17–5.18); plates wholly inside the overlap were seen already and
@@ -260,7 +262,10 @@ pub fn find_plates(img: &[bool], w: usize, h: usize, size_px: (f64, f64)) -> Vec
                         // taller than the band shows (a door, a dark
                         // opening): a plate hangs wholly inside it.
                         let cut = c.bbox[1] == 0 || c.bbox[3] as usize + 1 >= h;
-                        if !cut && !out.iter().any(|o| overlaps(&o.bbox, &c.bbox)) {
+                        if !cut
+                            && numbered(img, w, &c.bbox)
+                            && !out.iter().any(|o| overlaps(&o.bbox, &c.bbox))
+                        {
                             out.push(c);
                         }
                     }
@@ -273,6 +278,22 @@ pub fn find_plates(img: &[bool], w: usize, h: usize, size_px: (f64, f64)) -> Vec
         }
     }
     out
+}
+
+/// Whether a region carries a number: a plate's digits are holes in its
+/// middle, where a black bar of the same size (an elevator's marker,
+/// §5.4.6) is solid. At least a twentieth of the middle half of the box
+/// must be off.
+fn numbered(img: &[bool], w: usize, bbox: &[u32; 4]) -> bool {
+    let [l, t, r, b] = bbox.map(|v| v as usize);
+    let (qw, qh) = ((r - l) / 4, (b - t) / 4);
+    let (xs, ys) = (l + qw..=r - qw, t + qh..=b - qh);
+    let total = xs.clone().count() * ys.clone().count();
+    let off = ys
+        .flat_map(|y| xs.clone().map(move |x| y * w + x))
+        .filter(|&i| !img.get(i).copied().unwrap_or(true))
+        .count();
+    total > 0 && off * 20 >= total
 }
 
 fn overlaps(a: &[u32; 4], b: &[u32; 4]) -> bool {
@@ -507,11 +528,33 @@ mod tests {
                 img[y * w + x] = true;
             }
         }
-        // Dark digits inside do not matter to the outer border.
-        for y in rect.1 + 5..rect.3 - 5 {
-            img[y * w + rect.0 + 10] = false;
+        // Dark digits inside do not matter to the outer border: three
+        // strokes two pixels wide across the middle.
+        let (rw, rh) = (rect.2 - rect.0, rect.3 - rect.1);
+        for k in 1..=3 {
+            let x = rect.0 + rw * k / 4;
+            for y in rect.1 + rh / 4..rect.3 - rh / 4 {
+                img[y * w + x] = false;
+                img[y * w + x + 1] = false;
+            }
         }
         img
+    }
+
+    #[test]
+    fn a_solid_bar_of_a_plates_size_carries_no_number_and_is_no_plate() {
+        // An elevator marker's black bar (§5.4.6) after the stretch.
+        let (w, h) = (200, 100);
+        let mut img = vec![false; w * h];
+        for y in 30..90 {
+            for x in 50..130 {
+                img[y * w + x] = true;
+            }
+        }
+        assert!(find_plates(&img, w, h, (80.0, 60.0)).is_empty());
+        // With digits in it, the same box is a plate.
+        let img = plate_image(w, h, (50, 30, 130, 90));
+        assert_eq!(find_plates(&img, w, h, (80.0, 60.0)).len(), 1);
     }
 
     #[test]
