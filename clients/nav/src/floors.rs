@@ -178,14 +178,7 @@ pub async fn run(
     }
     board.set(Var::Ride, &step.ride).await?;
     board.give_goal(&step.goal).await?;
-    let mut handed = Handed {
-        index: out.len(),
-        step: step.clone(),
-        overshoot_mm: None,
-        track: None,
-        truth: None,
-        failure: None,
-    };
+    let mut handed = Handed::new(out.len(), step);
     progress(Progress::Handed(&handed));
     planner::await_status(board).await?;
     let ended = planner::failed(board).await;

@@ -158,14 +158,7 @@ pub async fn run(
             // and direction.
             board.up(Sem::StartMap).await?;
         }
-        let mut handed = Handed {
-            index,
-            step: step.clone(),
-            overshoot_mm: None,
-            track: None,
-            truth: None,
-            failure: None,
-        };
+        let mut handed = Handed::new(index, &step);
         progress(Progress::Handed(&handed));
         await_status(board).await?;
         // The Navigator ended the goal on a bad value: the run ends here,

@@ -45,6 +45,20 @@ pub struct Handed {
     pub failure: Option<String>,
 }
 
+impl Handed {
+    /// Goal `index`, `step`, just handed over: nothing seen or judged yet.
+    pub fn new(index: usize, step: &Step) -> Handed {
+        Handed {
+            index,
+            step: step.clone(),
+            overshoot_mm: None,
+            track: None,
+            truth: None,
+            failure: None,
+        }
+    }
+}
+
 /// How near the goal a run must end to have arrived, and how near its goal
 /// a D segment must stop, cm.
 pub const ARRIVED_CM: f64 = 100.0;

@@ -31,19 +31,23 @@ pub fn goal(h: &rome_nav::planner::Handed) -> String {
     }
 }
 
-/// Prints the plan of a run between floors.
-pub fn describe(fp: &FloorPlan) {
+/// How many goals a run between floors has and which elevator it rides:
+/// `5 goal(s), riding old.elevator from floor 3 to 5`.
+pub fn headline(fp: &FloorPlan) -> String {
     let ride = fp.ride.as_ref().and_then(|s| s.ride.as_ref());
-    println!(
-        "plan {} -> {}: {} goal(s){}",
-        fp.from,
-        fp.to,
+    format!(
+        "{} goal(s){}",
         fp.steps().len(),
         ride.map_or(String::new(), |x| format!(
             ", riding {} from floor {} to {}",
             x.elevator, x.from, x.to
         ))
-    );
+    )
+}
+
+/// Prints the plan of a run between floors: `title` then its goals.
+pub fn describe(title: &str, fp: &FloorPlan) {
+    println!("{title}: {}", headline(fp));
     for line in fp.describe() {
         println!("  {line}");
     }

@@ -155,6 +155,27 @@ async fn connect(
     Ok((Board::new(ds, robot), rc))
 }
 
+/// A ground-truth client of `robot`, and the truth now if a simulator
+/// answers: ground truth judges a run where a simulator gives it, and a
+/// real robot is judged by its odometry only (`without` says what that
+/// costs, on stderr).
+async fn ground_truth(
+    common: &CommonArgs,
+    robot: &str,
+    without: &str,
+) -> anyhow::Result<(TruthClient, Option<rome_schema::sim::Truth>)> {
+    let session = common.open(Side::Client).await?;
+    let truth = TruthClient::new(&session, &common.root()?, robot)?;
+    let now = match truth.get().await {
+        Ok(t) => Some(t),
+        Err(e) => {
+            eprintln!("rome planner: no ground truth ({e}); {without}");
+            None
+        }
+    };
+    Ok((truth, now))
+}
+
 /// `rome planner`: plans, registers the robot at the start, hands the
 /// goals over one by one and judges each; ends with the run's row of Table
 /// 6.1 and where ground truth puts the robot. Exits 1 when the robot ended
@@ -165,21 +186,14 @@ pub async fn planner(common: &CommonArgs, args: PlannerArgs) -> anyhow::Result<u
             .with_context(|| format!("cannot load the building '{b}'"))?;
         let to = args.to.clone().context("--to is needed with --building")?;
         let fp = rome_nav::floors::FloorPlan::new(&building, &args.from, &to)?;
-        super::between::describe(&fp);
+        super::between::describe(&format!("plan {} -> {}", fp.from, fp.to), &fp);
         if args.dry_run {
             return Ok(exit::OK);
         }
         let robot_name = &args.robot.robot;
         let (board, robot) = connect(common, robot_name, "planner").await?;
-        let session = common.open(Side::Client).await?;
-        let truth = TruthClient::new(&session, &common.root()?, robot_name)?;
-        let truth = match truth.get().await {
-            Ok(_) => Some(truth),
-            Err(e) => {
-                eprintln!("rome planner: no ground truth ({e}); arrival is by odometry");
-                None
-            }
-        };
+        let (truth, start) = ground_truth(common, robot_name, "arrival is by odometry").await?;
+        let truth = start.map(|_| truth);
         return super::between::drive(&board, &robot, truth.as_ref(), &fp, args.heading).await;
     }
     let wall = std::time::Instant::now();
@@ -241,17 +255,12 @@ pub async fn planner(common: &CommonArgs, args: PlannerArgs) -> anyhow::Result<u
     }
     let robot_name = &args.robot.robot;
     let (board, robot) = connect(common, robot_name, "planner").await?;
-    let session = common.open(Side::Client).await?;
-    let truth = TruthClient::new(&session, &common.root()?, robot_name)?;
-    // Ground truth judges the run where a simulator gives it; a real robot
-    // is judged by its odometry only.
-    let start = match truth.get().await {
-        Ok(t) => Some(t),
-        Err(e) => {
-            eprintln!("rome planner: no ground truth ({e}); C and D goals are not judged, and arrival is by odometry");
-            None
-        }
-    };
+    let (truth, start) = ground_truth(
+        common,
+        robot_name,
+        "C and D goals are not judged, and arrival is by odometry",
+    )
+    .await?;
     planner::put_down(&robot, &plan, args.heading)
         .await
         .context("cannot register the robot at the start")?;

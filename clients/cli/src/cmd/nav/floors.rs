@@ -49,22 +49,11 @@ pub async fn run(demo: FloorsDemo) -> anyhow::Result<u8> {
     for r in &demo.routes {
         let fp = rome_nav::floors::FloorPlan::new(&demo.building, &r.from, &r.to)
             .with_context(|| format!("{}: cannot plan {} -> {}", r.robot, r.from, r.to))?;
-        let ride = fp.ride.as_ref().and_then(|s| s.ride.as_ref());
-        println!(
-            "{} plan {} -> {} in '{}': {} goal(s){}",
-            r.robot,
-            r.from,
-            r.to,
-            demo.building.name,
-            fp.steps().len(),
-            ride.map_or(String::new(), |x| format!(
-                ", riding {} from floor {} to {}",
-                x.elevator, x.from, x.to
-            ))
+        let title = format!(
+            "{} plan {} -> {} in '{}'",
+            r.robot, r.from, r.to, demo.building.name
         );
-        for line in fp.describe() {
-            println!("  {line}");
-        }
+        super::between::describe(&title, &fp);
     }
     let names: Vec<String> = demo.routes.iter().map(|r| r.robot.clone()).collect();
     let run = run_floors(cfg, demo.faults, |k, p| {
