@@ -41,6 +41,51 @@ async fn a_waiter_killed_with_sigkill_loses_its_place_and_no_unit() {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_wait_dropped_by_a_living_client_gives_its_place_up_and_its_unit_back() {
+    // A living client keeps a queued place it stops asking about for the
+    // server's grace: a minute here, so only the client can give it up.
+    let server = TestServer::start_with(rome_data::ServerConfig {
+        grace: Duration::from_secs(60),
+        ..rome_data::ServerConfig::default()
+    })
+    .await;
+    let ds = server.client("test").await;
+    ds.create_semaphore("S", 0).await.unwrap();
+    for undo in [false, true] {
+        // A wait dropped while queued (a select! that went the other way).
+        // The client stays alive: only its wait goes.
+        let a = server.client("a").await;
+        let alive = a.clone();
+        let queued = tokio::spawn(async move {
+            if undo {
+                a.wait_undo("S").await
+            } else {
+                a.wait("S").await
+            }
+        });
+        eventually(Duration::from_secs(15), "the wait is queued", || async {
+            ds.semaphore("S").await.unwrap().waiters == 1
+        })
+        .await;
+        queued.abort();
+        eventually(
+            Duration::from_secs(15),
+            "the dropped wait leaves the queue",
+            || async { ds.semaphore("S").await.unwrap().waiters == 0 },
+        )
+        .await;
+        let signal = ds.signal("S").await.unwrap();
+        assert!(
+            !signal.woke,
+            "the unit went to a dropped wait (undo {undo})"
+        );
+        assert!(ds.try_wait("S").await.unwrap(), "the unit is there");
+        drop(alive);
+    }
+    server.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_passage_held_by_a_client_killed_with_sigkill_opens_for_the_next() {
     // $passage/N guards a corridor one robot wide: a Planner holds it with
     // an undo wait. Killed inside, its unit must come back by itself.

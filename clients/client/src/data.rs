@@ -602,13 +602,36 @@ impl DataClient {
     ) -> Result<bool, ClientError> {
         let name = Name::semaphore(name)?;
         let ticket = self.next_id();
-        let key = self.key(DataOp::Wait, &name);
+        // Dropped before it ends (a select! that went another way), the
+        // wait gives its place in the queue up at once, and a unit that
+        // reached it meanwhile goes back: else the ticket would keep its
+        // place until the server's grace ran out, and the next up() would
+        // go to nobody.
+        let mut place = Place {
+            client: Some(self.clone()),
+            name: name.clone(),
+            ticket: ticket.clone(),
+            undo,
+        };
+        let taken = self.wait_ticket(&name, &ticket, deadline, undo).await;
+        place.client = None;
+        taken
+    }
+
+    async fn wait_ticket(
+        &self,
+        name: &Name,
+        ticket: &str,
+        deadline: Option<rome_clock::Instant>,
+        undo: bool,
+    ) -> Result<bool, ClientError> {
+        let key = self.key(DataOp::Wait, name);
         let o = &self.inner.options;
         let mut backoff = FIRST_BACKOFF;
         loop {
             let left = deadline.map(|d| d.remaining());
             if left == Some(Duration::ZERO) {
-                return self.give_up(&name, &ticket).await;
+                return self.give_up(name, ticket).await;
             }
             let hold = left
                 .unwrap_or(o.hold)
@@ -616,7 +639,7 @@ impl DataClient {
                 .min(Duration::from_millis(MAX_HOLD_MS));
             let wait = Wait {
                 name: name.clone(),
-                ticket: Some(ticket.clone()),
+                ticket: Some(ticket.to_string()),
                 owner: Some(self.inner.owner.clone()),
                 hold,
                 undo,
@@ -641,7 +664,7 @@ impl DataClient {
                     let reply: <Wait as Command>::Reply = decode(&body, "wait reply")?;
                     match reply.status {
                         WaitStatus::Granted => {
-                            if self.confirm(&name, &ticket).await? {
+                            if self.confirm(name, ticket).await? {
                                 return Ok(true);
                             }
                             // Taken back before our ack landed: wait again.
@@ -659,6 +682,16 @@ impl DataClient {
                 }
             }
         }
+    }
+
+    /// A wait dropped before it ended: its ticket leaves the queue, and a
+    /// unit it was granted or took meanwhile goes back (an undo unit to
+    /// the owner's account first, so it can be given back).
+    async fn abandon(&self, name: &Name, ticket: &str, undo: bool) -> Result<(), ClientError> {
+        if self.give_up(name, ticket).await? {
+            self.up(name.as_str(), undo).await?;
+        }
+        Ok(())
     }
 
     /// Confirms a grant; `false` if the server had taken it back.
@@ -681,6 +714,32 @@ impl DataClient {
             WaitStatus::Confirmed => Ok(true),
             _ => Ok(false),
         }
+    }
+}
+
+/// The place of a wait in a semaphore's queue while the wait runs; see
+/// [`DataClient::abandon`]. `client` is taken out when the wait ends.
+struct Place {
+    client: Option<DataClient>,
+    name: Name,
+    ticket: String,
+    undo: bool,
+}
+
+impl Drop for Place {
+    fn drop(&mut self) {
+        let Some(client) = self.client.take() else {
+            return;
+        };
+        if tokio::runtime::Handle::try_current().is_err() {
+            return;
+        }
+        let (name, ticket, undo) = (self.name.clone(), self.ticket.clone(), self.undo);
+        rome_clock::spawn("abandoned wait", async move {
+            if let Err(e) = client.abandon(&name, &ticket, undo).await {
+                tracing::debug!(error = %e, sem = %name.as_str(), "an abandoned wait could not give its place up");
+            }
+        });
     }
 }
 
