@@ -7,25 +7,25 @@
 //! returning, so no unit is lost or duplicated when replies go missing,
 //! the call times out, or the client dies.
 
+mod watch;
+
 use crate::call::{self, refusal, selector, Answer, Waiting};
 use crate::ClientError;
 use rome_schema::data::request::{
     Ack, Cancel, Command, Create, Get, History, Read, Set, Signal, TryWait, Wait,
 };
-use rome_schema::data::{
-    Committed, CreateReply, HistoryInfo, SemState, SignalReply, WaitStatus, MAX_HOLD_MS,
-};
+use rome_schema::data::{CreateReply, HistoryInfo, SemState, SignalReply, WaitStatus, MAX_HOLD_MS};
 use rome_schema::keys::DataOp;
 use rome_schema::{decode, ErrorCode, ErrorReply, Name, Root};
 use rome_serve::presence::{self, Presence};
 use serde::de::DeserializeOwned;
 use serde::Serialize;
 use serde_json::Value;
-use std::collections::HashMap;
-use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
-use zenoh::pubsub::Subscriber;
+use watch::Backlog;
+pub use watch::Watch;
 use zenoh::qos::Priority;
 use zenoh::sample::Sample;
 use zenoh::Session;
@@ -457,28 +457,13 @@ impl DataClient {
             .options
             .root
             .data_pattern(DataOp::Watch, pattern)?;
-        let backlog = Arc::new(Backlog {
-            limit: self.inner.options.watch_backlog,
-            bytes: AtomicUsize::new(0),
-            missed: AtomicU64::new(0),
-        });
+        let backlog = Arc::new(Backlog::new(self.inner.options.watch_backlog));
         let (tx, rx) = flume::unbounded::<Sample>();
         let queue = backlog.clone();
         let push = move |sample: Sample| {
-            let len = sample.payload().len();
-            if queue.bytes.fetch_add(len, Ordering::SeqCst) + len > queue.limit {
-                queue.bytes.fetch_sub(len, Ordering::SeqCst);
-                let n = queue.missed.fetch_add(1, Ordering::SeqCst) + 1;
-                if n.is_power_of_two() {
-                    tracing::warn!(
-                        missed = n,
-                        backlog = queue.limit,
-                        "watch reader too slow: commits dropped"
-                    );
-                }
-                return;
+            if queue.admit(sample.payload().len()) {
+                let _ = tx.send(sample);
             }
-            let _ = tx.send(sample);
         };
         let subscriber = self
             .inner
@@ -498,11 +483,7 @@ impl DataClient {
         let _ = self
             .attempt(Get::OP, &key, &[], None, self.inner.options.request_timeout)
             .await;
-        Ok(Watch {
-            subscriber,
-            backlog,
-            last: HashMap::new(),
-        })
+        Ok(Watch::new(subscriber, backlog))
     }
 
     // ----- semaphores ------------------------------------------------------
@@ -748,54 +729,3 @@ impl Drop for Place {
 /// however long that takes in wall time (in another process following the
 /// same clock, a vanished data server is then noticed only after this).
 const LOCKSTEP_PATIENCE: Duration = Duration::from_secs(3_600);
-
-/// A stream of committed writes (see [`DataClient::watch`]).
-pub struct Watch {
-    subscriber: Subscriber<flume::Receiver<Sample>>,
-    backlog: Arc<Backlog>,
-    last: HashMap<String, u64>,
-}
-
-/// What a [`Watch`] holds for its reader.
-struct Backlog {
-    limit: usize,
-    /// Payload bytes queued.
-    bytes: AtomicUsize,
-    /// Commits dropped because `limit` was reached.
-    missed: AtomicU64,
-}
-
-impl Watch {
-    /// How many commits were dropped so far because the reader fell more
-    /// than [`DataOptions::watch_backlog`] bytes behind (a skipped commit
-    /// number also shows each gap).
-    pub fn missed(&self) -> u64 {
-        self.backlog.missed.load(Ordering::SeqCst)
-    }
-
-    /// The next committed write; `None` once the session is closed.
-    ///
-    /// A repeat of a commit already seen is skipped, so each write is
-    /// returned once even if the network delivers it twice.
-    pub async fn next(&mut self) -> Option<Result<Committed, ClientError>> {
-        loop {
-            let sample = rome_clock::idle(self.subscriber.recv_async()).await.ok()?;
-            self.backlog
-                .bytes
-                .fetch_sub(sample.payload().len(), Ordering::SeqCst);
-            let commit: Committed = match decode(&sample.payload().to_bytes(), "watch event") {
-                Ok(c) => c,
-                Err(e) => return Some(Err(e.into())),
-            };
-            let last = self.last.entry(commit.name.clone()).or_insert(0);
-            if commit.seq <= *last {
-                continue;
-            }
-            if *last != 0 && commit.seq != *last + 1 {
-                tracing::warn!(name = %commit.name, from = *last, to = commit.seq, "watch skipped commits");
-            }
-            *last = commit.seq;
-            return Some(Ok(commit));
-        }
-    }
-}
