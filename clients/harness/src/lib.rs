@@ -565,6 +565,16 @@ async fn drive(
     }
     let end = rome_sim_hardware::truth::truth_of(&world, crew.world_index);
     let odometry = crew.robot.pose().await.ok().map(|p| Pose::from(&p).at);
+    // Its Navigator is told to stop too, or it drives on to the goal at
+    // hand when it next steers, into the robots that go on.
+    if failure.is_some()
+        && !matches!(
+            planner::stop_navigator(&crew.board, &crew.robot).await,
+            Ok(true)
+        )
+    {
+        tracing::warn!(robot = %crew.name, "the Navigator did not take its stop");
+    }
     let mut report = Report::new(Ended {
         robot: crew.name.clone(),
         from: crew.from.clone(),

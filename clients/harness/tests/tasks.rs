@@ -142,8 +142,11 @@ async fn a_task_that_takes_far_too_long_is_given_up_as_overdue_and_the_robot_goe
         t1.why.iter().any(|w| w.contains("overdue at (")),
         "the task says it was overdue, and where: {t1:?}"
     );
-    // Once overdue, the robot stays in service and takes the next task.
+    // Once overdue, the robot stays in service and takes the next task,
+    // and does it: its Navigator left T1's goal when T1 was given up
+    // rather than driving on to it.
     let t2 = status(&r, "T2");
     assert_eq!(t2.tried, vec!["r1".to_string()], "{t2:?}");
     assert!(t2.assigned_ms >= t1.ended_ms, "{t1:?} {t2:?}");
+    assert_eq!(t2.state, TaskState::Done, "{t2:?}");
 }

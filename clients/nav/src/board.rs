@@ -502,6 +502,22 @@ impl Board {
     /// Navigator: down($GoalData) and reads the goal.
     pub async fn take_goal(&self) -> Result<Goal, ClientError> {
         self.down(Sem::GoalData).await?;
+        self.read_goal().await
+    }
+
+    /// Navigator, in the middle of a goal: a goal handed meanwhile, if
+    /// there is one (a try-wait on `$GoalData`). The Planner hands the next
+    /// goal only after `$RobotStatus`, so one here replaces the goal at
+    /// hand: the Planner's run was ended and the robot is to stop.
+    pub async fn goal_handed_meanwhile(&self) -> Result<Option<Goal>, ClientError> {
+        let sem = self.sem_name(Sem::GoalData);
+        if !self.client().try_wait(&sem).await? {
+            return Ok(None);
+        }
+        self.read_goal().await.map(Some)
+    }
+
+    async fn read_goal(&self) -> Result<Goal, ClientError> {
         Ok(Goal {
             goal_type: self.get(Var::GoalType).await?,
             distance: self.get(Var::GoalDistance).await?,

@@ -200,6 +200,10 @@ impl SegmentLog {
     }
 }
 
+/// Checks of the light clock between two looks for a new segment handed
+/// in the middle of one (at the default 100 ms, every second).
+const NEW_SEGMENT_EVERY: u32 = 10;
+
 /// The tracker of one robot.
 pub struct CTracker {
     robot: RobotClient,
@@ -237,6 +241,8 @@ impl CTracker {
         }
         drop(tx);
         let mut resume = self.left_open().await?;
+        // A segment handed while the one before was still counted.
+        let mut handed = false;
         loop {
             tokio::select! {
                 biased;
@@ -246,8 +252,9 @@ impl CTracker {
                         _ => Err(NavError::Gone("a ceiling-light child tracker stopped")),
                     };
                 }
-                seg = self.segment(&mut rx, resume.take()) => {
-                    let seg = seg?;
+                seg = self.segment(&mut rx, resume.take(), std::mem::take(&mut handed)) => {
+                    let (seg, next) = seg?;
+                    handed = next;
                     tracing::info!(?seg, "ctracker: segment done");
                     if let Some(log) = &log {
                         let _ = log.send(seg);
@@ -304,12 +311,16 @@ impl CTracker {
 
     /// One L segment: down($TrackData) … up($EndLMode), or the rest of one
     /// taken up.
+    /// `handed`: its `$TrackData` was taken already. Also returns whether
+    /// the segment was left for a new one handed before it ended (a run
+    /// ended and the next began), whose `$TrackData` is taken.
     async fn segment(
         &self,
         rx: &mut mpsc::Receiver<Sighting>,
         resume: Option<Tracking>,
-    ) -> Result<SegmentLog, NavError> {
-        if resume.is_none() {
+        handed: bool,
+    ) -> Result<(SegmentLog, bool), NavError> {
+        if resume.is_none() && !handed {
             self.board.down(Sem::TrackData).await?;
         }
         let (goal, offsets, heading) = match self.segment_values().await? {
@@ -323,7 +334,7 @@ impl CTracker {
                 self.board
                     .set(Var::CeilingLight, &crate::board::GaveUp { failed: why })
                     .await?;
-                return Ok(SegmentLog::default());
+                return Ok((SegmentLog::default(), false));
             }
         };
         // Sightings from before the segment are stale.
@@ -360,6 +371,7 @@ impl CTracker {
             }
         }
         let mut tick = rome_clock::interval(self.cfg.check_every);
+        let mut ticks = 0u32;
         while count < total {
             let expected = offsets[count];
             tokio::select! {
@@ -391,6 +403,12 @@ impl CTracker {
                     }
                 }
                 _ = tick.tick() => {
+                    ticks += 1;
+                    if ticks.is_multiple_of(NEW_SEGMENT_EVERY) && self.new_segment_handed().await? {
+                        tracing::info!(count, total, "ctracker: a new segment came before this one ended; it is left");
+                        self.board.set(Var::Tracking, &None::<Tracking>).await?;
+                        return Ok((log, true));
+                    }
                     let now = along(&self.pose().await?);
                     if judge(&self.cfg, now - last, expected) == Verdict::TooLate {
                         count += 1;
@@ -412,7 +430,16 @@ impl CTracker {
         }
         // Closed: the segment's end is said.
         self.board.set(Var::Tracking, &None::<Tracking>).await?;
-        Ok(log)
+        Ok((log, false))
+    }
+
+    /// A try-wait on `$TrackData` in the middle of a segment. The Planner
+    /// hands the next segment only after `$EndLMode`, so one here means
+    /// the run that handed the segment at hand has ended: counting on
+    /// would count the next run's lights as this one's.
+    async fn new_segment_handed(&self) -> Result<bool, NavError> {
+        let sem = self.board.sem_name(Sem::TrackData);
+        Ok(self.board.client().try_wait(&sem).await?)
     }
 
     /// The segment's light count, light offsets and heading; a bad value

@@ -87,6 +87,10 @@ pub enum NavError {
     /// the robot was stopped.
     #[error("the elevator ride failed, so the robot was stopped: {0}")]
     Ride(String),
+    /// The Planner handed a new goal before the one at hand ended: the
+    /// robot was stopped and the new goal replaces it.
+    #[error("a new goal came before this one ended")]
+    Superseded,
     /// A server went away or misbehaved.
     #[error("{0}")]
     Gone(&'static str),

@@ -88,6 +88,9 @@ pub struct Navigator {
     rtt_s: f64,
     /// Why the robot gets nowhere on its goal, while it does.
     blocked: Option<String>,
+    /// A goal the Planner handed before the one at hand ended, which
+    /// replaces it.
+    handed: Option<Goal>,
 }
 
 impl Navigator {
@@ -109,6 +112,7 @@ impl Navigator {
             blocked: None,
             odometer_at: None,
             speed,
+            handed: None,
         }
     }
 
@@ -153,12 +157,13 @@ impl Navigator {
             resume = None;
         }
         loop {
-            let (goal, start) = match resume.take() {
-                Some(active) => {
+            let (goal, start) = match (self.handed.take(), resume.take()) {
+                (Some(goal), _) => (goal, None),
+                (None, Some(active)) => {
                     tracing::info!(goal = ?active.goal, "navigator: taking up the goal left unfinished");
                     (active.goal, Some(active.start()))
                 }
-                None => match self.next_goal(&scans).await {
+                (None, None) => match self.next_goal(&scans).await {
                     Ok(goal) => (goal, None),
                     Err(e) => {
                         self.goals += 1;
@@ -174,6 +179,12 @@ impl Navigator {
             } else {
                 self.carry_out(&goal, start, &scans).await
             };
+            if let Err(NavError::Superseded) = done {
+                // No $RobotStatus for the goal left: the Planner that
+                // handed the next one does not wait for it.
+                tracing::info!("navigator: a new goal came before this one ended; it is left");
+                continue;
+            }
             if let Err(e) = done {
                 self.fail_goal(e).await?;
                 continue;
@@ -614,6 +625,7 @@ impl Navigator {
                     self.last = None;
                 }
                 checked_at = Some(pose);
+                self.goal_handed_meanwhile().await?;
                 let _ = self.check_bumper(&pose, goal, &scan, scans).await?;
                 // Between two walls the walls are the better compass:
                 // Check-Goal only steps in when they are out of sight.

@@ -225,6 +225,41 @@ pub async fn give_back_all(board: &Board) -> Result<(), NavError> {
     Ok(())
 }
 
+/// How long [`stop_navigator`] waits for the Navigator to take its stop:
+/// a driving Navigator looks for a new goal at its Check-Goal (every 3–5
+/// s of robot time), then brakes.
+const STOP_PATIENCE: std::time::Duration = std::time::Duration::from_secs(15);
+/// How long after that it waits for a second `$RobotStatus`: the goal
+/// left may have ended on its own just before the stop was taken.
+const STOP_SETTLE: std::time::Duration = std::time::Duration::from_secs(3);
+
+/// Stops the Navigator on the goal it is on, for a run that ended before
+/// its last goal (given up as blocked, cancelled, overdue): a D goal of
+/// no distance is handed, which the Navigator takes in place of the goal
+/// at hand ([`Board::goal_handed_meanwhile`]), or at once if it is idle.
+/// Without it, the Navigator of a run given up drives on to a goal nobody
+/// follows, into the robots that go on, and the `$RobotStatus` it ends
+/// with would end the next run's first goal. Every `$RobotStatus` the
+/// Navigator gives meanwhile is taken, so the next run starts even.
+/// Returns whether the Navigator answered.
+pub async fn stop_navigator(board: &Board, robot: &RobotClient) -> Result<bool, NavError> {
+    let heading = robot.pose().await?.heading_deg;
+    board
+        .give_goal(&Goal {
+            goal_type: GoalType::D,
+            distance: 0,
+            direction_deg: if heading.is_finite() { heading } else { 0.0 },
+        })
+        .await?;
+    let ds = board.client();
+    let sem = board.sem_name(Sem::RobotStatus);
+    if !ds.wait_timeout(&sem, STOP_PATIENCE).await? {
+        return Ok(false);
+    }
+    while ds.wait_timeout(&sem, STOP_SETTLE).await? {}
+    Ok(true)
+}
+
 /// Waits on `$RobotStatus`: the Navigator is done with the goal. The
 /// Navigator writes its Status every second of robot time while it works
 /// on a goal: silence means it died with the goal.

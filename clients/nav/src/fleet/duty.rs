@@ -290,6 +290,12 @@ impl OnDuty<'_> {
             // Stopped where it is, holding nothing of the building.
             let _ = self.robot.stop(false).await;
             let _ = planner::give_back_all(self.board).await;
+            if !matches!(
+                planner::stop_navigator(self.board, self.robot).await,
+                Ok(true)
+            ) {
+                tracing::warn!(robot = self.name, "the Navigator did not take its stop");
+            }
             return (outcome(false, Some(why)), None);
         }
         let (_, goal) = plan.ends();

@@ -54,6 +54,35 @@ impl Navigator {
         said.await.map_err(|_| e)
     }
 
+    /// Check-Goal's look at `$GoalData`: a goal handed before the one at
+    /// hand ended replaces it (a Planner's run was ended, a task given up
+    /// or cancelled, and the robot is to stop). The robot is stopped and
+    /// the goal at hand ends with [`NavError::Superseded`]; the new goal
+    /// is taken next. Without this look, a Navigator would drive on to
+    /// the goal of a run nobody follows any more, and its `$RobotStatus`
+    /// would end the next run's first goal.
+    pub(super) async fn goal_handed_meanwhile(&mut self) -> Result<(), NavError> {
+        let handed = self.board.goal_handed_meanwhile().await.map_err(|e| {
+            if crate::bad_value(&e) {
+                NavError::Unreadable {
+                    what: "the goal (GoalType, GoalDistance, GoalDirection)",
+                    source: e,
+                }
+            } else {
+                e.into()
+            }
+        })?;
+        let Some(goal) = handed else {
+            return Ok(());
+        };
+        self.send(Drive::Halt).await?;
+        self.hallway = None;
+        self.carry = None;
+        self.blocked = None;
+        self.handed = Some(goal);
+        Err(NavError::Superseded)
+    }
+
     /// At the end of a D goal, a robot standing more than
     /// [`OFF_LINE_MM`] across from its goal, as the side sonars measure it
     /// against where the map puts the walls beside the goal (`left`,
