@@ -57,6 +57,19 @@ pub fn bad_value(e: &rome_client::ClientError) -> bool {
         || e.code() == Some(rome_schema::ErrorCode::UnknownVariable)
 }
 
+impl NavError {
+    /// A failed read of `what` off the blackboard: a bad value
+    /// ([`bad_value`]) is [`NavError::Unreadable`], which ends the goal at
+    /// hand; anything else (a server gone) passes as it is.
+    pub fn reading(what: &'static str, e: rome_client::ClientError) -> NavError {
+        if bad_value(&e) {
+            NavError::Unreadable { what, source: e }
+        } else {
+            e.into()
+        }
+    }
+}
+
 /// Why a navigation client stopped.
 #[derive(Debug, thiserror::Error)]
 pub enum NavError {

@@ -220,17 +220,11 @@ impl Navigator {
         scans: &rome_client::robot::Stream<Scan>,
     ) -> Result<Goal, NavError> {
         let board = self.board.clone();
+        // A goal that does not decode still took $GoalData: the Planner
+        // waits for its end, which `fail_goal` gives.
         let take = async {
             board.take_goal().await.map_err(|e| {
-                if crate::bad_value(&e) {
-                    // GoalData was taken: the Planner waits for the goal's end.
-                    NavError::Unreadable {
-                        what: "the goal (GoalType, GoalDistance, GoalDirection)",
-                        source: e,
-                    }
-                } else {
-                    e.into()
-                }
+                NavError::reading("the goal (GoalType, GoalDistance, GoalDirection)", e)
             })
         };
         tokio::pin!(take);

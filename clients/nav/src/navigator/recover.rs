@@ -63,14 +63,7 @@ impl Navigator {
     /// would end the next run's first goal.
     pub(super) async fn goal_handed_meanwhile(&mut self) -> Result<(), NavError> {
         let handed = self.board.goal_handed_meanwhile().await.map_err(|e| {
-            if crate::bad_value(&e) {
-                NavError::Unreadable {
-                    what: "the goal (GoalType, GoalDistance, GoalDirection)",
-                    source: e,
-                }
-            } else {
-                e.into()
-            }
+            NavError::reading("the goal (GoalType, GoalDistance, GoalDirection)", e)
         })?;
         let Some(goal) = handed else {
             return Ok(());

@@ -76,16 +76,11 @@ impl Navigator {
         goal: &Goal,
         scans: &rome_client::robot::Stream<Scan>,
     ) -> Result<(), NavError> {
-        let ride: RideInfo = self.board.get(Var::Ride).await.map_err(|e| {
-            if crate::bad_value(&e) {
-                NavError::Unreadable {
-                    what: "the ride (Ride)",
-                    source: e,
-                }
-            } else {
-                e.into()
-            }
-        })?;
+        let ride: RideInfo = self
+            .board
+            .get(Var::Ride)
+            .await
+            .map_err(|e| NavError::reading("the ride (Ride)", e))?;
         let code: Code = ride
             .marker
             .parse()
