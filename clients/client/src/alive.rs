@@ -4,7 +4,10 @@
 use crate::ClientError;
 use rome_schema::keys::AliveClass;
 use rome_schema::Root;
+use std::collections::BTreeSet;
+use std::sync::{Arc, Mutex, PoisonError};
 use std::time::Duration;
+use zenoh::sample::{Sample, SampleKind};
 use zenoh::Session;
 
 /// One live participant.
@@ -91,5 +94,78 @@ pub async fn await_server(
             key,
             waited: timeout,
         }),
+    }
+}
+
+/// The ids of every live participant, kept up to date by a liveliness
+/// subscriber: for a process that asks often (the dispatcher, every
+/// round). A liveliness query each time waits for every peer's answer,
+/// which with many peers in one process took the query's whole timeout.
+pub struct Watch {
+    seen: Arc<Mutex<Seen>>,
+    _subscriber: zenoh::pubsub::Subscriber<()>,
+}
+
+#[derive(Default)]
+struct Seen {
+    alive: BTreeSet<String>,
+    /// Gone since the watch began: the first query's answer, which may
+    /// have been taken just before, does not bring them back.
+    gone: BTreeSet<String>,
+}
+
+impl Watch {
+    /// Subscribes, then lists once (waiting up to `timeout`), so the
+    /// watch starts with everyone already there.
+    pub async fn start(
+        session: &Session,
+        root: &Root,
+        timeout: Duration,
+    ) -> Result<Watch, ClientError> {
+        let seen = Arc::new(Mutex::new(Seen::default()));
+        let sink = seen.clone();
+        let keys = root.clone();
+        let subscriber = session
+            .liveliness()
+            .declare_subscriber(root.alive_all())
+            .history(true)
+            .callback(move |sample: Sample| {
+                let Some(alive) = keys.parse_alive(sample.key_expr().as_str()) else {
+                    return;
+                };
+                let id = alive.id.to_string();
+                let mut seen = sink.lock().unwrap_or_else(PoisonError::into_inner);
+                if sample.kind() == SampleKind::Delete {
+                    seen.alive.remove(&id);
+                    seen.gone.insert(id);
+                } else {
+                    seen.gone.remove(&id);
+                    seen.alive.insert(id);
+                }
+            })
+            .await
+            .map_err(ClientError::zenoh)?;
+        let first = list(session, root, timeout).await?;
+        {
+            let mut s = seen.lock().unwrap_or_else(PoisonError::into_inner);
+            for p in first {
+                if !s.gone.contains(&p.id) {
+                    s.alive.insert(p.id);
+                }
+            }
+        }
+        Ok(Watch {
+            seen,
+            _subscriber: subscriber,
+        })
+    }
+
+    /// The ids alive now.
+    pub fn ids(&self) -> BTreeSet<String> {
+        self.seen
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .alive
+            .clone()
     }
 }

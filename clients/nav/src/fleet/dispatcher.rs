@@ -71,6 +71,8 @@ pub struct Dispatcher {
     bad_duties: BTreeMap<String, String>,
     /// Route lengths between positions, mm, as measured once.
     lengths: BTreeMap<(String, String), Option<f64>>,
+    /// Who is alive, from the first round on.
+    alive: Option<rome_client::alive::Watch>,
 }
 
 impl Dispatcher {
@@ -92,6 +94,7 @@ impl Dispatcher {
             statuses: BTreeMap::new(),
             bad_duties: BTreeMap::new(),
             lengths: BTreeMap::new(),
+            alive: None,
         }
     }
 
@@ -351,14 +354,15 @@ impl Dispatcher {
 
     /// The ids of every live client (a duty's owner among them while its
     /// Planner runs).
-    async fn alive(&self) -> Result<BTreeSet<String>, ClientError> {
-        let who = rome_client::alive::list(
-            &self.session,
-            &self.ds.options().root,
-            Duration::from_secs(2),
-        )
-        .await?;
-        Ok(who.into_iter().map(|p| p.id).collect())
+    async fn alive(&mut self) -> Result<BTreeSet<String>, ClientError> {
+        if self.alive.is_none() {
+            let root = &self.ds.options().root;
+            let watch =
+                rome_client::alive::Watch::start(&self.session, root, Duration::from_secs(2))
+                    .await?;
+            self.alive = Some(watch);
+        }
+        Ok(self.alive.as_ref().map(|w| w.ids()).unwrap_or_default())
     }
 
     fn fresh(&self, id: &str, to: &str, priority: i64, now: u64) -> TaskStatus {
