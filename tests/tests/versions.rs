@@ -188,3 +188,36 @@ async fn every_program_says_its_version_beside_its_token() {
     }
     server.stop().await;
 }
+
+#[test]
+fn the_live_list_and_versions_come_back_with_more_programs_than_a_channel_holds() {
+    // Forty robots in one process declare some 400 tokens. Their answers
+    // come before the query returns its receiver: a channel of 256 filled
+    // up and blocked the thread, for ever. So the queries run on a thread
+    // of their own, and the test waits for their answer with a deadline.
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let rt = tokio::runtime::Runtime::new().unwrap();
+        rt.block_on(async {
+            let (session, _port) = open_loopback_peer(&[]).await.unwrap();
+            let root = Root::default();
+            let mut tokens = Vec::new();
+            for k in 0..400 {
+                let key = root.alive_client("planner", &format!("many-{k}"));
+                tokens.push(rome_serve::presence::declare(&session, &key).await.unwrap());
+            }
+            let wait = Duration::from_secs(2);
+            let listed = rome_client::alive::list(&session, &root, wait)
+                .await
+                .unwrap();
+            let said = rome_client::alive::versions(&session, &root, wait)
+                .await
+                .unwrap();
+            let _ = tx.send((listed.len(), said.len()));
+        });
+    });
+    let got = rx
+        .recv_timeout(Duration::from_secs(120))
+        .expect("the live list and the versions come back");
+    assert_eq!(got, (400, 400));
+}

@@ -29,10 +29,15 @@ pub async fn list(
     root: &Root,
     timeout: Duration,
 ) -> Result<Vec<Participant>, ClientError> {
+    // Unbounded: the replies of this process's own tokens are delivered
+    // before the get returns its receiver, so a bounded channel holding
+    // fewer than there are tokens (the default 256; forty robots in one
+    // process have more) would wait for a reader that never comes.
     let replies = session
         .liveliness()
         .get(root.alive_all())
         .timeout(timeout)
+        .with(flume::unbounded())
         .await
         .map_err(ClientError::zenoh)?;
     let mut out = Vec::new();

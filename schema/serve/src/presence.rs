@@ -67,6 +67,9 @@ pub async fn versions(
         .get(keys)
         .timeout(timeout)
         .consolidation(zenoh::query::ConsolidationMode::None)
+        // Unbounded, as a bounded channel smaller than the number of local
+        // answers would block before the receiver is returned.
+        .with(flume::unbounded())
         .await?;
     let mut out = Vec::new();
     while let Ok(reply) = replies.recv_async().await {
