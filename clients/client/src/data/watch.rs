@@ -10,7 +10,7 @@ use std::sync::Arc;
 use zenoh::pubsub::Subscriber;
 use zenoh::sample::Sample;
 
-/// A stream of committed writes (see [`DataClient::watch`]).
+/// A stream of committed writes (see [`crate::DataClient::watch`]).
 pub struct Watch {
     subscriber: Subscriber<flume::Receiver<Sample>>,
     backlog: Arc<Backlog>,
@@ -67,7 +67,7 @@ impl Watch {
     }
 
     /// How many commits were dropped so far because the reader fell more
-    /// than [`DataOptions::watch_backlog`] bytes behind (a skipped commit
+    /// than [`crate::DataOptions::watch_backlog`] bytes behind (a skipped commit
     /// number also shows each gap).
     pub fn missed(&self) -> u64 {
         self.backlog.missed.load(Ordering::SeqCst)
