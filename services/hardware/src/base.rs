@@ -194,23 +194,15 @@ impl<D: BaseDevice> Base<D> {
 impl<D: BaseDevice> Service for Base<D> {
     type Cmd = BaseCmd;
 
-    fn commands(&self) -> &'static [&'static str] {
-        COMMANDS
-    }
-
-    fn lockable(&self) -> bool {
-        true
-    }
-
-    fn reads(&self) -> &'static [&'static str] {
-        &[
-            ReadPose::NAME,
-            ReadSpeed::NAME,
-            ReadWheelSpeed::NAME,
-            ReadMode::NAME,
-            ReadBumper::NAME,
-        ]
-    }
+    const COMMANDS: &'static [&'static str] = COMMANDS;
+    const LOCKABLE: bool = true;
+    const READS: &'static [&'static str] = &[
+        ReadPose::NAME,
+        ReadSpeed::NAME,
+        ReadWheelSpeed::NAME,
+        ReadMode::NAME,
+        ReadBumper::NAME,
+    ];
 
     fn parse(
         &self,

@@ -198,17 +198,9 @@ fn png(frame: &Frame) -> Result<Vec<u8>, ErrorReply> {
 impl<D: CameraDevice> Service for Camera<D> {
     type Cmd = CameraCmd;
 
-    fn commands(&self) -> &'static [&'static str] {
-        COMMANDS
-    }
-
-    fn lockable(&self) -> bool {
-        true
-    }
-
-    fn reads(&self) -> &'static [&'static str] {
-        &[ReadSize::NAME]
-    }
+    const COMMANDS: &'static [&'static str] = COMMANDS;
+    const LOCKABLE: bool = true;
+    const READS: &'static [&'static str] = &[ReadSize::NAME];
 
     fn parse(
         &self,

@@ -88,17 +88,9 @@ impl<D: ElevatorDevice> Elevator<D> {
 impl<D: ElevatorDevice> Service for Elevator<D> {
     type Cmd = ElevatorCmd;
 
-    fn commands(&self) -> &'static [&'static str] {
-        COMMANDS
-    }
-
-    fn lockable(&self) -> bool {
-        true
-    }
-
-    fn reads(&self) -> &'static [&'static str] {
-        &[ReadState::NAME]
-    }
+    const COMMANDS: &'static [&'static str] = COMMANDS;
+    const LOCKABLE: bool = true;
+    const READS: &'static [&'static str] = &[ReadState::NAME];
 
     fn parse(
         &self,

@@ -118,17 +118,9 @@ fn ranges(max: MaxRange) -> Result<[u32; SONARS], ErrorReply> {
 impl<D: ProximityDevice> Service for Proximity<D> {
     type Cmd = ProxCmd;
 
-    fn commands(&self) -> &'static [&'static str] {
-        COMMANDS
-    }
-
-    fn lockable(&self) -> bool {
-        false
-    }
-
-    fn reads(&self) -> &'static [&'static str] {
-        &[ReadSonar::NAME, ReadIr::NAME]
-    }
+    const COMMANDS: &'static [&'static str] = COMMANDS;
+    const LOCKABLE: bool = false;
+    const READS: &'static [&'static str] = &[ReadSonar::NAME, ReadIr::NAME];
 
     fn parse(
         &self,

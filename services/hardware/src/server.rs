@@ -94,17 +94,15 @@ pub trait Service: Send + Sync + 'static {
     type Cmd: Send + Sync + 'static;
 
     /// The commands, for error messages and docs (lock/unlock excepted).
-    fn commands(&self) -> &'static [&'static str];
+    const COMMANDS: &'static [&'static str];
 
     /// Whether the device has a lock token (base, cameras).
-    fn lockable(&self) -> bool;
+    const LOCKABLE: bool;
 
     /// The commands that only read the device (a base's pose, a sonar
     /// scan): they also answer a wildcard key, one reply per device, so
     /// `z_get 'rome/robot/*/base/pose'` finds every robot.
-    fn reads(&self) -> &'static [&'static str] {
-        &[]
-    }
+    const READS: &'static [&'static str] = &[];
 
     /// Parses a command from its key chunk, parameters and payload; takes
     /// the parameters it knows and refuses the rest.
@@ -275,7 +273,7 @@ pub async fn run<S: Service>(
         config,
         service,
     };
-    if server.service.lockable() {
+    if S::LOCKABLE {
         server.restore_lock().await;
     }
     server.settle();
@@ -381,7 +379,7 @@ impl<S: Service> Server<S> {
         fence: Option<u64>,
         payload: Option<&[u8]>,
     ) -> Result<Op<S::Cmd>, ErrorReply> {
-        let lockable = self.service.lockable();
+        let lockable = S::LOCKABLE;
         match command {
             TakeLock::NAME if lockable => {
                 let lock = TakeLock::parse(&mut params, fence)?;
@@ -402,7 +400,7 @@ impl<S: Service> Server<S> {
                 Ok(Op::Unlock { fence })
             }
             _ => {
-                let known = self.service.commands();
+                let known = S::COMMANDS;
                 if !known.contains(&command) {
                     let mut all: Vec<&str> = known.to_vec();
                     if lockable {
@@ -511,7 +509,7 @@ impl<S: Service> Server<S> {
         let matches = |chunk: &str| {
             zenoh::key_expr::KeyExpr::new(key_of(chunk)).is_ok_and(|k| wanted.intersects(&k))
         };
-        let reads = self.service.reads();
+        let reads = S::READS;
         let reads_said = if reads.is_empty() {
             "none".to_string()
         } else {
@@ -550,8 +548,8 @@ impl<S: Service> Server<S> {
         if answered > 0 {
             return;
         }
-        let mut others: Vec<&str> = self.service.commands().to_vec();
-        if self.service.lockable() {
+        let mut others: Vec<&str> = S::COMMANDS.to_vec();
+        if S::LOCKABLE {
             others.extend([TakeLock::NAME, ReleaseLock::NAME]);
         }
         others.extend(self.last.keys().copied());
@@ -674,7 +672,7 @@ impl<S: Service> Server<S> {
     /// The refusal of a command that acts from below a suppression in
     /// force, if `p` is one.
     fn suppressed(&self, p: &Pending<S::Cmd>, now: Instant) -> Option<ErrorReply> {
-        if p.fenced || self.service.reads().contains(&p.command.as_str()) {
+        if p.fenced || S::READS.contains(&p.command.as_str()) {
             return None;
         }
         let s = self.gate.suppressed(p.priority, now)?;

@@ -22,7 +22,7 @@ impl<S: Service> Server<S> {
         if alive.class == rome_schema::keys::AliveClass::Server
             && alive.role == crate::storage::STORE_KIND
         {
-            if sample.kind() == SampleKind::Put && self.service.lockable() {
+            if sample.kind() == SampleKind::Put && S::LOCKABLE {
                 self.storage_up(alive.id).await;
             }
             return;
