@@ -29,8 +29,11 @@
 //! them, and they come no faster than peers can come and go. The queues and
 //! the loop are `rome_serve`'s, shared with the hardware servers.
 
-use crate::cmd::{Apply, Params, Request};
+mod quick;
+
+use crate::cmd::{Applied, Apply, Params, Request};
 use crate::store::{Disk, DiskError, Flush, Grant, Store};
+use quick::Quick;
 use rome_clock::Instant;
 use rome_schema::data::{Committed, Rejected, WaitReply, WaitStatus, DEFAULT_HISTORY};
 use rome_schema::keys::DataOp;
@@ -40,6 +43,7 @@ use serde::Serialize;
 use std::collections::hash_map::Entry;
 use std::collections::{HashMap, HashSet};
 use std::future::Future;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
 use std::time::Duration;
 use zenoh::bytes::Encoding;
@@ -229,8 +233,16 @@ struct Server {
     /// of it.
     follows: (flume::Sender<Event>, Arc<Follows>),
     disk: Option<Disk>,
-    /// Plain puts written to disk but not yet synced.
+    /// Changes written to disk but not yet synced (plain puts, and the
+    /// requests of the burst being taken in).
     unsynced: bool,
+    /// With a disk: the requests of the burst being taken in, applied and
+    /// written but not answered. One sync when the burst is in covers
+    /// them all (group commit); each is answered after it, in order.
+    batch: Vec<(Query, String, Result<Applied, ErrorReply>)>,
+    /// Set while `batch` holds a change: the callback's reads wait for the
+    /// loop, which answers them after the sync.
+    batch_unsynced: Arc<AtomicBool>,
 }
 
 fn declare_err(what: &str, e: zenoh::Error) -> ServerError {
@@ -275,7 +287,9 @@ pub async fn run(
     };
     let store = Arc::new(Mutex::new(store));
     let follows = (inbox.first_sender(), Arc::new(Follows::default()));
+    let batch_unsynced = Arc::new(AtomicBool::new(false));
     let quick = Quick {
+        unsynced: batch_unsynced.clone(),
         store: store.clone(),
         root: root.clone(),
         follows: follows.1.clone(),
@@ -318,6 +332,8 @@ pub async fn run(
         store,
         disk,
         unsynced: false,
+        batch: Vec::new(),
+        batch_unsynced,
         session,
         held: HashMap::new(),
         generation: 0,
@@ -358,6 +374,27 @@ impl Handler<Own> for Server {
         }
     }
 
+    async fn drained(&mut self) {
+        if self.batch.is_empty() {
+            return;
+        }
+        let batch = std::mem::take(&mut self.batch);
+        let synced = self.keep(Flush::Sync);
+        if synced.is_ok() {
+            self.batch_unsynced.store(false, Ordering::SeqCst);
+        }
+        for (query, key, applied) in batch {
+            // A request that changed something is acknowledged only once
+            // the change is on disk; the others wait for the sync too, so
+            // none shows a change before its writer is told.
+            let applied = match (&synced, applied) {
+                (Err(e), Ok(_)) => Err(e.clone()),
+                (_, applied) => applied,
+            };
+            self.answer(query, key, applied).await;
+        }
+    }
+
     async fn sweep(&mut self) {
         self.sweep_now().await
     }
@@ -379,11 +416,27 @@ impl Server {
                 let store = self.store.clone();
                 let mut store = lock(&store);
                 let mut applied = request.apply(&mut store, now)?;
-                self.keep_in(&mut store, Flush::Sync)?;
+                if self.disk.is_some() {
+                    // Synced with the rest of the burst (`drained`); set
+                    // under the lock, so no read in the callback sees the
+                    // change before that.
+                    self.batch_unsynced.store(true, Ordering::SeqCst);
+                }
+                self.keep_in(&mut store, Flush::Later)?;
                 applied.commit = applied.commit.and_then(|c| self.in_order(c));
                 Ok(applied)
             },
         );
+        if self.disk.is_some() {
+            self.batch.push((query, key, applied));
+            return;
+        }
+        self.answer(query, key, applied).await;
+    }
+
+    /// Answers a request, publishes its commit, holds its query if it
+    /// waits and answers the waits it granted.
+    async fn answer(&mut self, query: Query, key: String, applied: Result<Applied, ErrorReply>) {
         match applied {
             Err(e) => {
                 tracing::debug!(%key, error = %e, "request refused");
@@ -644,13 +697,14 @@ impl Server {
         let changes = store.take_changes();
         if changes.is_empty() {
             if flush == Flush::Sync && self.unsynced {
+                disk.sync().map_err(storage_error)?;
                 self.unsynced = false;
-                return disk.sync().map_err(storage_error);
             }
             return Ok(());
         }
         match disk.write(store, &changes, flush) {
             Ok(()) => {
+                // A synced write also syncs what was written before it.
                 self.unsynced = flush == Flush::Later;
                 Ok(())
             }
@@ -667,102 +721,6 @@ impl Server {
 /// change is applied whole or not at all, so what is there stays usable.
 fn lock(store: &Mutex<Store>) -> MutexGuard<'_, Store> {
     store.lock().unwrap_or_else(PoisonError::into_inner)
-}
-
-/// What the queryable's callback may answer itself, without the trip
-/// through the event loop: it is asked only when no request or put is
-/// queued or being handled, so a client's request still comes after
-/// everything it sent before it. Anything else, and a request that fails,
-/// goes the usual way.
-struct Quick {
-    store: Arc<Mutex<Store>>,
-    root: Root,
-    /// Follow-ups queued for the task ([`Server::follows`]).
-    follows: Arc<Follows>,
-    /// Changes too (`set`, `signal`, a `wait` granted at once, `ack`), when
-    /// the store is in memory: what is left to do (publication, grants)
-    /// goes to the event loop, ahead of anything queued; and whether the
-    /// loop's clock is a lock-step one.
-    writes: Option<(flume::Sender<Event>, bool)>,
-}
-
-impl Quick {
-    /// Answers a plain read (`var/<name>`, `sem/<name>`), a `set`, a
-    /// `signal`, a `wait` that takes a unit at once or an `ack`.
-    fn answer(&self, query: &Query) -> bool {
-        let key = query.key_expr().as_str();
-        if key.contains('*') {
-            return false;
-        }
-        let params = Params::new(query.parameters().iter());
-        let payload = query.payload().map(|p| p.to_bytes());
-        // Set when a follow-up was queued: the task is woken once the
-        // answer is on its way.
-        let mut wake = None;
-        let applied = match Request::parse(&self.root, key, params, payload.as_deref()) {
-            Ok(request @ (Request::Get(_) | Request::Read(_))) => {
-                request.apply(&mut lock(&self.store), Instant::now())
-            }
-            Ok(
-                request @ (Request::Set(_)
-                | Request::Signal(_)
-                | Request::Wait(_)
-                | Request::Ack(_)),
-            ) => match &self.writes {
-                Some((first, lockstep)) if rome_clock::now_ms().is_some() == *lockstep => {
-                    let mut store = lock(&self.store);
-                    // A wait that would be queued needs its query held,
-                    // which only the loop does; asked under the same lock
-                    // as the wait is applied, so the answer holds.
-                    if let Request::Wait(w) = &request {
-                        if !store.wait_answers_at_once(&w.name, w.ticket.as_deref()) {
-                            return false;
-                        }
-                    }
-                    let mut applied = request.apply(&mut store, Instant::now());
-                    // Queued under the store's lock, so changes made on
-                    // two threads are followed up in their order; the
-                    // queue is unbounded, so none is lost. A signal that
-                    // granted nothing leaves nothing to do, and the task
-                    // is not woken for it.
-                    if let Ok(a) = applied.as_mut() {
-                        if a.commit.is_some() || !a.grants.is_empty() {
-                            let first_queued = self.follows.push(Follow {
-                                commit: a.commit.take(),
-                                grants: std::mem::take(&mut a.grants),
-                            });
-                            if first_queued {
-                                wake = Some(first);
-                            }
-                        }
-                    }
-                    applied
-                }
-                _ => return false,
-            },
-            _ => return false,
-        };
-        let answered = match applied {
-            Ok(crate::cmd::Applied {
-                reply: Some(payload),
-                ..
-            }) => {
-                rome_serve::reply_now(query, key, payload, Encoding::APPLICATION_JSON);
-                true
-            }
-            // What is answered here always answers (a wait that would be
-            // held was left to the loop above); were one not to, it is
-            // done all the same and must not be done again.
-            Ok(_) => true,
-            // A request that failed changed nothing: the loop answers it
-            // with its error.
-            Err(_) => false,
-        };
-        if let Some(task) = wake {
-            let _ = task.send(Event::Own(Own::Drain));
-        }
-        answered
-    }
 }
 
 async fn reply_json(query: &Query, key: &str, payload: Vec<u8>) {
