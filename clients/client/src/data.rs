@@ -595,7 +595,13 @@ impl DataClient {
             undo,
         };
         let taken = self.wait_ticket(&name, &ticket, deadline, undo).await;
-        place.client = None;
+        // A wait that failed gives its place up too: its ack may have been
+        // confirmed by a server whose answer never came back, and a unit
+        // kept by a living owner that no longer waits would be lost to
+        // everyone.
+        if taken.is_ok() {
+            place.client = None;
+        }
         taken
     }
 
@@ -699,7 +705,8 @@ impl DataClient {
 }
 
 /// The place of a wait in a semaphore's queue while the wait runs; see
-/// [`DataClient::abandon`]. `client` is taken out when the wait ends.
+/// [`DataClient::abandon`]. `client` is taken out when the wait ends
+/// without an error.
 struct Place {
     client: Option<DataClient>,
     name: Name,
