@@ -430,12 +430,11 @@ impl Server {
             let mut store = lock(&store);
             let mut applied = request.apply(&mut store, now)?;
             if self.disk.is_some() {
-                // Synced with the rest of the burst (`drained`); set
-                // under the lock, so no read in the callback sees the
-                // change before that.
+                // Written and synced with the rest of the burst, in one
+                // transaction (`drained`); set under the lock, so no read
+                // in the callback sees the change before that.
                 self.batch_unsynced.store(true, Ordering::SeqCst);
             }
-            self.keep_in(&mut store, Flush::Later)?;
             applied.commit = applied.commit.and_then(|c| self.in_order(c));
             Ok(applied)
         });
