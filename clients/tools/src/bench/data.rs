@@ -3,6 +3,7 @@
 //! loopback links, so the figures are a ratio, not a guess about the
 //! machine.
 
+use super::peers::{Etcd, EtcdConn, Redis};
 use rome_client::net::{open_loopback_peer, NetOptions};
 use rome_client::{DataClient, DataOptions};
 use serde::Serialize;
@@ -57,6 +58,9 @@ enum Op {
     Wait,
     DiskSet,
     DiskSignal,
+    DiskWaitSignal,
+    EtcdPut,
+    EtcdLock,
 }
 
 impl Op {
@@ -74,6 +78,9 @@ impl Op {
             Op::Wait => "wait",
             Op::DiskSet => "set, on disk",
             Op::DiskSignal => "signal, on disk",
+            Op::DiskWaitSignal => "wait+signal, on disk",
+            Op::EtcdPut => "etcd put",
+            Op::EtcdLock => "etcd lock+unlock",
         }
     }
 }
@@ -113,6 +120,12 @@ struct Client {
     tcp: tokio::sync::Mutex<tokio::net::TcpStream>,
     /// A connection to redis-server, when it is installed.
     redis: Option<tokio::sync::Mutex<tokio::net::TcpStream>>,
+    /// A connection to etcd, when it is installed and the durable server
+    /// is measured.
+    etcd: Option<tokio::sync::Mutex<EtcdConn>>,
+    /// The durable semaphore of one unit this client takes and gives back,
+    /// as it takes its etcd lock.
+    lock: String,
     /// The pub/sub round trip: where pings go, where pongs come, and the
     /// last ping's number (a pong of an earlier, abandoned ping is skipped).
     ping: ClientPing,
@@ -196,15 +209,30 @@ async fn once(client: &Client, op: Op) -> anyhow::Result<()> {
             // A semaphore that never runs out: the wait's own cost.
             client.data.wait(PLENTY).await?;
         }
-        Op::DiskSet | Op::DiskSignal => {
+        Op::DiskSet | Op::DiskSignal | Op::DiskWaitSignal => {
             let (_, data) = client
                 .disk
                 .as_ref()
                 .ok_or_else(|| anyhow::anyhow!("no durable server to measure"))?;
-            if op == Op::DiskSet {
-                data.set("bench/x", &1).await?;
+            match op {
+                Op::DiskSet => drop(data.set("bench/x", &1).await?),
+                Op::DiskSignal => drop(data.signal("bench").await?),
+                _ => {
+                    data.wait(&client.lock).await?;
+                    data.signal(&client.lock).await?;
+                }
+            }
+        }
+        Op::EtcdPut | Op::EtcdLock => {
+            let etcd = client
+                .etcd
+                .as_ref()
+                .ok_or_else(|| anyhow::anyhow!("no etcd to measure"))?;
+            let mut c = etcd.lock().await;
+            if op == Op::EtcdPut {
+                c.put("bench/x", "1").await?;
             } else {
-                data.signal("bench").await?;
+                c.lock_unlock().await?;
             }
         }
     }
@@ -403,8 +431,19 @@ pub async fn data_rows(args: &DataBench, progress: bool) -> anyhow::Result<Vec<R
         }
         None => eprintln!("redis-server is not installed: Redis is left out (Debian: apt-get install redis-server)"),
     }
+    // etcd beside the durable server only: both sync before answering.
+    let etcd = match durable {
+        Some(_) => Etcd::start()?,
+        None => None,
+    };
     if durable.is_some() {
-        ops.extend([Op::DiskSet, Op::DiskSignal]);
+        ops.extend([Op::DiskSet, Op::DiskSignal, Op::DiskWaitSignal]);
+        match &etcd {
+            Some(_) => ops.extend([Op::EtcdPut, Op::EtcdLock]),
+            None => eprintln!(
+                "etcd is not installed: etcd is left out (Debian: apt-get install etcd-server)"
+            ),
+        }
     }
     let mut rows = Vec::new();
     let mut bar = progress.then(|| {
@@ -431,6 +470,7 @@ pub async fn data_rows(args: &DataBench, progress: bool) -> anyhow::Result<Vec<R
                         DataClient::connect(&session, DataOptions::new(&format!("bench{i}")))
                             .await?;
                     data.create_semaphore("bench", 0).await?;
+                    data.create_semaphore(&format!("bench-lock{i}"), 1).await?;
                     Some((session, data))
                 }
                 None => None,
@@ -445,8 +485,16 @@ pub async fn data_rows(args: &DataBench, progress: bool) -> anyhow::Result<Vec<R
                 }
                 None => None,
             };
+            let etcd = match &etcd {
+                Some(e) => Some(tokio::sync::Mutex::new(
+                    EtcdConn::connect(e.port, &format!("bench-lock{i}")).await?,
+                )),
+                None => None,
+            };
             let ping = pinger(&session, i).await?;
             clients.push(Client {
+                etcd,
+                lock: format!("bench-lock{i}"),
                 session,
                 data,
                 disk,
@@ -656,57 +704,6 @@ async fn echo_server() -> anyhow::Result<u16> {
         }
     });
     Ok(port)
-}
-
-/// Debian's redis-server on a loopback port of its own, without
-/// persistence, for as long as this lives.
-struct Redis {
-    child: std::process::Child,
-    port: u16,
-}
-
-impl Redis {
-    /// Starts one, or `None` when redis-server is not installed.
-    fn start() -> anyhow::Result<Option<Redis>> {
-        let port = rome_client::net::free_loopback_port()?;
-        let child = match std::process::Command::new("redis-server")
-            .args(["--bind", "127.0.0.1", "--port", &port.to_string()])
-            .args(["--save", "", "--appendonly", "no", "--protected-mode", "no"])
-            .stdout(std::process::Stdio::null())
-            .stderr(std::process::Stdio::null())
-            .spawn()
-        {
-            Ok(c) => c,
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
-            Err(e) => anyhow::bail!("cannot start redis-server: {e}"),
-        };
-        let redis = Redis { child, port };
-        let up = Instant::now();
-        loop {
-            if let Ok(mut c) = std::net::TcpStream::connect(("127.0.0.1", port)) {
-                use std::io::{Read, Write};
-                let mut b = [0u8; 7];
-                if c.write_all(b"PING\r\n").is_ok()
-                    && c.read_exact(&mut b).is_ok()
-                    && &b == b"+PONG\r\n"
-                {
-                    return Ok(Some(redis));
-                }
-            }
-            anyhow::ensure!(
-                up.elapsed() < Duration::from_secs(10),
-                "redis-server did not answer on port {port} within 10 s"
-            );
-            std::thread::sleep(Duration::from_millis(20));
-        }
-    }
-}
-
-impl Drop for Redis {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
 }
 
 /// The rows as a table, with each p50's ratios to the bare queryable, the

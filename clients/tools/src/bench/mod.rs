@@ -14,6 +14,7 @@
 pub mod all;
 pub mod data;
 pub mod mem;
+mod peers;
 pub mod robot;
 pub mod sim;
 
