@@ -149,6 +149,24 @@ impl Robot {
     pub fn registers(&self) -> Registers {
         self.odometry.registers()
     }
+
+    /// Adds the pose to the trail when its period comes round, halving the
+    /// trail and doubling the period when it holds `max` poses.
+    fn keep_trail(&mut self, time_ms: u64, dt_ms: u64, max: usize) {
+        if time_ms % self.trail_every_ms < dt_ms {
+            if self.trail.len() >= max {
+                let mut k = 0;
+                self.trail.retain(|_| {
+                    k += 1;
+                    k % 2 == 1
+                });
+                self.trail_every_ms *= 2;
+            }
+            if time_ms % self.trail_every_ms < dt_ms {
+                self.trail.push(self.pose);
+            }
+        }
+    }
 }
 
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -210,7 +228,13 @@ pub struct Sim {
     pixel_noise: camera::PixelNoise,
     /// Elevator cars of a building ([`Sim::add_car`]).
     cars: Vec<cars::WorldCar>,
+    /// From how many robots on, a step senses them on several threads.
+    parallel_from: usize,
 }
+
+/// From how many robots on a step senses them on several threads: below,
+/// handing the work out costs more than it saves.
+pub const PARALLEL_FROM: usize = 16;
 
 /// A person walking to and fro between two points of the corridors.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -260,6 +284,7 @@ impl Sim {
             centres: Vec::new(),
             cells_fresh: false,
             near: Vec::new(),
+            parallel_from: PARALLEL_FROM,
             cars: Vec::new(),
         }
     }
@@ -488,29 +513,48 @@ impl Sim {
         let sonar_period = u64::from(self.config.sonar_period_ms);
         let camera_due = self.config.camera_period_ms > 0
             && self.time_ms % u64::from(self.config.camera_period_ms) < dt_ms;
-        for i in 0..self.robots.len() {
+        let trail_max = self.config.trail_max.max(2);
+        let time_ms = self.time_ms;
+        let senses = sense::Senses {
+            scene: &self.scene,
+            open: &self.open,
+            cell_start: &self.cell_start,
+            cell_bodies: &self.cell_bodies,
+            walkers: &self.walkers,
+            config: &self.config,
+            pixel_noise: &self.pixel_noise,
+            time_ms,
+        };
+        let each = |r: &mut Robot, scratch: &mut sonar::Scratch, near: &mut Vec<Body>| {
             if sonar_period > 0 {
-                self.fire_due(i, sonar_period, dt_ms);
+                senses.fire_due(r, sonar_period, dt_ms, scratch, near);
             }
             if camera_due {
-                self.grab(i);
+                senses.grab_camera(r, Camera::Up);
+                senses.grab_camera(r, Camera::Side);
             }
-            let max = self.config.trail_max.max(2);
-            let r = &mut self.robots[i];
-            if self.time_ms % r.trail_every_ms < dt_ms {
-                if r.trail.len() >= max {
-                    let mut k = 0;
-                    r.trail.retain(|_| {
-                        k += 1;
-                        k % 2 == 1
-                    });
-                    r.trail_every_ms *= 2;
-                }
-                if self.time_ms % r.trail_every_ms < dt_ms {
-                    r.trail.push(r.pose);
-                }
+            r.keep_trail(time_ms, dt_ms, trail_max);
+        };
+        if self.robots.len() >= self.parallel_from {
+            // On the threads of the rayon pool this runs in (every core by
+            // default), each with buffers of its own.
+            use rayon::prelude::*;
+            self.robots.par_iter_mut().for_each_init(
+                || (sonar::Scratch::default(), Vec::new()),
+                |(scratch, near), r| each(r, scratch, near),
+            );
+        } else {
+            for r in &mut self.robots {
+                each(r, &mut self.scratch, &mut self.near);
             }
         }
+    }
+
+    /// Senses the robots on several threads when there are at least
+    /// `robots` of them ([`PARALLEL_FROM`] by default; `usize::MAX` never).
+    /// The readings are the same either way, bit for bit.
+    pub fn sense_in_parallel_from(&mut self, robots: usize) {
+        self.parallel_from = robots;
     }
 
     /// Runs for `ms` of simulated time.

@@ -1,5 +1,7 @@
 //! `rome bench sim`: how fast the simulator runs a building full of robots,
-//! in simulated seconds per wall-clock second, on one thread.
+//! in simulated seconds per wall-clock second, on one thread and, from
+//! [`rome_sim::world::PARALLEL_FROM`] robots on, on every core (the robots'
+//! senses are computed in parallel; their motion stays on one thread).
 //!
 //! Every robot wanders the corridors (keeps to the middle with jog, turns
 //! away when something is close, bumpers watched) while its ring fires the 24
@@ -42,6 +44,8 @@ pub struct SimRow {
     pub robots: usize,
     /// Whether both cameras grabbed every 0.5 s.
     pub cameras: bool,
+    /// Threads the robots were sensed on.
+    pub threads: usize,
     /// Simulated seconds run.
     pub sim_s: f64,
     /// Wall-clock seconds taken.
@@ -123,6 +127,22 @@ fn measure(
     map: &rome_maps::Map,
     n: usize,
     cameras: bool,
+    threads: usize,
+) -> anyhow::Result<SimRow> {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| anyhow::anyhow!("no pool of {threads} threads: {e}"))?;
+    pool.install(|| measure_here(args, map, n, cameras, threads))
+}
+
+/// [`measure`] on the pool it is called from.
+fn measure_here(
+    args: &SimBench,
+    map: &rome_maps::Map,
+    n: usize,
+    cameras: bool,
+    threads: usize,
 ) -> anyhow::Result<SimRow> {
     let config = SimConfig {
         seed: args.seed,
@@ -150,6 +170,7 @@ fn measure(
     Ok(SimRow {
         robots: n,
         cameras,
+        threads,
         sim_s,
         wall_s,
         speed: sim_s / wall_s,
@@ -162,24 +183,33 @@ pub fn rows(args: &SimBench) -> anyhow::Result<Vec<SimRow>> {
     let map = rome_maps::load_named(&args.map).map_err(|e| anyhow::anyhow!("{e}"))?;
     let mut out = Vec::new();
     let passes = if args.no_cameras { 1 } else { 2 };
-    let mut bar = rome_common::progress::Progress::bar(
-        "bench sim",
-        "measurements",
-        (passes * args.robots.len()) as u64,
-    );
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    // One thread, and every core where the senses are spread over them.
+    let threads = |n: usize| {
+        if n >= rome_sim::world::PARALLEL_FROM && cores > 1 {
+            vec![1, cores]
+        } else {
+            vec![1]
+        }
+    };
+    let count: usize = args.robots.iter().map(|&n| threads(n).len()).sum();
+    let mut bar =
+        rome_common::progress::Progress::bar("bench sim", "measurements", (passes * count) as u64);
     for cameras in [false, true] {
         if cameras && args.no_cameras {
             continue;
         }
         for &n in &args.robots {
-            bar.step(
-                out.len() as u64,
-                &format!(
-                    "{n} robot(s), cameras {}",
-                    if cameras { "on" } else { "off" }
-                ),
-            );
-            out.push(measure(args, &map, n, cameras)?);
+            for t in threads(n) {
+                bar.step(
+                    out.len() as u64,
+                    &format!(
+                        "{n} robot(s), cameras {}, {t} thread(s)",
+                        if cameras { "on" } else { "off" }
+                    ),
+                );
+                out.push(measure(args, &map, n, cameras, t)?);
+            }
         }
     }
     bar.finish();
@@ -192,15 +222,16 @@ pub fn table(rows: &[SimRow]) -> String {
     let mut out = String::new();
     let _ = writeln!(
         out,
-        "{:>7} {:>8} {:>9} {:>9} {:>14} {:>14}",
-        "robots", "cameras", "sim s", "wall s", "sim s/wall s", "sonar scans/s"
+        "{:>7} {:>8} {:>8} {:>9} {:>9} {:>14} {:>14}",
+        "robots", "cameras", "threads", "sim s", "wall s", "sim s/wall s", "sonar scans/s"
     );
     for r in rows {
         let _ = writeln!(
             out,
-            "{:>7} {:>8} {:>9.1} {:>9.2} {:>14.1} {:>14.0}",
+            "{:>7} {:>8} {:>8} {:>9.1} {:>9.2} {:>14.1} {:>14.0}",
             r.robots,
             if r.cameras { "on" } else { "off" },
+            r.threads,
             r.sim_s,
             r.wall_s,
             r.speed,
@@ -209,7 +240,7 @@ pub fn table(rows: &[SimRow]) -> String {
     }
     let _ = writeln!(
         out,
-        "(one thread; each sonar 10 Hz, fired in turn; cameras 512x482, both every 0.5 s when on)"
+        "(threads: the robots' senses; motion on one; each sonar 10 Hz, fired in turn; cameras 512x482, both every 0.5 s when on)"
     );
     out
 }

@@ -9,15 +9,36 @@ use crate::spec::{IR_RANGE_MM, ROBOT_RADIUS_MM, SONARS, SONAR_MAX_MM};
 use image::GrayImage;
 use rome_maps::geometry::{Point, Vector};
 
-impl Sim {
-    /// Fires those of robot `i`'s sonars whose turn in the ring's cycle of
+/// What the senses of every robot read and none writes, for one step.
+/// Each robot is sensed from its own generator and the world as it stands,
+/// so robots are sensed alike in any order and on any number of threads.
+pub(super) struct Senses<'a> {
+    pub(super) scene: &'a Scene,
+    pub(super) open: &'a [bool],
+    pub(super) cell_start: &'a [u32],
+    pub(super) cell_bodies: &'a [Body],
+    pub(super) walkers: &'a [Walker],
+    pub(super) config: &'a SimConfig,
+    pub(super) pixel_noise: &'a camera::PixelNoise,
+    pub(super) time_ms: u64,
+}
+
+impl Senses<'_> {
+    /// Fires those of robot `r`'s sonars whose turn in the ring's cycle of
     /// `period` ms came during the last `dt_ms`: one after another in
     /// [`sonar::FIRING_ORDER`], evenly spread over the cycle, each from where
     /// the robot is when it fires. The infrared is read as a cycle begins;
-    /// [`Robot::sonar_at_ms`] moves on when a cycle ends.
-    pub(super) fn fire_due(&mut self, i: usize, period: u64, dt_ms: u64) {
+    /// [`Robot::sonar_at_ms`] moves on when a cycle ends. `scratch` and
+    /// `near` are buffers only.
+    pub(super) fn fire_due(
+        &self,
+        r: &mut Robot,
+        period: u64,
+        dt_ms: u64,
+        scratch: &mut sonar::Scratch,
+        near: &mut Vec<Body>,
+    ) {
         let into = self.time_ms % period;
-        let r = &mut self.robots[i];
         let (at, heading) = (r.pose.at, r.pose.heading.deg());
         let forward = r.pose.heading.unit();
         for (k, &sonar) in sonar::FIRING_ORDER.iter().enumerate() {
@@ -26,24 +47,23 @@ impl Sim {
                 continue;
             }
             r.sonar[sonar] = sonar::fire(
-                &self.scene,
-                &self.open,
+                self.scene,
+                self.open,
                 at,
                 forward,
                 sonar,
                 sonar::Others::Cells {
-                    start: &self.cell_start,
-                    bodies: &self.cell_bodies,
+                    start: self.cell_start,
+                    bodies: self.cell_bodies,
                 },
                 r.timeouts[sonar],
                 &self.config.noise,
                 &mut r.rng,
-                &mut self.scratch,
+                scratch,
             );
             if k == 0 {
-                let mut near = std::mem::take(&mut self.near);
                 near.clear();
-                let (start, bodies) = (&self.cell_start, &self.cell_bodies);
+                let (start, bodies) = (self.cell_start, self.cell_bodies);
                 let (cols, _) = self.scene.grid();
                 let reach = ROBOT_RADIUS_MM * 2.0 + IR_RANGE_MM;
                 let (x0, y0) = self.scene.cell_xy(at - Vector::repeat(reach));
@@ -59,20 +79,82 @@ impl Sim {
                     }
                 }
                 r.infrared = sonar::infrared(
-                    &self.scene,
-                    &self.open,
-                    at,
-                    heading,
-                    &near,
-                    &mut self.scratch,
-                    &mut r.rng,
+                    self.scene, self.open, at, heading, near, scratch, &mut r.rng,
                 );
-                self.near = near;
             }
             if k == SONARS - 1 {
                 r.scan = r.sonar;
                 r.sonar_at_ms = self.time_ms;
             }
+        }
+    }
+
+    /// Grabs one of robot `r`'s cameras now and returns the image (also
+    /// kept in the robot's `up` or `side`).
+    ///
+    /// A frame's pixel noise follows from the robot, the camera and the
+    /// instant alone, not from a generator the motion also draws on: grabs
+    /// asked for in any order, or twice, or not at all, change nothing else
+    /// in the world (a run repeats whatever order two servers' requests
+    /// arrive in).
+    pub(super) fn grab_camera(&self, r: &mut Robot, which: Camera) -> GrayImage {
+        let at = r.pose.at;
+        // The people the sideways camera could see.
+        let people: Vec<Point> = match which {
+            Camera::Side => self
+                .walkers
+                .iter()
+                .map(|w| w.at)
+                .filter(|p| nalgebra::distance(p, &at) < camera::SIDE_RANGE_MM)
+                .collect(),
+            Camera::Up => Vec::new(),
+        };
+        let mut frame = Rng::new(
+            r.camera_seed
+                ^ self.time_ms.wrapping_mul(0x9E37_79B9_7F4A_7C15)
+                ^ (u64::from(Sim::camera_bit(which)) << 56),
+        );
+        let size = self.config.image_size;
+        let px = self.pixel_noise;
+        let image = if r.covered & Sim::camera_bit(which) != 0 {
+            GrayImage::new(size.0, size.1)
+        } else {
+            match which {
+                Camera::Up => {
+                    camera::up_image(self.scene, at, r.pose.heading.deg(), size, px, &mut frame)
+                }
+                Camera::Side => camera::side_image(
+                    self.scene,
+                    self.open,
+                    at,
+                    r.pose.heading.deg(),
+                    &people,
+                    size,
+                    px,
+                    &mut frame,
+                ),
+            }
+        };
+        match which {
+            Camera::Up => r.up = Some(image.clone()),
+            Camera::Side => r.side = Some(image.clone()),
+        }
+        image
+    }
+}
+
+impl Sim {
+    /// What the robots' senses read now.
+    pub(super) fn senses(&self) -> Senses<'_> {
+        Senses {
+            scene: &self.scene,
+            open: &self.open,
+            cell_start: &self.cell_start,
+            cell_bodies: &self.cell_bodies,
+            walkers: &self.walkers,
+            config: &self.config,
+            pixel_noise: &self.pixel_noise,
+            time_ms: self.time_ms,
         }
     }
 
@@ -130,58 +212,11 @@ impl Sim {
     }
 
     /// Grabs one of robot `i`'s cameras now and returns the image (also
-    /// kept in the robot's `up` or `side`).
-    ///
-    /// A frame's pixel noise follows from the robot, the camera and the
-    /// instant alone, not from a generator the motion also draws on: grabs
-    /// asked for in any order, or twice, or not at all, change nothing else
-    /// in the world (a run repeats whatever order two servers' requests
-    /// arrive in).
+    /// kept in the robot's `up` or `side`); see [`Senses::grab_camera`].
     pub fn grab_camera(&mut self, i: usize, which: Camera) -> GrayImage {
-        // The people the sideways camera could see.
-        let people: Vec<Point> = match which {
-            Camera::Side => {
-                let at = self.robots[i].pose.at;
-                self.walkers
-                    .iter()
-                    .map(|w| w.at)
-                    .filter(|p| nalgebra::distance(p, &at) < camera::SIDE_RANGE_MM)
-                    .collect()
-            }
-            Camera::Up => Vec::new(),
-        };
-        let r = &mut self.robots[i];
-        let mut frame = Rng::new(
-            r.camera_seed
-                ^ self.time_ms.wrapping_mul(0x9E37_79B9_7F4A_7C15)
-                ^ (u64::from(Self::camera_bit(which)) << 56),
-        );
-        let at = r.pose.at;
-        let size = self.config.image_size;
-        let px = &self.pixel_noise;
-        let image = if r.covered & Self::camera_bit(which) != 0 {
-            GrayImage::new(size.0, size.1)
-        } else {
-            match which {
-                Camera::Up => {
-                    camera::up_image(&self.scene, at, r.pose.heading.deg(), size, px, &mut frame)
-                }
-                Camera::Side => camera::side_image(
-                    &self.scene,
-                    &self.open,
-                    at,
-                    r.pose.heading.deg(),
-                    &people,
-                    size,
-                    px,
-                    &mut frame,
-                ),
-            }
-        };
-        match which {
-            Camera::Up => r.up = Some(image.clone()),
-            Camera::Side => r.side = Some(image.clone()),
-        }
+        let mut robots = std::mem::take(&mut self.robots);
+        let image = self.senses().grab_camera(&mut robots[i], which);
+        self.robots = robots;
         image
     }
 }
