@@ -89,14 +89,8 @@ impl Senses<'_> {
         }
     }
 
-    /// Grabs one of robot `r`'s cameras now and returns the image (also
-    /// kept in the robot's `up` or `side`).
-    ///
-    /// A frame's pixel noise follows from the robot, the camera and the
-    /// instant alone, not from a generator the motion also draws on: grabs
-    /// asked for in any order, or twice, or not at all, change nothing else
-    /// in the world (a run repeats whatever order two servers' requests
-    /// arrive in).
+    /// Grabs one of robot `r`'s cameras now, as [`Sim::grab_camera`]
+    /// says.
     pub(super) fn grab_camera(&self, r: &mut Robot, which: Camera) -> GrayImage {
         let at = r.pose.at;
         // The people the sideways camera could see.
@@ -212,7 +206,13 @@ impl Sim {
     }
 
     /// Grabs one of robot `i`'s cameras now and returns the image (also
-    /// kept in the robot's `up` or `side`); see [`Senses::grab_camera`].
+    /// kept in the robot's `up` or `side`).
+    ///
+    /// A frame's pixel noise follows from the robot, the camera and the
+    /// instant alone, not from a generator the motion also draws on: grabs
+    /// asked for in any order, or twice, or not at all, change nothing else
+    /// in the world (a run repeats whatever order two servers' requests
+    /// arrive in).
     pub fn grab_camera(&mut self, i: usize, which: Camera) -> GrayImage {
         let mut robots = std::mem::take(&mut self.robots);
         let image = self.senses().grab_camera(&mut robots[i], which);
