@@ -515,16 +515,8 @@ impl Sim {
             && self.time_ms % u64::from(self.config.camera_period_ms) < dt_ms;
         let trail_max = self.config.trail_max.max(2);
         let time_ms = self.time_ms;
-        let senses = sense::Senses {
-            scene: &self.scene,
-            open: &self.open,
-            cell_start: &self.cell_start,
-            cell_bodies: &self.cell_bodies,
-            walkers: &self.walkers,
-            config: &self.config,
-            pixel_noise: &self.pixel_noise,
-            time_ms,
-        };
+        let parallel = self.robots.len() >= self.parallel_from;
+        let (senses, robots, scratch, near) = self.senses_of_robots();
         let each = |r: &mut Robot, scratch: &mut sonar::Scratch, near: &mut Vec<Body>| {
             if sonar_period > 0 {
                 senses.fire_due(r, sonar_period, dt_ms, scratch, near);
@@ -535,17 +527,17 @@ impl Sim {
             }
             r.keep_trail(time_ms, dt_ms, trail_max);
         };
-        if self.robots.len() >= self.parallel_from {
+        if parallel {
             // On the threads of the rayon pool this runs in (every core by
             // default), each with buffers of its own.
             use rayon::prelude::*;
-            self.robots.par_iter_mut().for_each_init(
+            robots.par_iter_mut().for_each_init(
                 || (sonar::Scratch::default(), Vec::new()),
                 |(scratch, near), r| each(r, scratch, near),
             );
         } else {
-            for r in &mut self.robots {
-                each(r, &mut self.scratch, &mut self.near);
+            for r in robots {
+                each(r, scratch, near);
             }
         }
     }

@@ -138,9 +138,17 @@ impl Senses<'_> {
 }
 
 impl Sim {
-    /// What the robots' senses read now.
-    pub(super) fn senses(&self) -> Senses<'_> {
-        Senses {
+    /// What the robots' senses read now, beside the robots and the
+    /// buffers to sense them with, borrowed apart.
+    pub(super) fn senses_of_robots(
+        &mut self,
+    ) -> (
+        Senses<'_>,
+        &mut [Robot],
+        &mut sonar::Scratch,
+        &mut Vec<Body>,
+    ) {
+        let senses = Senses {
             scene: &self.scene,
             open: &self.open,
             cell_start: &self.cell_start,
@@ -149,7 +157,8 @@ impl Sim {
             config: &self.config,
             pixel_noise: &self.pixel_noise,
             time_ms: self.time_ms,
-        }
+        };
+        (senses, &mut self.robots, &mut self.scratch, &mut self.near)
     }
 
     /// Fires all of robot `i`'s sonars at once and reads its infrared now.
@@ -214,9 +223,7 @@ impl Sim {
     /// in the world (a run repeats whatever order two servers' requests
     /// arrive in).
     pub fn grab_camera(&mut self, i: usize, which: Camera) -> GrayImage {
-        let mut robots = std::mem::take(&mut self.robots);
-        let image = self.senses().grab_camera(&mut robots[i], which);
-        self.robots = robots;
-        image
+        let (senses, robots, _, _) = self.senses_of_robots();
+        senses.grab_camera(&mut robots[i], which)
     }
 }
