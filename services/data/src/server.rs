@@ -30,8 +30,9 @@
 //! the loop are `rome_serve`'s, shared with the hardware servers.
 //!
 //! With a data directory, the loop takes in every request that has arrived
-//! (a burst), applies and writes each, then syncs the disk once and only
-//! then answers them, in order (group commit): a thousand clients cost a
+//! (a burst) and applies each, then writes their changes in one
+//! transaction, syncs the disk once and only then answers them, in order
+//! (group commit): a thousand clients cost a
 //! sync per burst, not one each. Reads in the callback wait for the loop
 //! while a burst's changes are unsynced. A `wait` is answered before the
 //! sync, as its answer acknowledges nothing until `ack` confirms it.
@@ -240,12 +241,12 @@ struct Server {
     /// of it.
     follows: (flume::Sender<Event>, Arc<Follows>),
     disk: Option<Disk>,
-    /// Changes written to disk but not yet synced (plain puts, and the
-    /// requests of the burst being taken in).
+    /// Changes written to disk but not yet synced (plain puts).
     unsynced: bool,
-    /// With a disk: the requests of the burst being taken in, applied and
-    /// written but not answered. One sync when the burst is in covers
-    /// them all (group commit); each is answered after it, in order.
+    /// With a disk: the requests of the burst being taken in, applied but
+    /// neither written nor answered. One transaction and one sync when the
+    /// burst is in cover them all (group commit); each is answered after
+    /// it, in order.
     batch: Vec<(Query, String, Result<Applied, ErrorReply>)>,
     /// Set while `batch` holds a change: the callback's reads wait for the
     /// loop, which answers them after the sync.
@@ -424,8 +425,6 @@ impl Server {
         // the ack `unknown`, and the client waits again.
         let early = matches!(request, Ok(Request::Wait(_)));
         let applied = request.and_then(|request| {
-            // Applied and on disk before a read in the queryable's
-            // callback can see it.
             let store = self.store.clone();
             let mut store = lock(&store);
             let mut applied = request.apply(&mut store, now)?;
