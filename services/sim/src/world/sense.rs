@@ -13,14 +13,14 @@ use rome_maps::geometry::{Point, Vector};
 /// Each robot is sensed from its own generator and the world as it stands,
 /// so robots are sensed alike in any order and on any number of threads.
 pub(super) struct Senses<'a> {
-    pub(super) scene: &'a Scene,
-    pub(super) open: &'a [bool],
-    pub(super) cell_start: &'a [u32],
-    pub(super) cell_bodies: &'a [Body],
-    pub(super) walkers: &'a [Walker],
-    pub(super) config: &'a SimConfig,
-    pub(super) pixel_noise: &'a camera::PixelNoise,
-    pub(super) time_ms: u64,
+    scene: &'a Scene,
+    open: &'a [bool],
+    cell_start: &'a [u32],
+    cell_bodies: &'a [Body],
+    walkers: &'a [Walker],
+    config: &'a SimConfig,
+    pixel_noise: &'a camera::PixelNoise,
+    time_ms: u64,
 }
 
 impl Senses<'_> {
@@ -90,8 +90,8 @@ impl Senses<'_> {
     }
 
     /// Grabs one of robot `r`'s cameras now, as [`Sim::grab_camera`]
-    /// says.
-    pub(super) fn grab_camera(&self, r: &mut Robot, which: Camera) -> GrayImage {
+    /// says, and keeps the image in the robot's `up` or `side`.
+    pub(super) fn grab_camera<'r>(&self, r: &'r mut Robot, which: Camera) -> &'r GrayImage {
         let at = r.pose.at;
         // The people the sideways camera could see.
         let people: Vec<Point> = match which {
@@ -129,11 +129,11 @@ impl Senses<'_> {
                 ),
             }
         };
-        match which {
-            Camera::Up => r.up = Some(image.clone()),
-            Camera::Side => r.side = Some(image.clone()),
-        }
-        image
+        let kept = match which {
+            Camera::Up => &mut r.up,
+            Camera::Side => &mut r.side,
+        };
+        kept.insert(image)
     }
 }
 
@@ -224,6 +224,6 @@ impl Sim {
     /// arrive in).
     pub fn grab_camera(&mut self, i: usize, which: Camera) -> GrayImage {
         let (senses, robots, _, _) = self.senses_of_robots();
-        senses.grab_camera(&mut robots[i], which)
+        senses.grab_camera(&mut robots[i], which).clone()
     }
 }
