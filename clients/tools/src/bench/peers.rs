@@ -31,16 +31,13 @@ impl Redis {
     /// Starts one, or `None` when redis-server is not installed.
     pub(super) fn start() -> anyhow::Result<Option<Redis>> {
         let port = rome_client::net::free_loopback_port()?;
-        let child = match Command::new("redis-server")
-            .args(["--bind", "127.0.0.1", "--port", &port.to_string()])
-            .args(["--save", "", "--appendonly", "no", "--protected-mode", "no"])
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-        {
-            Ok(c) => c,
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
-            Err(e) => anyhow::bail!("cannot start redis-server: {e}"),
+        let Some(child) = spawn_if_installed(
+            Command::new("redis-server")
+                .args(["--bind", "127.0.0.1", "--port", &port.to_string()])
+                .args(["--save", "", "--appendonly", "no", "--protected-mode", "no"]),
+        )?
+        else {
+            return Ok(None);
         };
         let redis = Redis { child, port };
         until_up("redis-server", port, || {
@@ -59,6 +56,19 @@ impl Drop for Redis {
     fn drop(&mut self) {
         let _ = self.child.kill();
         let _ = self.child.wait();
+    }
+}
+
+/// Starts `command` with its output discarded, or `None` when its program
+/// is not installed.
+fn spawn_if_installed(command: &mut Command) -> anyhow::Result<Option<Child>> {
+    match command.stdout(Stdio::null()).stderr(Stdio::null()).spawn() {
+        Ok(c) => Ok(Some(c)),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
+        Err(e) => anyhow::bail!(
+            "cannot start {}: {e}",
+            command.get_program().to_string_lossy()
+        ),
     }
 }
 
@@ -92,22 +102,19 @@ impl Etcd {
         let _ = std::fs::remove_dir_all(&dir);
         let client_url = format!("http://127.0.0.1:{port}");
         let peer_url = format!("http://127.0.0.1:{peer}");
-        let child = match Command::new("etcd")
-            .arg("--data-dir")
-            .arg(&dir)
-            .args(["--name", "bench"])
-            .args(["--listen-client-urls", &client_url])
-            .args(["--advertise-client-urls", &client_url])
-            .args(["--listen-peer-urls", &peer_url])
-            .args(["--initial-advertise-peer-urls", &peer_url])
-            .args(["--initial-cluster", &format!("bench={peer_url}")])
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-        {
-            Ok(c) => c,
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
-            Err(e) => anyhow::bail!("cannot start etcd: {e}"),
+        let Some(child) = spawn_if_installed(
+            Command::new("etcd")
+                .arg("--data-dir")
+                .arg(&dir)
+                .args(["--name", "bench"])
+                .args(["--listen-client-urls", &client_url])
+                .args(["--advertise-client-urls", &client_url])
+                .args(["--listen-peer-urls", &peer_url])
+                .args(["--initial-advertise-peer-urls", &peer_url])
+                .args(["--initial-cluster", &format!("bench={peer_url}")]),
+        )?
+        else {
+            return Ok(None);
         };
         let etcd = Etcd { child, dir, port };
         until_up("etcd", port, || {
