@@ -1250,3 +1250,25 @@ async fn a_hardware_server_refuses_another_protocol_by_name_and_says_its_version
         .find(|(k, _)| k == "rome/alive/server/robot/r1/base");
     assert_eq!(base.map(|(_, s)| s), Some(&Speaks::this()), "{said:?}");
 }
+
+#[test]
+fn a_trace_shows_a_pose_that_differs_in_its_last_bit() {
+    use rome_sim_hardware::trace::write_instant;
+    let map = rome_maps::load_named("fig5_3").unwrap();
+    let mut sim = rome_sim::Sim::new(&map, rome_sim::SimConfig::default());
+    sim.add_robot_at("r1", "301L", -90.0).unwrap();
+    sim.run_for(1_000);
+    let mut a = Vec::new();
+    write_instant(&sim, &mut a).unwrap();
+    let x = sim.robot(0).pose.at.x;
+    sim.robot_mut(0).pose.at.x = f64::from_bits(x.to_bits() ^ 1);
+    let mut b = Vec::new();
+    write_instant(&sim, &mut b).unwrap();
+    assert_ne!(a, b, "one bit of x apart, the same line");
+    let line = String::from_utf8(a).unwrap();
+    let fields: Vec<&str> = line.split_whitespace().collect();
+    assert_eq!(fields[0], "1000", "{line}");
+    assert_eq!(fields.len(), 6 + rome_schema::robot::SONARS, "{line}");
+    let read: f64 = fields[2].parse().unwrap();
+    assert_eq!(read.to_bits(), x.to_bits(), "{line}");
+}

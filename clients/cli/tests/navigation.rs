@@ -8,7 +8,8 @@
 //! passage stops there and does not close the passage for the other; a
 //! run whose durable data server is killed mid-route still arrives; and a
 //! run in lock-step across processes (`rome sim --lockstep`, every other
-//! process on `--sim-time`) arrives as the same run does in one.
+//! process on `--sim-time`) is the same run as in one process, to the last
+//! bit of every instant's ground truth, twice at once.
 
 #![allow(clippy::unwrap_used)]
 
@@ -307,11 +308,11 @@ async fn a_run_whose_data_server_is_killed_and_restarted_mid_route_still_arrives
     let _ = session.close().await;
 }
 
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn a_lockstep_run_split_into_processes_is_the_same_run_as_in_one_process() {
-    // Every process takes its time from the simulator's clock, and the
-    // world waits for each of them at every instant: six followers (data
-    // server, four helpers, planner), held at the start until all are in.
+/// A lock-step run of 302L → A340R split into seven processes: the data
+/// server, the simulator (tracing every instant to `trace`), four helpers
+/// and the planner, each on `--sim-time`, held at the start until all six
+/// followers are in. Returns the planner's output once it has arrived.
+async fn split_run(trace: &std::path::Path) -> String {
     let (robot, from, to) = ("r1", "302L", "A340R");
     let (_data, port) = server(
         "data-server",
@@ -325,10 +326,41 @@ async fn a_lockstep_run_split_into_processes_is_the_same_run_as_in_one_process()
         ],
     );
     let _logs = rome_tests::TestDir::adopt(log_dir(port));
-    let _sim = sim_with(port, "eb3", &[from], &["--lockstep", "--parties", "6"]);
+    let trace = trace.to_str().expect("a UTF-8 path");
+    let _sim = sim_with(
+        port,
+        "eb3",
+        &[from],
+        &["--lockstep", "--parties", "6", "--trace", trace],
+    );
     let crew = helpers_with(port, robot, "eb3", &["--sim-time"]);
     let planner = planner_with(port, "eb3", (robot, from, to), &["--sim-time"]);
     let out = arrived(port, robot, to, planner).await;
+    for mut c in crew {
+        c.kill();
+    }
+    out
+}
+
+/// Where two traces first part, as a message naming the instant's line
+/// in each; `None` when one is the beginning of the other.
+fn parting(a: &[u8], b: &[u8]) -> Option<String> {
+    let (a, b) = (String::from_utf8_lossy(a), String::from_utf8_lossy(b));
+    a.lines()
+        .zip(b.lines())
+        .enumerate()
+        .find(|(_, (x, y))| x != y)
+        .map(|(k, (x, y))| format!("line {}:\n  {x}\n  {y}", k + 1))
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_lockstep_run_split_into_processes_is_the_same_run_as_in_one_process() {
+    // Two such runs at once, on one machine: their traces (every
+    // instant's true pose and sonar ranges, each float to its last bit)
+    // and the same route in one process must be the same bytes.
+    let dir = rome_tests::TestDir::new("lockstep-split");
+    let (a, b) = (dir.path().join("a.trace"), dir.path().join("b.trace"));
+    let (out, _) = tokio::join!(split_run(&a), split_run(&b));
     let row = out
         .lines()
         .find(|l| l.contains("302L to A340R"))
@@ -338,25 +370,23 @@ async fn a_lockstep_run_split_into_processes_is_the_same_run_as_in_one_process()
         3,
         "every light, corner and door found:\n{out}"
     );
-    for mut c in crew {
-        c.kill();
-    }
-    // The same route in one process (`rome demo`, lock-step, no network):
-    // the same seed, so the same run, to the last digit of its row.
-    let png = log_dir(port).join("one-process.png");
-    let png = png.to_str().expect("a UTF-8 path").to_string();
-    let one = tokio::task::spawn_blocking(move || {
+    // The same route in one process (`rome demo`, lock-step, no network).
+    let one = dir.path().join("one.trace");
+    let (one_path, png) = (one.clone(), dir.path().join("one-process.png"));
+    let demo = tokio::task::spawn_blocking(move || {
         Command::new(ROME)
             .args(["demo", "--no-multicast", "--seed", SEED])
-            .args(["--from", from, "--to", to, "-o"])
+            .args(["--from", "302L", "--to", "A340R", "-o"])
             .arg(png)
+            .arg("--trace")
+            .arg(one_path)
             .output()
             .expect("rome demo runs")
     })
     .await
     .expect("rome demo ends");
-    let one_out = String::from_utf8_lossy(&one.stdout);
-    assert!(one.status.success(), "rome demo failed:\n{one_out}");
+    let one_out = String::from_utf8_lossy(&demo.stdout);
+    assert!(demo.status.success(), "rome demo failed:\n{one_out}");
     let one_row = one_out
         .lines()
         .find(|l| l.contains("302L to A340R"))
@@ -366,4 +396,20 @@ async fn a_lockstep_run_split_into_processes_is_the_same_run_as_in_one_process()
         one_row.split_whitespace().collect::<Vec<_>>(),
         "split into seven processes and in one, the run differs:\n{out}\n---\n{one_out}"
     );
+    let [a, b, one] = [a, b, one].map(|p| std::fs::read(&p).unwrap());
+    // The one-process run ends when its robot has arrived; the split runs'
+    // simulators go on until they are stopped, a few instants later or
+    // more. So the one-process trace is the beginning of each.
+    let instants = one.iter().filter(|&&c| c == b'\n').count();
+    assert!(instants > 9_000, "the run was {instants} instants long");
+    for (name, split) in [("first", &a), ("second", &b)] {
+        assert!(
+            split.starts_with(&one),
+            "the {name} split run parts from the one-process run at {}",
+            parting(split, &one).unwrap_or_else(|| "its end: it is shorter".into())
+        );
+    }
+    if let Some(at) = parting(&a, &b) {
+        panic!("the two split runs part at {at}");
+    }
 }

@@ -113,6 +113,9 @@ pub struct RunConfig {
     /// else; with endpoints, `rome view`, `rome echo` or `rome record` in
     /// other processes can watch.
     pub net: NetOptions,
+    /// Write the world's ground truth at every instant to this file
+    /// (`rome_sim_hardware::trace`), to compare two runs bit for bit.
+    pub trace: Option<std::path::PathBuf>,
 }
 
 impl RunConfig {
@@ -158,6 +161,7 @@ impl RunConfig {
             people: 0,
             traffic: false,
             net: NetOptions::isolated(),
+            trace: None,
         }
     }
 }
@@ -344,6 +348,12 @@ async fn run_all(
     progress(Event::Started {
         session: session.clone(),
     });
+    if let Some(path) = &cfg.trace {
+        let file = std::fs::File::create(path).map_err(|e| {
+            NavError::Config(format!("cannot write the trace {}: {e}", path.display()))
+        })?;
+        rig.world.trace_to(std::io::BufWriter::new(file));
+    }
     let stepper = match clock {
         Some(clock) => rig.world.start_lockstep(clock, cfg.speed, |_| {}),
         None => rig.world.start(Some(cfg.wall_speed())),

@@ -14,6 +14,8 @@
 //!   which navigation never reads.
 //! - [`elevator`]: simulated elevator cars as the elevator server's
 //!   devices.
+//! - [`trace`]: the world's ground truth at every instant, as text that
+//!   keeps every bit, to compare two runs.
 //! - [`keep`]: the world's state in a file, so a world killed and started
 //!   again takes up its robots where they stood.
 
@@ -21,6 +23,7 @@ pub mod elevator;
 pub mod keep;
 pub mod lockstep;
 pub mod robot;
+pub mod trace;
 pub mod truth;
 pub mod world;
 

@@ -2,6 +2,7 @@
 //! thread at a chosen pace, and each robot's base, proximity subsystem and
 //! cameras as [`BaseDevice`], [`ProximityDevice`] and [`CameraDevice`].
 
+use crate::trace::Trace;
 use rome_hardware::device::{
     BaseDevice, BaseOp, BaseStatus, CameraDevice, DeviceError, Frame, Peek, ProximityDevice,
     RawScan,
@@ -24,6 +25,9 @@ pub struct SimWorld {
     /// The floors of a building's world ([`Sim::for_building`]): where
     /// each lies on the world's plane.
     plane: Option<Arc<rome_maps::plane::Plane>>,
+    /// Where every instant's ground truth is written, if anywhere
+    /// ([`SimWorld::trace_to`]).
+    trace: Arc<Mutex<Option<Trace>>>,
 }
 
 /// The stepping thread (or lock-step task); stops when dropped.
@@ -110,6 +114,7 @@ impl SimWorld {
             sim: Arc::new(Mutex::new(sim)),
             frames: Arc::default(),
             plane: None,
+            trace: Arc::default(),
         }
     }
 
@@ -132,6 +137,24 @@ impl SimWorld {
             .entry(robot.to_string())
             .or_default()
             .clone()
+    }
+
+    /// Writes the world's ground truth at the present instant and after
+    /// every step from now on to `out` ([`crate::trace`]).
+    pub fn trace_to(&self, out: impl std::io::Write + Send + 'static) {
+        let mut trace = Trace::new(out);
+        trace.instant(&self.lock());
+        *rome_hardware::locked(&self.trace) = Some(trace);
+    }
+
+    /// One step of the world, traced if a trace is on; the time after it.
+    fn step(&self) -> u64 {
+        let mut sim = self.lock();
+        sim.step();
+        if let Some(t) = rome_hardware::locked(&self.trace).as_mut() {
+            t.instant(&sim);
+        }
+        sim.time_ms()
     }
 
     /// The world, locked (a device that panicked mid-step leaves it usable).
@@ -159,11 +182,7 @@ impl SimWorld {
             .spawn(move || {
                 let pacer = Pacer::new(speed, world.lock().time_ms());
                 while !stopping.load(Ordering::Relaxed) {
-                    let now = {
-                        let mut sim = world.lock();
-                        sim.step();
-                        sim.time_ms()
-                    };
+                    let now = world.step();
                     let wait = pacer.wait(now);
                     if !wait.is_zero() {
                         std::thread::sleep(wait);
@@ -262,11 +281,7 @@ impl SimWorld {
                 // to it: what it sends goes ahead of whatever they send.
                 let stepped = clock
                     .try_advance(|| {
-                        let now = {
-                            let mut sim = world.lock();
-                            sim.step();
-                            sim.time_ms()
-                        };
+                        let now = world.step();
                         on_step(now);
                         now
                     })

@@ -13,6 +13,7 @@
 //! rome demo --cover-camera r1             # r1 sees no light: its L segment fails
 //! rome demo --people 10                   # ten people walking the corridors
 //! rome demo --record run.mcap             # and keep everything it published
+//! rome demo --trace run.trace             # every instant's ground truth, to the last bit
 //! rome -l tcp/127.0.0.1:7447 demo         # others may watch: rome view, rome echo
 //! ```
 //!
@@ -112,6 +113,11 @@ pub struct Args {
     /// Record everything the run publishes to this MCAP file (as `rome record` does).
     #[arg(long, value_name = "FILE")]
     pub record: Option<PathBuf>,
+    /// Write every robot's true pose and sonar ranges at every instant to
+    /// this file, each float to its last bit: two runs are the same run
+    /// when their traces are the same file (`cmp`).
+    #[arg(long, value_name = "FILE", conflicts_with = "building")]
+    pub trace: Option<PathBuf>,
     /// Cover this robot's upward camera (a fault to inject: it sees no
     /// ceiling light, and its L segments are reported failed). Repeatable.
     #[arg(long, value_name = "ROBOT")]
@@ -256,6 +262,7 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
     cfg.covered = args.cover_camera.clone();
     cfg.people = args.people as usize;
     cfg.traffic = args.traffic;
+    cfg.trace = args.trace.clone();
     cfg.limit = Duration::from_secs_f64(args.limit_min * 60.0);
     if args.no_noise {
         cfg.noise = Noise::none();

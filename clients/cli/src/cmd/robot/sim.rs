@@ -88,6 +88,11 @@ pub struct Args {
     /// serving it restarts. Without the file, robots start as placed.
     #[arg(long, value_name = "FILE")]
     pub state: Option<PathBuf>,
+    /// Write every robot's true pose and sonar ranges at every instant to
+    /// this file, each float to its last bit (as `rome demo --trace`): two
+    /// lock-step runs are the same run when their traces are the same.
+    #[arg(long, value_name = "FILE")]
+    pub trace: Option<PathBuf>,
 }
 
 fn period(hz: f64, flag: &str) -> anyhow::Result<Option<Duration>> {
@@ -249,6 +254,11 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
         Some(path) => Some(take_up(&world, path, pace)?),
         None => None,
     };
+    if let Some(path) = &args.trace {
+        let file = std::fs::File::create(path)
+            .with_context(|| format!("cannot write the trace {}", path.display()))?;
+        world.trace_to(std::io::BufWriter::new(file));
+    }
     let clock = args
         .lockstep
         .then(|| rome_clock::LockStep::new(world.lock().time_ms()));
