@@ -309,8 +309,18 @@ where
     let mut since = rome_clock::Instant::now();
     loop {
         let slice = silence.min(std::time::Duration::from_secs(2));
-        if board.client().wait_timeout(&name, slice).await? {
-            return Ok(());
+        match board.client().wait_timeout(&name, slice).await {
+            Ok(true) => return Ok(()),
+            Ok(false) => {}
+            // The data server did not answer the slice's end (down, or
+            // starting again): the wait has given its place up by itself
+            // (a unit that reached it goes back), and the next slice waits
+            // anew. How long this may go on is the silence's to say:
+            // `progress` stands still while the server cannot be read.
+            Err(e @ rome_client::ClientError::NoReply { .. }) => {
+                tracing::warn!(error = %e, "waiting on {name}: the data server did not answer; waiting again");
+            }
+            Err(e) => return Err(e.into()),
         }
         let now = progress().await;
         if now != seen {
