@@ -1,7 +1,7 @@
 //! `rome crew` keeps a robot's navigation clients running: a member killed
 //! with SIGKILL is started again, a Navigator killed in the middle of a
 //! goal is started again and takes the goal up, and the run arrives;
-//! SIGTERM stops every member.
+//! SIGTERM stops every member; `-v` reaches the members.
 
 #![allow(clippy::unwrap_used)]
 
@@ -197,4 +197,47 @@ fn a_killed_member_is_started_again_and_the_crew_still_drives() {
     assert!(status.success(), "{status:?}");
     line_with(&crew_log, "crew r1: stopped", at, minute);
     assert!(!running(third), "the Navigator outlived its crew");
+}
+
+#[test]
+fn a_verbose_crew_makes_its_members_verbose() {
+    // The Navigator says at info level that it took a goal: seen in the
+    // crew's output with `-v`, not without (the default is warnings).
+    let dir = rome_tests::TestDir::new("crew-verbose");
+    let (port, _world) = world(dir.path());
+    for verbose in [false, true] {
+        let log = dir.path().join(format!("crew-{verbose}.log"));
+        let mut args = rome_tests::joined_to(
+            port,
+            &[
+                "crew",
+                "--robot",
+                "r1",
+                "--no-plfinder",
+                "--no-mapper",
+                "--from",
+                "350R",
+                "--to",
+                "376L",
+            ],
+        );
+        if verbose {
+            args.push("-v".into());
+        }
+        let mut crew = spawn_crew(&args, &log);
+        let minute = Duration::from_secs(60);
+        // The Planner prints its plan once the goal is on its way; the
+        // Navigator's log line about it comes at once after.
+        line_with(&log, "[planner] [goal 1/", 0, minute);
+        if verbose {
+            line_with(&log, "navigator: goal", 0, minute);
+        }
+        crew.kill();
+        let text = std::fs::read_to_string(&log).unwrap();
+        assert_eq!(
+            text.contains("navigator: goal"),
+            verbose,
+            "with -v {verbose}:\n{text}"
+        );
+    }
 }

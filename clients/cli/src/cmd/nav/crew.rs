@@ -9,7 +9,8 @@
 //!
 //! The members reach the network with the crew's own flags (`--connect`,
 //! `--mode`, `--root`, `--identity` …), passed to them as the `ROME_…`
-//! variables those flags read, and never listen themselves. A Navigator
+//! variables those flags read, and never listen themselves; `-v` makes
+//! them as verbose as the crew. A Navigator
 //! started again takes up the goal in progress (`GoalActive`).
 
 use rome_common::args::CommonArgs;
@@ -50,8 +51,18 @@ pub struct Args {
     backoff: f64,
 }
 
-/// The members' arguments.
-fn members(args: &Args) -> Vec<Member> {
+/// The members' arguments; each is as verbose as the crew (`-v`
+/// `verbose` times), which it logs into the crew's output.
+fn members(args: &Args, verbose: u8) -> Vec<Member> {
+    let mut out = roles(args);
+    for m in &mut out {
+        m.args.extend((0..verbose).map(|_| "-v".to_string()));
+    }
+    out
+}
+
+/// Each member's subcommand and its own flags.
+fn roles(args: &Args) -> Vec<Member> {
     let robot = ["--robot".to_string(), args.robot.clone()];
     let mut roles = vec!["navigator", "ctracker"];
     if !args.no_mapper {
@@ -146,6 +157,7 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
         ..Policy::default()
     };
     let say = format!("crew {}", args.robot);
-    supervise(launch, members(&args), policy, &say, exit::interrupted()).await?;
+    let members = members(&args, common.verbose);
+    supervise(launch, members, policy, &say, exit::interrupted()).await?;
     Ok(exit::OK)
 }
