@@ -438,3 +438,70 @@ async fn a_lockstep_run_split_into_processes_is_the_same_run_as_in_one_process()
         panic!("the two split runs part at {at}");
     }
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_planner_between_floors_gives_up_at_its_timeout_and_stops_the_robot() {
+    // No Navigator runs: the first goal is never done, and the Planner
+    // gives the run up after --timeout seconds, with exit status 3.
+    let (_data, port) = server(
+        "data-server",
+        &[
+            "--no-multicast",
+            "--listen",
+            "tcp/127.0.0.1:0",
+            "data-server",
+            "--in-memory",
+        ],
+    );
+    let _logs = rome_tests::TestDir::adopt(log_dir(port));
+    let sim = rome_tests::joined_to(
+        port,
+        &[
+            "sim",
+            "--building",
+            "tower",
+            "--at",
+            "3:350R",
+            "--seed",
+            SEED,
+            "--speed",
+            "4",
+        ],
+    );
+    let sim: Vec<&str> = sim.iter().map(String::as_str).collect();
+    let _sim = rome(port, "sim", &sim, Stdio::null());
+    let args = [
+        "planner",
+        "--robot",
+        "r1",
+        "--building",
+        "tower",
+        "--from",
+        "3:350R",
+        "--to",
+        "5:576L",
+        "--timeout",
+        "3",
+    ];
+    let mut planner = client(port, "planner", &args, Stdio::piped());
+    let child = planner.0.take().unwrap();
+    let out = tokio::task::spawn_blocking(move || child.wait_with_output().unwrap())
+        .await
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let said = std::fs::read_to_string(log_dir(port).join("planner.log")).unwrap();
+    assert_eq!(
+        out.status.code(),
+        Some(3),
+        "{stdout}\n{said}\n{}",
+        logs(port)
+    );
+    assert!(
+        said.contains("gave up after 3 s; robot r1 stopped"),
+        "{said}"
+    );
+    assert!(
+        stdout.contains("[goal 1/"),
+        "the first goal was handed:\n{stdout}"
+    );
+}

@@ -47,7 +47,7 @@ pub struct PlannerArgs {
     /// between floors rides an elevator (§5.4.6), which the robot's
     /// Navigator operates through the elevator's server (`rome sim
     /// --building`).
-    #[arg(long, value_name = "BUILDING", conflicts_with_all = ["map", "tasks", "via", "traffic", "timeout"])]
+    #[arg(long, value_name = "BUILDING", conflicts_with_all = ["map", "tasks", "via", "traffic"])]
     building: Option<String>,
     /// Start: a door jamb like 350R; the robot is registered there.
     #[arg(long)]
@@ -176,11 +176,39 @@ async fn ground_truth(
     Ok((truth, now))
 }
 
+/// `run`, given up after `timeout` seconds of wall time if there is one
+/// (`None`): the robot is then stopped rather than left driving
+/// unattended, and the Planner says so.
+async fn within<R>(
+    timeout: Option<f64>,
+    robot: &rome_client::RobotClient,
+    name: &str,
+    run: impl std::future::Future<Output = R>,
+) -> Option<R> {
+    let Some(t) = timeout else {
+        return Some(run.await);
+    };
+    match tokio::time::timeout(std::time::Duration::from_secs_f64(t), run).await {
+        Ok(r) => Some(r),
+        Err(_) => {
+            let _ = robot.stop(false).await;
+            eprintln!("rome planner: gave up after {t} s; robot {name} stopped");
+            None
+        }
+    }
+}
+
 /// `rome planner`: plans, registers the robot at the start, hands the
 /// goals over one by one and judges each; ends with the run's row of Table
 /// 6.1 and where ground truth puts the robot. Exits 1 when the robot ended
 /// more than a metre from the goal.
 pub async fn planner(common: &CommonArgs, args: PlannerArgs) -> anyhow::Result<u8> {
+    if let Some(t) = args.timeout {
+        anyhow::ensure!(
+            t.is_finite() && t > 0.0,
+            "--timeout must be a positive number of seconds, got {t}"
+        );
+    }
     if let Some(b) = &args.building {
         let building = rome_maps::load_building_named(b)
             .with_context(|| format!("cannot load the building '{b}'"))?;
@@ -194,7 +222,11 @@ pub async fn planner(common: &CommonArgs, args: PlannerArgs) -> anyhow::Result<u
         let (board, robot) = connect(common, robot_name, "planner").await?;
         let (truth, start) = ground_truth(common, robot_name, "arrival is by odometry").await?;
         let truth = start.map(|_| truth);
-        return super::between::drive(&board, &robot, truth.as_ref(), &fp, args.heading).await;
+        let run = super::between::drive(&board, &robot, truth.as_ref(), &fp, args.heading);
+        return match within(args.timeout, &robot, robot_name, run).await {
+            Some(done) => done,
+            None => Ok(exit::NOT_ACQUIRED),
+        };
     }
     let wall = std::time::Instant::now();
     let map = rome_maps::load_named(&args.map)?;
@@ -264,12 +296,6 @@ pub async fn planner(common: &CommonArgs, args: PlannerArgs) -> anyhow::Result<u
     planner::put_down(&robot, &plan, args.heading)
         .await
         .context("cannot register the robot at the start")?;
-    if let Some(t) = args.timeout {
-        anyhow::ensure!(
-            t.is_finite() && t > 0.0,
-            "--timeout must be a positive number of seconds, got {t}"
-        );
-    }
     let total = plan.steps.len();
     let run = planner::run(&board, &plan, start.as_ref().map(|_| &truth), |p| match p {
         Progress::Handed(h) => {
@@ -295,17 +321,9 @@ pub async fn planner(common: &CommonArgs, args: PlannerArgs) -> anyhow::Result<u
         Progress::Holding(part, true) => println!("in {}", traffic::describe(part)),
         Progress::Holding(part, false) => println!("out of {}", traffic::describe(part)),
     });
-    let handed = match args.timeout {
-        None => run.await?,
-        Some(t) => match tokio::time::timeout(std::time::Duration::from_secs_f64(t), run).await {
-            Ok(r) => r?,
-            Err(_) => {
-                // The robot is stopped rather than left driving unattended.
-                let _ = robot.stop(false).await;
-                eprintln!("rome planner: gave up after {t} s; robot {robot_name} stopped");
-                return Ok(exit::NOT_ACQUIRED);
-            }
-        },
+    let handed = match within(args.timeout, &robot, robot_name, run).await {
+        Some(handed) => handed?,
+        None => return Ok(exit::NOT_ACQUIRED),
     };
     let p = robot.pose().await?;
     let odometry = rome_maps::geometry::Pose::from(&p).at;
