@@ -8,7 +8,7 @@
 //! rome/robot/<robot>/proximity/scan      published for every new scan
 //! ```
 
-use crate::device::{DeviceError, ProximityDevice, RawScan};
+use crate::device::{device_error, ProximityDevice, RawScan};
 use crate::server::{Body, QuickRead, Service};
 use rome_schema::robot::command::{parse_payload, Command, ReadIr, ReadSonar};
 use rome_schema::robot::{
@@ -77,10 +77,6 @@ fn read_body(read: Read, s: RawScan) -> Body {
             time_ms: s.time_ms,
         }),
     }
-}
-
-fn device_error(e: DeviceError) -> ErrorReply {
-    ErrorReply::new(ErrorCode::Device, e.to_string())
 }
 
 /// The IR bits as the thesis' 24-element array.
