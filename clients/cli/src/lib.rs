@@ -6,7 +6,8 @@
 //!   [`CommonArgs`](args::CommonArgs) (the Zenoh and deployment flags,
 //!   from `rome-common`) flattened in.
 //! - [`cmd`]: the commands, grouped: `data` (data-server, data, sem),
-//!   `robot` (sim, pioneer, robot, storage, elevator-server, elevator), `nav` (planner, navigator,
+//!   `robot` (sim, pioneer, robot, storage, elevator-server, elevator,
+//!   ros2), `nav` (planner, navigator,
 //!   ctracker, mapper, plfinder, crew, dispatcher, task, demo, experiment,
 //!   fleet, colony, map), `observe` (ls, echo, record, replay, view,
 //!   foxglove), `deploy` (router, certs) and `tools` (bench, soak, fuzz).
@@ -16,8 +17,9 @@
 //! Cargo features, all on by default: `observe` (the observing tools, a
 //! web server and MCAP), `sim` (the simulator, `rome demo` and `rome
 //! experiment`; it takes `observe` along for `demo --record`), `tools`
-//! (benchmarks, soak, fuzz; they start `rome sim`, so `sim` too) and
-//! `router` (a Zenoh router with its plugins, and `rome certs`). With none
+//! (benchmarks, soak, fuzz; they start `rome sim`, so `sim` too),
+//! `router` (a Zenoh router with its plugins, and `rome certs`) and `ros2`
+//! (`rome ros2`, the robots as ROS 2 topics). With none
 //! of them `rome` is the robot-side program: the data server, the hardware
 //! servers of a real base, the navigation clients and the commands to them.
 //!
@@ -94,6 +96,9 @@ pub enum Command {
     Pioneer(cmd::robot::pioneer::Args),
     /// Send commands to a robot's hardware servers (base, proximity, cameras).
     Robot(cmd::robot::commands::Args),
+    /// Bridge robots to ROS 2: odom, sonar and ground_truth published, cmd_vel read, in CDR.
+    #[cfg(feature = "ros2")]
+    Ros2(cmd::robot::ros2::Args),
     /// Run a building's elevators as simulated cars, each with its server (call, go, open, close, session, buttons).
     #[cfg(feature = "sim")]
     ElevatorServer(cmd::robot::elevator_server::Args),
@@ -212,6 +217,7 @@ pub const OPTIONAL_COMMANDS: &[(&str, &str, bool)] = &[
     ("experiment", "sim", cfg!(feature = "sim")),
     ("fleet", "sim", cfg!(feature = "sim")),
     ("router", "router", cfg!(feature = "router")),
+    ("ros2", "ros2", cfg!(feature = "ros2")),
     ("certs", "router", cfg!(feature = "router")),
     ("bench", "tools", cfg!(feature = "tools")),
     ("fuzz", "tools", cfg!(feature = "tools")),
@@ -334,6 +340,9 @@ impl Command {
             Command::Crew(_) => true,
             #[cfg(feature = "observe")]
             Command::Record(_) | Command::View(_) | Command::Foxglove(_) => true,
+            // It stops the robots it set moving.
+            #[cfg(feature = "ros2")]
+            Command::Ros2(_) => true,
             _ => false,
         }
     }
@@ -377,6 +386,8 @@ async fn run_command(cli: Cli) -> anyhow::Result<u8> {
         #[cfg(feature = "observe")]
         Command::Replay(args) => cmd::observe::replay::run(&common, args).await,
         Command::Map(c) => cmd::nav::map::run(c),
+        #[cfg(feature = "ros2")]
+        Command::Ros2(args) => cmd::robot::ros2::run(&common, args).await,
         #[cfg(feature = "sim")]
         Command::Sim(args) => cmd::robot::sim::run(&common, args).await,
         Command::Pioneer(args) => cmd::robot::pioneer::run(&common, args).await,

@@ -9,12 +9,16 @@
 //! - [`elevator`]: `rome elevator`, one command to an elevator's server,
 //!   or a button pressed.
 //! - [`storage`]: `rome storage`, the servers' lock records in memory.
+//! - [`ros2`]: `rome ros2`, the robots as ROS 2 topics (cargo feature
+//!   `ros2`).
 
 pub mod commands;
 pub mod elevator;
 #[cfg(feature = "sim")]
 pub mod elevator_server;
 pub mod pioneer;
+#[cfg(feature = "ros2")]
+pub mod ros2;
 #[cfg(feature = "sim")]
 pub mod sim;
 pub mod storage;

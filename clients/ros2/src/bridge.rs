@@ -1,0 +1,226 @@
+//! The bridge: each robot's readings published as ROS 2 messages, and its
+//! base driven by `cmd_vel`.
+//!
+//! ```text
+//! <ns>/<robot>/odom           nav_msgs/msg/Odometry      from the base's state stream
+//! <ns>/<robot>/sonar          sensor_msgs/msg/LaserScan  from each scan of the sonar ring
+//! <ns>/<robot>/ground_truth   nav_msgs/msg/Odometry      from the simulator's truth (simulation only)
+//! <ns>/<robot>/cmd_vel        geometry_msgs/msg/Twist    read: drives the base
+//! ```
+//!
+//! Each key is the ROS 2 topic's name without its leading slash and each
+//! payload its CDR serialization, as Zenoh's ROS 2 DDS bridge
+//! (`zenoh-plugin-ros2dds`) carries a topic: through it `/r1/odom` on DDS
+//! is `r1/odom` here. A `cmd_vel` is a base command at the bridge's
+//! priority, under the base's lock rules (§4.3); when none has come for
+//! the deadman's time, the base is stopped at once.
+
+use crate::convert::{self, Drive};
+use crate::msg::{self, Message, Twist};
+use rome_client::{ClientError, RobotClient, RobotOptions};
+use rome_schema::robot::BaseState;
+use rome_schema::Root;
+use std::time::Duration;
+use tokio::task::JoinSet;
+use zenoh::bytes::Encoding;
+use zenoh::Session;
+
+/// The odometry topic's last name.
+pub const ODOM: &str = "odom";
+/// The sonar scan topic's last name.
+pub const SONAR: &str = "sonar";
+/// The ground truth topic's last name.
+pub const GROUND_TRUTH: &str = "ground_truth";
+/// The velocity command topic's last name.
+pub const CMD_VEL: &str = "cmd_vel";
+
+/// What to bridge.
+#[derive(Debug, Clone)]
+pub struct Bridge {
+    /// The robots.
+    pub robots: Vec<String>,
+    /// The deployment's root prefix (RoME's keys).
+    pub root: Root,
+    /// A ROS namespace before each robot's topics (empty: none).
+    pub namespace: String,
+    /// The bridge's priority at the base (§4.3).
+    pub priority: u8,
+    /// With no `cmd_vel` for this long, a moving base is stopped.
+    pub deadman: Duration,
+}
+
+impl Bridge {
+    /// Bridges `robots` with no namespace, a deadman of 0.5 s and the
+    /// client library's default priority.
+    pub fn new(robots: Vec<String>) -> Bridge {
+        Bridge {
+            robots,
+            root: Root::default(),
+            namespace: String::new(),
+            priority: RobotOptions::new("ros2").priority,
+            deadman: Duration::from_millis(500),
+        }
+    }
+
+    /// The Zenoh key of `robot`'s `topic`.
+    pub fn key(&self, robot: &str, topic: &str) -> String {
+        let ns = self.namespace.trim_matches('/');
+        if ns.is_empty() {
+            format!("{robot}/{topic}")
+        } else {
+            format!("{ns}/{robot}/{topic}")
+        }
+    }
+}
+
+/// Runs the bridge until `stop` completes; robots it set moving are then
+/// stopped. Fails only if a robot's client cannot be made; a message that
+/// does not decode, or a command the base refuses, is logged and the
+/// bridge goes on.
+pub async fn run(
+    session: &Session,
+    bridge: &Bridge,
+    stop: impl std::future::Future<Output = ()>,
+) -> Result<(), ClientError> {
+    let mut tasks = JoinSet::new();
+    let mut bases = Vec::new();
+    for robot in &bridge.robots {
+        let mut options = RobotOptions::new("ros2");
+        options.root = bridge.root.clone();
+        options.priority = bridge.priority;
+        let base = RobotClient::connect(session, robot, options).await?;
+        let states = base.state().await?;
+        let scans = base.scans().await?;
+        let truth = session
+            .declare_subscriber(bridge.root.sim_truth(&rome_schema::Name::new(robot)?))
+            .await
+            .map_err(|e| ClientError::Zenoh(e.to_string()))?;
+        let commands = session
+            .declare_subscriber(bridge.key(robot, CMD_VEL))
+            .await
+            .map_err(|e| ClientError::Zenoh(e.to_string()))?;
+        let out = Out {
+            session: session.clone(),
+        };
+        let key = bridge.key(robot, ODOM);
+        let o = out.clone();
+        tasks.spawn(async move {
+            let mut before: Option<BaseState> = None;
+            while let Some(read) = states.next().await {
+                match read {
+                    Ok(s) => {
+                        o.put(&key, &convert::odometry(&s, before.as_ref())).await;
+                        before = Some(s);
+                    }
+                    Err(e) => tracing::warn!(error = %e, "base state skipped"),
+                }
+            }
+        });
+        let key = bridge.key(robot, SONAR);
+        let o = out.clone();
+        tasks.spawn(async move {
+            while let Some(read) = scans.next().await {
+                match read {
+                    Ok(s) => o.put(&key, &convert::sonar(&s)).await,
+                    Err(e) => tracing::warn!(error = %e, "sonar scan skipped"),
+                }
+            }
+        });
+        let key = bridge.key(robot, GROUND_TRUTH);
+        let o = out.clone();
+        tasks.spawn(async move {
+            while let Ok(sample) = truth.recv_async().await {
+                let bytes = sample.payload().to_bytes();
+                match serde_json::from_slice::<rome_schema::sim::Truth>(&bytes) {
+                    Ok(t) => o.put(&key, &convert::ground_truth(&t)).await,
+                    Err(e) => tracing::warn!(error = %e, "ground truth skipped"),
+                }
+            }
+        });
+        let driver = base.clone();
+        let deadman = bridge.deadman;
+        tasks.spawn(async move { drive(&driver, commands, deadman).await });
+        bases.push(base);
+    }
+    stop.await;
+    tasks.abort_all();
+    for base in bases {
+        // A robot the bridge left still gets its deadman from the base
+        // server when this client's token goes; stopping it here is sooner.
+        let _ = base.stop(false).await;
+    }
+    Ok(())
+}
+
+/// Where the bridge publishes.
+#[derive(Clone)]
+struct Out {
+    session: Session,
+}
+
+impl Out {
+    async fn put<M: Message>(&self, key: &str, message: &M) {
+        let sent = self
+            .session
+            .put(key, msg::encode(message))
+            .encoding(Encoding::APPLICATION_CDR)
+            .await;
+        if let Err(e) = sent {
+            tracing::warn!(%key, error = %e, "publication failed");
+        }
+    }
+}
+
+/// Drives `base` from the `cmd_vel` samples `commands` brings, stopping it
+/// when none has come for `deadman` while it moves.
+async fn drive(
+    base: &RobotClient,
+    commands: zenoh::pubsub::Subscriber<zenoh::handlers::FifoChannelHandler<zenoh::sample::Sample>>,
+    deadman: Duration,
+) {
+    let mut last: Option<Drive> = None;
+    loop {
+        let sample = match last {
+            // Standing still: wait as long as it takes.
+            None => commands.recv_async().await.ok(),
+            Some(_) => match tokio::time::timeout(deadman, commands.recv_async()).await {
+                Ok(s) => s.ok(),
+                Err(_) => {
+                    // At once: a deadman is for a link or a node that is
+                    // gone, and the robot must not coast on for a metre.
+                    if let Err(e) = base.stop(true).await {
+                        tracing::warn!(error = %e, "deadman: the base could not be stopped");
+                        continue;
+                    }
+                    tracing::info!("deadman: no cmd_vel for {deadman:?}; base stopped");
+                    last = None;
+                    continue;
+                }
+            },
+        };
+        let Some(sample) = sample else { return };
+        let twist: Twist = match msg::decode(&sample.payload().to_bytes()) {
+            Ok(t) => t,
+            Err(e) => {
+                tracing::warn!(key = %sample.key_expr(), error = %e, "cmd_vel skipped");
+                continue;
+            }
+        };
+        let Some(want) = convert::drive(&twist) else {
+            tracing::warn!(?twist, "cmd_vel with a value that is not a number skipped");
+            continue;
+        };
+        // The same command again only keeps the deadman away.
+        if last == Some(want) {
+            continue;
+        }
+        let done = match want {
+            Drive::Go(v) => base.go(v).await,
+            Drive::Jog(r) => base.jog(r).await,
+        };
+        match done {
+            Ok(_) => last = Some(want),
+            Err(e) => tracing::warn!(error = %e, ?want, "cmd_vel not carried out"),
+        }
+    }
+}
