@@ -1,6 +1,7 @@
 //! The ROS 2 bridge over real Zenoh sessions on loopback: two simulated
 //! robots' odometry, sonar and ground truth arrive in CDR on the keys a
-//! ROS 2 DDS bridge maps to topics; a `cmd_vel` to r1 moves r1 by ground
+//! ROS 2 DDS bridge maps to topics, and a camera's images once someone
+//! subscribes; a `cmd_vel` to r1 moves r1 by ground
 //! truth and leaves r2 where it stands; and with no `cmd_vel` for the
 //! deadman's time, r1 stops.
 
@@ -10,7 +11,7 @@ use rome_client::net::{open_loopback_peer, NetOptions};
 use rome_client::sim::TruthClient;
 use rome_hardware::robot::Rates;
 use rome_ros2::bridge::{self, Bridge};
-use rome_ros2::msg::{self, LaserScan, Odometry, Twist, Vector3};
+use rome_ros2::msg::{self, Image, LaserScan, Odometry, Twist, Vector3};
 use rome_schema::sim::Truth;
 use rome_schema::Root;
 use std::time::Duration;
@@ -98,6 +99,15 @@ async fn ros2_messages_come_out_and_cmd_vel_drives_one_robot_with_a_deadman() {
     assert!(s.ranges.iter().any(|r| r.is_finite()), "{:?}", s.ranges);
     let g: Odometry = next(&truth1).await;
     assert_eq!(g.header.frame_id, "map");
+    // A camera's images flow once someone subscribes.
+    let up = sub("r1/camera/up/image").await.unwrap();
+    let i: Image = next(&up).await;
+    let (w, h) = rome_schema::robot::body::IMAGE_SIZE;
+    assert_eq!((i.width, i.height, i.step), (w, h, w));
+    assert_eq!(i.encoding, "mono8");
+    assert_eq!(i.data.len(), (w * h) as usize);
+    assert_eq!(i.header.frame_id, "r1/camera/up");
+    drop(up);
 
     // Drive r1 at 0.3 m/s for two seconds, ten commands a second.
     let t1 = TruthClient::new(&ros, &root, "r1").unwrap();

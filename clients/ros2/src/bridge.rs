@@ -5,6 +5,7 @@
 //! <ns>/<robot>/odom           nav_msgs/msg/Odometry      from the base's state stream
 //! <ns>/<robot>/sonar          sensor_msgs/msg/LaserScan  from each scan of the sonar ring
 //! <ns>/<robot>/ground_truth   nav_msgs/msg/Odometry      from the simulator's truth (simulation only)
+//! <ns>/<robot>/camera/<name>/image  sensor_msgs/msg/Image  each camera, only while someone subscribes
 //! <ns>/<robot>/cmd_vel        geometry_msgs/msg/Twist    read: drives the base
 //! ```
 //!
@@ -33,6 +34,13 @@ pub const SONAR: &str = "sonar";
 pub const GROUND_TRUTH: &str = "ground_truth";
 /// The velocity command topic's last name.
 pub const CMD_VEL: &str = "cmd_vel";
+/// The robot's cameras (§2.5): upward at the ceiling, sideways at the wall.
+pub const CAMERAS: [&str; 2] = ["up", "side"];
+
+/// A camera's image topic below the robot.
+pub fn camera_topic(camera: &str) -> String {
+    format!("camera/{camera}/image")
+}
 
 /// What to bridge.
 #[derive(Debug, Clone)]
@@ -47,6 +55,8 @@ pub struct Bridge {
     pub priority: u8,
     /// With no `cmd_vel` for this long, a moving base is stopped.
     pub deadman: Duration,
+    /// How often a camera with a subscriber is grabbed.
+    pub camera_every: Duration,
 }
 
 impl Bridge {
@@ -59,6 +69,7 @@ impl Bridge {
             namespace: String::new(),
             priority: RobotOptions::new("ros2").priority,
             deadman: Duration::from_millis(500),
+            camera_every: Duration::from_millis(500),
         }
     }
 
@@ -137,6 +148,15 @@ pub async fn run(
                 }
             }
         });
+        for camera in CAMERAS {
+            let publisher = session
+                .declare_publisher(bridge.key(robot, &camera_topic(camera)))
+                .encoding(Encoding::APPLICATION_CDR)
+                .await
+                .map_err(|e| ClientError::Zenoh(e.to_string()))?;
+            let (base, every) = (base.clone(), bridge.camera_every);
+            tasks.spawn(async move { images(&base, camera, &publisher, every).await });
+        }
         let driver = base.clone();
         let deadman = bridge.deadman;
         tasks.spawn(async move { drive(&driver, commands, deadman).await });
@@ -167,6 +187,46 @@ impl Out {
             .await;
         if let Err(e) = sent {
             tracing::warn!(%key, error = %e, "publication failed");
+        }
+    }
+}
+
+/// Publishes `camera`'s newest image every `every`, while `publisher` has
+/// a subscriber: an image is 250 kB, not to be sent to nobody.
+async fn images(
+    base: &RobotClient,
+    camera: &str,
+    publisher: &zenoh::pubsub::Publisher<'static>,
+    every: Duration,
+) {
+    let mut tick = tokio::time::interval(every);
+    let mut last_frame = None;
+    loop {
+        tick.tick().await;
+        let wanted = publisher
+            .matching_status()
+            .await
+            .is_ok_and(|m| m.matching());
+        if !wanted {
+            continue;
+        }
+        let image = match base.camera_grab(camera).await {
+            Ok(i) => i,
+            Err(e) => {
+                tracing::warn!(camera, error = %e, "camera image not read");
+                continue;
+            }
+        };
+        if last_frame == Some(image.frame) {
+            continue;
+        }
+        last_frame = Some(image.frame);
+        let frame = format!("{}/camera/{camera}", base.robot());
+        if let Err(e) = publisher
+            .put(msg::encode(&convert::image(&image, frame)))
+            .await
+        {
+            tracing::warn!(camera, error = %e, "camera image not published");
         }
     }
 }

@@ -130,6 +130,23 @@ pub fn sonar(scan: &Scan) -> LaserScan {
     }
 }
 
+/// A camera's grab as a `mono8` image (8-bit grey, row by row), in frame
+/// `frame`.
+pub fn image(grab: &rome_client::robot::Image, frame: String) -> crate::msg::Image {
+    crate::msg::Image {
+        header: Header {
+            stamp: Time::from_ms(grab.time_ms),
+            frame_id: frame,
+        },
+        height: grab.rows.len() as u32,
+        width: grab.width,
+        encoding: "mono8".into(),
+        is_bigendian: 0,
+        step: grab.width,
+        data: grab.pixels.clone(),
+    }
+}
+
 /// What a `cmd_vel` asks of the base.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Drive {
