@@ -1,7 +1,7 @@
 //! The ROS 2 bridge over real Zenoh sessions on loopback: two simulated
 //! robots' odometry, sonar and ground truth arrive in CDR on the keys a
-//! ROS 2 DDS bridge maps to topics, and a camera's images once someone
-//! subscribes; a `cmd_vel` to r1 moves r1 by ground
+//! ROS 2 DDS bridge maps to topics, and a camera's images and the map as
+//! an occupancy grid once someone subscribes; a `cmd_vel` to r1 moves r1 by ground
 //! truth and leaves r2 where it stands; and with no `cmd_vel` for the
 //! deadman's time, r1 stops.
 
@@ -11,7 +11,7 @@ use rome_client::net::{open_loopback_peer, NetOptions};
 use rome_client::sim::TruthClient;
 use rome_hardware::robot::Rates;
 use rome_ros2::bridge::{self, Bridge};
-use rome_ros2::msg::{self, Image, LaserScan, Odometry, Twist, Vector3};
+use rome_ros2::msg::{self, Image, LaserScan, OccupancyGrid, Odometry, Twist, Vector3};
 use rome_schema::sim::Truth;
 use rome_schema::Root;
 use std::time::Duration;
@@ -73,7 +73,9 @@ async fn ros2_messages_come_out_and_cmd_vel_drives_one_robot_with_a_deadman() {
 
     let bridge_session = NetOptions::loopback(None, &[port]).open().await.unwrap();
     let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
-    let bridged = Bridge::new(vec!["r1".into(), "r2".into()]);
+    let mut bridged = Bridge::new(vec!["r1".into(), "r2".into()]);
+    let eb3 = rome_maps::World::from_map(&rome_maps::load_named("eb3").unwrap());
+    bridged.map = Some(eb3.clone());
     let b = bridged.clone();
     let bridge_task = tokio::spawn(async move {
         bridge::run(&bridge_session, &b, async {
@@ -108,6 +110,37 @@ async fn ros2_messages_come_out_and_cmd_vel_drives_one_robot_with_a_deadman() {
     assert_eq!(i.data.len(), (w * h) as usize);
     assert_eq!(i.header.frame_id, "r1/camera/up");
     drop(up);
+    // The map: a wall's cell occupied, the cell r1 stands on free.
+    let map = sub("map").await.unwrap();
+    let grid: OccupancyGrid = next(&map).await;
+    let info = &grid.info;
+    assert_eq!(grid.data.len(), (info.width * info.height) as usize);
+    let cell = |x_mm: f64, y_mm: f64| {
+        let res = f64::from(info.resolution);
+        let i = ((x_mm / 1_000.0 - info.origin.position.x) / res) as usize;
+        let j = ((y_mm / 1_000.0 - info.origin.position.y) / res) as usize;
+        grid.data[j * info.width as usize + i]
+    };
+    let wall = eb3
+        .segments
+        .iter()
+        .find(|s| s.kind == rome_maps::model::EdgeKind::Wall)
+        .unwrap();
+    let mid = wall.a + (wall.b - wall.a) * 0.5;
+    assert_eq!(cell(mid.x, mid.y), 100, "a wall at {mid:?}");
+    let at = TruthClient::new(&ros, &root, "r1")
+        .unwrap()
+        .get()
+        .await
+        .unwrap();
+    assert_eq!(
+        cell(at.x_mm, at.y_mm),
+        0,
+        "r1 at ({}, {})",
+        at.x_mm,
+        at.y_mm
+    );
+    drop(map);
 
     // Drive r1 at 0.3 m/s for two seconds, ten commands a second.
     let t1 = TruthClient::new(&ros, &root, "r1").unwrap();

@@ -7,6 +7,7 @@
 //! <ns>/<robot>/ground_truth   nav_msgs/msg/Odometry      from the simulator's truth (simulation only)
 //! <ns>/<robot>/camera/<name>/image  sensor_msgs/msg/Image  each camera, only while someone subscribes
 //! <ns>/<robot>/cmd_vel        geometry_msgs/msg/Twist    read: drives the base
+//! <ns>/map                    nav_msgs/msg/OccupancyGrid the map, given one, while someone subscribes
 //! ```
 //!
 //! Each key is the ROS 2 topic's name without its leading slash and each
@@ -34,6 +35,14 @@ pub const SONAR: &str = "sonar";
 pub const GROUND_TRUTH: &str = "ground_truth";
 /// The velocity command topic's last name.
 pub const CMD_VEL: &str = "cmd_vel";
+/// The map topic's name.
+pub const MAP: &str = "map";
+/// The map's cells, metres.
+pub const MAP_RESOLUTION_M: f64 = 0.1;
+/// How often the map is sent again while someone subscribes (a subscriber
+/// that comes late gets it within this).
+pub const MAP_EVERY: Duration = Duration::from_secs(2);
+
 /// The robot's cameras (§2.5): upward at the ceiling, sideways at the wall.
 pub const CAMERAS: [&str; 2] = ["up", "side"];
 
@@ -57,6 +66,8 @@ pub struct Bridge {
     pub deadman: Duration,
     /// How often a camera with a subscriber is grabbed.
     pub camera_every: Duration,
+    /// The floor's map, published as an occupancy grid (`None`: none).
+    pub map: Option<rome_maps::World>,
 }
 
 impl Bridge {
@@ -70,6 +81,17 @@ impl Bridge {
             priority: RobotOptions::new("ros2").priority,
             deadman: Duration::from_millis(500),
             camera_every: Duration::from_millis(500),
+            map: None,
+        }
+    }
+
+    /// The Zenoh key of the map.
+    pub fn map_key(&self) -> String {
+        let ns = self.namespace.trim_matches('/');
+        if ns.is_empty() {
+            MAP.to_string()
+        } else {
+            format!("{ns}/{MAP}")
         }
     }
 
@@ -95,6 +117,29 @@ pub async fn run(
 ) -> Result<(), ClientError> {
     let mut tasks = JoinSet::new();
     let mut bases = Vec::new();
+    if let Some(world) = &bridge.map {
+        let grid = msg::encode(&convert::occupancy(world, MAP_RESOLUTION_M));
+        let publisher = session
+            .declare_publisher(bridge.map_key())
+            .encoding(Encoding::APPLICATION_CDR)
+            .await
+            .map_err(|e| ClientError::Zenoh(e.to_string()))?;
+        tasks.spawn(async move {
+            let mut tick = tokio::time::interval(MAP_EVERY);
+            loop {
+                tick.tick().await;
+                let wanted = publisher
+                    .matching_status()
+                    .await
+                    .is_ok_and(|m| m.matching());
+                if wanted {
+                    if let Err(e) = publisher.put(grid.clone()).await {
+                        tracing::warn!(error = %e, "map not published");
+                    }
+                }
+            }
+        });
+    }
     for robot in &bridge.robots {
         let mut options = RobotOptions::new("ros2");
         options.root = bridge.root.clone();

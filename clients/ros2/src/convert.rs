@@ -147,6 +147,55 @@ pub fn image(grab: &rome_client::robot::Image, frame: String) -> crate::msg::Ima
     }
 }
 
+/// A floor's map as an occupancy grid of `resolution_m` cells in frame
+/// `map`, a metre of margin round the building: a cell a wall, door,
+/// window, glass or elevator door crosses is occupied (100), every other
+/// cell free (0); an opening is no wall.
+pub fn occupancy(world: &rome_maps::World, resolution_m: f64) -> crate::msg::OccupancyGrid {
+    let cell = resolution_m * 1_000.0;
+    let (lo, hi) = world.bounds();
+    let origin = (lo.x - 1_000.0, lo.y - 1_000.0);
+    let width = ((hi.x - lo.x + 2_000.0) / cell).ceil() as u32;
+    let height = ((hi.y - lo.y + 2_000.0) / cell).ceil() as u32;
+    let mut data = vec![0i8; width as usize * height as usize];
+    for s in world
+        .segments
+        .iter()
+        .filter(|s| s.kind != rome_maps::model::EdgeKind::Opening)
+    {
+        // Half a cell a step: no cell the segment crosses is skipped.
+        let steps = ((s.b - s.a).norm() / (cell / 2.0)).ceil().max(1.0) as usize;
+        for k in 0..=steps {
+            let p = s.a + (s.b - s.a) * (k as f64 / steps as f64);
+            let (i, j) = ((p.x - origin.0) / cell, (p.y - origin.1) / cell);
+            if i >= 0.0 && j >= 0.0 && (i as u32) < width && (j as u32) < height {
+                data[j as usize * width as usize + i as usize] = 100;
+            }
+        }
+    }
+    crate::msg::OccupancyGrid {
+        header: Header {
+            stamp: Time::default(),
+            frame_id: "map".into(),
+        },
+        info: crate::msg::MapMetaData {
+            map_load_time: Time::default(),
+            resolution: resolution_m as f32,
+            width,
+            height,
+            origin: Pose {
+                position: Point {
+                    x: origin.0 / 1_000.0,
+                    y: origin.1 / 1_000.0,
+                    z: 0.0,
+                },
+                orientation: Quaternion::yaw(0.0),
+            },
+        },
+        data,
+    }
+}
+
 /// What a `cmd_vel` asks of the base.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Drive {

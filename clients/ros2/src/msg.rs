@@ -292,5 +292,35 @@ impl Message for Image {
     const TYPE: &'static str = "sensor_msgs/msg/Image";
 }
 
+/// `nav_msgs/msg/MapMetaData`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MapMetaData {
+    /// When the map was loaded.
+    pub map_load_time: Time,
+    /// Metres a cell.
+    pub resolution: f32,
+    /// Cells a row.
+    pub width: u32,
+    /// Rows.
+    pub height: u32,
+    /// Where cell (0, 0)'s corner lies in the map's frame.
+    pub origin: Pose,
+}
+
+/// `nav_msgs/msg/OccupancyGrid`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct OccupancyGrid {
+    /// Stamp and the map's frame.
+    pub header: Header,
+    /// Its size and place.
+    pub info: MapMetaData,
+    /// Row by row from the origin: 0 free, 100 occupied, −1 unknown.
+    pub data: Vec<i8>,
+}
+
+impl Message for OccupancyGrid {
+    const TYPE: &'static str = "nav_msgs/msg/OccupancyGrid";
+}
+
 #[cfg(test)]
 mod tests;

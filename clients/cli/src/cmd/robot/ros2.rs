@@ -3,6 +3,7 @@
 //! ```text
 //! rome ros2 --robots r1,r2                 # r1/odom, r1/sonar, r1/ground_truth, r1/camera/up/image, r1/cmd_vel …
 //! rome ros2 --robots r1 --namespace fleet  # fleet/r1/odom …
+//! rome ros2 --robots r1 --map eb3          # and the floor's map on `map`
 //! ```
 //!
 //! Each key carries a ROS 2 message in CDR, as Zenoh's ROS 2 DDS bridge
@@ -24,6 +25,10 @@ pub struct Args {
     /// The bridge's priority at each base, 0 … 255 (§4.3).
     #[arg(long)]
     priority: Option<u8>,
+    /// Publish this map as an occupancy grid on `map`: a built-in name
+    /// (eb3, annex, campus, fig5_3) or a .stk file.
+    #[arg(long, value_name = "MAP")]
+    map: Option<String>,
     /// A moving base is stopped when no cmd_vel has come for this long, ms.
     #[arg(long, default_value_t = 500, value_parser = clap::value_parser!(u64).range(50..=10_000))]
     deadman_ms: u64,
@@ -37,6 +42,10 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
     bridge.deadman = Duration::from_millis(args.deadman_ms);
     if let Some(p) = args.priority {
         bridge.priority = p;
+    }
+    if let Some(name) = &args.map {
+        let map = rome_maps::load_named(name)?;
+        bridge.map = Some(rome_maps::World::from_map(&map));
     }
     let session = common.open(Side::Client).await?;
     eprintln!(
