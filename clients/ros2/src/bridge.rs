@@ -119,23 +119,13 @@ pub async fn run(
     let mut bases = Vec::new();
     if let Some(world) = &bridge.map {
         let grid = msg::encode(&convert::occupancy(world, MAP_RESOLUTION_M));
-        let publisher = session
-            .declare_publisher(bridge.map_key())
-            .encoding(Encoding::APPLICATION_CDR)
-            .await
-            .map_err(|e| ClientError::Zenoh(e.to_string()))?;
+        let publisher = cdr_publisher(session, bridge.map_key()).await?;
         tasks.spawn(async move {
             let mut tick = tokio::time::interval(MAP_EVERY);
             loop {
-                tick.tick().await;
-                let wanted = publisher
-                    .matching_status()
-                    .await
-                    .is_ok_and(|m| m.matching());
-                if wanted {
-                    if let Err(e) = publisher.put(grid.clone()).await {
-                        tracing::warn!(error = %e, "map not published");
-                    }
+                next_wanted(&mut tick, &publisher).await;
+                if let Err(e) = publisher.put(grid.clone()).await {
+                    tracing::warn!(error = %e, "map not published");
                 }
             }
         });
@@ -194,11 +184,8 @@ pub async fn run(
             }
         });
         for camera in CAMERAS {
-            let publisher = session
-                .declare_publisher(bridge.key(robot, &camera_topic(camera)))
-                .encoding(Encoding::APPLICATION_CDR)
-                .await
-                .map_err(|e| ClientError::Zenoh(e.to_string()))?;
+            let publisher =
+                cdr_publisher(session, bridge.key(robot, &camera_topic(camera))).await?;
             let (base, every) = (base.clone(), bridge.camera_every);
             tasks.spawn(async move { images(&base, camera, &publisher, every).await });
         }
@@ -236,6 +223,36 @@ impl Out {
     }
 }
 
+/// A publisher of CDR payloads on `key`.
+async fn cdr_publisher(
+    session: &Session,
+    key: String,
+) -> Result<zenoh::pubsub::Publisher<'static>, ClientError> {
+    session
+        .declare_publisher(key)
+        .encoding(Encoding::APPLICATION_CDR)
+        .await
+        .map_err(|e| ClientError::Zenoh(e.to_string()))
+}
+
+/// Waits for the next tick of `tick` at which `publisher` has a
+/// subscriber: what is heavy to make is not made for nobody.
+async fn next_wanted(
+    tick: &mut tokio::time::Interval,
+    publisher: &zenoh::pubsub::Publisher<'static>,
+) {
+    loop {
+        tick.tick().await;
+        if publisher
+            .matching_status()
+            .await
+            .is_ok_and(|m| m.matching())
+        {
+            return;
+        }
+    }
+}
+
 /// Publishes `camera`'s newest image every `every`, while `publisher` has
 /// a subscriber: an image is 250 kB, not to be sent to nobody.
 async fn images(
@@ -247,14 +264,7 @@ async fn images(
     let mut tick = tokio::time::interval(every);
     let mut last_frame = None;
     loop {
-        tick.tick().await;
-        let wanted = publisher
-            .matching_status()
-            .await
-            .is_ok_and(|m| m.matching());
-        if !wanted {
-            continue;
-        }
+        next_wanted(&mut tick, publisher).await;
         let image = match base.camera_grab(camera).await {
             Ok(i) => i,
             Err(e) => {
