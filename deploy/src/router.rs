@@ -55,6 +55,12 @@ pub struct Args {
     /// checks as well.
     #[arg(long)]
     pub rest_read_only: bool,
+    /// Bridge ROS 2 nodes on DDS (domain 0, or what the `--config` file
+    /// sets under `plugins/ros2dds`) with Zenoh: a topic `/r1/odom` is the
+    /// key `r1/odom` (Zenoh's ROS 2 DDS plugin, linked in; docs/ros2.md).
+    #[cfg(feature = "ros2dds")]
+    #[arg(long)]
+    pub ros2: bool,
 }
 
 /// The lock-record file inside a data directory.
@@ -118,6 +124,10 @@ pub fn config(common: &CommonArgs, args: &Args) -> anyhow::Result<zenoh::Config>
             set(&mut config, "plugins/rest/__required__", "true".into())?;
         }
     }
+    #[cfg(feature = "ros2dds")]
+    if args.ros2 && config.get_json("plugins/ros2dds").is_err() {
+        set(&mut config, "plugins/ros2dds", "{}".into())?;
+    }
     Ok(config)
 }
 
@@ -159,6 +169,10 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
             "storage_manager",
             true,
         );
+    }
+    #[cfg(feature = "ros2dds")]
+    if config.get_json("plugins/ros2dds").is_ok() {
+        plugins.declare_static_plugin::<zenoh_plugin_ros2dds::ROS2Plugin, &str>("ros2dds", true);
     }
     let mut runtime = RuntimeBuilder::new(config)
         .plugins_manager(plugins)
