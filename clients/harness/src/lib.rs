@@ -349,10 +349,9 @@ async fn run_all(
         session: session.clone(),
     });
     if let Some(path) = &cfg.trace {
-        let file = std::fs::File::create(path).map_err(|e| {
+        rig.world.trace_to(path).map_err(|e| {
             NavError::Config(format!("cannot write the trace {}: {e}", path.display()))
         })?;
-        rig.world.trace_to(std::io::BufWriter::new(file));
     }
     let stepper = match clock {
         Some(clock) => rig.world.start_lockstep(clock, cfg.speed, |_| {}),

@@ -140,11 +140,13 @@ impl SimWorld {
     }
 
     /// Writes the world's ground truth at the present instant and after
-    /// every step from now on to `out` ([`crate::trace`]).
-    pub fn trace_to(&self, out: impl std::io::Write + Send + 'static) {
-        let mut trace = Trace::new(out);
+    /// every step from now on to the file `path` ([`crate::trace`]).
+    pub fn trace_to(&self, path: &std::path::Path) -> std::io::Result<()> {
+        let file = std::fs::File::create(path)?;
+        let mut trace = Trace::new(std::io::BufWriter::new(file));
         trace.instant(&self.lock());
         *rome_hardware::locked(&self.trace) = Some(trace);
+        Ok(())
     }
 
     /// One step of the world, traced if a trace is on; the time after it.

@@ -255,9 +255,9 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
         None => None,
     };
     if let Some(path) = &args.trace {
-        let file = std::fs::File::create(path)
+        world
+            .trace_to(path)
             .with_context(|| format!("cannot write the trace {}", path.display()))?;
-        world.trace_to(std::io::BufWriter::new(file));
     }
     let clock = args
         .lockstep
