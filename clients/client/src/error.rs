@@ -44,7 +44,8 @@ pub enum ClientError {
 }
 
 impl ClientError {
-    pub(crate) fn zenoh(e: impl std::fmt::Display) -> Self {
+    /// Zenoh's own failure `e`.
+    pub fn zenoh(e: impl std::fmt::Display) -> Self {
         ClientError::Zenoh(e.to_string())
     }
 

@@ -87,21 +87,19 @@ impl Bridge {
 
     /// The Zenoh key of the map.
     pub fn map_key(&self) -> String {
-        let ns = self.namespace.trim_matches('/');
-        if ns.is_empty() {
-            MAP.to_string()
-        } else {
-            format!("{ns}/{MAP}")
-        }
+        self.in_namespace(MAP)
     }
 
     /// The Zenoh key of `robot`'s `topic`.
     pub fn key(&self, robot: &str, topic: &str) -> String {
-        let ns = self.namespace.trim_matches('/');
-        if ns.is_empty() {
-            format!("{robot}/{topic}")
-        } else {
-            format!("{ns}/{robot}/{topic}")
+        self.in_namespace(&format!("{robot}/{topic}"))
+    }
+
+    /// `name` below the namespace, if there is one.
+    fn in_namespace(&self, name: &str) -> String {
+        match self.namespace.trim_matches('/') {
+            "" => name.to_string(),
+            ns => format!("{ns}/{name}"),
         }
     }
 }
@@ -140,45 +138,39 @@ pub async fn run(
         let truth = session
             .declare_subscriber(bridge.root.sim_truth(&rome_schema::Name::new(robot)?))
             .await
-            .map_err(|e| ClientError::Zenoh(e.to_string()))?;
+            .map_err(ClientError::zenoh)?;
         let commands = session
             .declare_subscriber(bridge.key(robot, CMD_VEL))
             .await
-            .map_err(|e| ClientError::Zenoh(e.to_string()))?;
-        let out = Out {
-            session: session.clone(),
-        };
-        let key = bridge.key(robot, ODOM);
-        let o = out.clone();
+            .map_err(ClientError::zenoh)?;
+        let odom = cdr_publisher(session, bridge.key(robot, ODOM)).await?;
         tasks.spawn(async move {
             let mut before: Option<BaseState> = None;
             while let Some(read) = states.next().await {
                 match read {
                     Ok(s) => {
-                        o.put(&key, &convert::odometry(&s, before.as_ref())).await;
+                        send(&odom, &convert::odometry(&s, before.as_ref())).await;
                         before = Some(s);
                     }
                     Err(e) => tracing::warn!(error = %e, "base state skipped"),
                 }
             }
         });
-        let key = bridge.key(robot, SONAR);
-        let o = out.clone();
+        let sonar = cdr_publisher(session, bridge.key(robot, SONAR)).await?;
         tasks.spawn(async move {
             while let Some(read) = scans.next().await {
                 match read {
-                    Ok(s) => o.put(&key, &convert::sonar(&s)).await,
+                    Ok(s) => send(&sonar, &convert::sonar(&s)).await,
                     Err(e) => tracing::warn!(error = %e, "sonar scan skipped"),
                 }
             }
         });
-        let key = bridge.key(robot, GROUND_TRUTH);
-        let o = out.clone();
+        let truth_out = cdr_publisher(session, bridge.key(robot, GROUND_TRUTH)).await?;
         tasks.spawn(async move {
             while let Ok(sample) = truth.recv_async().await {
                 let bytes = sample.payload().to_bytes();
                 match serde_json::from_slice::<rome_schema::sim::Truth>(&bytes) {
-                    Ok(t) => o.put(&key, &convert::ground_truth(&t)).await,
+                    Ok(t) => send(&truth_out, &convert::ground_truth(&t)).await,
                     Err(e) => tracing::warn!(error = %e, "ground truth skipped"),
                 }
             }
@@ -189,8 +181,7 @@ pub async fn run(
             let (base, every) = (base.clone(), bridge.camera_every);
             tasks.spawn(async move { images(&base, camera, &publisher, every).await });
         }
-        let driver = base.clone();
-        let deadman = bridge.deadman;
+        let (driver, deadman) = (base.clone(), bridge.deadman);
         tasks.spawn(async move { drive(&driver, commands, deadman).await });
         bases.push(base);
     }
@@ -204,22 +195,10 @@ pub async fn run(
     Ok(())
 }
 
-/// Where the bridge publishes.
-#[derive(Clone)]
-struct Out {
-    session: Session,
-}
-
-impl Out {
-    async fn put<M: Message>(&self, key: &str, message: &M) {
-        let sent = self
-            .session
-            .put(key, msg::encode(message))
-            .encoding(Encoding::APPLICATION_CDR)
-            .await;
-        if let Err(e) = sent {
-            tracing::warn!(%key, error = %e, "publication failed");
-        }
+/// Publishes `message` on `publisher`; a failure is logged.
+async fn send<M: Message>(publisher: &zenoh::pubsub::Publisher<'static>, message: &M) {
+    if let Err(e) = publisher.put(msg::encode(message)).await {
+        tracing::warn!(key = %publisher.key_expr(), error = %e, "publication failed");
     }
 }
 
@@ -232,7 +211,7 @@ async fn cdr_publisher(
         .declare_publisher(key)
         .encoding(Encoding::APPLICATION_CDR)
         .await
-        .map_err(|e| ClientError::Zenoh(e.to_string()))
+        .map_err(ClientError::zenoh)
 }
 
 /// Waits for the next tick of `tick` at which `publisher` has a
@@ -277,12 +256,7 @@ async fn images(
         }
         last_frame = Some(image.frame);
         let frame = format!("{}/camera/{camera}", base.robot());
-        if let Err(e) = publisher
-            .put(msg::encode(&convert::image(&image, frame)))
-            .await
-        {
-            tracing::warn!(camera, error = %e, "camera image not published");
-        }
+        send(publisher, &convert::image(&image, frame)).await;
     }
 }
 
