@@ -2,8 +2,9 @@
 //! robots' odometry, sonar and ground truth arrive in CDR on the keys a
 //! ROS 2 DDS bridge maps to topics, and a camera's images and the map as
 //! an occupancy grid once someone subscribes; a `cmd_vel` to r1 moves r1 by ground
-//! truth and leaves r2 where it stands; and with no `cmd_vel` for the
-//! deadman's time, r1 stops.
+//! truth and leaves r2 where it stands; with no `cmd_vel` for the
+//! deadman's time, r1 stops; and the bridge, ending, leaves alone a robot
+//! another client drives.
 
 #![allow(clippy::unwrap_used)]
 
@@ -183,7 +184,22 @@ async fn ros2_messages_come_out_and_cmd_vel_drives_one_robot_with_a_deadman() {
     let still = t2.get().await.unwrap().travelled_mm - start2.travelled_mm;
     assert!(still < 1.0, "r2 drove {still:.1} mm on r1's cmd_vel");
 
+    // Another client drives r2; the bridge ends and leaves r2 going, as
+    // it never drove r2 itself.
+    let mut options = rome_client::RobotOptions::new("other");
+    options.deadman = false;
+    let other = rome_client::RobotClient::connect(&ros, "r2", options)
+        .await
+        .unwrap();
+    other.go(200.0).await.unwrap();
     let _ = stop.send(());
     bridge_task.await.unwrap().unwrap();
+    let ended = t2.get().await.unwrap();
+    let later = truth_at(&t2, ended.time_ms + 1_000).await;
+    assert!(
+        later.travelled_mm - ended.travelled_mm > 100.0,
+        "r2, driven by another client, was stopped when the bridge ended"
+    );
+    other.stop(true).await.unwrap();
     drop(running);
 }

@@ -22,6 +22,8 @@ use crate::msg::{self, Message, Twist};
 use rome_client::{ClientError, RobotClient, RobotOptions};
 use rome_schema::robot::BaseState;
 use rome_schema::Root;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 use std::time::Duration;
 use tokio::task::JoinSet;
 use zenoh::bytes::Encoding;
@@ -104,8 +106,9 @@ impl Bridge {
     }
 }
 
-/// Runs the bridge until `stop` completes; robots it set moving are then
-/// stopped. Fails only if a robot's client cannot be made; a message that
+/// Runs the bridge until `stop` completes; robots it is driving then are
+/// stopped (a robot it never drove, or left stopped, is not touched: it
+/// may be driven by its own Navigator). Fails only if a robot's client cannot be made; a message that
 /// does not decode, or a command the base refuses, is logged and the
 /// bridge goes on.
 pub async fn run(
@@ -181,16 +184,20 @@ pub async fn run(
             let (base, every) = (base.clone(), bridge.camera_every);
             tasks.spawn(async move { images(&base, camera, &publisher, every).await });
         }
-        let (driver, deadman) = (base.clone(), bridge.deadman);
-        tasks.spawn(async move { drive(&driver, commands, deadman).await });
-        bases.push(base);
+        let driving = Arc::new(AtomicBool::new(false));
+        let (driver, deadman, d) = (base.clone(), bridge.deadman, driving.clone());
+        tasks.spawn(async move { drive(&driver, commands, deadman, &d).await });
+        bases.push((base, driving));
     }
     stop.await;
     tasks.abort_all();
-    for base in bases {
-        // A robot the bridge left still gets its deadman from the base
-        // server when this client's token goes; stopping it here is sooner.
-        let _ = base.stop(false).await;
+    for (base, driving) in bases {
+        // A robot the bridge left moving would get its deadman from the
+        // base server once this client's token goes; stopping it here is
+        // sooner.
+        if driving.load(Ordering::SeqCst) {
+            let _ = base.stop(false).await;
+        }
     }
     Ok(())
 }
@@ -261,11 +268,13 @@ async fn images(
 }
 
 /// Drives `base` from the `cmd_vel` samples `commands` brings, stopping it
-/// when none has come for `deadman` while it moves.
+/// when none has come for `deadman` while it moves; `driving` says
+/// whether the base is moving on the bridge's command.
 async fn drive(
     base: &RobotClient,
     commands: zenoh::pubsub::Subscriber<zenoh::handlers::FifoChannelHandler<zenoh::sample::Sample>>,
     deadman: Duration,
+    driving: &AtomicBool,
 ) {
     let mut last: Option<Drive> = None;
     loop {
@@ -283,6 +292,7 @@ async fn drive(
                     }
                     tracing::info!("deadman: no cmd_vel for {deadman:?}; base stopped");
                     last = None;
+                    driving.store(false, Ordering::SeqCst);
                     continue;
                 }
             },
@@ -308,7 +318,10 @@ async fn drive(
             Drive::Jog(r) => base.jog(r).await,
         };
         match done {
-            Ok(_) => last = Some(want),
+            Ok(_) => {
+                last = Some(want);
+                driving.store(true, Ordering::SeqCst);
+            }
             Err(e) => tracing::warn!(error = %e, ?want, "cmd_vel not carried out"),
         }
     }
