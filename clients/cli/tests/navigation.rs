@@ -267,7 +267,6 @@ async fn a_run_whose_data_server_is_killed_and_restarted_mid_route_still_arrives
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-#[ignore = "open bug: under a loaded CI run the Navigator, started again by rome crew after the outage, did not take up its goal and the Planner timed out after 400 s"]
 async fn a_run_whose_data_server_is_down_longer_than_a_call_may_take_still_arrives() {
     // Down for longer than a client's call is retried (10 s), so that calls
     // fail with "no reply" meanwhile: the Planner's wait for the Navigator

@@ -305,3 +305,62 @@ async fn a_ctracker_killed_mid_segment_and_started_again_takes_the_segment_up() 
     navigating.abort();
     rig.stop().await;
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_ctracker_started_again_before_the_planner_waits_again_still_takes_the_segment_up() {
+    // After a data-server outage the CTracker is started again while the
+    // Planner's wait has not yet reached the server that came back. A
+    // tracker that took one look then judged the segment over, and the
+    // Navigator, which took its goal up, drove past lights nobody
+    // counted into the corridor's end wall.
+    let (rig, _stepper, heading, planner) = common::one_robot(2.0).await;
+    let navigating = common::navigator(&rig, DataOptions::new("navigator")).await;
+    let first = common::ctracker(&rig).await;
+    hand_l_segment(
+        &planner,
+        serde_json::json!([1_024.0, 6_000.0, 6_000.0]),
+        heading,
+    )
+    .await;
+    let waiting = {
+        let planner = planner.clone();
+        tokio::spawn(async move { planner.down(Sem::RobotStatus).await })
+    };
+    let counted = tokio::time::timeout(Duration::from_secs(60), async {
+        while !planner
+            .get::<i64>(Var::CeilingLight)
+            .await
+            .is_ok_and(|n| n == 1)
+        {
+            tokio::time::sleep(Duration::from_millis(20)).await;
+        }
+    });
+    counted.await.expect("the first light is counted");
+    // The outage: the Planner's wait is gone from the server, and the
+    // CTracker is started again before it comes back.
+    waiting.abort();
+    let _ = waiting.await;
+    let status = planner.sem_name(Sem::RobotStatus);
+    let no_waiter = async {
+        while planner.client().semaphore(&status).await.unwrap().waiters > 0 {
+            tokio::time::sleep(Duration::from_millis(20)).await;
+        }
+    };
+    tokio::time::timeout(Duration::from_secs(10), no_waiter)
+        .await
+        .expect("the Planner's wait leaves the queue");
+    first.abort();
+    let _ = first.await;
+    let second = common::ctracker(&rig).await;
+    // The Planner's next wait reaches the server two seconds later.
+    tokio::time::sleep(Duration::from_secs(2)).await;
+    tokio::time::timeout(Duration::from_secs(60), planner.down(Sem::RobotStatus))
+        .await
+        .expect("the L goal ends by its count, told by the CTracker started again")
+        .expect("down($RobotStatus)");
+    let log: rome_nav::ctracker::SegmentLog = planner.get(Var::TrackLog).await.expect("TrackLog");
+    assert_eq!(log.seen + log.missed, 3, "each light counted once: {log:?}");
+    second.abort();
+    navigating.abort();
+    rig.stop().await;
+}

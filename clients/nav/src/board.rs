@@ -418,6 +418,14 @@ pub struct Board {
     scope: String,
 }
 
+/// How long a client started again looks for a Planner waiting on it
+/// before it takes what was left unfinished as over. A Planner's call that
+/// went unanswered in an outage reaches the server that has come back at
+/// its next attempt (attempts grow to 3 s, with up to 0.5 s between), and
+/// the wait after it follows within the Planner's 2-s slice: 8 s covers
+/// both with room for a loaded host.
+pub const PLANNER_PATIENCE: std::time::Duration = std::time::Duration::from_secs(8);
+
 impl Board {
     /// Robot `robot`'s board, through a data-server client.
     pub fn new(ds: DataClient, robot: &str) -> Board {
@@ -515,6 +523,30 @@ impl Board {
             return Ok(None);
         }
         self.read_goal().await.map(Some)
+    }
+
+    /// Whether a client waits on any of `sems`, looked at every 100 ms for
+    /// up to `patience`. A client started again after a data-server
+    /// outage asks this of the Planner: the Planner's wait reaches a
+    /// server that has just come back only when its own call is next
+    /// retried, so one look can come too soon.
+    pub async fn someone_waits(
+        &self,
+        sems: &[Sem],
+        patience: std::time::Duration,
+    ) -> Result<bool, ClientError> {
+        let start = rome_clock::Instant::now();
+        loop {
+            for sem in sems {
+                if self.client().semaphore(&self.sem_name(*sem)).await?.waiters > 0 {
+                    return Ok(true);
+                }
+            }
+            if start.elapsed() >= patience {
+                return Ok(false);
+            }
+            rome_clock::sleep(std::time::Duration::from_millis(100)).await;
+        }
     }
 
     async fn read_goal(&self) -> Result<Goal, ClientError> {

@@ -15,7 +15,7 @@
 //! where the map puts it is counted by distance and logged as missed, so a
 //! missed light costs accuracy, not the run.
 
-use crate::board::{Board, Sem, Var};
+use crate::board::{Board, Sem, Var, PLANNER_PATIENCE};
 use crate::navigator::Pose;
 use crate::NavError;
 use rome_client::{ClientError, RobotClient};
@@ -284,12 +284,15 @@ impl CTracker {
             Err(e) => return Err(e.into()),
         };
         let latest = self.segment_seq().await?;
-        let ds = self.board.client();
-        let mut waits = false;
-        for sem in [Sem::RobotStatus, Sem::EndLMode] {
-            waits |= ds.semaphore(&self.board.sem_name(sem)).await?.waiters > 0;
-        }
-        if t.segment == latest && waits {
+        // As patient as the Navigator: a tracker that gave the segment up
+        // while the Navigator took its goal up would leave the robot
+        // driving past lights nobody counts.
+        let waits = t.segment == latest
+            && self
+                .board
+                .someone_waits(&[Sem::RobotStatus, Sem::EndLMode], PLANNER_PATIENCE)
+                .await?;
+        if waits {
             tracing::info!(count = t.count, "ctracker: taking up the segment left open");
             Ok(Some(t))
         } else {

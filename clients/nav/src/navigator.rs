@@ -198,17 +198,14 @@ impl Navigator {
         }
     }
 
-    /// Whether a Planner waits on `$RobotStatus` (looked at for up to 3 s:
-    /// a Planner's wait is renewed every two seconds).
+    /// Whether a Planner waits on `$RobotStatus` (looked at for up to
+    /// [`crate::board::PLANNER_PATIENCE`]).
     async fn planner_waits(&self) -> Result<bool, NavError> {
-        let sem = self.board.sem_name(Sem::RobotStatus);
-        for _ in 0..30 {
-            if self.board.client().semaphore(&sem).await?.waiters > 0 {
-                return Ok(true);
-            }
-            rome_clock::sleep(Duration::from_millis(100)).await;
-        }
-        Ok(false)
+        let patience = crate::board::PLANNER_PATIENCE;
+        Ok(self
+            .board
+            .someone_waits(&[Sem::RobotStatus], patience)
+            .await?)
     }
 
     /// Waits for the Planner's next goal. A robot left moving (after an L
