@@ -5,6 +5,11 @@
 //! truth and leaves r2 where it stands; with no `cmd_vel` for the
 //! deadman's time, r1 stops; and the bridge, ending, leaves alone a robot
 //! another client drives.
+//!
+//! In rmw_zenoh's form, the graph an rmw_zenoh node reads lists the
+//! bridge's node and topics with ROS 2 Jazzy's type hashes, the data comes
+//! on the keys those tokens name with rmw_zenoh's attachment, and a Twist
+//! on `cmd_vel`'s key drives the robot.
 
 #![allow(clippy::unwrap_used)]
 
@@ -201,5 +206,160 @@ async fn ros2_messages_come_out_and_cmd_vel_drives_one_robot_with_a_deadman() {
         "r2, driven by another client, was stopped when the bridge ended"
     );
     other.stop(true).await.unwrap();
+    drop(running);
+}
+
+/// A token's chunks as rmw_zenoh's graph reads them: kind, topic (`%` back
+/// to `/`), type and hash, for a publisher or subscription.
+fn entity(token: &str) -> Option<(String, String, String, String)> {
+    let parts: Vec<&str> = token.split('/').collect();
+    if parts.len() != 13 || parts[0] != "@ros2_lv" {
+        return None;
+    }
+    Some((
+        parts[5].to_string(),
+        parts[9].replace('%', "/"),
+        parts[10].to_string(),
+        parts[11].to_string(),
+    ))
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn as_rmw_zenoh_the_graph_lists_the_topics_and_cmd_vel_drives() {
+    let (server, port): (Session, u16) = open_loopback_peer(&[]).await.unwrap();
+    let root = Root::default();
+    let world = rome_tests::world("eb3", rome_tests::quiet(), &[("r1", "350R")]);
+    let _stepper = world.start(Some(1.0));
+    let rates = Rates {
+        state: Some(Duration::from_millis(50)),
+        scan: Some(Duration::from_millis(100)),
+        camera: Duration::from_millis(500),
+    };
+    let mut running =
+        rome_sim_hardware::robot::spawn_sim_robot(&server, &root, &world, "r1", rates).unwrap();
+    running.push(rome_sim_hardware::robot::spawn_truth(
+        &server,
+        &root,
+        &world,
+        Some(Duration::from_millis(100)),
+    ));
+    rome_tests::await_alive(&server, "rome/alive/server/robot/r1/base", 1).await;
+
+    let bridge_session = NetOptions::loopback(None, &[port]).open().await.unwrap();
+    let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
+    let mut bridged = Bridge::new(vec!["r1".into()]);
+    bridged.form = bridge::Form::RmwZenoh { domain: 17 };
+    let bridge_task = tokio::spawn(async move {
+        bridge::run(&bridge_session, &bridged, async {
+            let _ = stopped.await;
+        })
+        .await
+    });
+
+    // What an rmw_zenoh node's graph cache hears: the domain's tokens.
+    let ros = NetOptions::loopback(None, &[port]).open().await.unwrap();
+    let graph = ros
+        .liveliness()
+        .declare_subscriber("@ros2_lv/17/**")
+        .history(true)
+        .await
+        .unwrap();
+    let (mut node, mut odom, mut cmd_vel) = (None, None, None);
+    while node.is_none() || odom.is_none() || cmd_vel.is_none() {
+        let sample = tokio::time::timeout(Duration::from_secs(30), graph.recv_async())
+            .await
+            .expect("the bridge's tokens within 30 s")
+            .unwrap();
+        let token = sample.key_expr().to_string();
+        if token.ends_with("/NN/%/%/rome_ros2") {
+            node = Some(token);
+        } else if let Some((kind, topic, ty, hash)) = entity(&token) {
+            match (kind.as_str(), topic.as_str()) {
+                ("MP", "/r1/odom") => odom = Some((ty, hash)),
+                ("MS", "/r1/cmd_vel") => cmd_vel = Some((ty, hash)),
+                _ => {}
+            }
+        }
+    }
+    // The types and hashes are ROS 2 Jazzy's own.
+    let (odom_type, odom_hash) = odom.unwrap();
+    assert_eq!(odom_type, "nav_msgs::msg::dds_::Odometry_");
+    assert_eq!(
+        odom_hash,
+        "RIHS01_3cc97dc7fb7502f8714462c526d369e35b603cfc34d946e3f2eda2766dfec6e0"
+    );
+    let (twist_type, twist_hash) = cmd_vel.unwrap();
+    assert_eq!(twist_type, "geometry_msgs::msg::dds_::Twist_");
+    assert_eq!(
+        twist_hash,
+        "RIHS01_9c45bf16fe0983d80e3cfe750d6835843d265a9a6c46bd2e609fcddde6fb8d2a"
+    );
+
+    // The data, on the key built from the token, with rmw_zenoh's
+    // attachment: sequence numbers that rise, one publisher's GID.
+    let odom1 = ros
+        .declare_subscriber(format!("17/r1/odom/{odom_type}/{odom_hash}"))
+        .await
+        .unwrap();
+    let mut seen = Vec::new();
+    for _ in 0..2 {
+        let sample = tokio::time::timeout(Duration::from_secs(30), odom1.recv_async())
+            .await
+            .expect("odometry within 30 s")
+            .unwrap();
+        let o: Odometry = msg::decode(&sample.payload().to_bytes()).unwrap();
+        assert_eq!(o.header.frame_id, "r1/odom");
+        let a = sample
+            .attachment()
+            .expect("an attachment")
+            .to_bytes()
+            .to_vec();
+        assert_eq!(a.len(), 33, "{a:?}");
+        assert_eq!(a[16], 16, "the GID's length");
+        seen.push((
+            i64::from_le_bytes(a[..8].try_into().unwrap()),
+            a[17..].to_vec(),
+        ));
+    }
+    assert!(seen[1].0 > seen[0].0, "sequence numbers {seen:?}");
+    assert_eq!(seen[0].1, seen[1].1);
+
+    // A Twist on cmd_vel's key drives r1.
+    let t1 = TruthClient::new(&ros, &root, "r1").unwrap();
+    let start = t1.get().await.unwrap();
+    let ahead = msg::encode(&Twist {
+        linear: Vector3 {
+            x: 0.3,
+            y: 0.0,
+            z: 0.0,
+        },
+        angular: Vector3::default(),
+    });
+    let publisher = ros
+        .declare_publisher(format!("17/r1/cmd_vel/{twist_type}/{twist_hash}"))
+        .await
+        .unwrap();
+    let mut tick = tokio::time::interval(Duration::from_millis(100));
+    for _ in 0..15 {
+        tick.tick().await;
+        publisher.put(ahead.clone()).await.unwrap();
+    }
+    let moved = t1.get().await.unwrap().travelled_mm - start.travelled_mm;
+    assert!(moved > 200.0, "r1 drove {moved:.0} mm on cmd_vel");
+
+    // Ending, the bridge's tokens go: the graph hears the node leave.
+    let _ = stop.send(());
+    bridge_task.await.unwrap().unwrap();
+    loop {
+        let sample = tokio::time::timeout(Duration::from_secs(30), graph.recv_async())
+            .await
+            .expect("the node's token withdrawn within 30 s")
+            .unwrap();
+        if sample.kind() == zenoh::sample::SampleKind::Delete
+            && sample.key_expr().as_str().ends_with("/NN/%/%/rome_ros2")
+        {
+            break;
+        }
+    }
     drop(running);
 }

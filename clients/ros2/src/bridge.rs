@@ -10,15 +10,20 @@
 //! <ns>/map                    nav_msgs/msg/OccupancyGrid the map, given one, while someone subscribes
 //! ```
 //!
-//! Each key is the ROS 2 topic's name without its leading slash and each
-//! payload its CDR serialization, as Zenoh's ROS 2 DDS bridge
-//! (`zenoh-plugin-ros2dds`) carries a topic: through it `/r1/odom` on DDS
-//! is `r1/odom` here. A `cmd_vel` is a base command at the bridge's
+//! Each payload is the message's CDR serialization. The key is, in the
+//! default form ([`Form::Dds`]), the ROS 2 topic's name without its
+//! leading slash, as Zenoh's ROS 2 DDS bridge (`zenoh-plugin-ros2dds`)
+//! carries a topic: through it `/r1/odom` on DDS is `r1/odom` here. In the
+//! rmw_zenoh form ([`Form::RmwZenoh`]) it is the key ROS 2's own Zenoh
+//! middleware uses, with its liveliness tokens ([`crate::topics`]). A `cmd_vel` is a base command at the bridge's
 //! priority, under the base's lock rules (§4.3); when none has come for
 //! the deadman's time, the base is stopped at once.
 
 use crate::convert::{self, Drive};
-use crate::msg::{self, Message, Twist};
+use crate::msg::{self, Image, LaserScan, OccupancyGrid, Odometry, Twist};
+use crate::rmw_zenoh::Qos;
+pub use crate::topics::Form;
+use crate::topics::{Out, Topics};
 use rome_client::{ClientError, RobotClient, RobotOptions};
 use rome_schema::robot::BaseState;
 use rome_schema::Root;
@@ -26,7 +31,6 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Duration;
 use tokio::task::JoinSet;
-use zenoh::bytes::Encoding;
 use zenoh::Session;
 
 /// The odometry topic's last name.
@@ -70,6 +74,8 @@ pub struct Bridge {
     pub camera_every: Duration,
     /// The floor's map, published as an occupancy grid (`None`: none).
     pub map: Option<rome_maps::World>,
+    /// The keys' form: for the DDS bridge, or as rmw_zenoh.
+    pub form: Form,
 }
 
 impl Bridge {
@@ -84,15 +90,17 @@ impl Bridge {
             deadman: Duration::from_millis(500),
             camera_every: Duration::from_millis(500),
             map: None,
+            form: Form::Dds,
         }
     }
 
-    /// The Zenoh key of the map.
+    /// The ROS 2 name of the map's topic, with no leading slash.
     pub fn map_key(&self) -> String {
         self.in_namespace(MAP)
     }
 
-    /// The Zenoh key of `robot`'s `topic`.
+    /// The ROS 2 name of `robot`'s `topic`, with no leading slash (in the
+    /// DDS form, also its Zenoh key).
     pub fn key(&self, robot: &str, topic: &str) -> String {
         self.in_namespace(&format!("{robot}/{topic}"))
     }
@@ -118,16 +126,15 @@ pub async fn run(
 ) -> Result<(), ClientError> {
     let mut tasks = JoinSet::new();
     let mut bases = Vec::new();
+    let topics = Topics::new(session, bridge.form, &bridge.namespace).await?;
     if let Some(world) = &bridge.map {
         let grid = msg::encode(&convert::occupancy(world, MAP_RESOLUTION_M));
-        let publisher = cdr_publisher(session, bridge.map_key()).await?;
+        let publisher: Out<OccupancyGrid> = topics.publisher(MAP, Qos::MAP).await?;
         tasks.spawn(async move {
             let mut tick = tokio::time::interval(MAP_EVERY);
             loop {
                 next_wanted(&mut tick, &publisher).await;
-                if let Err(e) = publisher.put(grid.clone()).await {
-                    tracing::warn!(error = %e, "map not published");
-                }
+                publisher.send_bytes(grid.clone()).await;
             }
         });
     }
@@ -142,51 +149,62 @@ pub async fn run(
             .declare_subscriber(bridge.root.sim_truth(&rome_schema::Name::new(robot)?))
             .await
             .map_err(ClientError::zenoh)?;
-        let commands = session
-            .declare_subscriber(bridge.key(robot, CMD_VEL))
-            .await
-            .map_err(ClientError::zenoh)?;
-        let odom = cdr_publisher(session, bridge.key(robot, ODOM)).await?;
+        let commands = topics
+            .subscriber::<Twist>(&format!("{robot}/{CMD_VEL}"), Qos::DEFAULT)
+            .await?;
+        let odom: Out<Odometry> = topics
+            .publisher(&format!("{robot}/{ODOM}"), Qos::SENSOR)
+            .await?;
         tasks.spawn(async move {
             let mut before: Option<BaseState> = None;
             while let Some(read) = states.next().await {
                 match read {
                     Ok(s) => {
-                        send(&odom, &convert::odometry(&s, before.as_ref())).await;
+                        odom.send(&convert::odometry(&s, before.as_ref())).await;
                         before = Some(s);
                     }
                     Err(e) => tracing::warn!(error = %e, "base state skipped"),
                 }
             }
         });
-        let sonar = cdr_publisher(session, bridge.key(robot, SONAR)).await?;
+        let sonar: Out<LaserScan> = topics
+            .publisher(&format!("{robot}/{SONAR}"), Qos::SENSOR)
+            .await?;
         tasks.spawn(async move {
             while let Some(read) = scans.next().await {
                 match read {
-                    Ok(s) => send(&sonar, &convert::sonar(&s)).await,
+                    Ok(s) => sonar.send(&convert::sonar(&s)).await,
                     Err(e) => tracing::warn!(error = %e, "sonar scan skipped"),
                 }
             }
         });
-        let truth_out = cdr_publisher(session, bridge.key(robot, GROUND_TRUTH)).await?;
+        let truth_out: Out<Odometry> = topics
+            .publisher(&format!("{robot}/{GROUND_TRUTH}"), Qos::SENSOR)
+            .await?;
         tasks.spawn(async move {
             while let Ok(sample) = truth.recv_async().await {
                 let bytes = sample.payload().to_bytes();
                 match serde_json::from_slice::<rome_schema::sim::Truth>(&bytes) {
-                    Ok(t) => send(&truth_out, &convert::ground_truth(&t)).await,
+                    Ok(t) => truth_out.send(&convert::ground_truth(&t)).await,
                     Err(e) => tracing::warn!(error = %e, "ground truth skipped"),
                 }
             }
         });
         for camera in CAMERAS {
-            let publisher =
-                cdr_publisher(session, bridge.key(robot, &camera_topic(camera))).await?;
+            let publisher: Out<Image> = topics
+                .publisher(&format!("{robot}/{}", camera_topic(camera)), Qos::SENSOR)
+                .await?;
             let (base, every) = (base.clone(), bridge.camera_every);
             tasks.spawn(async move { images(&base, camera, &publisher, every).await });
         }
         let driving = Arc::new(AtomicBool::new(false));
         let (driver, deadman, d) = (base.clone(), bridge.deadman, driving.clone());
-        tasks.spawn(async move { drive(&driver, commands, deadman, &d).await });
+        tasks.spawn(async move {
+            // The whole of `commands` moves in: its token announces the
+            // subscription for as long as it reads.
+            let commands = commands;
+            drive(&driver, &commands.subscriber, deadman, &d).await
+        });
         bases.push((base, driving));
     }
     stop.await;
@@ -202,38 +220,12 @@ pub async fn run(
     Ok(())
 }
 
-/// Publishes `message` on `publisher`; a failure is logged.
-async fn send<M: Message>(publisher: &zenoh::pubsub::Publisher<'static>, message: &M) {
-    if let Err(e) = publisher.put(msg::encode(message)).await {
-        tracing::warn!(key = %publisher.key_expr(), error = %e, "publication failed");
-    }
-}
-
-/// A publisher of CDR payloads on `key`.
-async fn cdr_publisher(
-    session: &Session,
-    key: String,
-) -> Result<zenoh::pubsub::Publisher<'static>, ClientError> {
-    session
-        .declare_publisher(key)
-        .encoding(Encoding::APPLICATION_CDR)
-        .await
-        .map_err(ClientError::zenoh)
-}
-
 /// Waits for the next tick of `tick` at which `publisher` has a
 /// subscriber: what is heavy to make is not made for nobody.
-async fn next_wanted(
-    tick: &mut tokio::time::Interval,
-    publisher: &zenoh::pubsub::Publisher<'static>,
-) {
+async fn next_wanted<M: msg::Message>(tick: &mut tokio::time::Interval, publisher: &Out<M>) {
     loop {
         tick.tick().await;
-        if publisher
-            .matching_status()
-            .await
-            .is_ok_and(|m| m.matching())
-        {
+        if publisher.wanted().await {
             return;
         }
     }
@@ -241,12 +233,7 @@ async fn next_wanted(
 
 /// Publishes `camera`'s newest image every `every`, while `publisher` has
 /// a subscriber: an image is 250 kB, not to be sent to nobody.
-async fn images(
-    base: &RobotClient,
-    camera: &str,
-    publisher: &zenoh::pubsub::Publisher<'static>,
-    every: Duration,
-) {
+async fn images(base: &RobotClient, camera: &str, publisher: &Out<Image>, every: Duration) {
     let mut tick = tokio::time::interval(every);
     let mut last_frame = None;
     loop {
@@ -263,7 +250,7 @@ async fn images(
         }
         last_frame = Some(image.frame);
         let frame = format!("{}/camera/{camera}", base.robot());
-        send(publisher, &convert::image(&image, frame)).await;
+        publisher.send(&convert::image(&image, frame)).await;
     }
 }
 
@@ -272,7 +259,9 @@ async fn images(
 /// whether the base is moving on the bridge's command.
 async fn drive(
     base: &RobotClient,
-    commands: zenoh::pubsub::Subscriber<zenoh::handlers::FifoChannelHandler<zenoh::sample::Sample>>,
+    commands: &zenoh::pubsub::Subscriber<
+        zenoh::handlers::FifoChannelHandler<zenoh::sample::Sample>,
+    >,
     deadman: Duration,
     driving: &AtomicBool,
 ) {

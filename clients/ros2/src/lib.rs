@@ -9,7 +9,14 @@
 //! - [`bridge`]: per robot, those messages published on the Zenoh keys a
 //!   ROS 2 DDS bridge maps to topics (`r1/odom` is `/r1/odom`), and the
 //!   base driven from `r1/cmd_vel`, with a deadman.
+//! - [`topics`]: where each topic goes on Zenoh, in the DDS bridge's form
+//!   or in rmw_zenoh's.
+//! - [`rmw_zenoh`]: the keys, liveliness tokens, type hashes and
+//!   attachments of ROS 2's own Zenoh middleware, so the bridge can speak
+//!   to rmw_zenoh nodes with no DDS between.
 
 pub mod bridge;
 pub mod convert;
 pub mod msg;
+pub mod rmw_zenoh;
+pub mod topics;

@@ -4,6 +4,7 @@
 //! rome ros2 --robots r1,r2                 # r1/odom, r1/sonar, r1/ground_truth, r1/camera/up/image, r1/cmd_vel …
 //! rome ros2 --robots r1 --namespace fleet  # fleet/r1/odom …
 //! rome ros2 --robots r1 --map eb3          # and the floor's map on `map`
+//! rome ros2 --robots r1 --rmw-zenoh        # as rmw_zenoh: 0/r1/odom/nav_msgs::msg::dds_::Odometry_/RIHS01_…
 //! ```
 //!
 //! Each key carries a ROS 2 message in CDR, as Zenoh's ROS 2 DDS bridge
@@ -32,6 +33,14 @@ pub struct Args {
     /// A moving base is stopped when no cmd_vel has come for this long, ms.
     #[arg(long, default_value_t = 500, value_parser = clap::value_parser!(u64).range(50..=10_000))]
     deadman_ms: u64,
+    /// Speak rmw_zenoh's keys and liveliness tokens, so ROS 2 nodes on
+    /// `rmw_zenoh_cpp` see the topics with no DDS (instead of the keys
+    /// Zenoh's ROS 2 DDS bridge maps).
+    #[arg(long)]
+    rmw_zenoh: bool,
+    /// The ROS domain, with --rmw-zenoh.
+    #[arg(long, env = "ROS_DOMAIN_ID", default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=232))]
+    domain: u32,
 }
 
 /// Runs the bridge until Ctrl-C or SIGTERM.
@@ -40,6 +49,11 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
     bridge.root = common.root()?;
     bridge.namespace = args.namespace;
     bridge.deadman = Duration::from_millis(args.deadman_ms);
+    if args.rmw_zenoh {
+        bridge.form = rome_ros2::bridge::Form::RmwZenoh {
+            domain: args.domain,
+        };
+    }
     if let Some(p) = args.priority {
         bridge.priority = p;
     }
@@ -48,8 +62,12 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
         bridge.map = Some(rome_maps::World::from_map(&map));
     }
     let session = common.open(Side::Client).await?;
+    let form = match bridge.form {
+        rome_ros2::bridge::Form::Dds => "keys for the ROS 2 DDS bridge".to_string(),
+        rome_ros2::bridge::Form::RmwZenoh { domain } => format!("as rmw_zenoh, domain {domain}"),
+    };
     eprintln!(
-        "rome ros2: {} as ROS 2 topics ({}, {}, {} published; {} read); Ctrl-C to stop",
+        "rome ros2: {} as ROS 2 topics, {form} ({}, {}, {} published; {} read); Ctrl-C to stop",
         bridge.robots.join(", "),
         bridge.key("<robot>", rome_ros2::bridge::ODOM),
         bridge.key("<robot>", rome_ros2::bridge::SONAR),
