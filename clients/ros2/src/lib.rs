@@ -11,12 +11,15 @@
 //!   base driven from `r1/cmd_vel`, with a deadman.
 //! - [`topics`]: where each topic goes on Zenoh, in the DDS bridge's form
 //!   or in rmw_zenoh's.
+//! - [`dds_plugin`]: the liveliness tokens by which Zenoh's ROS 2 DDS
+//!   plugin learns of the bridge's topics.
 //! - [`rmw_zenoh`]: the keys, liveliness tokens, type hashes and
 //!   attachments of ROS 2's own Zenoh middleware, so the bridge can speak
 //!   to rmw_zenoh nodes with no DDS between.
 
 pub mod bridge;
 pub mod convert;
+pub mod dds_plugin;
 pub mod msg;
 pub mod rmw_zenoh;
 pub mod topics;

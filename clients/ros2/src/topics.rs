@@ -2,8 +2,10 @@
 //! meets Zenoh:
 //!
 //! - [`Form::Dds`]: the key is the topic's name, as Zenoh's ROS 2 DDS
-//!   bridge (`zenoh-plugin-ros2dds`) carries it (`/r1/odom` is `r1/odom`);
-//!   the plugin announces the topic to DDS.
+//!   bridge (`zenoh-plugin-ros2dds`) carries it (`/r1/odom` is `r1/odom`),
+//!   with the plugin's own liveliness token per topic
+//!   ([`crate::dds_plugin`]), so the plugin makes the DDS writer or reader
+//!   at once and ROS 2 nodes see the topic before they subscribe.
 //! - [`Form::RmwZenoh`]: the key, the liveliness tokens and the sample
 //!   attachments of ROS 2's own Zenoh middleware ([`crate::rmw_zenoh`]),
 //!   so a node running `rmw_zenoh_cpp` on the same router sees the topics
@@ -37,6 +39,8 @@ pub enum Form {
 pub struct Topics {
     session: Session,
     namespace: String,
+    /// The session's Zenoh id, as the DDS plugin's tokens write it.
+    zid: String,
     /// In the rmw_zenoh form: the bridge's node, and its token.
     node: Option<(Node, LivelinessToken)>,
     next_eid: AtomicU32,
@@ -72,6 +76,7 @@ impl Topics {
         };
         Ok(Topics {
             session: session.clone(),
+            zid: session.zid().to_string(),
             namespace,
             node,
             next_eid: AtomicU32::new(1),
@@ -94,29 +99,38 @@ impl Topics {
         }
     }
 
-    /// Announces an entity on `topic` in the rmw_zenoh form (nothing in
-    /// the DDS form), returning its token and its GID.
+    /// Announces an entity on `topic`, returning its token and, in the
+    /// rmw_zenoh form, its GID.
     async fn announce<M: Message>(
         &self,
         kind: Kind,
         topic: &str,
         qos: Qos,
-    ) -> Result<Option<(LivelinessToken, [u8; 16])>, ClientError> {
-        let Some((node, _)) = &self.node else {
-            return Ok(None);
+    ) -> Result<(LivelinessToken, Option<[u8; 16]>), ClientError> {
+        let (token, gid) = match &self.node {
+            None => {
+                let key = self.name(topic);
+                (
+                    crate::dds_plugin::token::<M>(&self.zid, kind, &key, qos),
+                    None,
+                )
+            }
+            Some((node, _)) => {
+                let eid = self.next_eid.fetch_add(1, Ordering::Relaxed);
+                // Unique per entity: the session's id with the entity's number.
+                let mut gid = node.zid_le;
+                gid[12..].copy_from_slice(&eid.to_le_bytes());
+                let token = node.entity_token::<M>(eid, kind, &self.name(topic), qos);
+                (token, Some(gid))
+            }
         };
-        let eid = self.next_eid.fetch_add(1, Ordering::Relaxed);
-        let token = node.entity_token::<M>(eid, kind, &self.name(topic), qos);
         let token = self
             .session
             .liveliness()
             .declare_token(token)
             .await
             .map_err(ClientError::zenoh)?;
-        // Unique per entity: the session's id with the entity's number.
-        let mut gid = node.zid_le;
-        gid[12..].copy_from_slice(&eid.to_le_bytes());
-        Ok(Some((token, gid)))
+        Ok((token, gid))
     }
 
     /// A publisher of `M` on `topic`.
@@ -131,11 +145,7 @@ impl Topics {
             .encoding(Encoding::APPLICATION_CDR)
             .await
             .map_err(ClientError::zenoh)?;
-        let announced = self.announce::<M>(Kind::Publisher, topic, qos).await?;
-        let (token, gid) = match announced {
-            Some((t, g)) => (Some(t), Some(g)),
-            None => (None, None),
-        };
+        let (token, gid) = self.announce::<M>(Kind::Publisher, topic, qos).await?;
         Ok(Out {
             publisher,
             gid,
@@ -145,18 +155,15 @@ impl Topics {
         })
     }
 
-    /// A subscriber to `M` on `topic`, and (in the rmw_zenoh form) its
-    /// token, to be kept as long as it.
+    /// A subscriber to `M` on `topic`, and its token, to be kept as long
+    /// as it.
     pub async fn subscriber<M: Message>(&self, topic: &str, qos: Qos) -> Result<In, ClientError> {
         let subscriber = self
             .session
             .declare_subscriber(self.key::<M>(topic))
             .await
             .map_err(ClientError::zenoh)?;
-        let token = self
-            .announce::<M>(Kind::Subscription, topic, qos)
-            .await?
-            .map(|(t, _)| t);
+        let (token, _) = self.announce::<M>(Kind::Subscription, topic, qos).await?;
         Ok(In {
             subscriber,
             _token: token,
@@ -169,7 +176,7 @@ pub struct In {
     /// The samples.
     pub subscriber:
         zenoh::pubsub::Subscriber<zenoh::handlers::FifoChannelHandler<zenoh::sample::Sample>>,
-    _token: Option<LivelinessToken>,
+    _token: LivelinessToken,
 }
 
 /// A publisher of one message type, and what announces it.
@@ -178,7 +185,7 @@ pub struct Out<M> {
     /// In the rmw_zenoh form, each sample carries an attachment.
     gid: Option<[u8; 16]>,
     seq: AtomicI64,
-    _token: Option<LivelinessToken>,
+    _token: LivelinessToken,
     _message: PhantomData<fn(M)>,
 }
 
