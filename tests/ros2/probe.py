@@ -74,8 +74,10 @@ def main():
     spin_until(graph_ready, "the bridged topics in the graph")
 
     subs = [
-        node.create_subscription(Odometry, "/r1/odom", keep("r1/odom"), qos_profile_sensor_data),
-        node.create_subscription(Odometry, "/r2/odom", keep("r2/odom"), qos_profile_sensor_data),
+        # ROS 2's default QoS (reliable) for odometry, SensorDataQoS (best
+        # effort) for the rest: the bridge's topics serve both.
+        node.create_subscription(Odometry, "/r1/odom", keep("r1/odom"), 10),
+        node.create_subscription(Odometry, "/r2/odom", keep("r2/odom"), 10),
         node.create_subscription(LaserScan, "/r1/sonar", keep("r1/sonar"), qos_profile_sensor_data),
         node.create_subscription(Odometry, "/r1/ground_truth", keep("r1/truth"), qos_profile_sensor_data),
         node.create_subscription(Odometry, "/r2/ground_truth", keep("r2/truth"), qos_profile_sensor_data),

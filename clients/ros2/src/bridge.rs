@@ -150,10 +150,10 @@ pub async fn run(
             .await
             .map_err(ClientError::zenoh)?;
         let commands = topics
-            .subscriber::<Twist>(&format!("{robot}/{CMD_VEL}"), Qos::DEFAULT)
+            .subscriber::<Twist>(&format!("{robot}/{CMD_VEL}"), Qos::COMMAND)
             .await?;
         let odom: Out<Odometry> = topics
-            .publisher(&format!("{robot}/{ODOM}"), Qos::SENSOR)
+            .publisher(&format!("{robot}/{ODOM}"), Qos::STREAM)
             .await?;
         tasks.spawn(async move {
             let mut before: Option<BaseState> = None;
@@ -168,7 +168,7 @@ pub async fn run(
             }
         });
         let sonar: Out<LaserScan> = topics
-            .publisher(&format!("{robot}/{SONAR}"), Qos::SENSOR)
+            .publisher(&format!("{robot}/{SONAR}"), Qos::STREAM)
             .await?;
         tasks.spawn(async move {
             while let Some(read) = scans.next().await {
@@ -179,7 +179,7 @@ pub async fn run(
             }
         });
         let truth_out: Out<Odometry> = topics
-            .publisher(&format!("{robot}/{GROUND_TRUTH}"), Qos::SENSOR)
+            .publisher(&format!("{robot}/{GROUND_TRUTH}"), Qos::STREAM)
             .await?;
         tasks.spawn(async move {
             while let Ok(sample) = truth.recv_async().await {
@@ -192,7 +192,7 @@ pub async fn run(
         });
         for camera in CAMERAS {
             let publisher: Out<Image> = topics
-                .publisher(&format!("{robot}/{}", camera_topic(camera)), Qos::SENSOR)
+                .publisher(&format!("{robot}/{}", camera_topic(camera)), Qos::STREAM)
                 .await?;
             let (base, every) = (base.clone(), bridge.camera_every);
             tasks.spawn(async move { images(&base, camera, &publisher, every).await });

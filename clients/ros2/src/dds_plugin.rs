@@ -52,12 +52,12 @@ mod tests {
     #[test]
     fn tokens_follow_the_plugins_layout() {
         assert_eq!(
-            token::<Odometry>("abc", Kind::Publisher, "r1/odom", Qos::SENSOR),
-            "@/abc/@ros2_lv/MP/r1§odom/nav_msgs§msg§Odometry/:0:0:0,5:typehash=RIHS01_3cc97dc7fb7502f8714462c526d369e35b603cfc34d946e3f2eda2766dfec6e0;"
+            token::<Odometry>("abc", Kind::Publisher, "r1/odom", Qos::STREAM),
+            "@/abc/@ros2_lv/MP/r1§odom/nav_msgs§msg§Odometry/:1:0:0,5:typehash=RIHS01_3cc97dc7fb7502f8714462c526d369e35b603cfc34d946e3f2eda2766dfec6e0;"
         );
-        let sub = token::<Twist>("abc", Kind::Subscription, "fleet/r1/cmd_vel", Qos::DEFAULT);
+        let sub = token::<Twist>("abc", Kind::Subscription, "fleet/r1/cmd_vel", Qos::COMMAND);
         assert!(
-            sub.starts_with("@/abc/@ros2_lv/MS/fleet§r1§cmd_vel/geometry_msgs§msg§Twist/:1:0:0,10:typehash=RIHS01_9c45bf16"),
+            sub.starts_with("@/abc/@ros2_lv/MS/fleet§r1§cmd_vel/geometry_msgs§msg§Twist/:0:0:0,10:typehash=RIHS01_9c45bf16"),
             "{sub}"
         );
         // Five chunks after the admin prefix, each a valid key chunk.

@@ -87,12 +87,22 @@ pub struct Qos {
 }
 
 impl Qos {
-    /// A sensor stream's: best effort, volatile, the last 5 (ROS 2's
-    /// `SensorDataQoS`).
-    pub const SENSOR: Qos = Qos {
-        reliable: false,
+    /// What the bridge publishes with: reliable, volatile, the last 5. A
+    /// reliable writer serves reliable and best-effort readers alike (a
+    /// best-effort one would serve only the latter: a node subscribing
+    /// with ROS 2's default QoS would get nothing).
+    pub const STREAM: Qos = Qos {
+        reliable: true,
         transient_local: false,
         depth: 5,
+    };
+    /// What the bridge reads `cmd_vel` with: best effort, volatile, the
+    /// last 10. A best-effort reader takes from reliable and best-effort
+    /// writers alike (teleop nodes use both).
+    pub const COMMAND: Qos = Qos {
+        reliable: false,
+        transient_local: false,
+        depth: 10,
     };
     /// ROS 2's default: reliable, volatile, the last 10.
     pub const DEFAULT: Qos = Qos {

@@ -103,7 +103,8 @@ fn a_zid_is_written_byte_by_byte_most_significant_first() {
 #[test]
 fn qos_chunks_say_reliability_durability_and_depth() {
     assert_eq!(Qos::DEFAULT.to_key(), "1:2:1,10:,:,:,,");
-    assert_eq!(Qos::SENSOR.to_key(), "2:2:1,5:,:,:,,");
+    assert_eq!(Qos::STREAM.to_key(), "1:2:1,5:,:,:,,");
+    assert_eq!(Qos::COMMAND.to_key(), "2:2:1,10:,:,:,,");
     assert_eq!(Qos::MAP.to_key(), "1:1:1,1:,:,:,,");
 }
 
@@ -124,15 +125,15 @@ fn tokens_follow_the_liveliness_layout() {
     let n = node();
     let zid = format!("{}2a", "0".repeat(15));
     assert_eq!(n.token(), format!("@ros2_lv/0/{zid}/3/3/NN/%/%/rome_ros2"));
-    let publisher = n.entity_token::<Odometry>(12, Kind::Publisher, "/r1/odom", Qos::SENSOR);
+    let publisher = n.entity_token::<Odometry>(12, Kind::Publisher, "/r1/odom", Qos::STREAM);
     assert_eq!(
         publisher,
         format!(
-            "@ros2_lv/0/{zid}/3/12/MP/%/%/rome_ros2/%r1%odom/nav_msgs::msg::dds_::Odometry_/{}/2:2:1,5:,:,:,,",
+            "@ros2_lv/0/{zid}/3/12/MP/%/%/rome_ros2/%r1%odom/nav_msgs::msg::dds_::Odometry_/{}/1:2:1,5:,:,:,,",
             JAZZY[3].1
         )
     );
-    let reader = n.entity_token::<Twist>(13, Kind::Subscription, "r1/cmd_vel", Qos::DEFAULT);
+    let reader = n.entity_token::<Twist>(13, Kind::Subscription, "r1/cmd_vel", Qos::COMMAND);
     let parts: Vec<&str> = reader.split('/').collect();
     // Admin space … QoS: thirteen chunks, none empty (a key cannot have one).
     assert_eq!(parts.len(), 13, "{reader}");
