@@ -34,6 +34,18 @@ async fn next<M: msg::Message>(
     msg::decode(&sample.payload().to_bytes()).unwrap()
 }
 
+/// A `cmd_vel` to drive straight ahead at `m_s`, encoded.
+fn ahead_at(m_s: f64) -> Vec<u8> {
+    msg::encode(&Twist {
+        linear: Vector3 {
+            x: m_s,
+            y: 0.0,
+            z: 0.0,
+        },
+        angular: Vector3::default(),
+    })
+}
+
 /// Ground truth once the simulated clock has reached `ms`.
 async fn truth_at(truth: &TruthClient, ms: u64) -> Truth {
     loop {
@@ -152,14 +164,7 @@ async fn ros2_messages_come_out_and_cmd_vel_drives_one_robot_with_a_deadman() {
     let t1 = TruthClient::new(&ros, &root, "r1").unwrap();
     let t2 = TruthClient::new(&ros, &root, "r2").unwrap();
     let (start1, start2) = (t1.get().await.unwrap(), t2.get().await.unwrap());
-    let ahead = msg::encode(&Twist {
-        linear: Vector3 {
-            x: 0.3,
-            y: 0.0,
-            z: 0.0,
-        },
-        angular: Vector3::default(),
-    });
+    let ahead = ahead_at(0.3);
     let publisher = ros.declare_publisher("r1/cmd_vel").await.unwrap();
     // A message that is not a Twist is skipped; the bridge goes on.
     publisher.put(vec![1u8, 2, 3]).await.unwrap();
@@ -327,14 +332,7 @@ async fn as_rmw_zenoh_the_graph_lists_the_topics_and_cmd_vel_drives() {
     // A Twist on cmd_vel's key drives r1.
     let t1 = TruthClient::new(&ros, &root, "r1").unwrap();
     let start = t1.get().await.unwrap();
-    let ahead = msg::encode(&Twist {
-        linear: Vector3 {
-            x: 0.3,
-            y: 0.0,
-            z: 0.0,
-        },
-        angular: Vector3::default(),
-    });
+    let ahead = ahead_at(0.3);
     let publisher = ros
         .declare_publisher(format!("17/r1/cmd_vel/{twist_type}/{twist_hash}"))
         .await

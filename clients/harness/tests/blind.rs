@@ -32,6 +32,21 @@ async fn goal_failure(planner: &rome_nav::board::Board) -> String {
     status.failed.expect("the Status says why the goal ended")
 }
 
+/// Waits (at most a minute) until the CTracker has counted the segment's
+/// first light.
+async fn first_light_counted(planner: &rome_nav::board::Board) {
+    let counted = tokio::time::timeout(Duration::from_secs(60), async {
+        while !planner
+            .get::<i64>(Var::CeilingLight)
+            .await
+            .is_ok_and(|n| n == 1)
+        {
+            tokio::time::sleep(Duration::from_millis(20)).await;
+        }
+    });
+    counted.await.expect("the first light is counted");
+}
+
 /// As the Planner hands the CTracker and the Navigator an L segment of
 /// three lights along `heading`, with `offsets` as its `LightOffset`.
 async fn hand_l_segment(
@@ -269,16 +284,7 @@ async fn a_ctracker_killed_mid_segment_and_started_again_takes_the_segment_up() 
         let planner = planner.clone();
         tokio::spawn(async move { planner.down(Sem::RobotStatus).await })
     };
-    let counted = tokio::time::timeout(Duration::from_secs(60), async {
-        while !planner
-            .get::<i64>(Var::CeilingLight)
-            .await
-            .is_ok_and(|n| n == 1)
-        {
-            tokio::time::sleep(Duration::from_millis(20)).await;
-        }
-    });
-    counted.await.expect("the first light is counted");
+    first_light_counted(&planner).await;
     first.abort();
     let _ = first.await;
     let second = common::ctracker(&rig).await;
@@ -326,16 +332,7 @@ async fn a_ctracker_started_again_before_the_planner_waits_again_still_takes_the
         let planner = planner.clone();
         tokio::spawn(async move { planner.down(Sem::RobotStatus).await })
     };
-    let counted = tokio::time::timeout(Duration::from_secs(60), async {
-        while !planner
-            .get::<i64>(Var::CeilingLight)
-            .await
-            .is_ok_and(|n| n == 1)
-        {
-            tokio::time::sleep(Duration::from_millis(20)).await;
-        }
-    });
-    counted.await.expect("the first light is counted");
+    first_light_counted(&planner).await;
     // The outage: the Planner's wait is gone from the server, and the
     // CTracker is started again before it comes back.
     waiting.abort();

@@ -19,16 +19,18 @@
 //!   `nav_msgs::msg::dds_::Odometry_`.
 //! - `<hash>` is the type's REP-2011 hash, `RIHS01_` and the SHA-256 of
 //!   the type description's canonical JSON ([`type_hash`]).
-//! - `<zid>` is the session's Zenoh id, each byte in hex without a leading
-//!   zero, most significant first; `<nid>` and `<eid>` number the node and
-//!   the entity within the session.
+//! - `<zid>` is the session's Zenoh id as Zenoh writes it (hex, no leading
+//!   zeros); `<nid>` and `<eid>` number the node and the entity within the
+//!   session.
 //! - `<qos>` is `reliability:durability:history,depth:deadline:lifespan:liveliness`,
 //!   each value `rmw_qos_profile_t`'s number; an empty place is
 //!   rmw_zenoh's default ([`Qos::to_key`]).
 //! - Each sample carries an attachment: the sequence number and the source
 //!   time in ns (`i64` little-endian each), then the publisher's 16-byte
 //!   GID as a sequence (its length, 16, as LEB128, then the bytes), as
-//!   `zenoh-ext` serializes them ([`attachment`]).
+//!   `zenoh-ext` serializes them ([`attachment`]). This is the form since
+//!   rmw_zenoh 0.2.4 (Jazzy, April 2025); before, each field's name came
+//!   before it.
 //!
 //! The message's payload is the same CDR as on DDS ([`crate::msg`]).
 
@@ -69,10 +71,11 @@ pub fn topic_key<M: Message>(domain: u32, topic: &str) -> String {
     )
 }
 
-/// A Zenoh id as rmw_zenoh writes it: from the most significant byte of
-/// the little-endian id, each byte in hex with no leading zero.
+/// A Zenoh id as rmw_zenoh writes it (zenoh-cpp's `Id::to_string`, the
+/// same as Zenoh's own text of an id): the little-endian id as one number,
+/// in lower-case hex with no leading zeros.
 pub fn zid_text(zid_le: &[u8; 16]) -> String {
-    zid_le.iter().rev().map(|b| format!("{b:x}")).collect()
+    format!("{:x}", u128::from_le_bytes(*zid_le))
 }
 
 /// The QoS of a publisher or reader, as much of it as the token says.
