@@ -22,6 +22,7 @@
 use crate::convert::{self, Drive};
 use crate::msg::{self, Image, LaserScan, OccupancyGrid, Odometry, Twist};
 use crate::rmw_zenoh::Qos;
+use crate::throttle::Throttle;
 pub use crate::topics::Form;
 use crate::topics::{Out, Topics};
 use rome_client::{ClientError, RobotClient, RobotOptions};
@@ -182,11 +183,16 @@ pub async fn run(
             .publisher(&format!("{robot}/{GROUND_TRUTH}"), Qos::STREAM)
             .await?;
         tasks.spawn(async move {
+            let mut skipped = Throttle::default();
             while let Ok(sample) = truth.recv_async().await {
                 let bytes = sample.payload().to_bytes();
                 match serde_json::from_slice::<rome_schema::sim::Truth>(&bytes) {
                     Ok(t) => truth_out.send(&convert::ground_truth(&t)).await,
-                    Err(e) => tracing::warn!(error = %e, "ground truth skipped"),
+                    Err(e) => {
+                        if let Some(n) = skipped.hit(std::time::Instant::now()) {
+                            tracing::warn!(error = %e, times = n, "ground truth skipped");
+                        }
+                    }
                 }
             }
         });
@@ -266,6 +272,8 @@ async fn drive(
     driving: &AtomicBool,
 ) {
     let mut last: Option<Drive> = None;
+    // A node sending what is no Twist is warned of once every few seconds.
+    let mut skipped = Throttle::default();
     loop {
         let sample = match last {
             // Standing still: wait as long as it takes.
@@ -290,12 +298,20 @@ async fn drive(
         let twist: Twist = match msg::decode(&sample.payload().to_bytes()) {
             Ok(t) => t,
             Err(e) => {
-                tracing::warn!(key = %sample.key_expr(), error = %e, "cmd_vel skipped");
+                if let Some(n) = skipped.hit(std::time::Instant::now()) {
+                    tracing::warn!(key = %sample.key_expr(), error = %e, times = n, "cmd_vel skipped");
+                }
                 continue;
             }
         };
         let Some(want) = convert::drive(&twist) else {
-            tracing::warn!(?twist, "cmd_vel with a value that is not a number skipped");
+            if let Some(n) = skipped.hit(std::time::Instant::now()) {
+                tracing::warn!(
+                    ?twist,
+                    times = n,
+                    "cmd_vel with a value that is not a number skipped"
+                );
+            }
             continue;
         };
         // The same command again only keeps the deadman away.

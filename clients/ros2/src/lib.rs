@@ -9,6 +9,7 @@
 //! - [`bridge`]: per robot, those messages published on the Zenoh keys a
 //!   ROS 2 DDS bridge maps to topics (`r1/odom` is `/r1/odom`), and the
 //!   base driven from `r1/cmd_vel`, with a deadman.
+//! - [`throttle`]: warnings about bad input said once a while, counted.
 //! - [`topics`]: where each topic goes on Zenoh, in the DDS bridge's form
 //!   or in rmw_zenoh's.
 //! - [`dds_plugin`]: the liveliness tokens by which Zenoh's ROS 2 DDS
@@ -22,4 +23,5 @@ pub mod convert;
 pub mod dds_plugin;
 pub mod msg;
 pub mod rmw_zenoh;
+pub mod throttle;
 pub mod topics;
