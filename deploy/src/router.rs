@@ -131,6 +131,27 @@ pub fn config(common: &CommonArgs, args: &Args) -> anyhow::Result<zenoh::Config>
     Ok(config)
 }
 
+/// CycloneDDS (the DDS of the ROS 2 plugin) on the loopback interface.
+#[cfg(feature = "ros2dds")]
+pub const CYCLONE_ON_LOOPBACK: &str = r#"<CycloneDDS><Domain><General><Interfaces><NetworkInterface address="127.0.0.1"/></Interfaces></General></Domain></CycloneDDS>"#;
+
+/// Whether the ROS 2 plugin's CycloneDDS is to be put on the loopback
+/// interface: DDS discovery is kept to this host
+/// (`ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`, or the plugin's
+/// `ros_automatic_discovery_range`) and `CYCLONEDDS_URI` does not say
+/// otherwise. Left to itself, CycloneDDS announces its data on the host's
+/// first network interface, which a ROS 2 node kept to localhost (Fast
+/// DDS with the same range) never answers: neither side sees the other.
+#[cfg(feature = "ros2dds")]
+pub fn cyclone_on_loopback(config: &zenoh::Config) -> bool {
+    let range = config
+        .get_json("plugins/ros2dds/ros_automatic_discovery_range")
+        .ok()
+        .map(|r| r.trim_matches('"').to_string())
+        .or_else(|| std::env::var("ROS_AUTOMATIC_DISCOVERY_RANGE").ok());
+    range.as_deref() == Some("LOCALHOST") && std::env::var_os("CYCLONEDDS_URI").is_none()
+}
+
 /// Runs the router until Ctrl-C or SIGTERM.
 pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
     let config = config(common, &args)?;
@@ -170,8 +191,17 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
             true,
         );
     }
+    #[allow(unused_mut)]
+    let mut ros2 = String::new();
     #[cfg(feature = "ros2dds")]
     if config.get_json("plugins/ros2dds").is_ok() {
+        ros2 = "; ROS 2 DDS plugin on".into();
+        if cyclone_on_loopback(&config) {
+            // Before the plugin makes its DDS participant, which reads it;
+            // nothing else in this process reads the environment meanwhile.
+            std::env::set_var("CYCLONEDDS_URI", CYCLONE_ON_LOOPBACK);
+            ros2 += " (discovery on this host: CycloneDDS on loopback)";
+        }
         plugins.declare_static_plugin::<zenoh_plugin_ros2dds::ROS2Plugin, &str>("ros2dds", true);
     }
     let mut runtime = RuntimeBuilder::new(config)
@@ -215,7 +245,7 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
         })
     });
     eprintln!(
-        "rome router: zid {}, {}; REST {}; lock records {}; storage manager {}; Ctrl-C to stop",
+        "rome router: zid {}, {}; REST {}; lock records {}; storage manager {}{ros2}; Ctrl-C to stop",
         session.zid(),
         if listen.is_empty() {
             "listening nowhere (a gateway)".to_string()

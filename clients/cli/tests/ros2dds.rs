@@ -31,9 +31,6 @@ const ROS_PACKAGES: &[&str] = &[
     "ros-jazzy-geometry-msgs",
 ];
 
-/// CycloneDDS (the plugin's DDS) on the loopback interface.
-const CYCLONE_ON_LOOPBACK: &str = r#"<CycloneDDS><Domain><General><Interfaces><NetworkInterface address="127.0.0.1"/></Interfaces></General></Domain></CycloneDDS>"#;
-
 /// The (x, y) a probe line holds at `path` (`truth_before.r1`, `odom.r1.0`).
 fn xy(v: &serde_json::Value, path: &str) -> (f64, f64) {
     let mut at = v;
@@ -73,11 +70,9 @@ fn an_rclpy_node_on_dds_sees_the_fleet_and_drives_one_robot() {
             .arg("--ros2")
             .env("ROS_DOMAIN_ID", &domain)
             .env("ROS_DISTRO", "jazzy")
+            // The router then keeps CycloneDDS to loopback by itself.
             .env("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
-            // CycloneDDS would otherwise take the host's first network
-            // interface and announce addresses there, which Fast DDS, kept
-            // to localhost, does not answer: discovery never completes.
-            .env("CYCLONEDDS_URI", CYCLONE_ON_LOOPBACK)
+            .env_remove("CYCLONEDDS_URI")
             .stdin(Stdio::null())
             .stdout(Stdio::null())
             .stderr(std::fs::File::create(&first).unwrap())
