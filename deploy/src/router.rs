@@ -55,9 +55,10 @@ pub struct Args {
     /// checks as well.
     #[arg(long)]
     pub rest_read_only: bool,
-    /// Bridge ROS 2 nodes on DDS (domain 0, or what the `--config` file
-    /// sets under `plugins/ros2dds`) with Zenoh: a topic `/r1/odom` is the
-    /// key `r1/odom` (Zenoh's ROS 2 DDS plugin, linked in; docs/ros2.md).
+    /// Bridge ROS 2 nodes on DDS (the domain `ROS_DOMAIN_ID` names, 0
+    /// without it, or what the `--config` file sets under
+    /// `plugins/ros2dds`) with Zenoh: a topic `/r1/odom` is the key
+    /// `r1/odom` (Zenoh's ROS 2 DDS plugin, linked in; docs/ros2.md).
     #[cfg(feature = "ros2dds")]
     #[arg(long)]
     pub ros2: bool,

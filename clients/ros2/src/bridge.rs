@@ -15,9 +15,10 @@
 //! leading slash, as Zenoh's ROS 2 DDS bridge (`zenoh-plugin-ros2dds`)
 //! carries a topic: through it `/r1/odom` on DDS is `r1/odom` here. In the
 //! rmw_zenoh form ([`Form::RmwZenoh`]) it is the key ROS 2's own Zenoh
-//! middleware uses, with its liveliness tokens ([`crate::topics`]). A `cmd_vel` is a base command at the bridge's
-//! priority, under the base's lock rules (§4.3); when none has come for
-//! the deadman's time, the base is stopped at once.
+//! middleware uses, with its liveliness tokens ([`crate::topics`]). A
+//! `cmd_vel` is a base command at the bridge's priority, under the base's
+//! lock rules (§4.3); when none has come for the deadman's time, the base
+//! is stopped at once.
 
 use crate::convert::{self, Drive};
 use crate::msg::{self, Image, LaserScan, OccupancyGrid, Odometry, Twist};
@@ -97,29 +98,21 @@ impl Bridge {
 
     /// The ROS 2 name of the map's topic, with no leading slash.
     pub fn map_key(&self) -> String {
-        self.in_namespace(MAP)
+        crate::topics::in_namespace(&self.namespace, MAP)
     }
 
     /// The ROS 2 name of `robot`'s `topic`, with no leading slash (in the
     /// DDS form, also its Zenoh key).
     pub fn key(&self, robot: &str, topic: &str) -> String {
-        self.in_namespace(&format!("{robot}/{topic}"))
-    }
-
-    /// `name` below the namespace, if there is one.
-    fn in_namespace(&self, name: &str) -> String {
-        match self.namespace.trim_matches('/') {
-            "" => name.to_string(),
-            ns => format!("{ns}/{name}"),
-        }
+        crate::topics::in_namespace(&self.namespace, &format!("{robot}/{topic}"))
     }
 }
 
 /// Runs the bridge until `stop` completes; robots it is driving then are
 /// stopped (a robot it never drove, or left stopped, is not touched: it
-/// may be driven by its own Navigator). Fails only if a robot's client cannot be made; a message that
-/// does not decode, or a command the base refuses, is logged and the
-/// bridge goes on.
+/// may be driven by its own Navigator). Fails only if a robot's client
+/// cannot be made; a message that does not decode, or a command the base
+/// refuses, is logged and the bridge goes on.
 pub async fn run(
     session: &Session,
     bridge: &Bridge,

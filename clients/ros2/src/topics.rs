@@ -54,7 +54,7 @@ impl Topics {
         form: Form,
         namespace: &str,
     ) -> Result<Topics, ClientError> {
-        let namespace = namespace.trim_matches('/').to_string();
+        let namespace = namespace.to_string();
         let node = match form {
             Form::Dds => None,
             Form::RmwZenoh { domain } => {
@@ -85,10 +85,7 @@ impl Topics {
 
     /// The ROS 2 name of `topic` below the namespace, with no leading slash.
     pub fn name(&self, topic: &str) -> String {
-        match self.namespace.as_str() {
-            "" => topic.to_string(),
-            ns => format!("{ns}/{topic}"),
-        }
+        in_namespace(&self.namespace, topic)
     }
 
     /// The Zenoh key that carries `topic` with messages `M`.
@@ -171,6 +168,15 @@ impl Topics {
     }
 }
 
+/// `name` below the ROS namespace `ns` (empty or `/`: none), with no
+/// leading slash.
+pub fn in_namespace(ns: &str, name: &str) -> String {
+    match ns.trim_matches('/') {
+        "" => name.to_string(),
+        ns => format!("{ns}/{name}"),
+    }
+}
+
 /// A subscriber and what announces it.
 pub struct In {
     /// The samples.
@@ -219,10 +225,5 @@ impl<M: Message> Out<M> {
             .matching_status()
             .await
             .is_ok_and(|m| m.matching())
-    }
-
-    /// The key it publishes on.
-    pub fn key(&self) -> String {
-        self.publisher.key_expr().to_string()
     }
 }
