@@ -246,6 +246,54 @@ fn demo_refuses_a_broken_routes_file_by_line() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// `rome fleet --no-baseline` runs only the sizes asked for, and
+/// `--trace` leaves each run's ground truth, a line a robot an instant.
+#[test]
+fn fleet_without_its_baseline_runs_only_the_sizes_asked_and_traces_them() {
+    let dir = std::env::temp_dir().join(format!("rome-fleet-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let out = offline_ok([
+        "fleet",
+        "--robots",
+        "2",
+        "--tasks",
+        "2",
+        "--no-baseline",
+        "--trace",
+        "-o",
+        dir.to_str().unwrap(),
+    ]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("for fleets of [2] robots"), "{text}");
+    let csv = std::fs::read_to_string(dir.join("fleet.csv")).unwrap();
+    let rows: Vec<&str> = csv.lines().skip(1).collect();
+    assert_eq!(rows.len(), 1, "{csv}");
+    let cells: Vec<&str> = rows[0].split(',').collect();
+    // Two robots, two tasks, both done; no efficiency without the
+    // one-robot run.
+    assert_eq!(&cells[..3], ["2", "2", "2"], "{csv}");
+    assert_eq!(cells[10], "", "{csv}");
+    assert!(!dir.join("1.trace").exists());
+    let trace = std::fs::read_to_string(dir.join("2.trace")).unwrap();
+    let mut last = std::collections::BTreeMap::new();
+    for line in trace.lines() {
+        let f: Vec<&str> = line.split(' ').collect();
+        assert_eq!(f.len(), 6 + 24, "{line}");
+        let t: u64 = f[0].parse().unwrap();
+        let travelled: f64 = f[5].parse().unwrap();
+        last.insert(f[1].to_string(), (t, travelled));
+    }
+    // Both robots were traced to the end of the run, and both drove.
+    assert_eq!(last.len(), 2, "{last:?}");
+    for (robot, (t, travelled)) in &last {
+        assert!(
+            *t > 10_000 && *travelled > 1_000.0,
+            "{robot}: {t} ms, {travelled} mm"
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 #[test]
 fn experiment_tabulates_its_runs_and_the_confidence_automaton() {
     let dir = std::env::temp_dir().join(format!("rome-experiment-{}", std::process::id()));

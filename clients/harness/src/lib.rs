@@ -348,11 +348,7 @@ async fn run_all(
     progress(Event::Started {
         session: session.clone(),
     });
-    if let Some(path) = &cfg.trace {
-        rig.world.trace_to(path).map_err(|e| {
-            NavError::Config(format!("cannot write the trace {}: {e}", path.display()))
-        })?;
-    }
+    rig.trace(cfg.trace.as_deref())?;
     let stepper = match clock {
         Some(clock) => rig.world.start_lockstep(clock, cfg.speed, |_| {}),
         None => rig.world.start(Some(cfg.wall_speed())),

@@ -33,6 +33,15 @@ pub struct Harness {
 }
 
 impl Harness {
+    /// Starts writing the world's ground truth at every instant to `path`
+    /// (`rome_sim_hardware::trace`), from the instant it stands at.
+    pub fn trace(&self, path: Option<&std::path::Path>) -> Result<(), NavError> {
+        let Some(path) = path else { return Ok(()) };
+        self.world.trace_to(path).map_err(|e| {
+            NavError::Config(format!("cannot write the trace {}: {e}", path.display()))
+        })
+    }
+
     /// Builds the world with robots put down at `starts` (robot name, true
     /// pose) and starts the servers on a session opened with `net`;
     /// returns once every server is alive.

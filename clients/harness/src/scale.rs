@@ -34,6 +34,10 @@ pub struct ScaleConfig {
     pub limit: Duration,
     /// A robot standing still this long with a task counts as stuck.
     pub stuck: Duration,
+    /// A directory for each run's ground truth at every instant,
+    /// `<robots>.trace` (`rome_sim_hardware::trace`): where each robot was
+    /// in the seconds before a contact.
+    pub traces: Option<std::path::PathBuf>,
 }
 
 /// One fleet size's run.
@@ -128,6 +132,7 @@ pub async fn sweep(
         run.seed = cfg.seed;
         run.limit = cfg.limit;
         run.traffic = cfg.traffic;
+        run.trace = cfg.traces.as_ref().map(|d| d.join(format!("{n}.trace")));
         // The plate finder reads camera images that no task needs.
         run.plfinder = false;
         let load = rome_client::load::DATA.snapshot();

@@ -242,6 +242,7 @@ async fn run_all(
     for (id, spec) in &cfg.tasks {
         tasks::add_as(&adder, id, spec).await?;
     }
+    rig.trace(run.trace.as_deref())?;
     let stepper = match clock {
         Some(clock) => rig.world.start_lockstep(clock, run.speed, |_| {}),
         None => rig.world.start(Some(run.wall_speed())),

@@ -5,6 +5,7 @@
 //! rome fleet                                   # 1, 5 and 10 robots, 50 tasks on EB3
 //! rome fleet --robots 1,5,10,20,40 --tasks 200 # the sweep of docs/tasks.md
 //! rome fleet --map annex --seed 7 --out runs/  # where fleet.csv and fleet.svg go
+//! rome fleet --robots 10 --trace               # and fleet/10.trace: every instant's ground truth
 //! ```
 
 use crate::progress::Progress;
@@ -18,7 +19,7 @@ use std::time::Duration;
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// Fleet sizes, comma-separated; a one-robot run is added first when
-    /// missing, as efficiency is measured against it.
+    /// missing, as efficiency is measured against it (see --no-baseline).
     #[arg(long, value_delimiter = ',', default_values_t = vec![1usize, 5, 10])]
     robots: Vec<usize>,
     /// Tasks given to every fleet (door jambs picked with the seed).
@@ -40,6 +41,15 @@ pub struct Args {
     /// each contact began).
     #[arg(long, short = 'o', default_value = "fleet")]
     out: PathBuf,
+    /// Also write each run's ground truth at every instant to
+    /// OUT/<robots>.trace: a line per robot per instant with its true
+    /// pose, distance driven and sonar ranges (what led up to a contact).
+    #[arg(long)]
+    trace: bool,
+    /// Run only the sizes given, without the one-robot run that
+    /// efficiency is measured against (its column is then empty).
+    #[arg(long)]
+    no_baseline: bool,
 }
 
 /// Runs the sweep; exit status 1 when a task was not done.
@@ -53,7 +63,7 @@ pub async fn run(args: Args) -> anyhow::Result<u8> {
     );
     sizes.sort_unstable();
     sizes.dedup();
-    if sizes.first() != Some(&1) {
+    if sizes.first() != Some(&1) && !args.no_baseline {
         sizes.insert(0, 1);
     }
     let cfg = ScaleConfig {
@@ -64,6 +74,7 @@ pub async fn run(args: Args) -> anyhow::Result<u8> {
         traffic: args.traffic,
         limit: Duration::from_secs_f64(args.limit_min * 60.0),
         stuck: Duration::from_secs(60),
+        traces: args.trace.then(|| args.out.clone()),
     };
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot make {}", args.out.display()))?;
