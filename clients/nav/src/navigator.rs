@@ -380,17 +380,21 @@ impl Navigator {
     async fn settle(&self, scans: &rome_client::robot::Stream<Scan>) -> Result<Scan, NavError> {
         for _ in 0..600 {
             let scan = self.next_scan(scans).await?;
-            let mode = self.robot.mode().await?;
-            let speed = self.robot.wheel_speed().await?;
-            let moving = ["point_turn", "point_go", "stopping"].contains(&mode.mode.as_str());
-            if !moving && speed.wheel_speed_mm_s < 5.0 {
-                return Ok(scan);
-            }
-            if mode.mode == "go" && speed.wheel_speed_mm_s > 5.0 {
+            if self.base_settled().await? {
                 return Ok(scan);
             }
         }
         Err(NavError::Gone("the base never finished its turn"))
+    }
+
+    /// Whether the base has finished an in-place turn, a move by a
+    /// distance or a stop (or is in Go mode at speed).
+    async fn base_settled(&self) -> Result<bool, NavError> {
+        let mode = self.robot.mode().await?;
+        let speed = self.robot.wheel_speed().await?;
+        let moving = ["point_turn", "point_go", "stopping"].contains(&mode.mode.as_str());
+        Ok((!moving && speed.wheel_speed_mm_s < 5.0)
+            || (mode.mode == "go" && speed.wheel_speed_mm_s > 5.0))
     }
 
     async fn carry_out(

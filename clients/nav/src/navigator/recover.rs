@@ -14,6 +14,28 @@ const MAX_STEP_MM: f64 = 1_500.0;
 /// How near the side sonars' two ranges must add up to the map's width
 /// beside the goal for them to be believed, mm.
 const WIDTH_AGREES_MM: f64 = 250.0;
+/// Something ahead of a sideways step this much nearer than the scene at
+/// rest put it has come into the way, mm (walls seen at a slant shrink a
+/// little faster than the robot drives; sonar noise is a few centimetres).
+const STEP_CAME_MM: f64 = 400.0;
+/// Nearer than this ahead stops a sideways step with more still to go, mm.
+const STEP_TOUCH_MM: f64 = 250.0;
+/// The way ahead of a halted sideways step is clear again with this much
+/// room beyond what is left of it, mm ...
+const STEP_ROOM_MM: f64 = 400.0;
+/// ... or with this much room at all, mm.
+const STEP_CLEAR_MM: f64 = 1_500.0;
+/// Scans (10 a second) a halted sideways step waits for its way at most.
+const STEP_WAIT_SCANS: u32 = 200;
+
+/// Whether what the sonars see ahead (`now`, mm from the skin) stops a
+/// sideways step with `remaining` mm to go, when the scene at rest put it
+/// at `expected`.
+fn step_in_the_way(now: f64, expected: f64, remaining: f64) -> bool {
+    let came = now < expected - STEP_CAME_MM && now < remaining + STEP_ROOM_MM;
+    let touching = now < STEP_TOUCH_MM && remaining > now;
+    came || touching
+}
 
 impl Navigator {
     /// Ends the goal at hand because a value it depends on is bad: the
@@ -128,12 +150,74 @@ impl Navigator {
         tracing::info!(off, "navigator: stepping sideways onto the goal's line");
         let quarter = if off > 0.0 { -90.0 } else { 90.0 };
         self.send(Drive::Turn(quarter)).await?;
-        self.settle(scans).await?;
-        self.robot.move_by(off.abs(), 200.0, -1.0).await?;
-        self.settle(scans).await?;
+        let at_rest = self.settle(scans).await?;
+        self.step_watched(scans, at_rest, off.abs()).await?;
         self.send(Drive::Turn(-quarter)).await?;
         self.settle(scans).await?;
         self.last = None;
+        Ok(())
+    }
+
+    /// The sideways step itself, `mm` straight on, watching the sonars
+    /// ahead: the step crosses the corridor, where other robots drive.
+    /// Something that comes nearer than the scene at rest explains, and is
+    /// in the way of what is left of the step, stops the robot; it goes on
+    /// once the way is clear, or stays where it is (off its line) after
+    /// [`STEP_WAIT_SCANS`]. With nothing coming it is the same move as an
+    /// unwatched one.
+    async fn step_watched(
+        &mut self,
+        scans: &rome_client::robot::Stream<Scan>,
+        at_rest: Scan,
+        mm: f64,
+    ) -> Result<(), NavError> {
+        let ahead = |s: &Scan| f64::from((10..=14).map(|i| s.sonar_mm[i]).min().unwrap_or(0));
+        let mut left = mm;
+        let mut expected = ahead(&at_rest);
+        let mut waited = 0;
+        while left > OFF_LINE_MM / 3.0 {
+            let from = self.pose().await?;
+            self.robot.move_by(left, 200.0, -1.0).await?;
+            let stopped = loop {
+                let scan = self.next_scan(scans).await?;
+                let moved = self.pose().await?.dist(&from);
+                let now = ahead(&scan);
+                let remaining = left - moved;
+                if step_in_the_way(now, expected - moved, remaining) {
+                    tracing::info!(
+                        ahead = now,
+                        remaining,
+                        "navigator: something crosses the sideways step; waiting"
+                    );
+                    self.send(Drive::Halt).await?;
+                    self.settle(scans).await?;
+                    break true;
+                }
+                if self.base_settled().await? {
+                    break false;
+                }
+            };
+            if !stopped {
+                return Ok(());
+            }
+            left -= self.pose().await?.dist(&from);
+            // Wait for the way to clear.
+            loop {
+                let scan = self.next_scan(scans).await?;
+                let now = ahead(&scan);
+                if now >= (left + STEP_ROOM_MM).min(STEP_CLEAR_MM) {
+                    expected = now;
+                    break;
+                }
+                waited += 1;
+                if waited >= STEP_WAIT_SCANS {
+                    tracing::info!(
+                        "navigator: the sideways step stays blocked; staying off the line"
+                    );
+                    return Ok(());
+                }
+            }
+        }
         Ok(())
     }
 
@@ -189,5 +273,33 @@ impl Navigator {
             self.last = None;
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod step_tests {
+    use super::step_in_the_way;
+
+    #[test]
+    fn a_wall_that_nears_as_the_robot_drives_does_not_stop_the_step() {
+        // 1.6 m to the far wall at rest, 1.0 m driven, 0.2 m to go.
+        assert!(!step_in_the_way(620.0, 600.0, 200.0));
+        // The last of a step towards a line near the far wall.
+        assert!(!step_in_the_way(420.0, 430.0, 20.0));
+    }
+
+    #[test]
+    fn a_robot_that_comes_into_the_step_stops_it() {
+        // The wall was 2 m off; a robot crossing stands 0.5 m ahead with
+        // 0.8 m of the step to go.
+        assert!(step_in_the_way(500.0, 1_700.0, 800.0));
+        // Nearer than the step will go, though the scene at rest saw it.
+        assert!(step_in_the_way(200.0, 250.0, 600.0));
+    }
+
+    #[test]
+    fn something_beyond_the_end_of_the_step_is_no_matter() {
+        // Came closer than expected, but beyond what is left of the step.
+        assert!(!step_in_the_way(1_200.0, 2_000.0, 300.0));
     }
 }
