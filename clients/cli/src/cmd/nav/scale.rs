@@ -41,9 +41,9 @@ pub struct Args {
     /// each contact began).
     #[arg(long, short = 'o', default_value = "fleet")]
     out: PathBuf,
-    /// Also write each run's ground truth at every instant to
-    /// OUT/<robots>.trace: a line per robot per instant with its true
-    /// pose, distance driven and sonar ranges (what led up to a contact).
+    /// Also write each run's ground truth at every instant to OUT/N.trace
+    /// for a fleet of N: a line per robot per instant with its true pose,
+    /// distance driven and sonar ranges (what led up to a contact).
     #[arg(long)]
     trace: bool,
     /// Run only the sizes given, without the one-robot run that
