@@ -94,8 +94,9 @@ pub struct ServerConfig {
 pub enum Storage {
     /// Only in memory: gone when the server stops.
     InMemory,
-    /// In `DIR/data.redb`: every answered change is on disk (fsync)
-    /// before its answer is sent, and loaded again at start.
+    /// In `DIR/data.redb` and its log `DIR/data.log`: every answered
+    /// change is on disk (the log synced) before its answer is sent, and
+    /// loaded again at start.
     Dir(std::path::PathBuf),
 }
 

@@ -31,7 +31,7 @@ use std::collections::{BTreeMap, BTreeSet, HashMap, VecDeque};
 use std::time::Duration;
 
 mod durable;
-pub use durable::{Disk, DiskError, Flush, FILE_NAME};
+pub use durable::{Disk, DiskError, Flush, FILE_NAME, LOG_NAME};
 
 /// How long a finished request's reply is kept for retries.
 pub const DEFAULT_RETENTION: Duration = Duration::from_secs(600);

@@ -15,7 +15,13 @@
 //! held     (sem, owner)    -> units (u64)
 //! ops      op id           -> {"at_ms":unix ms,"reply":<remembered reply>}
 //! meta     "next_anonymous"-> u64
+//!          "log_seq"       -> the last log record the file covers
 //! ```
+//!
+//! Each write is committed to the file unsynced and appended to the
+//! write-ahead log ([`log`], `DIR/data.log`); syncing the log is what
+//! makes a write durable, and opening applies the log's records the file
+//! does not cover yet. The write's edits ([`edit`]) are the log record.
 //!
 //! Times are not kept: a store loaded from disk treats every queued place,
 //! grant and held unit as made at load time, so their owners get the whole
@@ -28,16 +34,18 @@ use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
-use redb::{Database, Durability, ReadableDatabase, ReadableTable, TableDefinition};
+use std::sync::{Mutex, PoisonError};
 
-const VARS: TableDefinition<&str, &[u8]> = TableDefinition::new("vars");
-const VALUES: TableDefinition<(&str, u64), &[u8]> = TableDefinition::new("values");
-const SEMS: TableDefinition<&str, &[u8]> = TableDefinition::new("sems");
-const TICKETS: TableDefinition<&str, &[u8]> = TableDefinition::new("tickets");
-const HELD: TableDefinition<(&str, &str), u64> = TableDefinition::new("held");
-const OPS: TableDefinition<&str, &[u8]> = TableDefinition::new("ops");
-const META: TableDefinition<&str, u64> = TableDefinition::new("meta");
+use redb::{Database, Durability, ReadableDatabase, ReadableTable};
+
+mod edit;
+mod log;
+
+use edit::{Edit, HELD, META, OPS, SEMS, TICKETS, VALUES, VARS};
+pub use log::LOG_NAME;
+
 const NEXT_ANONYMOUS: &str = "next_anonymous";
+const LOG_SEQ: &str = "log_seq";
 
 /// The file name inside a data directory.
 pub const FILE_NAME: &str = "data.redb";
@@ -121,10 +129,11 @@ pub enum Flush {
     Later,
 }
 
-/// The open state file of one data server.
+/// The open state file of one data server, and its log.
 pub struct Disk {
     db: Database,
     path: PathBuf,
+    log: Mutex<log::Log>,
 }
 
 impl std::fmt::Debug for Disk {
@@ -153,18 +162,45 @@ impl Disk {
                 detail: e.to_string(),
             },
         })?;
-        let disk = Disk { db, path };
         // Every table exists from the start, so reads need no special case.
-        disk.write_with(Flush::Sync, |tx| {
-            tx.open_table(VARS)?;
-            tx.open_table(VALUES)?;
-            tx.open_table(SEMS)?;
-            tx.open_table(TICKETS)?;
-            tx.open_table(HELD)?;
-            tx.open_table(OPS)?;
-            tx.open_table(META)?;
-            Ok(())
+        let after = (|| -> Result<u64, redb::Error> {
+            let mut tx = db.begin_write()?;
+            tx.set_durability(Durability::Immediate)?;
+            edit::apply(&tx, &[])?;
+            let seq = tx.open_table(META)?.get(LOG_SEQ)?.map_or(0, |v| v.value());
+            tx.commit()?;
+            Ok(seq)
+        })()
+        .map_err(|e| DiskError::Store {
+            path: path.clone(),
+            detail: e.to_string(),
         })?;
+        let log_path = dir.join(LOG_NAME);
+        let log_failed = |e: std::io::Error| DiskError::Store {
+            path: log_path.clone(),
+            detail: e.to_string(),
+        };
+        let (log, records) = log::Log::open(&log_path, after).map_err(log_failed)?;
+        let disk = Disk {
+            db,
+            path,
+            log: Mutex::new(log),
+        };
+        // What was answered but is not yet in the file: applied, and the
+        // file synced, before the log starts again over those records.
+        let mut edits = Vec::new();
+        for (seq, payload) in &records {
+            edits.extend(edit::decode(payload).map_err(|e| DiskError::Damaged {
+                path: log_path.clone(),
+                table: "log",
+                key: seq.to_string(),
+                detail: e,
+            })?);
+        }
+        let mut log = disk.log.lock().unwrap_or_else(PoisonError::into_inner);
+        disk.checkpoint(&log, &edits)?;
+        log.restart().map_err(log_failed)?;
+        drop(log);
         Ok(disk)
     }
 
@@ -180,24 +216,51 @@ impl Disk {
         }
     }
 
-    fn write_with(
-        &self,
-        flush: Flush,
-        f: impl FnOnce(&redb::WriteTransaction) -> Result<(), redb::Error>,
-    ) -> Result<(), DiskError> {
+    /// Commits `edits` to the file unsynced and appends them to the log,
+    /// which is synced if `flush` says so. A write the log has no room for
+    /// is a checkpoint instead.
+    fn commit(&self, edits: &[Edit], flush: Flush) -> Result<(), DiskError> {
+        let mut log = self.log.lock().unwrap_or_else(PoisonError::into_inner);
+        let record = edit::encode(edits);
+        if !log.fits(record.len()) {
+            self.checkpoint(&log, edits)?;
+            return log.restart().map_err(|e| self.log_failed(e));
+        }
         let mut tx = self.db.begin_write().map_err(|e| self.failed(e))?;
-        tx.set_durability(match flush {
-            Flush::Sync => Durability::Immediate,
-            Flush::Later => Durability::None,
-        })
-        .map_err(|e| self.failed(e))?;
-        f(&tx).map_err(|e| self.failed(e))?;
+        tx.set_durability(Durability::None)
+            .map_err(|e| self.failed(e))?;
+        edit::apply(&tx, edits).map_err(|e| self.failed(e))?;
+        tx.commit().map_err(|e| self.failed(e))?;
+        log.append(&record).map_err(|e| self.log_failed(e))?;
+        if flush == Flush::Sync {
+            log.sync().map_err(|e| self.log_failed(e))?;
+        }
+        Ok(())
+    }
+
+    /// One synced commit of `edits` that also covers every log record so
+    /// far; the caller then starts the log again.
+    fn checkpoint(&self, log: &log::Log, edits: &[Edit]) -> Result<(), DiskError> {
+        let mut tx = self.db.begin_write().map_err(|e| self.failed(e))?;
+        tx.set_durability(Durability::Immediate)
+            .map_err(|e| self.failed(e))?;
+        edit::apply(&tx, edits).map_err(|e| self.failed(e))?;
+        edit::apply(&tx, &[Edit::Meta(LOG_SEQ.into(), log.last_seq())])
+            .map_err(|e| self.failed(e))?;
         tx.commit().map_err(|e| self.failed(e))
+    }
+
+    fn log_failed(&self, e: std::io::Error) -> DiskError {
+        DiskError::Store {
+            path: self.path.with_file_name(LOG_NAME),
+            detail: e.to_string(),
+        }
     }
 
     /// Pushes earlier [`Flush::Later`] writes to the disk.
     pub fn sync(&self) -> Result<(), DiskError> {
-        self.write_with(Flush::Sync, |_| Ok(()))
+        let log = self.log.lock().unwrap_or_else(PoisonError::into_inner);
+        log.sync().map_err(|e| self.log_failed(e))
     }
 
     /// Writes what `changes` names as `store` holds it now.
@@ -207,117 +270,8 @@ impl Disk {
         changes: &Changes,
         flush: Flush,
     ) -> Result<(), DiskError> {
-        let now = Instant::now();
-        let wall = unix_ms(SystemTime::now());
-        self.write_with(flush, |tx| {
-            let mut vars = tx.open_table(VARS)?;
-            let mut values = tx.open_table(VALUES)?;
-            for name in &changes.vars {
-                let Some(var) = store.vars.get(name) else {
-                    vars.remove(name.as_str())?;
-                    values
-                        .retain_in((name.as_str(), 0)..=(name.as_str(), u64::MAX), |_, _| false)?;
-                    continue;
-                };
-                let record = VarRecord {
-                    len: var.len,
-                    seq: var.seq,
-                };
-                vars.insert(
-                    name.as_str(),
-                    serde_json::to_vec(&record).unwrap_or_default().as_slice(),
-                )?;
-                let first = var.first_seq();
-                // Values dropped by a trim or a delete go; new ones come.
-                values.retain_in((name.as_str(), 0)..(name.as_str(), first), |_, _| false)?;
-                for (i, value) in var.values.iter().enumerate() {
-                    let seq = first + i as u64;
-                    if seq > var.stored_seq {
-                        let bytes = serde_json::to_vec(value).unwrap_or_default();
-                        values.insert((name.as_str(), seq), bytes.as_slice())?;
-                    }
-                }
-            }
-            let mut sems = tx.open_table(SEMS)?;
-            for name in &changes.sems {
-                match store.sems.get(name) {
-                    Some(sem) => {
-                        let record = SemRecord {
-                            value: sem.value,
-                            queue: sem.queue.iter().cloned().collect(),
-                        };
-                        sems.insert(
-                            name.as_str(),
-                            serde_json::to_vec(&record).unwrap_or_default().as_slice(),
-                        )?;
-                    }
-                    None => {
-                        sems.remove(name.as_str())?;
-                    }
-                }
-            }
-            let mut tickets = tx.open_table(TICKETS)?;
-            for id in &changes.tickets {
-                match store.tickets.get(id) {
-                    Some(t) => {
-                        let record = TicketRecord {
-                            sem: t.sem.to_string(),
-                            owner: t.owner.clone(),
-                            granted: matches!(t.state, TicketState::Granted { .. }),
-                            undo: t.undo,
-                        };
-                        tickets.insert(
-                            id.as_str(),
-                            serde_json::to_vec(&record).unwrap_or_default().as_slice(),
-                        )?;
-                    }
-                    None => {
-                        tickets.remove(id.as_str())?;
-                    }
-                }
-            }
-            let mut held = tx.open_table(HELD)?;
-            for key in &changes.held {
-                match store.held.get(key) {
-                    Some(h) => {
-                        held.insert((key.0.as_str(), key.1.as_str()), h.units)?;
-                    }
-                    None => {
-                        held.remove((key.0.as_str(), key.1.as_str()))?;
-                    }
-                }
-            }
-            let mut ops = tx.open_table(OPS)?;
-            for op in &changes.ops {
-                match store.remembered.get(op) {
-                    Some(reply) => {
-                        // How long ago it was remembered, carried as a wall time.
-                        let age = store
-                            .remembered_order
-                            .iter()
-                            .rev()
-                            .find(|(_, o)| o == op)
-                            .map_or(Duration::ZERO, |(at, _)| now.saturating_duration_since(*at));
-                        let record = OpRecord {
-                            at_ms: wall.saturating_sub(age.as_millis() as u64),
-                            reply: reply.clone(),
-                        };
-                        ops.insert(
-                            op.as_str(),
-                            serde_json::to_vec(&record).unwrap_or_default().as_slice(),
-                        )?;
-                    }
-                    None => {
-                        ops.remove(op.as_str())?;
-                    }
-                }
-            }
-            if changes.counter {
-                tx.open_table(META)?
-                    .insert(NEXT_ANONYMOUS, store.next_anonymous)?;
-            }
-            Ok(())
-        })?;
+        let edits = edits(store, changes);
+        self.commit(&edits, flush)?;
         for name in &changes.vars {
             if let Some(var) = store.vars.get_mut(name) {
                 var.stored_seq = var.seq;
@@ -450,6 +404,79 @@ impl Disk {
         }
         Ok(())
     }
+}
+
+fn json<T: Serialize>(value: &T) -> Vec<u8> {
+    serde_json::to_vec(value).unwrap_or_default()
+}
+
+/// What `changes` names, as `store` holds it now.
+fn edits(store: &Store, changes: &Changes) -> Vec<Edit> {
+    let now = Instant::now();
+    let wall = unix_ms(SystemTime::now());
+    let mut out = Vec::new();
+    for name in &changes.vars {
+        let key = name.to_string();
+        let Some(var) = store.vars.get(name) else {
+            out.push(Edit::Var(key.clone(), None));
+            out.push(Edit::DropValues(key, None));
+            continue;
+        };
+        let record = VarRecord {
+            len: var.len,
+            seq: var.seq,
+        };
+        out.push(Edit::Var(key.clone(), Some(json(&record))));
+        let first = var.first_seq();
+        // Values dropped by a trim or a delete go; new ones come.
+        out.push(Edit::DropValues(key.clone(), Some(first)));
+        for (i, value) in var.values.iter().enumerate() {
+            let seq = first + i as u64;
+            if seq > var.stored_seq {
+                out.push(Edit::Value(key.clone(), seq, json(value)));
+            }
+        }
+    }
+    for name in &changes.sems {
+        let record = store.sems.get(name).map(|sem| SemRecord {
+            value: sem.value,
+            queue: sem.queue.iter().cloned().collect(),
+        });
+        out.push(Edit::Sem(name.to_string(), record.map(|r| json(&r))));
+    }
+    for id in &changes.tickets {
+        let record = store.tickets.get(id).map(|t| TicketRecord {
+            sem: t.sem.to_string(),
+            owner: t.owner.clone(),
+            granted: matches!(t.state, TicketState::Granted { .. }),
+            undo: t.undo,
+        });
+        out.push(Edit::Ticket(id.clone(), record.map(|r| json(&r))));
+    }
+    for key in &changes.held {
+        let units = store.held.get(key).map(|h| h.units);
+        out.push(Edit::Held(key.0.to_string(), key.1.clone(), units));
+    }
+    for op in &changes.ops {
+        let record = store.remembered.get(op).map(|reply| {
+            // How long ago it was remembered, carried as a wall time.
+            let age = store
+                .remembered_order
+                .iter()
+                .rev()
+                .find(|(_, o)| o == op)
+                .map_or(Duration::ZERO, |(at, _)| now.saturating_duration_since(*at));
+            OpRecord {
+                at_ms: wall.saturating_sub(age.as_millis() as u64),
+                reply: reply.clone(),
+            }
+        });
+        out.push(Edit::Op(op.clone(), record.map(|r| json(&r))));
+    }
+    if changes.counter {
+        out.push(Edit::Meta(NEXT_ANONYMOUS.into(), store.next_anonymous));
+    }
+    out
 }
 
 #[cfg(test)]
@@ -634,16 +661,55 @@ mod tests {
     fn a_damaged_record_is_named_not_skipped() {
         let dir = scratch();
         let disk = Disk::open(&dir).unwrap();
-        disk.write_with(Flush::Sync, |tx| {
-            tx.open_table(SEMS)?
-                .insert("broken", b"{not json".as_slice())?;
-            Ok(())
-        })
-        .unwrap();
+        let broken = Edit::Sem("broken".into(), Some(b"{not json".to_vec()));
+        disk.commit(&[broken], Flush::Sync).unwrap();
         let mut s = Store::new(4);
         let e = disk.load(&mut s, Duration::from_secs(1)).unwrap_err();
         let text = e.to_string();
         assert!(text.contains("'broken'") && text.contains("sems"), "{text}");
+        let _ = std::fs::remove_dir_all(dir);
+    }
+
+    /// A copy of the directory's files as they are now on disk: what a
+    /// crash at this moment would leave.
+    fn crash_copy(dir: &Path, log: bool) -> PathBuf {
+        let to = scratch();
+        std::fs::create_dir_all(&to).unwrap();
+        std::fs::copy(dir.join(FILE_NAME), to.join(FILE_NAME)).unwrap();
+        if log {
+            std::fs::copy(dir.join(LOG_NAME), to.join(LOG_NAME)).unwrap();
+        }
+        to
+    }
+
+    #[test]
+    fn a_crash_keeps_every_synced_write_through_the_log_and_its_checkpoints() {
+        let dir = scratch();
+        let disk = Disk::open(&dir).unwrap();
+        let mut s = Store::new(4).track_changes();
+        let now = Instant::now();
+        let big = "x".repeat(100_000);
+        // Some 12 MB of values: the 8 MiB log fills and is checkpointed.
+        for step in 0..120u64 {
+            s.set(&n("big"), json!({"step": step, "pad": big}), None, now)
+                .unwrap();
+            s.create(&n("s"), 0).unwrap();
+            s.signal(&n("s"), Some(&format!("op-{step}")), now).unwrap();
+            let changes = s.take_changes();
+            disk.write(&mut s, &changes, Flush::Sync).unwrap();
+            if step == 10 || step == 119 {
+                let copy = crash_copy(&dir, true);
+                assert_eq!(observe(&reload(&copy)), observe(&s), "after step {step}");
+                // Without its log the state file is behind: the log is
+                // what kept the last writes.
+                let _ = std::fs::remove_dir_all(&copy);
+                let alone = crash_copy(&dir, false);
+                assert_ne!(observe(&reload(&alone)), observe(&s), "after step {step}");
+                let _ = std::fs::remove_dir_all(alone);
+            }
+        }
+        drop(disk);
+        assert_eq!(observe(&reload(&dir)), observe(&s));
         let _ = std::fs::remove_dir_all(dir);
     }
 }

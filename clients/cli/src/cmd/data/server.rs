@@ -26,7 +26,8 @@ pub struct Args {
     #[arg(long, default_value_t = 1024, value_name = "MIB")]
     pub max_mb: u64,
     /// Keep the state (values, histories, semaphores, waiters) in
-    /// DIR/data.redb; every answered change is on disk before its answer.
+    /// DIR/data.redb and its log DIR/data.log; every answered change is
+    /// on disk before its answer.
     /// Default: $XDG_DATA_HOME/rome/ROOT (~/.local/share/rome/ROOT).
     #[arg(
         long,
@@ -67,8 +68,9 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
     let kept = match &config.storage {
         Storage::InMemory => "in memory only".to_string(),
         Storage::Dir(dir) => format!(
-            "state in {}",
-            dir.join(rome_data::store::FILE_NAME).display()
+            "state in {} and its log {}",
+            dir.join(rome_data::store::FILE_NAME).display(),
+            dir.join(rome_data::store::LOG_NAME).display()
         ),
     };
     eprintln!(
