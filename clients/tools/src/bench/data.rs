@@ -22,8 +22,9 @@ pub struct DataBench {
     /// Print JSON rows instead of a table.
     #[arg(long)]
     pub json: bool,
-    /// Also measure set and signal on a second data server that keeps its
-    /// state in DIR (on disk, fsync before every answer), side by side.
+    /// Also measure set, signal and wait on a second data server that keeps
+    /// its state in DIR (on disk, synced before every answer), beside etcd
+    /// when it is installed, in a pass of their own after the other rows.
     #[arg(long, value_name = "DIR")]
     pub data_dir: Option<std::path::PathBuf>,
     /// Run the data server and the bare queryable in this process, beside
@@ -398,20 +399,6 @@ pub async fn data_rows(args: &DataBench, progress: bool) -> anyhow::Result<Vec<R
         },
         None => NetOptions::loopback_client(port),
     };
-    let (durable, disk_port) = match &args.data_dir {
-        Some(dir) => {
-            let (session, disk_port) = open_loopback_peer(&[]).await?;
-            let config = rome_data::ServerConfig {
-                storage: rome_data::Storage::Dir(dir.clone()),
-                ..rome_data::ServerConfig::default()
-            };
-            (
-                Some((session.clone(), rome_data::spawn(session, config))),
-                disk_port,
-            )
-        }
-        None => (None, 0),
-    };
     let tcp_port = echo_server().await?;
     let redis = Redis::start()?;
     let mut ops = vec![
@@ -432,25 +419,27 @@ pub async fn data_rows(args: &DataBench, progress: bool) -> anyhow::Result<Vec<R
         None => eprintln!("redis-server is not installed: Redis is left out (Debian: apt-get install redis-server)"),
     }
     // etcd beside the durable server only: both sync before answering.
-    let etcd = match durable {
+    let etcd = match &args.data_dir {
         Some(_) => Etcd::start()?,
         None => None,
     };
-    if durable.is_some() {
-        ops.extend([Op::DiskSet, Op::DiskSignal, Op::DiskWaitSignal]);
+    let mut disk_ops = Vec::new();
+    if args.data_dir.is_some() {
+        disk_ops.extend([Op::DiskSet, Op::DiskSignal, Op::DiskWaitSignal]);
         match &etcd {
-            Some(_) => ops.extend([Op::EtcdPut, Op::EtcdLock]),
+            Some(_) => disk_ops.extend([Op::EtcdPut, Op::EtcdLock]),
             None => eprintln!(
                 "etcd is not installed: etcd is left out (Debian: apt-get install etcd-server)"
             ),
         }
     }
+    let passes = if disk_ops.is_empty() { 1 } else { 2 };
     let mut rows = Vec::new();
     let mut bar = progress.then(|| {
         rome_common::progress::Progress::bar(
             "bench data",
             "steps",
-            (args.clients.len() * (ops.len() + ROUNDS as usize)) as u64,
+            (args.clients.len() * (ops.len() + disk_ops.len() + passes * ROUNDS as usize)) as u64,
         )
     });
     let mut step = 0u64;
@@ -463,18 +452,6 @@ pub async fn data_rows(args: &DataBench, progress: bool) -> anyhow::Result<Vec<R
             let session = far_end(port).open().await?;
             let data =
                 DataClient::connect(&session, DataOptions::new(&format!("bench{i}"))).await?;
-            let disk = match &durable {
-                Some(_) => {
-                    let session = NetOptions::loopback_client(disk_port).open().await?;
-                    let data =
-                        DataClient::connect(&session, DataOptions::new(&format!("bench{i}")))
-                            .await?;
-                    data.create_semaphore("bench", 0).await?;
-                    data.create_semaphore(&format!("bench-lock{i}"), 1).await?;
-                    Some((session, data))
-                }
-                None => None,
-            };
             let tcp = tokio::net::TcpStream::connect(("127.0.0.1", tcp_port)).await?;
             tcp.set_nodelay(true)?;
             let redis = match &redis {
@@ -485,19 +462,13 @@ pub async fn data_rows(args: &DataBench, progress: bool) -> anyhow::Result<Vec<R
                 }
                 None => None,
             };
-            let etcd = match &etcd {
-                Some(e) => Some(tokio::sync::Mutex::new(
-                    EtcdConn::connect(e.port, &format!("bench-lock{i}")).await?,
-                )),
-                None => None,
-            };
             let ping = pinger(&session, i).await?;
             clients.push(Client {
-                etcd,
+                etcd: None,
                 lock: format!("bench-lock{i}"),
                 session,
                 data,
-                disk,
+                disk: None,
                 tcp: tokio::sync::Mutex::new(tcp),
                 redis,
                 ping,
@@ -512,30 +483,79 @@ pub async fn data_rows(args: &DataBench, progress: bool) -> anyhow::Result<Vec<R
             .data
             .create_semaphore(PLENTY, u32::MAX as u64)
             .await?;
-        let measured = measure_all(&clients, &ops, span, |what| {
+        let mut say = |what: &str| {
             if let Some(b) = &mut bar {
                 b.step(step, &format!("{what} with {n} client(s)"));
             }
             step += 1;
-        })
-        .await?;
-        rows.extend(measured);
+        };
+        rows.extend(measure_all(&clients, &ops, span, &mut say).await?);
+        if let Some(dir) = &args.data_dir {
+            // A pass of its own: the durable server, its Zenoh peer and a
+            // session per client exist only while the durable rows are
+            // measured, and weigh on no other row.
+            say("starting the durable server");
+            let durable = Durable::start(dir, &mut clients, etcd.as_ref()).await?;
+            rows.extend(measure_all(&clients, &disk_ops, span, &mut say).await?);
+            durable.stop(&mut clients).await?;
+        }
         for c in clients {
             let _ = c.session.close().await;
-            if let Some((session, _)) = c.disk {
-                let _ = session.close().await;
-            }
         }
     }
     far.stop().await?;
     if let Some(path) = &socket {
         let _ = std::fs::remove_file(path);
     }
-    if let Some((session, server)) = durable {
-        server.stop().await?;
-        let _ = session.close().await;
-    }
     Ok(rows)
+}
+
+/// The durable data server in this process, with a session and an etcd
+/// connection per client, for the durable pass.
+struct Durable {
+    session: zenoh::Session,
+    server: rome_data::Running,
+}
+
+impl Durable {
+    async fn start(
+        dir: &std::path::Path,
+        clients: &mut [Client],
+        etcd: Option<&Etcd>,
+    ) -> anyhow::Result<Durable> {
+        let (session, disk_port) = open_loopback_peer(&[]).await?;
+        let config = rome_data::ServerConfig {
+            storage: rome_data::Storage::Dir(dir.to_path_buf()),
+            ..rome_data::ServerConfig::default()
+        };
+        let server = rome_data::spawn(session.clone(), config);
+        for (i, c) in clients.iter_mut().enumerate() {
+            let session = NetOptions::loopback_client(disk_port).open().await?;
+            let data =
+                DataClient::connect(&session, DataOptions::new(&format!("bench{i}"))).await?;
+            data.create_semaphore("bench", 0).await?;
+            data.create_semaphore(&c.lock, 1).await?;
+            c.disk = Some((session, data));
+            if let Some(e) = etcd {
+                c.etcd = Some(tokio::sync::Mutex::new(
+                    EtcdConn::connect(e.port, &c.lock).await?,
+                ));
+            }
+        }
+        Ok(Durable { session, server })
+    }
+
+    async fn stop(self, clients: &mut [Client]) -> anyhow::Result<()> {
+        for c in clients.iter_mut() {
+            c.etcd = None;
+            if let Some((session, _)) = c.disk.take() {
+                let _ = session.close().await;
+            }
+        }
+        self.server.stop().await?;
+        let _ = self.session.close().await;
+        Ok(())
+    }
 }
 
 /// Where the measured servers run.
