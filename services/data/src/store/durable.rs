@@ -682,6 +682,15 @@ mod tests {
         to
     }
 
+    /// What a store loaded after a crash at this moment holds, with its
+    /// log or without it.
+    fn after_a_crash(dir: &Path, log: bool) -> String {
+        let copy = crash_copy(dir, log);
+        let seen = observe(&reload(&copy));
+        let _ = std::fs::remove_dir_all(copy);
+        seen
+    }
+
     #[test]
     fn a_crash_keeps_every_synced_write_through_the_log_and_its_checkpoints() {
         let dir = scratch();
@@ -698,14 +707,10 @@ mod tests {
             let changes = s.take_changes();
             disk.write(&mut s, &changes, Flush::Sync).unwrap();
             if step == 10 || step == 119 {
-                let copy = crash_copy(&dir, true);
-                assert_eq!(observe(&reload(&copy)), observe(&s), "after step {step}");
+                assert_eq!(after_a_crash(&dir, true), observe(&s), "after step {step}");
                 // Without its log the state file is behind: the log is
                 // what kept the last writes.
-                let _ = std::fs::remove_dir_all(&copy);
-                let alone = crash_copy(&dir, false);
-                assert_ne!(observe(&reload(&alone)), observe(&s), "after step {step}");
-                let _ = std::fs::remove_dir_all(alone);
+                assert_ne!(after_a_crash(&dir, false), observe(&s), "after step {step}");
             }
         }
         drop(disk);
@@ -734,16 +739,12 @@ mod tests {
             let log = disk.log.lock().unwrap();
             disk.checkpoint(&log, &[]).unwrap();
         }
-        let copy = crash_copy(&dir, true);
-        assert_eq!(observe(&reload(&copy)), observe(&s));
-        let _ = std::fs::remove_dir_all(copy);
+        assert_eq!(after_a_crash(&dir, true), observe(&s));
         // Writes go on after the old records; they are read back too.
         for step in 5..8 {
             write(&mut s, step);
         }
-        let copy = crash_copy(&dir, true);
-        assert_eq!(observe(&reload(&copy)), observe(&s));
-        let _ = std::fs::remove_dir_all(copy);
+        assert_eq!(after_a_crash(&dir, true), observe(&s));
         let _ = std::fs::remove_dir_all(dir);
     }
 }
