@@ -187,7 +187,8 @@ impl Disk {
             log: Mutex::new(log),
         };
         // What was answered but is not yet in the file: applied, and the
-        // file synced, before the log starts again over those records.
+        // file synced, before the log starts again over those records. With
+        // none, the file already covers all the log holds.
         let mut edits = Vec::new();
         for (seq, payload) in &records {
             edits.extend(edit::decode(payload).map_err(|e| DiskError::Damaged {
@@ -198,7 +199,9 @@ impl Disk {
             })?);
         }
         let mut log = disk.log.lock().unwrap_or_else(PoisonError::into_inner);
-        disk.checkpoint(&log, &edits)?;
+        if !records.is_empty() {
+            disk.checkpoint(&log, &edits)?;
+        }
         log.restart().map_err(log_failed)?;
         drop(log);
         Ok(disk)
