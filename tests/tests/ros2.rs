@@ -34,16 +34,30 @@ async fn next<M: msg::Message>(
     msg::decode(&sample.payload().to_bytes()).unwrap()
 }
 
-/// A `cmd_vel` to drive straight ahead at `m_s`, encoded.
-fn ahead_at(m_s: f64) -> Vec<u8> {
+/// A `cmd_vel` to drive at `m_s` while turning at `rad_s`
+/// (counter-clockwise), encoded.
+fn twist(m_s: f64, rad_s: f64) -> Vec<u8> {
     msg::encode(&Twist {
         linear: Vector3 {
             x: m_s,
             y: 0.0,
             z: 0.0,
         },
-        angular: Vector3::default(),
+        angular: Vector3 {
+            x: 0.0,
+            y: 0.0,
+            z: rad_s,
+        },
     })
+}
+
+/// Puts `message` on `publisher` `commands` times, ten a second.
+async fn send(publisher: &zenoh::pubsub::Publisher<'_>, message: &[u8], commands: usize) {
+    let mut tick = tokio::time::interval(Duration::from_millis(100));
+    for _ in 0..commands {
+        tick.tick().await;
+        publisher.put(message.to_vec()).await.unwrap();
+    }
 }
 
 /// Ground truth once the simulated clock has reached `ms`.
@@ -164,15 +178,11 @@ async fn ros2_messages_come_out_and_cmd_vel_drives_one_robot_with_a_deadman() {
     let t1 = TruthClient::new(&ros, &root, "r1").unwrap();
     let t2 = TruthClient::new(&ros, &root, "r2").unwrap();
     let (start1, start2) = (t1.get().await.unwrap(), t2.get().await.unwrap());
-    let ahead = ahead_at(0.3);
+    let ahead = twist(0.3, 0.0);
     let publisher = ros.declare_publisher("r1/cmd_vel").await.unwrap();
     // A message that is not a Twist is skipped; the bridge goes on.
     publisher.put(vec![1u8, 2, 3]).await.unwrap();
-    let mut tick = tokio::time::interval(Duration::from_millis(100));
-    for _ in 0..20 {
-        tick.tick().await;
-        publisher.put(ahead.clone()).await.unwrap();
-    }
+    send(&publisher, &ahead, 20).await;
     let last = t1.get().await.unwrap().time_ms;
     let moved = t1.get().await.unwrap().travelled_mm - start1.travelled_mm;
     assert!(moved > 300.0, "r1 drove {moved:.0} mm on cmd_vel");
@@ -193,6 +203,40 @@ async fn ros2_messages_come_out_and_cmd_vel_drives_one_robot_with_a_deadman() {
     );
     let still = t2.get().await.unwrap().travelled_mm - start2.travelled_mm;
     assert!(still < 1.0, "r2 drove {still:.1} mm on r1's cmd_vel");
+
+    // A twist that drives and turns drives an arc; one with no speed turns
+    // in place, though the robot was driving the moment before. A heading
+    // grows counter-clockwise, as a ROS yaw does.
+    let turned =
+        |a: &Truth, b: &Truth| rome_maps::geometry::normalize_deg(b.heading_deg - a.heading_deg);
+    let a = t1.get().await.unwrap();
+    send(&publisher, &twist(0.3, 0.3), 15).await;
+    let b = t1.get().await.unwrap();
+    assert!(
+        b.travelled_mm - a.travelled_mm > 150.0,
+        "the arc drove {:.0} mm",
+        b.travelled_mm - a.travelled_mm
+    );
+    assert!(
+        turned(&a, &b) > 8.0,
+        "the arc turned {:.1}°",
+        turned(&a, &b)
+    );
+    // A second to come to rest from the arc's speed, then one in place.
+    send(&publisher, &twist(0.0, 0.5), 10).await;
+    let c = t1.get().await.unwrap();
+    send(&publisher, &twist(0.0, 0.5), 10).await;
+    let d = t1.get().await.unwrap();
+    assert!(
+        d.travelled_mm - c.travelled_mm < 20.0,
+        "a turn in place drove {:.0} mm",
+        d.travelled_mm - c.travelled_mm
+    );
+    assert!(
+        turned(&c, &d) > 15.0,
+        "the turn in place turned {:.1}°",
+        turned(&c, &d)
+    );
 
     // Another client drives r2; the bridge ends and leaves r2 going, as
     // it never drove r2 itself.
@@ -332,7 +376,7 @@ async fn as_rmw_zenoh_the_graph_lists_the_topics_and_cmd_vel_drives() {
     // A Twist on cmd_vel's key drives r1.
     let t1 = TruthClient::new(&ros, &root, "r1").unwrap();
     let start = t1.get().await.unwrap();
-    let ahead = ahead_at(0.3);
+    let ahead = twist(0.3, 0.0);
     let publisher = ros
         .declare_publisher(format!("17/r1/cmd_vel/{twist_type}/{twist_hash}"))
         .await

@@ -313,7 +313,10 @@ async fn drive(
         }
         let done = match want {
             Drive::Go(v) => base.go(v).await,
-            Drive::Jog(r) => base.jog(r).await,
+            Drive::Arc { mm_s, turn_deg_s } => match base.go(mm_s).await {
+                Ok(_) => base.jog(turn_deg_s).await,
+                Err(e) => Err(e),
+            },
         };
         match done {
             Ok(_) => {

@@ -199,28 +199,41 @@ pub fn occupancy(world: &rome_maps::World, resolution_m: f64) -> crate::msg::Occ
 /// What a `cmd_vel` asks of the base.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Drive {
-    /// Go straight on at mm/s.
+    /// Go straight on at mm/s (negative backwards).
     Go(f64),
-    /// Turn in place at °/s, positive clockwise (the base's sense).
-    Jog(f64),
+    /// Drive at mm/s (negative backwards, zero in place) while turning at
+    /// °/s, positive clockwise (the base's sense): Go at the speed, then
+    /// Jog at the rate. The base's Jog turns while it keeps the velocity
+    /// the last Go set (§4.6.2; on a Pioneer, VEL and RVEL), so the Go
+    /// comes first even to turn in place: without it, a turn asked of a
+    /// robot that was driving would be an arc at the old speed.
+    Arc {
+        /// Speed along the heading, mm/s.
+        mm_s: f64,
+        /// Turn rate, °/s, positive clockwise.
+        turn_deg_s: f64,
+    },
 }
 
 /// Below this, rad/s, a twist's turn is taken as none.
 const NO_TURN: f64 = 0.01;
 
-/// A `cmd_vel` as a base command. The base drives straight (Go) or turns
-/// in place (Jog), not both at once: a twist that turns is a turn in
-/// place. `None` for a twist with a value that is not a finite number.
-/// Speeds are held to the base's limits.
+/// A `cmd_vel` as a base command: its forward speed and its turn together.
+/// `None` for a twist with a value that is not a finite number. Speeds are
+/// held to the base's limits.
 pub fn drive(t: &Twist) -> Option<Drive> {
     let (v, w) = (t.linear.x, t.angular.z);
     if !v.is_finite() || !w.is_finite() {
         return None;
     }
+    let mm_s = (v * 1_000.0).clamp(-MAX_SPEED_MM_S, MAX_SPEED_MM_S);
     Some(if w.abs() >= NO_TURN {
-        Drive::Jog((-w.to_degrees()).clamp(-MAX_TURN_DEG_S, MAX_TURN_DEG_S))
+        Drive::Arc {
+            mm_s,
+            turn_deg_s: (-w.to_degrees()).clamp(-MAX_TURN_DEG_S, MAX_TURN_DEG_S),
+        }
     } else {
-        Drive::Go((v * 1_000.0).clamp(-MAX_SPEED_MM_S, MAX_SPEED_MM_S))
+        Drive::Go(mm_s)
     })
 }
 
@@ -256,7 +269,7 @@ mod tests {
     }
 
     #[test]
-    fn a_twist_that_turns_is_a_turn_in_place_clockwise_positive() {
+    fn a_twist_drives_and_turns_together_clockwise_positive() {
         let t = |v: f64, w: f64| Twist {
             linear: Vector3 {
                 x: v,
@@ -271,11 +284,22 @@ mod tests {
         };
         assert_eq!(drive(&t(0.3, 0.0)), Some(Drive::Go(300.0)));
         assert_eq!(drive(&t(5.0, 0.0)), Some(Drive::Go(MAX_SPEED_MM_S)));
+        // Counter-clockwise in ROS is negative for the base.
         match drive(&t(0.3, 0.5)) {
-            Some(Drive::Jog(r)) => assert!((r + 0.5f64.to_degrees()).abs() < 1e-9, "{r}"),
+            Some(Drive::Arc { mm_s, turn_deg_s }) => {
+                assert_eq!(mm_s, 300.0);
+                assert!(
+                    (turn_deg_s + 0.5f64.to_degrees()).abs() < 1e-9,
+                    "{turn_deg_s}"
+                );
+            }
             other => panic!("{other:?}"),
         }
+        // In place, and backwards, keep their speed too.
+        assert!(matches!(drive(&t(0.0, -0.5)), Some(Drive::Arc { mm_s, .. }) if mm_s == 0.0));
+        assert!(matches!(drive(&t(-0.2, 0.5)), Some(Drive::Arc { mm_s, .. }) if mm_s == -200.0));
         assert_eq!(drive(&t(f64::NAN, 0.0)), None);
+        assert_eq!(drive(&t(0.1, f64::INFINITY)), None);
     }
 
     #[test]

@@ -47,10 +47,14 @@ pub enum Mode {
         resume_mm_s: f64,
     },
     /// Jog: a turn rate (degrees per second, positive clockwise) superimposed
-    /// on forward motion at the speed setting, until Go or another Jog.
+    /// on motion at the speed setting, until Go or another Jog.
     Jog {
         /// Turn rate, degrees per second, positive clockwise.
         rate_deg_s: f64,
+        /// The motion is backwards: the Go before it was. A Pioneer keeps
+        /// the last Go's signed velocity under its turn (VEL, then RVEL).
+        #[serde(default)]
+        backwards: bool,
     },
     /// A gradual stop (pause) in progress; Joystick when stopped.
     Stopping,
@@ -154,7 +158,8 @@ impl Drive {
     }
 
     /// Jog: turn at `rate` degrees per second (positive clockwise) while
-    /// moving at the speed setting (Set JOG Mode).
+    /// moving at the speed setting (Set JOG Mode), backwards if the Go
+    /// before it was.
     pub fn jog(&mut self, rate: f64) -> Result<(), DriveError> {
         let rate = check(
             "jog rate",
@@ -162,7 +167,15 @@ impl Drive {
             MAX_TURN_DEG_S,
             "-90..=90 degrees per second",
         )?;
-        self.mode = Mode::Jog { rate_deg_s: rate };
+        let backwards = match self.mode {
+            Mode::Go { velocity } | Mode::ProportionalGo { velocity } => velocity < 0.0,
+            Mode::Jog { backwards, .. } => backwards,
+            _ => false,
+        };
+        self.mode = Mode::Jog {
+            rate_deg_s: rate,
+            backwards,
+        };
         Ok(())
     }
 
@@ -318,7 +331,17 @@ impl Drive {
                 (velocity, (2.0 * err).clamp(-10.0, 10.0))
             }
             Mode::ProportionalGo { velocity } => (velocity, 0.0),
-            Mode::Jog { rate_deg_s } => (self.speed_setting, -rate_deg_s),
+            Mode::Jog {
+                rate_deg_s,
+                backwards,
+            } => {
+                let v = if backwards {
+                    -self.speed_setting
+                } else {
+                    self.speed_setting
+                };
+                (v, -rate_deg_s)
+            }
             Mode::PointGo { remaining_mm } => {
                 // The last step lands exactly on the target.
                 let reach = (2.0 * self.accel_setting * remaining_mm.abs())

@@ -298,6 +298,36 @@ fn jog_superimposes_a_turn_on_forward_motion() {
 }
 
 #[test]
+fn jog_keeps_the_gos_direction_and_with_no_speed_turns_in_place() {
+    // Backwards: the Go before the Jog went backwards (a Pioneer jogs at
+    // the last Go's signed velocity).
+    let mut sim = room(quiet());
+    let r = sim.add_robot("r", at(5_000.0, 3_000.0, 0.0)).unwrap();
+    sim.robot_mut(r).drive.go(-300.0).unwrap();
+    sim.robot_mut(r).drive.jog(10.0).unwrap();
+    sim.run_for(3_000);
+    let robot = sim.robot(r);
+    assert!(robot.pose.heading.deg() < -20.0, "{}", robot.pose.heading);
+    assert!(robot.pose.at.y < 2_500.0, "backed: {:?}", robot.pose);
+    // A Go of no speed, then a Jog: a turn in place, though the robot
+    // was driving before.
+    let q = sim.add_robot("q", at(2_000.0, 2_000.0, 0.0)).unwrap();
+    sim.robot_mut(q).drive.go(300.0).unwrap();
+    sim.run_for(1_000);
+    sim.robot_mut(q).drive.go(0.0).unwrap();
+    sim.robot_mut(q).drive.jog(-20.0).unwrap();
+    sim.run_for(2_000);
+    let from = sim.robot(q).pose;
+    sim.run_for(2_000);
+    let to = sim.robot(q).pose;
+    assert!(
+        to.heading.deg() - from.heading.deg() > 30.0,
+        "{from:?} {to:?}"
+    );
+    assert!(from.dist(&to) < 1.0, "turned in place: {from:?} {to:?}");
+}
+
+#[test]
 fn odometry_registers_wrap_at_both_ends() {
     let mut sim = room(quiet());
     let east = sim.add_robot("east", at(2_000.0, 2_000.0, -90.0)).unwrap();
