@@ -476,26 +476,7 @@ pub struct Crate {
 /// The workspace's crates by name, from `cargo metadata` (no registry
 /// needed: only the workspace's own manifests are read).
 pub fn workspace(root: &Path) -> Result<BTreeMap<String, Crate>, String> {
-    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let out = std::process::Command::new(cargo)
-        .args([
-            "metadata",
-            "--format-version",
-            "1",
-            "--no-deps",
-            "--offline",
-        ])
-        .current_dir(root)
-        .output()
-        .map_err(|e| format!("cannot run cargo metadata: {e}"))?;
-    if !out.status.success() {
-        return Err(format!(
-            "cargo metadata failed: {}",
-            String::from_utf8_lossy(&out.stderr)
-        ));
-    }
-    let meta: serde_json::Value =
-        serde_json::from_slice(&out.stdout).map_err(|e| format!("cargo metadata's output: {e}"))?;
+    let meta = metadata(root)?;
     let packages = meta["packages"].as_array().cloned().unwrap_or_default();
     let names: BTreeSet<String> = packages
         .iter()
@@ -523,6 +504,51 @@ pub fn workspace(root: &Path) -> Result<BTreeMap<String, Crate>, String> {
         crates.insert(name.to_string(), Crate { dir, uses });
     }
     Ok(crates)
+}
+
+/// Where a workspace crate takes `zenoh` or `zenoh-ext` with their default
+/// features, as `crate → dependency (kind)`, from `cargo metadata`'s
+/// output. Zenoh's defaults are every transport it has (QUIC, UDP,
+/// WebSocket, compression, several links): one crate that takes them, even
+/// only for its tests, turns them on for every test build of the
+/// workspace, which then compiles transports the project does not offer
+/// (about a minute of a clean build on two cores).
+pub fn zenoh_defaults(meta: &serde_json::Value) -> Vec<String> {
+    let mut out = Vec::new();
+    for p in meta["packages"].as_array().into_iter().flatten() {
+        let name = p["name"].as_str().unwrap_or("?");
+        for d in p["dependencies"].as_array().into_iter().flatten() {
+            let dep = d["name"].as_str().unwrap_or("");
+            if matches!(dep, "zenoh" | "zenoh-ext") && d["uses_default_features"] != false {
+                let kind = d["kind"].as_str().unwrap_or("normal");
+                out.push(format!("{name} → {dep} ({kind})"));
+            }
+        }
+    }
+    out
+}
+
+/// `cargo metadata` of the workspace's own manifests.
+pub fn metadata(root: &Path) -> Result<serde_json::Value, String> {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let out = std::process::Command::new(cargo)
+        .args([
+            "metadata",
+            "--format-version",
+            "1",
+            "--no-deps",
+            "--offline",
+        ])
+        .current_dir(root)
+        .output()
+        .map_err(|e| format!("cannot run cargo metadata: {e}"))?;
+    if !out.status.success() {
+        return Err(format!(
+            "cargo metadata failed: {}",
+            String::from_utf8_lossy(&out.stderr)
+        ));
+    }
+    serde_json::from_slice(&out.stdout).map_err(|e| format!("cargo metadata's output: {e}"))
 }
 
 /// Every workspace crate `name` needs to build, itself left out.

@@ -1,7 +1,8 @@
 //! The source tree keeps its shape: no file over 800 lines outside the
 //! tests, no files that import each other, a hardware crate that builds
-//! without the simulator, and docs/architecture.md's picture of the
-//! crates as they are (`ROME_BLESS=1` writes it anew).
+//! without the simulator, Zenoh without the transports the project does
+//! not offer, and docs/architecture.md's picture of the crates as they
+//! are (`ROME_BLESS=1` writes it anew).
 
 use crate::house::{self, MAX_LINES};
 use crate::TestDir;
@@ -48,6 +49,22 @@ fn the_hardware_servers_build_without_the_simulator() {
     // And the simulated devices do reach both sides, through their adapter.
     let adapter = house::needs(&crates, "rome-sim-hardware");
     assert!(adapter.contains("rome-sim") && adapter.contains("rome-hardware"));
+}
+
+#[test]
+fn no_crate_takes_zenohs_default_transports() {
+    let meta = house::metadata(&root()).expect("cargo metadata");
+    let found = house::zenoh_defaults(&meta);
+    assert!(
+        found.is_empty(),
+        "taken with default features (write default-features = false): {found:#?}"
+    );
+    // A test-only dependency counts too: it is built with the workspace.
+    let made_up = serde_json::json!({"packages": [{"name": "a", "dependencies": [
+        {"name": "zenoh", "kind": null, "uses_default_features": false},
+        {"name": "zenoh-ext", "kind": "dev", "uses_default_features": true},
+    ]}]});
+    assert_eq!(house::zenoh_defaults(&made_up), ["a → zenoh-ext (dev)"]);
 }
 
 /// The text between docs/architecture.md's markers.
