@@ -512,7 +512,7 @@ pub fn workspace(root: &Path) -> Result<BTreeMap<String, Crate>, String> {
 /// WebSocket, compression, several links): one crate that takes them, even
 /// only for its tests, turns them on for every test build of the
 /// workspace, which then compiles transports the project does not offer
-/// (about a minute of a clean build on two cores).
+/// (QUIC's quinn, the RSA of public-key authentication, and more).
 pub fn zenoh_defaults(meta: &serde_json::Value) -> Vec<String> {
     let mut out = Vec::new();
     for p in meta["packages"].as_array().into_iter().flatten() {
