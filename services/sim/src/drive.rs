@@ -179,6 +179,16 @@ impl Drive {
         Ok(())
     }
 
+    /// A Jog's velocity: the speed setting, backwards if its Go was; a
+    /// turn that interrupts the Jog goes on at it too.
+    fn jog_mm_s(&self, backwards: bool) -> f64 {
+        if backwards {
+            -self.speed_setting
+        } else {
+            self.speed_setting
+        }
+    }
+
     /// Move: `distance` mm (negative backwards) at `velocity` mm/s and
     /// `accel` mm/s²; a negative velocity or acceleration keeps the current
     /// setting (Table 4.1).
@@ -218,7 +228,8 @@ impl Drive {
         }
         let resume_mm_s = match self.mode {
             Mode::Go { velocity } | Mode::ProportionalGo { velocity } => velocity,
-            Mode::Jog { .. } | Mode::ContinuousTurn { .. } => self.speed_setting,
+            Mode::Jog { backwards, .. } => self.jog_mm_s(backwards),
+            Mode::ContinuousTurn { .. } => self.speed_setting,
             Mode::PointTurn { resume_mm_s, .. } => resume_mm_s,
             Mode::Joystick | Mode::PointGo { .. } | Mode::Stopping => 0.0,
         };
@@ -334,14 +345,7 @@ impl Drive {
             Mode::Jog {
                 rate_deg_s,
                 backwards,
-            } => {
-                let v = if backwards {
-                    -self.speed_setting
-                } else {
-                    self.speed_setting
-                };
-                (v, -rate_deg_s)
-            }
+            } => (self.jog_mm_s(backwards), -rate_deg_s),
             Mode::PointGo { remaining_mm } => {
                 // The last step lands exactly on the target.
                 let reach = (2.0 * self.accel_setting * remaining_mm.abs())

@@ -309,6 +309,14 @@ fn jog_keeps_the_gos_direction_and_with_no_speed_turns_in_place() {
     let robot = sim.robot(r);
     assert!(robot.pose.heading.deg() < -20.0, "{}", robot.pose.heading);
     assert!(robot.pose.at.y < 2_500.0, "backed: {:?}", robot.pose);
+    // A turn in the middle of it goes on backwards afterwards.
+    sim.robot_mut(r).drive.turn(10.0, -1.0, -1.0).unwrap();
+    sim.run_for(3_000);
+    assert!(
+        matches!(sim.robot(r).drive.mode, Mode::Go { velocity } if velocity < 0.0),
+        "{:?}",
+        sim.robot(r).drive.mode
+    );
     // A Go of no speed, then a Jog: a turn in place, though the robot
     // was driving before.
     let q = sim.add_robot("q", at(2_000.0, 2_000.0, 0.0)).unwrap();
