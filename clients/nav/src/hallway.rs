@@ -5,7 +5,7 @@
 use crate::drive::{
     Drive, NavConfig, FORWARD, JOG_RATE_DEG_S, KEEP_RIGHT_AHEAD_MM, KEEP_RIGHT_BEAR_DEG,
     KEEP_RIGHT_FOR_MM, KEEP_RIGHT_JOG_DEG_S, ONCOMING_CLOSING, OPEN_ENOUGH_MM, ROBOT_CLEARANCE_MM,
-    SAFE_START_MM, SONARS, SPACING,
+    ROBOT_RADIUS_MM, SAFE_START_MM, SONARS, SPACING,
 };
 use rome_maps::geometry::normalize_deg;
 use rome_schema::robot::Scan;
@@ -180,7 +180,18 @@ impl Hallway {
         let open = open_sonar(sonar, heading_deg, goal_deg, 2);
         let delta = if open != sonar_towards(goal_deg - heading_deg) && !off_middle {
             bearing(open)
-        } else if let Some(d) = self.walls.steer(sonar, along_mm) {
+        } else if let Some(d) = self.walls.steer(
+            sonar,
+            // Swerving to keep right, the robot turns up to 30° from the
+            // axis, where sonars 6 and 18 hear no echo: the walls are read
+            // square on. Elsewhere as the thesis' Navigator read them.
+            if brisk {
+                normalize_deg(heading_deg - goal_deg)
+            } else {
+                0.0
+            },
+            along_mm,
+        ) {
             // The open direction is the axis itself, which odometry alone
             // cannot hold to a degree: the side walls say how the robot
             // moves relative to them and how far off the middle it is.
@@ -236,12 +247,46 @@ pub struct Walls {
 /// Driving this far is enough to tell the angle to the walls, mm.
 const WALL_WINDOW_MM: f64 = 1_000.0;
 
+/// How far the sonar read for a side wall may turn from the side sonar
+/// (6 or 18), in sonar steps of 15°: enough for the steepest swerve the
+/// hallway steers (30°).
+const SQUARE_ON_STEPS: i64 = 2;
+
+/// How far the wall at `side_deg` of the axis (90: left, -90: right)
+/// stands from the robot's skin, mm, read by the sonar most nearly square
+/// to it. A wall returns an echo only within 20° of square (the specular
+/// model, as Polaroid sonar), so at a slant of 30° the side sonar hears
+/// nothing and the walls are lost just when the robot steers over to keep
+/// right; the sonar 30° round still hears the wall, at the range of the
+/// perpendicular foot. Sonars are 15° apart, so the one chosen is within
+/// 7.5° of square, and `(r + R)·cos` of that leaves the range from the skin
+/// within 3 mm. Driving along the axis (within 7.5°), or turned further
+/// than the swerve, it is sonar 6 or 18 itself, read as it is.
+fn square_on(sonar: &[u32], side_deg: f64, rel_deg: f64) -> f64 {
+    let normal = normalize_deg(side_deg - rel_deg);
+    let side = sonar_towards(side_deg);
+    let i = sonar_towards(normal);
+    let steps = (normalize_deg(bearing(i) - bearing(side)) / SPACING).round() as i64;
+    if i == side || steps.abs() > SQUARE_ON_STEPS {
+        return f64::from(sonar[side]);
+    }
+    let r = f64::from(sonar[i]);
+    let off = normalize_deg(normal - bearing(i)).to_radians();
+    (r + ROBOT_RADIUS_MM) * off.cos() - ROBOT_RADIUS_MM
+}
+
 impl Walls {
     /// Adds a scan; returns the steering correction (degrees
     /// counter-clockwise) that brings the robot back to the middle, when
-    /// both walls have been in view long enough to tell.
-    pub fn steer(&mut self, sonar: &[u32], along_mm: f64) -> Option<f64> {
-        let (left, right) = (f64::from(sonar[18]), f64::from(sonar[6]));
+    /// both walls have been in view long enough to tell. `rel_deg` is the
+    /// heading relative to the hallway's axis (counter-clockwise) when the
+    /// walls are to be read square on ([`square_on`]); 0 reads sonars 6
+    /// and 18 as they are.
+    pub fn steer(&mut self, sonar: &[u32], rel_deg: f64, along_mm: f64) -> Option<f64> {
+        let (left, right) = (
+            square_on(sonar, 90.0, rel_deg),
+            square_on(sonar, -90.0, rel_deg),
+        );
         let width = left + right;
         while self
             .samples
@@ -316,7 +361,7 @@ pub fn corner_step(
     along_mm: f64,
 ) -> Drive {
     let err = normalize_deg(goal_deg - heading_deg);
-    let by_walls = walls.steer(&scan.sonar_mm, along_mm);
+    let by_walls = walls.steer(&scan.sonar_mm, 0.0, along_mm);
     // Forward-looking infrared detectors are slots 0–3, looking 45° and 15°
     // right, then 15° and 45° left. On a detection: stop, and turn slowly
     // away from the side that sees something (toward the goal direction

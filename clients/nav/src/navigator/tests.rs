@@ -136,3 +136,64 @@ fn off_centre_it_steers_back_toward_the_middle() {
     }
     assert_eq!(last, Drive::Jog(-4.0));
 }
+
+/// What the ring reads between the walls of a corridor `width_mm` wide,
+/// the robot's middle `left_mm` left of the corridor's middle and heading
+/// `rel_deg` from its axis: the specular model's readings (a wall echoes
+/// only within 20° of square, from the beam's nearest point on it, the
+/// beam 7.5° either side), nothing else in view.
+fn slanted_scan(width_mm: f64, left_mm: f64, rel_deg: f64) -> Vec<u32> {
+    (0..24)
+        .map(|i| {
+            let dir = rel_deg + bearing(i);
+            // Each wall: its normal's direction from the axis, and how far
+            // it stands from the robot's middle.
+            [
+                (90.0, width_mm / 2.0 - left_mm),
+                (-90.0, width_mm / 2.0 + left_mm),
+            ]
+            .iter()
+            .filter_map(|(normal, far)| {
+                let incidence = normalize_deg(dir - normal).abs();
+                (incidence <= 20.0).then(|| {
+                    let skin = far - 380.0 * incidence.to_radians().cos();
+                    skin / (incidence - 7.5).max(0.0).to_radians().cos()
+                })
+            })
+            .fold(10_000.0f64, f64::min)
+            .round() as u32
+        })
+        .collect()
+}
+
+#[test]
+fn swerving_30_degrees_the_walls_stay_in_view() {
+    // Keeping right for an oncoming robot in a 2.44 m corridor, the
+    // robot turns 30° right: sonars 6 and 18 are 30° off square and hear
+    // nothing; sonars 8 and 20 are square to the walls.
+    let s = slanted_scan(2_440.0, 0.0, -30.0);
+    assert_eq!((s[6], s[18]), (10_000, 10_000), "{s:?}");
+    let mut walls = Walls::default();
+    let mut left_mm = 0.0;
+    for k in 0..12 {
+        let along = 100.0 * f64::from(k);
+        let s = slanted_scan(2_440.0, left_mm, -30.0);
+        walls.steer(&s, -30.0, along);
+        left_mm -= 100.0 * 30f64.to_radians().tan();
+    }
+    // The walls are read as far apart as they are (the robot's width
+    // left out) ...
+    let width = walls.width().expect("both walls in view");
+    assert!((width - (2_440.0 - 760.0)).abs() < 5.0, "{width}");
+    // ... and the robot, now 0.6 m right of the middle and moving right
+    // at 30°, is steered back left.
+    let steer = walls.fit().expect("a fit of the walls");
+    assert!(steer > 20.0, "{steer}");
+    // Along the axis the side sonars read the walls as they are.
+    let s = slanted_scan(2_440.0, 300.0, 0.0);
+    let mut walls = Walls::default();
+    for k in 0..6 {
+        walls.steer(&s, 0.0, 100.0 * f64::from(k));
+    }
+    assert_eq!(walls.width(), Some(f64::from(s[6] + s[18])));
+}
