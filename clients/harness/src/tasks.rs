@@ -46,6 +46,8 @@ pub struct TaskReport {
     pub statuses: Vec<TaskStatus>,
     /// Each robot's contacts, by ground truth.
     pub contacts: BTreeMap<String, ContactCount>,
+    /// Where each robot stands at the end, by ground truth: (x, y) mm.
+    pub at_end: BTreeMap<String, (f64, f64)>,
     /// Each robot's longest time standing still (moved under half a metre)
     /// while it had a task, simulated s.
     pub longest_still_s: BTreeMap<String, f64>,
@@ -348,16 +350,18 @@ async fn run_all(
         set.abort_all();
         while set.join_next().await.is_some() {}
     }
-    let mut contacts = BTreeMap::new();
+    let (mut contacts, mut at_end) = (BTreeMap::new(), BTreeMap::new());
     for (k, name) in names.iter().enumerate() {
         let t = rome_sim_hardware::truth::truth_of(&rig.world, rig.index[k]);
         contacts.insert(name.clone(), t.contacts);
+        at_end.insert(name.clone(), (t.x_mm, t.y_mm));
     }
     let longest_still_s = names.iter().cloned().zip(longest).collect();
     rig.stop().await;
     Ok(TaskReport {
         statuses: statuses.into_values().collect(),
         contacts,
+        at_end,
         longest_still_s,
         traffic_wait_s,
         contact_places,

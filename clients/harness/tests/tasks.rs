@@ -2,7 +2,7 @@
 //! ground truth: each task goes to the nearest free robot and is done
 //! there; a task pinned to a robot waits for it; a task for nowhere fails
 //! with the reason; a task whose robot's crew dies goes to another robot
-//! and says why.
+//! and says why; a robot between tasks steps aside for the others.
 
 use rome_harness::tasks::{run_tasks, TaskEvent, TaskReport, TaskRun};
 use rome_harness::{RouteSpec, RunConfig};
@@ -149,4 +149,36 @@ async fn a_task_that_takes_far_too_long_is_given_up_as_overdue_and_the_robot_goe
     assert_eq!(t2.tried, vec!["r1".to_string()], "{t2:?}");
     assert!(t2.assigned_ms >= t1.ended_ms, "{t1:?} {t2:?}");
     assert_eq!(t2.state, TaskState::Done, "{t2:?}");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_robot_between_tasks_steps_aside_and_another_passes_it_in_a_narrow_corridor() {
+    // r1 drives south down corridor N (2.44 m wide, x = 60 m) to A336L and
+    // has no other task; r2 comes the long way round from corridor M and
+    // passes that spot on its way to A342R. On the corridor's middle r1
+    // leaves 0.84 m either side of it, and r2 is 0.76 m wide.
+    let r = run(
+        &[("r1", "A326L"), ("r2", "309R")],
+        vec![
+            ("T1", spec("A336L", Some("r1"))),
+            ("T2", spec("A342R", Some("r2"))),
+        ],
+        None,
+    )
+    .await;
+    for id in ["T1", "T2"] {
+        let t = status(&r, id);
+        assert_eq!(t.state, TaskState::Done, "{t:?}");
+    }
+    // Heading south, right is west: r1 stands by the west wall, not on the
+    // middle line, by ground truth.
+    let (x, _) = r.at_end["r1"];
+    assert!(
+        x < 60_000.0 - 500.0,
+        "r1 stands at x = {:.2} m, the corridor's middle is 60 m",
+        x / 1000.0
+    );
+    for (robot, c) in &r.contacts {
+        assert_eq!((c.wall, c.robot), (0, 0), "{robot} touched: {c:?}");
+    }
 }

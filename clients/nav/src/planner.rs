@@ -260,6 +260,45 @@ pub async fn stop_navigator(board: &Board, robot: &RobotClient) -> Result<bool, 
     Ok(true)
 }
 
+/// How far from the right wall a robot between tasks stands, mm, from its
+/// middle: its radius and 0.15 m.
+const ASIDE_FROM_WALL_MM: f64 = crate::drive::ROBOT_RADIUS_MM + 150.0;
+
+/// Moves a robot that stands where its last D goal ended (heading
+/// `direction_deg`, the walls `walls` = (left, right) mm from its line, as
+/// the map has them) over to the corridor's right wall. A robot between
+/// tasks otherwise stands on the middle of the corridor, where in a 2.44 m
+/// corridor no other robot can pass it without a touch. It is the
+/// Navigator's sideways step onto a goal's line (`GoalWalls`), on a goal
+/// of 1 mm whose line lies [`ASIDE_FROM_WALL_MM`] from the right wall;
+/// the Navigator checks the walls against the map and watches for anyone
+/// in the way as it steps. `Some` says why the Navigator ended the goal
+/// instead.
+pub async fn step_aside(
+    board: &Board,
+    direction_deg: f64,
+    (left, right): (f64, f64),
+) -> Result<Option<String>, NavError> {
+    if right <= ASIDE_FROM_WALL_MM {
+        return Ok(None);
+    }
+    let walls = (
+        (left + right - ASIDE_FROM_WALL_MM).round() as i64,
+        ASIDE_FROM_WALL_MM.round() as i64,
+    );
+    board.set(Var::GoalLane, &None::<i64>).await?;
+    board.set(Var::GoalWalls, &Some(walls)).await?;
+    board
+        .give_goal(&Goal {
+            goal_type: GoalType::D,
+            distance: 1,
+            direction_deg,
+        })
+        .await?;
+    await_status(board).await?;
+    Ok(failed(board).await)
+}
+
 /// Waits on `$RobotStatus`: the Navigator is done with the goal. The
 /// Navigator writes its Status every second of robot time while it works
 /// on a goal: silence means it died with the goal.

@@ -4,6 +4,10 @@
 //! goal, drives there as [`crate::planner::run`] does, and reports how it
 //! went.
 //!
+//! A robot that arrived and is given no other task within
+//! [`DutyConfig::aside_after`] steps over to the corridor's right wall, out
+//! of the others' way ([`planner::step_aside`]).
+//!
 //! A task that cannot be planned fails and the robot stays where it is.
 //! A run that fails or is cancelled midway stops the robot away from any
 //! position the map names: it reports where its odometry puts it
@@ -17,7 +21,7 @@
 use super::schema::{
     decode, duty_var, task_sem, task_var, Assignment, Duty, DutyState, Outcome, WAKE,
 };
-use crate::board::{Board, Status, Var};
+use crate::board::{Board, GoalType, Status, Var};
 use crate::plan::Plan;
 use crate::planner::{self, Progress};
 use crate::NavError;
@@ -43,6 +47,10 @@ const OVERDUE_GRACE: Duration = Duration::from_secs(120);
 /// [`DutyConfig::stuck`], not to be blocked.
 const BLOCKED_RADIUS_MM: f64 = 2_000.0;
 
+/// Where the last task left the robot: its last D goal's direction, and
+/// the walls (left, right) beside the goal, mm.
+type LastLeg = (f64, (f64, f64));
+
 /// How the robot takes tasks.
 #[derive(Debug, Clone)]
 pub struct DutyConfig {
@@ -64,6 +72,10 @@ pub struct DutyConfig {
     /// given up as overdue: a robot that drives on without getting there
     /// has lost its way, and is never blocked.
     pub slowest_mm_s: f64,
+    /// A robot that stands where its task ended, and is given no other
+    /// task within this long, steps over to the corridor's right wall
+    /// ([`planner::step_aside`]); `None`: it stays on the middle.
+    pub aside_after: Option<Duration>,
 }
 
 impl DutyConfig {
@@ -76,6 +88,7 @@ impl DutyConfig {
             check_every: Duration::from_secs(1),
             stuck: Duration::from_secs(180),
             slowest_mm_s: 100.0,
+            aside_after: Some(Duration::from_secs(5)),
         }
     }
 }
@@ -146,8 +159,29 @@ impl OnDuty<'_> {
         // Where the last task was given up as blocked, if it was.
         let mut blocked_at: Option<(f64, f64)> = None;
         let mut overdue_before = false;
+        // How the last task ended, when it ended on its goal: the goal's
+        // direction and the walls beside it.
+        let mut last_leg: Option<LastLeg> = None;
         loop {
-            ds.wait(&task_sem(self.name)).await?;
+            let given = match (last_leg.take(), cfg.aside_after) {
+                (Some((direction, walls)), Some(after)) => {
+                    let given = ds.wait_timeout(&task_sem(self.name), after).await?;
+                    if !given {
+                        match planner::step_aside(self.board, direction, walls).await {
+                            Ok(None) => {}
+                            Ok(Some(why)) => note(DutyNote::Skipped(format!(
+                                "stepping aside, the Navigator: {why}"
+                            ))),
+                            Err(e) => note(DutyNote::Skipped(format!("stepping aside: {e}"))),
+                        }
+                    }
+                    given
+                }
+                _ => false,
+            };
+            if !given {
+                ds.wait(&task_sem(self.name)).await?;
+            }
             let value = ds.get(&task_var(self.name)).await?;
             let a = match decode::<Option<Assignment>>(&task_var(self.name), &value) {
                 Ok(Some(a)) => a,
@@ -166,8 +200,17 @@ impl OnDuty<'_> {
             self.report(&duty).await?;
             let from = (duty.at.clone(), duty.at_mm.map(|[x, y]| Point::new(x, y)));
             let (outcome, at) = self
-                .carry_out(cfg, &from, &a, &mut registered, &mut facing, &mut note)
+                .carry_out(
+                    cfg,
+                    &from,
+                    &a,
+                    (&mut registered, &mut facing, &mut last_leg),
+                    &mut note,
+                )
                 .await;
+            if at.is_none() {
+                last_leg = None;
+            }
             match at {
                 Some(at) => {
                     duty.at = at;
@@ -236,8 +279,7 @@ impl OnDuty<'_> {
         cfg: &DutyConfig,
         from: &(String, Option<Point>),
         a: &Assignment,
-        registered: &mut bool,
-        facing: &mut Option<f64>,
+        (registered, facing, last_leg): (&mut bool, &mut Option<f64>, &mut Option<LastLeg>),
         note: &mut impl FnMut(DutyNote<'_>),
     ) -> (Outcome, Option<String>) {
         let outcome = |ok: bool, why: Option<String>| Outcome {
@@ -299,6 +341,11 @@ impl OnDuty<'_> {
             return (outcome(false, Some(why)), None);
         }
         let (_, goal) = plan.ends();
+        *last_leg = plan
+            .steps
+            .last()
+            .filter(|s| s.goal.goal_type == GoalType::D)
+            .and_then(|s| Some((s.goal.direction_deg, s.goal_walls_mm?)));
         match self.truth {
             Some(t) => match t.get().await {
                 Ok(p) => {
