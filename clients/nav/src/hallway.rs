@@ -247,6 +247,9 @@ pub struct Walls {
 /// Driving this far is enough to tell the angle to the walls, mm.
 const WALL_WINDOW_MM: f64 = 1_000.0;
 
+/// A side reading shorter than this is a wall in view, mm.
+const WALL_IN_VIEW_MM: f64 = 3_500.0;
+
 /// How far the sonar read for a side wall may turn from the side sonar
 /// (6 or 18), in sonar steps of 15°: enough for the steepest swerve the
 /// hallway steers (30°).
@@ -257,22 +260,25 @@ const SQUARE_ON_STEPS: i64 = 2;
 /// to it. A wall returns an echo only within 20° of square (the specular
 /// model, as Polaroid sonar), so at a slant of 30° the side sonar hears
 /// nothing and the walls are lost just when the robot steers over to keep
-/// right; the sonar 30° round still hears the wall, at the range of the
-/// perpendicular foot. Sonars are 15° apart, so the one chosen is within
-/// 7.5° of square, and `(r + R)·cos` of that leaves the range from the skin
-/// within 3 mm. Driving along the axis (within 7.5°), or turned further
-/// than the swerve, it is sonar 6 or 18 itself, read as it is.
+/// right; the sonar 30° round still hears the wall, from the foot of the
+/// perpendicular, so its range is its own distance from the wall. Sonars
+/// are 15° apart: the one chosen sits on the ring within 7.5° of square,
+/// `R·(1 − cos)` (at most 3 mm) farther from the wall than the skin at
+/// square. Driving along the axis (within 7.5°), or turned further than
+/// the swerve, it is sonar 6 or 18 itself, read as it is.
 fn square_on(sonar: &[u32], side_deg: f64, rel_deg: f64) -> f64 {
     let normal = normalize_deg(side_deg - rel_deg);
     let side = sonar_towards(side_deg);
     let i = sonar_towards(normal);
     let steps = (normalize_deg(bearing(i) - bearing(side)) / SPACING).round() as i64;
-    if i == side || steps.abs() > SQUARE_ON_STEPS {
+    // A side sonar that hears its wall is read as before; the one square
+    // to the wall only stands in for it when it hears nothing.
+    let heard = f64::from(sonar[side]) < WALL_IN_VIEW_MM;
+    if heard || i == side || steps.abs() > SQUARE_ON_STEPS {
         return f64::from(sonar[side]);
     }
-    let r = f64::from(sonar[i]);
     let off = normalize_deg(normal - bearing(i)).to_radians();
-    (r + ROBOT_RADIUS_MM) * off.cos() - ROBOT_RADIUS_MM
+    f64::from(sonar[i]) - ROBOT_RADIUS_MM * (1.0 - off.cos())
 }
 
 impl Walls {
@@ -298,7 +304,7 @@ impl Walls {
         // A door recess or a side corridor changes the width: not a wall.
         let steady =
             self.samples.is_empty() || self.samples.iter().all(|s| (s.2 - width).abs() < 250.0);
-        if left < 3_500.0 && right < 3_500.0 && steady {
+        if left < WALL_IN_VIEW_MM && right < WALL_IN_VIEW_MM && steady {
             self.samples
                 .push_back((along_mm, (right - left) / 2.0, width));
         }

@@ -197,3 +197,18 @@ fn swerving_30_degrees_the_walls_stay_in_view() {
     }
     assert_eq!(walls.width(), Some(f64::from(s[6] + s[18])));
 }
+
+#[test]
+fn between_two_sonars_the_wall_is_read_by_the_nearer_one() {
+    // 25° right of the axis, 0.3 m left of the middle: sonars 6 and 18
+    // hear nothing, and the walls are 5° off square for sonars 8 and 20.
+    let (width, left) = (2_440.0, 300.0);
+    let s = slanted_scan(width, left, -25.0);
+    assert_eq!((s[6], s[18]), (10_000, 10_000), "{s:?}");
+    let mut walls = Walls::default();
+    for k in 0..6 {
+        walls.steer(&s, -25.0, 100.0 * f64::from(k));
+    }
+    let read = walls.width().expect("both walls in view");
+    assert!((read - (width - 760.0)).abs() < 1.0, "{read}");
+}
