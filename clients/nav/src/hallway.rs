@@ -286,7 +286,7 @@ impl Walls {
     /// counter-clockwise) that brings the robot back to the middle, when
     /// both walls have been in view long enough to tell. `rel_deg` is the
     /// heading relative to the hallway's axis (counter-clockwise) when the
-    /// walls are to be read square on ([`square_on`]); 0 reads sonars 6
+    /// walls are to be read square on (see `square_on`); 0 reads sonars 6
     /// and 18 as they are.
     pub fn steer(&mut self, sonar: &[u32], rel_deg: f64, along_mm: f64) -> Option<f64> {
         let (left, right) = (

@@ -270,7 +270,7 @@ const ASIDE_FROM_WALL_MM: f64 = crate::drive::ROBOT_RADIUS_MM + 150.0;
 /// tasks otherwise stands on the middle of the corridor, where in a 2.44 m
 /// corridor no other robot can pass it without a touch. It is the
 /// Navigator's sideways step onto a goal's line (`GoalWalls`), on a goal
-/// of 1 mm whose line lies [`ASIDE_FROM_WALL_MM`] from the right wall;
+/// of 1 mm whose line lies 0.53 m (its radius and 0.15 m) from the right wall;
 /// the Navigator checks the walls against the map and watches for anyone
 /// in the way as it steps. `Some` says why the Navigator ended the goal
 /// instead.
