@@ -207,6 +207,9 @@ async fn run_all(
                             at.is_none(),
                         )),
                         DutyNote::Skipped(why) => say(Said::Trouble(format!("skipped {why}"))),
+                        DutyNote::NotAside(why) => {
+                            say(Said::Trouble(format!("did not step aside: {why}")))
+                        }
                         DutyNote::Planner(Progress::Waiting(part)) => {
                             say(Said::Waits(Some(part.to_string())))
                         }

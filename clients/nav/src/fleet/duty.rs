@@ -105,6 +105,10 @@ pub enum DutyNote<'a> {
     Ended(&'a Outcome, Option<&'a str>),
     /// A value it read was not what it should be; it was skipped.
     Skipped(String),
+    /// Between tasks, it did not get over to the corridor's wall: why (the
+    /// Navigator's reason, or the data server's). It stands where the step
+    /// left it and takes tasks as before.
+    NotAside(String),
 }
 
 /// A robot that takes tasks: its blackboard, base, the map, and where it
@@ -169,10 +173,10 @@ impl OnDuty<'_> {
                     if !given {
                         match planner::step_aside(self.board, direction, walls).await {
                             Ok(None) => {}
-                            Ok(Some(why)) => note(DutyNote::Skipped(format!(
-                                "stepping aside, the Navigator: {why}"
-                            ))),
-                            Err(e) => note(DutyNote::Skipped(format!("stepping aside: {e}"))),
+                            Ok(Some(why)) => {
+                                note(DutyNote::NotAside(format!("the Navigator: {why}")))
+                            }
+                            Err(e) => note(DutyNote::NotAside(e.to_string())),
                         }
                     }
                     given

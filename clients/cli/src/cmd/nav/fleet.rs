@@ -346,6 +346,7 @@ pub async fn take_tasks(common: &CommonArgs, d: Duty) -> anyhow::Result<u8> {
             }
         ),
         DutyNote::Skipped(why) => eprintln!("rome planner: skipped {why}"),
+        DutyNote::NotAside(why) => eprintln!("rome planner: did not step aside: {why}"),
     })
     .await?;
     Ok(exit::OK)
