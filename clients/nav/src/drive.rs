@@ -25,6 +25,13 @@ pub const KEEP_RIGHT_AHEAD_MM: f64 = 4_500.0;
 /// The range ahead shrinking this much faster than the robot drives means
 /// it comes towards the robot (1: it stands still).
 pub const ONCOMING_CLOSING: f64 = 1.4;
+/// Keeping off the middle, something this near within 60° of ahead (but
+/// more than 15° off it) is in the way all the same, mm. A robot that
+/// passes another, both keeping right, reads it farther off than this;
+/// one that stands on the middle, 50–70° off ahead, the front quarter
+/// would graze. Braking from cruising speed takes 267 mm at 300 mm/s²,
+/// some 170 mm of it towards something 50° off ahead.
+pub const PASSING_GUARD_MM: f64 = 300.0;
 /// For how far after the last sighting the robot keeps right, mm.
 pub const KEEP_RIGHT_FOR_MM: f64 = 3_000.0;
 /// How far right of the axis a robot bears with no walls to steer by, degrees.
@@ -77,6 +84,11 @@ pub struct NavConfig {
     /// across before they meet in a 2.44 m corridor. Else at the
     /// hallway's gentle rate, as the thesis' Navigator steered.
     pub brisk_keep_right: bool,
+    /// Whether, keeping off the middle, something nearer than
+    /// [`PASSING_GUARD_MM`] 20–60° off ahead turns the robot away. Else,
+    /// as before, only what is within 15° of ahead does, and a robot
+    /// keeping right grazes one that stands on the middle.
+    pub front_quarter_guard: bool,
 }
 
 impl Default for NavConfig {
@@ -98,6 +110,7 @@ impl Default for NavConfig {
             stop_on_contact: true,
             onto_line: true,
             brisk_keep_right: true,
+            front_quarter_guard: true,
         }
     }
 }

@@ -4,8 +4,8 @@
 
 use crate::drive::{
     Drive, NavConfig, FORWARD, JOG_RATE_DEG_S, KEEP_RIGHT_AHEAD_MM, KEEP_RIGHT_BEAR_DEG,
-    KEEP_RIGHT_FOR_MM, KEEP_RIGHT_JOG_DEG_S, ONCOMING_CLOSING, OPEN_ENOUGH_MM, ROBOT_CLEARANCE_MM,
-    ROBOT_RADIUS_MM, SAFE_START_MM, SONARS, SPACING,
+    KEEP_RIGHT_FOR_MM, KEEP_RIGHT_JOG_DEG_S, ONCOMING_CLOSING, OPEN_ENOUGH_MM, PASSING_GUARD_MM,
+    ROBOT_CLEARANCE_MM, ROBOT_RADIUS_MM, SAFE_START_MM, SONARS, SPACING,
 };
 use rome_maps::geometry::normalize_deg;
 use rome_schema::robot::Scan;
@@ -146,13 +146,27 @@ impl Hallway {
         // thesis excepts sonars 6 and 18; their neighbours 5, 7, 17 and 19
         // see the same side walls at nearly the same range, so they are
         // excepted too. Keeping right to pass, a robot passing abeam is
-        // expected: then only 15° either side of ahead counts.
-        let cone = if off_middle { 11..=13 } else { 8..=16 };
-        let (closest, min) = cone
+        // expected: then only 15° either side of ahead counts at the safe
+        // threshold. Beyond the thesis: the rest of the 60° still counts
+        // at a short guard, because the robot that stands on the middle,
+        // 50–70° off ahead, is the one a robot keeping right grazes with its
+        // front quarter.
+        let limit = |i: usize| {
+            if off_middle && !(11..=13).contains(&i) {
+                if cfg.front_quarter_guard {
+                    PASSING_GUARD_MM.min(self.safe_mm)
+                } else {
+                    0.0
+                }
+            } else {
+                self.safe_mm
+            }
+        };
+        let closed = (8..=16)
             .map(|i| (i, sonar[i]))
-            .min_by_key(|(_, r)| *r)
-            .unwrap_or((FORWARD, u32::MAX));
-        if f64::from(min) < self.safe_mm {
+            .filter(|(i, r)| f64::from(*r) < limit(*i))
+            .min_by_key(|(_, r)| *r);
+        if let Some((closest, _)) = closed {
             // Turn so the closed direction lies on sonar 6 or 18, whichever
             // leaves the heading nearer the goal direction.
             let closed = heading_deg + bearing(closest);

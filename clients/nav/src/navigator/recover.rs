@@ -27,6 +27,22 @@ const STEP_ROOM_MM: f64 = 400.0;
 const STEP_CLEAR_MM: f64 = 1_500.0;
 /// Scans (10 a second) a halted sideways step waits for its way at most.
 const STEP_WAIT_SCANS: u32 = 200;
+/// How near what lies behind a robot that backs away from a touch it
+/// may come, mm.
+const BACK_CLEARANCE_MM: f64 = 100.0;
+
+/// How far Check-Bumper backs away from a touch: 0.3 m, as the thesis'
+/// Navigator, but no nearer than [`BACK_CLEARANCE_MM`] to what the three
+/// sonars looking the way it backs read, and not at all for less than
+/// 100 mm, mm.
+fn backing_room(away: [f64; 3]) -> f64 {
+    let room = away.iter().fold(f64::INFINITY, |a, r| a.min(*r)) - BACK_CLEARANCE_MM;
+    if room < 100.0 {
+        0.0
+    } else {
+        room.min(300.0)
+    }
+}
 
 /// Whether what the sonars see ahead (`now`, mm from the skin) stops a
 /// sideways step with `remaining` mm to go, when the scene at rest put it
@@ -235,11 +251,19 @@ impl Navigator {
         if b.front || b.rear {
             self.log.bumps += 1;
             tracing::warn!(front = b.front, rear = b.rear, "navigator: bumper contact");
-            let back = if b.front { -300.0 } else { 300.0 };
+            // Beyond the thesis: away from the touch only as far as the
+            // sonars on that side leave room. Among other robots, backing
+            // blind the full 0.3 m touched the one behind.
+            let away = if b.front { [23, 0, 1] } else { [11, 12, 13] };
+            let room = away.map(|i| f64::from(scan.sonar_mm[i]));
+            let back = backing_room(room);
             // Each is carried out before the next is sent: a command sent
             // at once would take the place of the one before.
-            self.robot.move_by(back, 200.0, -1.0).await?;
-            self.settle(scans).await?;
+            if back > 0.0 {
+                let back = if b.front { -back } else { back };
+                self.robot.move_by(back, 200.0, -1.0).await?;
+                self.settle(scans).await?;
+            }
             let err = normalize_deg(goal.direction_deg - pose.heading.deg());
             let turn = if err.abs() >= 5.0 {
                 err.clamp(-30.0, 30.0)
@@ -278,7 +302,17 @@ impl Navigator {
 
 #[cfg(test)]
 mod step_tests {
-    use super::step_in_the_way;
+    use super::{backing_room, step_in_the_way};
+
+    #[test]
+    fn backing_away_from_a_touch_stops_short_of_what_is_behind() {
+        // Nothing behind: the thesis' 0.3 m.
+        assert_eq!(backing_room([10_000.0, 10_000.0, 10_000.0]), 300.0);
+        // A robot 0.25 m behind, 15° off: 0.15 m, 0.1 m short of it.
+        assert_eq!(backing_room([250.0, 900.0, 10_000.0]), 150.0);
+        // Closer than that: no backing at all.
+        assert_eq!(backing_room([10_000.0, 140.0, 10_000.0]), 0.0);
+    }
 
     #[test]
     fn a_wall_that_nears_as_the_robot_drives_does_not_stop_the_step() {

@@ -101,6 +101,26 @@ fn the_safe_threshold_halves_after_many_turns_and_grows_when_calm() {
 }
 
 #[test]
+fn keeping_off_the_middle_a_robot_50_degrees_off_ahead_still_turns_it_away() {
+    let cfg = NavConfig::default();
+    let mut h = Hallway::new(0);
+    // Off the middle, only 15° either side of ahead counts at the safe
+    // threshold: a robot passed 0.8 m away at 45° is passed by.
+    h.lane_mm = -600.0;
+    let mut s = hallway_scan(1_400, 1_400);
+    s[15] = 800;
+    let passing = h.step(&cfg, &s, 0.0, 0.0, 0.0, 1_000);
+    assert!(!matches!(passing, Drive::Turn(_)), "{passing:?}");
+    // The same robot 0.25 m away would be grazed by the front quarter:
+    // turn right, away from it.
+    s[15] = 250;
+    match h.step(&cfg, &s, 0.0, 0.0, 100.0, 1_100) {
+        Drive::Turn(d) => assert!(d <= -5.0, "{d}"),
+        other => panic!("expected a turn away to the right, got {other:?}"),
+    }
+}
+
+#[test]
 fn off_centre_it_steers_back_toward_the_middle() {
     let cfg = NavConfig::default();
     // Driving parallel to the walls, 600 mm right of the middle: steer
