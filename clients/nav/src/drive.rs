@@ -28,7 +28,7 @@ pub const ONCOMING_CLOSING: f64 = 1.4;
 /// Keeping off the middle, something this near within 60° of ahead (but
 /// more than 15° off it) is in the way all the same, mm. A robot that
 /// passes another, both keeping right, reads it farther off than this;
-/// one that stands on the middle, 50–70° off ahead, the front quarter
+/// one that stands on the middle, 34–73° off ahead at the touch, the front quarter
 /// would graze. Braking from cruising speed takes 267 mm at 300 mm/s²,
 /// some 170 mm of it towards something 50° off ahead.
 pub const PASSING_GUARD_MM: f64 = 300.0;

@@ -148,8 +148,8 @@ impl Hallway {
         // excepted too. Keeping right to pass, a robot passing abeam is
         // expected: then only 15° either side of ahead counts at the safe
         // threshold. Beyond the thesis: the rest of the 60° still counts
-        // at a short guard, because the robot that stands on the middle,
-        // 50–70° off ahead, is the one a robot keeping right grazes with its
+        // at a short guard, because the robot that stands on the middle
+        // (34–73° off ahead at the touch) is the one a robot keeping right grazes with its
         // front quarter.
         let limit = |i: usize| {
             if off_middle && !(11..=13).contains(&i) {
