@@ -273,35 +273,12 @@ fn write_picture(
     }
 }
 
-/// Runs a `rome map` command.
+/// Runs a `rome map` command. A building (several floors) and one floor's
+/// map take the same commands; each arm asks which it was given.
 pub fn run(cmd: MapCmd) -> anyhow::Result<u8> {
     match cmd {
         MapCmd::Check { file } if building_of(&file).is_some() => {
             check_building(&file.to_string_lossy())
-        }
-        MapCmd::Route {
-            file,
-            from,
-            to,
-            via,
-            legs,
-        } if building_of(&file).is_some() => {
-            anyhow::ensure!(via.is_empty(), "--via is for one floor's map; a building's route rides one elevator between FROM and TO");
-            route_building(&file.to_string_lossy(), &from, &to, legs)
-        }
-        MapCmd::Render {
-            file,
-            output,
-            width,
-            route: between,
-            via,
-            junctions,
-        } if building_of(&file).is_some() => {
-            anyhow::ensure!(
-                via.is_empty() && !junctions,
-                "--via and --junctions are for one floor's map"
-            );
-            render_building(&file.to_string_lossy(), &output, width, between.as_deref())
         }
         MapCmd::Check { file } => match load_any(&file) {
             Ok(map) => {
@@ -336,6 +313,10 @@ pub fn run(cmd: MapCmd) -> anyhow::Result<u8> {
             via,
             legs,
         } => {
+            if building_of(&file).is_some() {
+                anyhow::ensure!(via.is_empty(), "--via is for one floor's map; a building's route rides one elevator between FROM and TO");
+                return route_building(&file.to_string_lossy(), &from, &to, legs);
+            }
             let (map, world) = load(&file)?;
             let r = route(&map, &world, &from, &via, &to)?;
             println!(
@@ -358,6 +339,18 @@ pub fn run(cmd: MapCmd) -> anyhow::Result<u8> {
             via,
             junctions,
         } => {
+            if building_of(&file).is_some() {
+                anyhow::ensure!(
+                    via.is_empty() && !junctions,
+                    "--via and --junctions are for one floor's map"
+                );
+                return render_building(
+                    &file.to_string_lossy(),
+                    &output,
+                    width,
+                    between.as_deref(),
+                );
+            }
             let (map, world) = load(&file)?;
             let mut overlay = match &between {
                 Some(ends) => render::route_shapes(&route(&map, &world, &ends[0], &via, &ends[1])?),
