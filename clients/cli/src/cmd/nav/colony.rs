@@ -388,33 +388,48 @@ async fn layer(common: &CommonArgs, args: LayerArgs) -> anyhow::Result<u8> {
             .await
             .with_context(|| format!("cannot create the semaphore {sem}"))?;
     }
-    match args.layer {
-        Which::Upper => upper(common, &args, &ds, &names).await,
-        Which::Lower => lower(common, &args, &ds, &names).await,
-    }
+    let session = common.open(Side::Client).await?;
+    let l = Layer {
+        common,
+        args: &args,
+        ds: &ds,
+        names: &names,
+        session: &session,
+    };
+    let out = match args.layer {
+        Which::Upper => upper(l).await,
+        Which::Lower => lower(l).await,
+    };
+    let _ = session.close().await;
+    out
 }
 
-async fn upper(
-    common: &CommonArgs,
-    args: &LayerArgs,
-    ds: &rome_client::DataClient,
-    names: &Shared,
-) -> anyhow::Result<u8> {
+/// What either layer works with: one session and one data client, opened
+/// by [`layer`] and closed there whatever the layer's outcome.
+#[derive(Clone, Copy)]
+struct Layer<'a> {
+    common: &'a CommonArgs,
+    args: &'a LayerArgs,
+    ds: &'a rome_client::DataClient,
+    names: &'a Shared,
+    session: &'a zenoh::Session,
+}
+
+async fn upper(l: Layer<'_>) -> anyhow::Result<u8> {
     // Ground truth only judges the run at the end, as the planner's does;
     // the layers never read it.
-    let session = common.open(Side::Client).await?;
-    let truth = rome_client::sim::TruthClient::new(&session, &common.root()?, &args.robot)?;
+    let truth = rome_client::sim::TruthClient::new(l.session, &l.common.root()?, &l.args.robot)?;
     let start = truth.get().await.ok();
-    let turn = 360.0 / f64::from(args.sides);
-    for k in 0..=args.sides {
+    let turn = 360.0 / f64::from(l.args.sides);
+    for k in 0..=l.args.sides {
         let leg = Leg {
             leg: k,
             turn_deg: if k == 0 { 0.0 } else { turn },
-            distance_mm: args.side_mm,
-            last: k == args.sides,
+            distance_mm: l.args.side_mm,
+            last: k == l.args.sides,
         };
-        ds.set(&names.leg, &leg).await?;
-        ds.signal(&names.leg_ready).await?;
+        l.ds.set(&l.names.leg, &leg).await?;
+        l.ds.signal(&l.names.leg_ready).await?;
         if leg.last {
             break;
         }
@@ -422,11 +437,11 @@ async fn upper(
             "upper: leg {k}: turn {:.0}°, go {:.0} mm (handed down)",
             leg.turn_deg, leg.distance_mm
         );
-        ds.wait(&names.leg_done).await?;
-        let r: Report = ds
-            .get_as(&names.report)
-            .await
-            .with_context(|| format!("the lower layer's report {} is not one", names.report))?;
+        l.ds.wait(&l.names.leg_done).await?;
+        let r: Report =
+            l.ds.get_as(&l.names.report).await.with_context(|| {
+                format!("the lower layer's report {} is not one", l.names.report)
+            })?;
         anyhow::ensure!(
             r.leg == k,
             "the lower layer reported leg {} where leg {k} was handed down",
@@ -440,38 +455,31 @@ async fn upper(
     match (start, truth.get().await.ok()) {
         (Some(a), Some(b)) => println!(
             "done: {} legs; ground truth puts {} {:.0} mm from where it started, after {:.0} mm driven",
-            args.sides,
-            args.robot,
+            l.args.sides,
+            l.args.robot,
             (b.x_mm - a.x_mm).hypot(b.y_mm - a.y_mm),
             b.travelled_mm - a.travelled_mm
         ),
-        _ => println!("done: {} legs (no ground truth to judge by)", args.sides),
+        _ => println!("done: {} legs (no ground truth to judge by)", l.args.sides),
     }
-    let _ = session.close().await;
     Ok(0)
 }
 
-async fn lower(
-    common: &CommonArgs,
-    args: &LayerArgs,
-    ds: &rome_client::DataClient,
-    names: &Shared,
-) -> anyhow::Result<u8> {
-    let session = common.open(Side::Client).await?;
+async fn lower(l: Layer<'_>) -> anyhow::Result<u8> {
     let mut options = RobotOptions::new("layer-lower");
-    options.root = common.root()?;
-    let rc = base(&session, &args.robot, options).await?;
+    options.root = l.common.root()?;
+    let rc = base(l.session, &l.args.robot, options).await?;
     let states = rc.state().await?;
     eprintln!(
         "rome colony layer lower: robot {}'s base reached; waiting for legs on {}",
-        args.robot, names.leg_ready
+        l.args.robot, l.names.leg_ready
     );
     loop {
-        ds.wait(&names.leg_ready).await?;
-        let leg: Leg = ds
-            .get_as(&names.leg)
-            .await
-            .with_context(|| format!("the upper layer's leg {} is not one", names.leg))?;
+        l.ds.wait(&l.names.leg_ready).await?;
+        let leg: Leg =
+            l.ds.get_as(&l.names.leg)
+                .await
+                .with_context(|| format!("the upper layer's leg {} is not one", l.names.leg))?;
         if leg.last {
             println!("lower: no more legs");
             break;
@@ -490,10 +498,9 @@ async fn lower(
             heading_deg: p.heading_deg,
         };
         println!("lower: leg {} driven", leg.leg);
-        ds.set(&names.report, &report).await?;
-        ds.signal(&names.leg_done).await?;
+        l.ds.set(&l.names.report, &report).await?;
+        l.ds.signal(&l.names.leg_done).await?;
     }
-    let _ = session.close().await;
     Ok(0)
 }
 
