@@ -122,22 +122,17 @@ fn wander(sim: &mut Sim, rng: &mut Rng) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn measure(
-    args: &SimBench,
-    map: &rome_maps::Map,
-    n: usize,
-    cameras: bool,
-    threads: usize,
-) -> anyhow::Result<SimRow> {
-    let pool = rayon::ThreadPoolBuilder::new()
+/// A pool of `threads` for one measurement, so a row's thread count is
+/// the one it reports whatever the host has.
+fn pool_of(threads: usize) -> anyhow::Result<rayon::ThreadPool> {
+    rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
-        .map_err(|e| anyhow::anyhow!("no pool of {threads} threads: {e}"))?;
-    pool.install(|| measure_here(args, map, n, cameras, threads))
+        .map_err(|e| anyhow::anyhow!("no pool of {threads} threads: {e}"))
 }
 
-/// [`measure`] on the pool it is called from.
-fn measure_here(
+/// One row, measured on the pool it is called from.
+fn measure(
     args: &SimBench,
     map: &rome_maps::Map,
     n: usize,
@@ -208,7 +203,7 @@ pub fn rows(args: &SimBench) -> anyhow::Result<Vec<SimRow>> {
                         if cameras { "on" } else { "off" }
                     ),
                 );
-                out.push(measure(args, &map, n, cameras, t)?);
+                out.push(pool_of(t)?.install(|| measure(args, &map, n, cameras, t))?);
             }
         }
     }
