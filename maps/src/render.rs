@@ -287,10 +287,18 @@ impl View {
     }
 }
 
+/// How a line is drawn.
+#[derive(Clone, Copy)]
+struct Stroke {
+    color: Rgb,
+    width: f64,
+    dashed: bool,
+}
+
 /// A surface the map is drawn on, in pixels. The SVG document and the
 /// image draw the same shapes at the same places, each in its own way.
 trait Canvas {
-    fn line(&mut self, from: (f64, f64), to: (f64, f64), color: Rgb, width: f64, dashed: bool);
+    fn line(&mut self, from: (f64, f64), to: (f64, f64), stroke: Stroke);
     fn dot(&mut self, at: (f64, f64), radius: f64, color: Rgb);
     fn text(&mut self, at: (f64, f64), text: &str, color: Rgb, size: i64);
 }
@@ -306,7 +314,15 @@ impl View {
                     color,
                     width,
                     dashed,
-                } => canvas.line(self.px(a), self.px(b), color, width, dashed),
+                } => canvas.line(
+                    self.px(a),
+                    self.px(b),
+                    Stroke {
+                        color,
+                        width,
+                        dashed,
+                    },
+                ),
                 Shape::Dot { at, radius, color } => canvas.dot(self.px(at), radius, color),
                 Shape::Text {
                     at,
@@ -322,23 +338,17 @@ impl View {
 struct SvgCanvas(String);
 
 impl Canvas for SvgCanvas {
-    fn line(
-        &mut self,
-        (x1, y1): (f64, f64),
-        (x2, y2): (f64, f64),
-        color: Rgb,
-        width: f64,
-        dashed: bool,
-    ) {
-        let dash = if dashed {
+    fn line(&mut self, (x1, y1): (f64, f64), (x2, y2): (f64, f64), stroke: Stroke) {
+        let dash = if stroke.dashed {
             r#" stroke-dasharray="6 4""#
         } else {
             ""
         };
         let _ = writeln!(
             self.0,
-            r#"<line x1="{x1:.1}" y1="{y1:.1}" x2="{x2:.1}" y2="{y2:.1}" stroke="{}" stroke-width="{width}" stroke-linecap="round"{dash}/>"#,
-            hex(color)
+            r#"<line x1="{x1:.1}" y1="{y1:.1}" x2="{x2:.1}" y2="{y2:.1}" stroke="{}" stroke-width="{}" stroke-linecap="round"{dash}/>"#,
+            hex(stroke.color),
+            stroke.width
         );
     }
 
@@ -376,26 +386,19 @@ impl RasterCanvas {
 }
 
 impl Canvas for RasterCanvas {
-    fn line(
-        &mut self,
-        (x1, y1): (f64, f64),
-        (x2, y2): (f64, f64),
-        color: Rgb,
-        width: f64,
-        dashed: bool,
-    ) {
+    fn line(&mut self, (x1, y1): (f64, f64), (x2, y2): (f64, f64), stroke: Stroke) {
         let len = (x2 - x1).hypot(y2 - y1);
         let steps = len.ceil().max(1.0) as i64;
-        let r = (width / 2.0).round() as i64;
+        let r = (stroke.width / 2.0).round() as i64;
         for i in 0..=steps {
             let t = i as f64 / steps as f64;
-            if dashed && (t * len / 5.0) as i64 % 2 == 1 {
+            if stroke.dashed && (t * len / 5.0) as i64 % 2 == 1 {
                 continue;
             }
             let (x, y) = (x1 + (x2 - x1) * t, y1 + (y2 - y1) * t);
             for dy in -r..=r {
                 for dx in -r..=r {
-                    self.put(x.round() as i64 + dx, y.round() as i64 + dy, color);
+                    self.put(x.round() as i64 + dx, y.round() as i64 + dy, stroke.color);
                 }
             }
         }
