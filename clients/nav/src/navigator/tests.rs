@@ -60,14 +60,18 @@ fn center_hallway_jogs_at_four_degrees_per_second_toward_the_open_direction() {
     );
 }
 
+/// A robot on a hallway's axis with a wall closing in at sonar 16 (60°
+/// left), `mm` away.
+fn closing_in_on_the_left(mm: u32) -> (NavConfig, Hallway, Vec<u32>) {
+    let mut s = hallway_scan(1_400, 1_400);
+    s[16] = mm;
+    (NavConfig::default(), Hallway::new(0), s)
+}
+
 #[test]
 fn below_the_safe_threshold_it_turns_in_place_and_slows_by_a_quarter() {
-    let cfg = NavConfig::default();
-    let mut h = Hallway::new(0);
-    let mut s = hallway_scan(1_400, 1_400);
-    // A wall closing in at sonar 16 (60° left): turn right so the
-    // closed direction lies on sonar 18.
-    s[16] = 600;
+    // Turn right so the closed direction lies on sonar 18.
+    let (cfg, mut h, s) = closing_in_on_the_left(600);
     match h.step(&cfg, &s, 0.0, 0.0, 0.0, 1_000) {
         Drive::Turn(d) => assert!((d + 30.0).abs() < 1e-9, "{d}"),
         other => panic!("expected an in-place turn, got {other:?}"),
@@ -81,10 +85,7 @@ fn below_the_safe_threshold_it_turns_in_place_and_slows_by_a_quarter() {
 
 #[test]
 fn the_safe_threshold_halves_after_many_turns_and_grows_when_calm() {
-    let cfg = NavConfig::default();
-    let mut h = Hallway::new(0);
-    let mut s = hallway_scan(1_400, 1_400);
-    s[16] = 900;
+    let (cfg, mut h, s) = closing_in_on_the_left(900);
     for t in 0..3 {
         let _ = h.step(&cfg, &s, 0.0, 0.0, 0.0, 1_000 * t);
     }
@@ -120,6 +121,12 @@ fn keeping_off_the_middle_a_robot_50_degrees_off_ahead_still_turns_it_away() {
     }
 }
 
+/// Scan `k` of a robot driving straight at 1 m/s, scanning every 0.1 s.
+fn driven_at(h: &mut Hallway, cfg: &NavConfig, s: &[u32], k: i32) -> Drive {
+    let k = f64::from(k);
+    h.step(cfg, s, 0.0, 0.0, 100.0 * k, (100.0 * k) as u64)
+}
+
 #[test]
 fn off_centre_it_steers_back_toward_the_middle() {
     let cfg = NavConfig::default();
@@ -129,14 +136,7 @@ fn off_centre_it_steers_back_toward_the_middle() {
     let s = hallway_scan(2_060, 860);
     let mut last = Drive::Halt;
     for k in 0..20 {
-        last = h.step(
-            &cfg,
-            &s,
-            0.0,
-            0.0,
-            100.0 * f64::from(k),
-            100 * u64::from(k as u32),
-        );
+        last = driven_at(&mut h, &cfg, &s, k);
     }
     assert_eq!(last, Drive::Jog(4.0));
     // In the middle but drifting left at 5°: steer right, whatever
@@ -145,14 +145,7 @@ fn off_centre_it_steers_back_toward_the_middle() {
     for k in 0..20 {
         let drift = 100.0 * f64::from(k) * 5f64.to_radians().tan();
         let s = hallway_scan((1_460.0 - drift) as u32, (1_460.0 + drift) as u32);
-        last = h.step(
-            &cfg,
-            &s,
-            0.0,
-            0.0,
-            100.0 * f64::from(k),
-            100 * u64::from(k as u32),
-        );
+        last = driven_at(&mut h, &cfg, &s, k);
     }
     assert_eq!(last, Drive::Jog(-4.0));
 }
