@@ -39,6 +39,7 @@ use rome_sim::{Noise, Pose};
 use rome_sim_hardware::world::SimWorld;
 use std::time::{Duration, Instant};
 use tokio::sync::mpsc;
+use tracing::Instrument;
 
 pub mod confidence;
 pub mod events;
@@ -327,10 +328,16 @@ async fn run_all(
                 });
                 reports.nav = Some(ntx);
             }
-            tasks.spawn(rome_clock::wrap(&format!("{name} {role}"), async move {
-                let r = member.run(robot, board, reports).await;
-                (k, r.map(|_| role))
-            }));
+            // Log lines carry the robot's name: crews share one process.
+            let span = tracing::info_span!("crew", robot = %name);
+            tasks.spawn(rome_clock::wrap(
+                &format!("{name} {role}"),
+                async move {
+                    let r = member.run(robot, board, reports).await;
+                    (k, r.map(|_| role))
+                }
+                .instrument(span),
+            ));
         }
         crews.push(Crew {
             k,

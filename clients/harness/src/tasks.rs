@@ -25,6 +25,7 @@ use rome_sim::Pose;
 use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
 use tokio::sync::mpsc;
+use tracing::Instrument;
 
 /// What to run.
 #[derive(Debug, Clone)]
@@ -164,6 +165,8 @@ async fn run_all(
             let role = member.role();
             let (board, robot) = connect(&session, &r.robot, role).await?;
             let (name, etx) = (r.robot.clone(), etx.clone());
+            // Log lines carry the robot's name: crews share one process.
+            let span = tracing::info_span!("crew", robot = %name);
             set.spawn(rome_clock::wrap(
                 &format!("{} {role}", r.robot),
                 async move {
@@ -171,7 +174,8 @@ async fn run_all(
                         let why = Said::Trouble(format!("the {role} failed: {e}"));
                         let _ = etx.send(TaskEvent::Robot(name, why));
                     }
-                },
+                }
+                .instrument(span),
             ));
         }
         let (board, robot) = connect(&session, &r.robot, "planner").await?;
@@ -220,7 +224,8 @@ async fn run_all(
                 if let Err(e) = r {
                     say(Said::Trouble(format!("the planner failed: {e}")));
                 }
-            },
+            }
+            .instrument(tracing::info_span!("crew", robot = %r.robot)),
         ));
         crews.push(set);
     }
