@@ -225,3 +225,49 @@ fn between_two_sonars_the_wall_is_read_by_the_nearer_one() {
     let read = walls.width().expect("both walls in view");
     assert!((read - (width - 760.0)).abs() < 1.0, "{read}");
 }
+
+#[test]
+fn a_robot_off_the_corner_line_aims_back_at_it() {
+    use rome_maps::geometry::pt;
+    let from = pt(60_000.0, 55_500.0);
+    // Leaving southward (180°): on the line, or within the slack, the goal
+    // direction itself.
+    assert_eq!(corner_aim_deg(180.0, from, pt(60_000.0, 54_000.0)), 180.0);
+    assert_eq!(corner_aim_deg(180.0, from, pt(60_250.0, 54_000.0)), 180.0);
+    // 2.4 m east (the robot's left): south-west, at most 45° off.
+    assert!((corner_aim_deg(180.0, from, pt(62_400.0, 54_500.0)) - 135.0).abs() < 1e-9);
+    // 0.6 m west: a little east of south.
+    let aim = corner_aim_deg(180.0, from, pt(59_400.0, 54_500.0));
+    assert!(
+        (aim - (180.0 + (0.2f64).atan().to_degrees())).abs() < 1e-9,
+        "{aim}"
+    );
+}
+
+#[test]
+fn leaving_a_corner_the_wrong_way_round_the_walls_do_not_hold_it_there() {
+    // Between two walls, the goal behind: the walls would keep the robot
+    // parallel to them, going away from the goal; it turns instead.
+    let cfg = NavConfig::default();
+    let mut scan = Scan {
+        robot: "r1".into(),
+        seq: 0,
+        time_ms: 0,
+        sonar_mm: hallway_scan(1_400, 1_400),
+        ir: vec![0; SONARS],
+    };
+    let mut walls = Walls::default();
+    let mut last = Drive::Halt;
+    for k in 0..12 {
+        scan.time_ms = 100 * k;
+        last = corner_step(&cfg, &scan, 0.0, 175.0, &mut walls, 100.0 * k as f64);
+    }
+    assert!(walls.fit().is_some(), "the walls are in view");
+    assert_eq!(last, Drive::Jog(JOG_RATE_DEG_S), "{last:?}");
+    // The goal ahead: the walls steer (straight on, in the middle).
+    let mut walls = Walls::default();
+    for k in 0..12 {
+        last = corner_step(&cfg, &scan, 0.0, 3.0, &mut walls, 100.0 * k as f64);
+    }
+    assert_eq!(last, Drive::Go(cfg.corner_mm_s), "{last:?}");
+}
