@@ -4,11 +4,6 @@
 
 use std::time::Duration;
 
-/// Walls in view farther than this off the goal direction are another
-/// corridor's, or the robot's own corridor driven the wrong way: they
-/// neither steer nor stand in for Check-Goal, degrees.
-pub const WALL_COMPASS_DEG: f64 = 45.0;
-
 /// Sonars in a ring (Fig. 5.9): 12 ahead, 18 left, 6 right, 15° apart.
 pub const SONARS: usize = 24;
 /// The forward sonar.

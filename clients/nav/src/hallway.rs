@@ -5,9 +5,9 @@
 use crate::drive::{
     Drive, NavConfig, FORWARD, JOG_RATE_DEG_S, KEEP_RIGHT_AHEAD_MM, KEEP_RIGHT_BEAR_DEG,
     KEEP_RIGHT_FOR_MM, KEEP_RIGHT_JOG_DEG_S, ONCOMING_CLOSING, OPEN_ENOUGH_MM, PASSING_GUARD_MM,
-    ROBOT_CLEARANCE_MM, ROBOT_RADIUS_MM, SAFE_START_MM, SONARS, SPACING, WALL_COMPASS_DEG,
+    ROBOT_CLEARANCE_MM, ROBOT_RADIUS_MM, SAFE_START_MM, SONARS, SPACING,
 };
-use rome_maps::geometry::{direction, normalize_deg, Point};
+use rome_maps::geometry::normalize_deg;
 use rome_schema::robot::Scan;
 
 /// The sonar index `k` steps from `i`, modulo 24.
@@ -368,30 +368,6 @@ impl Walls {
     }
 }
 
-/// How far off the corner's line a robot leaving a turning space may be
-/// before it aims back at the line, mm: about what centring leaves.
-pub const CORNER_LINE_SLACK_MM: f64 = 300.0;
-/// How far ahead a robot off the corner's line aims to be back on it, mm.
-pub const CORNER_AIM_AHEAD_MM: f64 = 1_500.0;
-
-/// The heading a robot leaving a turning space aims at, at `at`: the goal
-/// direction, turned back toward the line from `from` (where the corner
-/// began) along it when the robot is more than [`CORNER_LINE_SLACK_MM`]
-/// off it, by at most 45°. Beyond the thesis: a robot turned away in the
-/// turning space (an infrared spin round a jamb or another robot) came
-/// out along the crossing corridor's wall and followed it, 40 m in a fleet
-/// run, with nothing bringing it back to the opening it was to take.
-pub fn corner_aim_deg(goal_deg: f64, from: Point, at: Point) -> f64 {
-    let left = direction(goal_deg + 90.0);
-    let off = (at.x - from.x) * left.x + (at.y - from.y) * left.y;
-    let beyond = off.signum() * (off.abs() - CORNER_LINE_SLACK_MM).max(0.0);
-    goal_deg
-        - (beyond / CORNER_AIM_AHEAD_MM)
-            .atan()
-            .to_degrees()
-            .clamp(-45.0, 45.0)
-}
-
 /// The Corner state (§5.4.2): a narrow window of sonars toward the goal
 /// direction, infrared stop-and-go. Like Center-Hallway, when the window's
 /// open direction is the goal direction itself and both walls are in view,
@@ -423,15 +399,10 @@ pub fn corner_step(
     }
     walls.spin = None;
     let open = open_sonar(&scan.sonar_mm, heading_deg, goal_deg, 1);
-    // Walls steer only a robot heading roughly the goal's way: one spun
-    // round (an infrared spin goes on until clear) would otherwise be kept
-    // parallel to them, driving back the way it came.
     let delta = if open != sonar_towards(err) {
         bearing(open)
-    } else if err.abs() <= WALL_COMPASS_DEG {
-        by_walls.unwrap_or(err)
     } else {
-        err
+        by_walls.unwrap_or(err)
     };
     if delta.abs() < 1.0 {
         Drive::Go(cfg.corner_mm_s)

@@ -18,10 +18,10 @@ use crate::board::{ActiveGoal, Board, Goal, GoalType, Sem, Status, Var};
 pub use crate::drive::{
     Drive, NavConfig, FORWARD, JOG_RATE_DEG_S, KEEP_RIGHT_AHEAD_MM, KEEP_RIGHT_BEAR_DEG,
     KEEP_RIGHT_FOR_MM, ONCOMING_CLOSING, OPEN_ENOUGH_MM, ROBOT_CLEARANCE_MM, ROBOT_RADIUS_MM,
-    SAFE_START_MM, SONARS, SPACING, WALL_COMPASS_DEG,
+    SAFE_START_MM, SONARS, SPACING,
 };
 pub use crate::hallway::{
-    bearing, corner_aim_deg, corner_step, open_sonar, sonar_add, sonar_towards, Hallway, Walls,
+    bearing, corner_step, open_sonar, sonar_add, sonar_towards, Hallway, Walls,
 };
 use crate::NavError;
 use blocked::Headway;
@@ -535,19 +535,13 @@ impl Navigator {
                 tracing::warn!("navigator: {why}");
             }
             self.blocked = blocked;
-            // Where a robot leaving a turning space aims: the goal
-            // direction, or back toward the corner's line when well off it.
-            let aim_deg = match goal.goal_type {
-                GoalType::C => corner_aim_deg(goal.direction_deg, start.at, pose.at),
-                _ => goal.direction_deg,
-            };
             // The state.
             let drive = if corner {
                 corner_step(
                     &self.cfg,
                     &scan,
                     pose.heading.deg(),
-                    aim_deg,
+                    goal.direction_deg,
                     &mut walls,
                     self.odometer,
                 )
@@ -629,8 +623,7 @@ impl Navigator {
                 self.goal_handed_meanwhile().await?;
                 let _ = self.check_bumper(&pose, goal, &scan, scans).await?;
                 // Between two walls the walls are the better compass:
-                // Check-Goal steps in when they are out of sight or are
-                // another corridor's.
+                // Check-Goal only steps in when they are out of sight.
                 let walls_seen = if corner {
                     walls.fit().is_some()
                 } else {
@@ -638,7 +631,9 @@ impl Navigator {
                         .as_ref()
                         .is_some_and(|h| h.walls.fit().is_some())
                 };
-                self.check_goal(&pose, aim_deg, corner, walls_seen).await?;
+                if !walls_seen {
+                    self.check_goal(&pose, goal, corner).await?;
+                }
             }
             if scan.time_ms >= next_status {
                 next_status = scan.time_ms + 1_000;

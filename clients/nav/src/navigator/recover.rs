@@ -280,21 +280,14 @@ impl Navigator {
         Ok(false)
     }
 
-    /// Check-Goal: a heading far off the goal direction (or, leaving a
-    /// corner, the aim back to its line: `aim_deg`) is turned back,
-    /// unless the walls in view (`walls_seen`) are the goal's corridor's
-    /// and steer.
+    /// Check-Goal: a heading far off the goal direction is turned back.
     pub(super) async fn check_goal(
         &mut self,
         pose: &Pose,
-        aim_deg: f64,
+        goal: &Goal,
         corner: bool,
-        walls_seen: bool,
     ) -> Result<(), NavError> {
-        let err = normalize_deg(aim_deg - pose.heading.deg());
-        if walls_are_the_compass(walls_seen, err) {
-            return Ok(());
-        }
+        let err = normalize_deg(goal.direction_deg - pose.heading.deg());
         if err.abs() > if corner { 10.0 } else { 20.0 } {
             tracing::info!(
                 err,
@@ -307,29 +300,9 @@ impl Navigator {
     }
 }
 
-/// Whether the walls in view steer in Check-Goal's place, `err_deg` off
-/// the goal direction. Beyond the thesis: between two walls the walls are
-/// the better compass, but only the goal's own corridor's. A robot turned
-/// away in a junction (an infrared spin around another robot) sees the
-/// crossing corridor's walls as well as its own; followed, they took a
-/// robot 40 m along the wrong corridor in a fleet run, where its corner's
-/// next goal then drove it into that corridor's side wall.
-pub fn walls_are_the_compass(walls_seen: bool, err_deg: f64) -> bool {
-    walls_seen && err_deg.abs() <= WALL_COMPASS_DEG
-}
-
 #[cfg(test)]
 mod step_tests {
-    use super::{backing_room, step_in_the_way, walls_are_the_compass};
-
-    #[test]
-    fn walls_across_the_goal_direction_do_not_stand_in_for_check_goal() {
-        assert!(walls_are_the_compass(true, 12.0));
-        assert!(!walls_are_the_compass(false, 12.0));
-        // Driving along the corridor crossing the goal's.
-        assert!(!walls_are_the_compass(true, -90.0));
-        assert!(!walls_are_the_compass(true, 60.0));
-    }
+    use super::{backing_room, step_in_the_way};
 
     #[test]
     fn backing_away_from_a_touch_stops_short_of_what_is_behind() {
