@@ -41,6 +41,12 @@ use std::time::{Duration, Instant};
 use tokio::sync::mpsc;
 use tracing::Instrument;
 
+/// The span a robot's crew runs in: crews share one process, and their
+/// log lines carry the robot's name.
+pub(crate) fn crew_span(robot: &str) -> tracing::Span {
+    tracing::info_span!("crew", robot = %robot)
+}
+
 pub mod confidence;
 pub mod events;
 pub mod experiment;
@@ -328,8 +334,7 @@ async fn run_all(
                 });
                 reports.nav = Some(ntx);
             }
-            // Log lines carry the robot's name: crews share one process.
-            let span = tracing::info_span!("crew", robot = %name);
+            let span = crew_span(name);
             tasks.spawn(rome_clock::wrap(
                 &format!("{name} {role}"),
                 async move {

@@ -8,7 +8,7 @@
 //! truth is within a metre of the goal; contacts and standing still are
 //! counted from the simulated world.
 
-use crate::{connect, members, monitored, Harness, RunConfig};
+use crate::{connect, crew_span, members, monitored, Harness, RunConfig};
 use rome_client::sim::TruthClient;
 use rome_client::{DataClient, DataOptions};
 use rome_maps::{Network, World};
@@ -165,8 +165,7 @@ async fn run_all(
             let role = member.role();
             let (board, robot) = connect(&session, &r.robot, role).await?;
             let (name, etx) = (r.robot.clone(), etx.clone());
-            // Log lines carry the robot's name: crews share one process.
-            let span = tracing::info_span!("crew", robot = %name);
+            let span = crew_span(&name);
             set.spawn(rome_clock::wrap(
                 &format!("{} {role}", r.robot),
                 async move {
@@ -225,7 +224,7 @@ async fn run_all(
                     say(Said::Trouble(format!("the planner failed: {e}")));
                 }
             }
-            .instrument(tracing::info_span!("crew", robot = %r.robot)),
+            .instrument(crew_span(&r.robot)),
         ));
         crews.push(set);
     }
