@@ -182,3 +182,40 @@ async fn a_robot_between_tasks_steps_aside_and_another_passes_it_in_a_narrow_cor
         assert_eq!((c.wall, c.robot), (0, 0), "{robot} touched: {c:?}");
     }
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_robot_waiting_its_turn_for_a_narrow_passage_is_not_blocked() {
+    // Corridor N is a narrow passage, and r1 and r2 meet head-on there:
+    // one waits outside the whole time the other takes to drive its 44 m,
+    // far longer than the 20 s a robot may stand still before it is
+    // blocked. Counted as standing still, the wait failed its task.
+    let r = run_with(
+        &[("r1", "303R"), ("r2", "A353R")],
+        vec![
+            ("T1", spec("A352L", Some("r1"))),
+            ("T2", spec("301L", Some("r2"))),
+        ],
+        None,
+        |cfg| {
+            for (ring, edge) in rome_tests::corridor_n_walls(&cfg.map) {
+                cfg.map.rings[ring].edges[edge]
+                    .tags
+                    .insert("passage".into(), "N".into());
+            }
+            cfg.stuck = Duration::from_secs(20);
+        },
+    )
+    .await;
+    let waited = r.traffic_wait_s.values().fold(0.0_f64, |a, b| a.max(*b));
+    assert!(
+        waited > 40.0,
+        "one robot waited its turn longer than it may stand still: {:?}",
+        r.traffic_wait_s
+    );
+    for (id, robot) in [("T1", "r1"), ("T2", "r2")] {
+        let t = status(&r, id);
+        assert_eq!(t.state, TaskState::Done, "{t:?}");
+        assert_eq!(t.tried, vec![robot.to_string()], "{t:?}");
+        assert!(t.why.is_empty(), "{t:?}");
+    }
+}

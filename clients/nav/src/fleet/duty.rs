@@ -321,6 +321,11 @@ impl OnDuty<'_> {
                 *registered = true;
             }
             planner::run(self.board, &plan, self.truth, |p| {
+                match p {
+                    Progress::Waiting(_) => waiting.store(true, Relaxed),
+                    Progress::Holding(_, true) => waiting.store(false, Relaxed),
+                    _ => {}
+                }
                 note(DutyNote::Planner(p))
             })
             .await
