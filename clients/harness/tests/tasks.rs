@@ -18,6 +18,14 @@ fn spec(to: &str, robot: Option<&str>) -> TaskSpec {
     }
 }
 
+/// Tasks each pinned to a robot: (id, to, robot).
+fn pinned<'a>(tasks: &[(&'a str, &str, &str)]) -> Vec<(&'a str, TaskSpec)> {
+    tasks
+        .iter()
+        .map(|(id, to, robot)| (*id, spec(to, Some(robot))))
+        .collect()
+}
+
 async fn run(
     robots: &[(&str, &str)],
     tasks: Vec<(&str, TaskSpec)>,
@@ -61,6 +69,13 @@ async fn run_with(
         report.sim_s, report.wall, report.contacts, report.longest_still_s
     );
     report
+}
+
+fn all_done(r: &TaskReport, ids: &[&str]) {
+    for id in ids {
+        let t = status(r, id);
+        assert_eq!(t.state, TaskState::Done, "{t:?}");
+    }
 }
 
 fn status<'a>(r: &'a TaskReport, id: &str) -> &'a TaskStatus {
@@ -128,10 +143,7 @@ async fn a_task_that_takes_far_too_long_is_given_up_as_overdue_and_the_robot_goe
     // blocked, and without a deadline its task never ended.
     let r = run_with(
         &[("r1", "350R")],
-        vec![
-            ("T1", spec("376L", Some("r1"))),
-            ("T2", spec("352L", Some("r1"))),
-        ],
+        pinned(&[("T1", "376L", "r1"), ("T2", "352L", "r1")]),
         None,
         |cfg| cfg.slowest_mm_s = 1e9,
     )
@@ -159,17 +171,11 @@ async fn a_robot_between_tasks_steps_aside_and_another_passes_it_in_a_narrow_cor
     // leaves 0.84 m either side of it, and r2 is 0.76 m wide.
     let r = run(
         &[("r1", "A326L"), ("r2", "309R")],
-        vec![
-            ("T1", spec("A336L", Some("r1"))),
-            ("T2", spec("A342R", Some("r2"))),
-        ],
+        pinned(&[("T1", "A336L", "r1"), ("T2", "A342R", "r2")]),
         None,
     )
     .await;
-    for id in ["T1", "T2"] {
-        let t = status(&r, id);
-        assert_eq!(t.state, TaskState::Done, "{t:?}");
-    }
+    all_done(&r, &["T1", "T2"]);
     // Heading south, right is west: r1 stands by the west wall, not on the
     // middle line, by ground truth.
     let (x, _) = r.at_end["r1"];
@@ -191,10 +197,7 @@ async fn a_robot_waiting_its_turn_for_a_narrow_passage_is_not_blocked() {
     // blocked. Counted as standing still, the wait failed its task.
     let r = run_with(
         &[("r1", "303R"), ("r2", "A353R")],
-        vec![
-            ("T1", spec("A352L", Some("r1"))),
-            ("T2", spec("301L", Some("r2"))),
-        ],
+        pinned(&[("T1", "A352L", "r1"), ("T2", "301L", "r2")]),
         None,
         |cfg| {
             for (ring, edge) in rome_tests::corridor_n_walls(&cfg.map) {
