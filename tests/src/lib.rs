@@ -246,6 +246,23 @@ pub fn corridor_n_walls(map: &rome_maps::Map) -> Vec<(usize, usize)> {
         .collect()
 }
 
+/// `map` with corridor N's walls ([`corridor_n_walls`]) tagged as the
+/// narrow passage `N`.
+pub fn with_corridor_n_passage(mut map: rome_maps::Map) -> rome_maps::Map {
+    let walls = corridor_n_walls(&map);
+    assert!(
+        walls.len() >= 4,
+        "corridor N's walls: {} edges",
+        walls.len()
+    );
+    for (ring, edge) in walls {
+        map.rings[ring].edges[edge]
+            .tags
+            .insert("passage".into(), "N".into());
+    }
+    map
+}
+
 /// Waits until `count` different liveliness tokens matching `key` are
 /// alive (those already there count), at most 10 s for each.
 pub async fn await_alive(session: &Session, key: &str, count: usize) {

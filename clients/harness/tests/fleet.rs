@@ -105,19 +105,7 @@ async fn a_robot_catching_up_with_a_slower_one_arrives_and_so_does_the_slow_one(
 /// EB3 with corridor N (the new wing's middle corridor, x = 60 m between
 /// rings B and C) marked as a narrow passage.
 fn eb3_with_passage() -> rome_maps::Map {
-    let mut map = eb3();
-    let walls = rome_tests::corridor_n_walls(&map);
-    assert!(
-        walls.len() >= 4,
-        "corridor N's walls: {} edges",
-        walls.len()
-    );
-    for (ring, edge) in walls {
-        map.rings[ring].edges[edge]
-            .tags
-            .insert("passage".into(), "N".into());
-    }
-    map
+    rome_tests::with_corridor_n_passage(eb3())
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

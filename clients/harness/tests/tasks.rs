@@ -200,11 +200,7 @@ async fn a_robot_waiting_its_turn_for_a_narrow_passage_is_not_blocked() {
         pinned(&[("T1", "A352L", "r1"), ("T2", "301L", "r2")]),
         None,
         |cfg| {
-            for (ring, edge) in rome_tests::corridor_n_walls(&cfg.map) {
-                cfg.map.rings[ring].edges[edge]
-                    .tags
-                    .insert("passage".into(), "N".into());
-            }
+            cfg.map = rome_tests::with_corridor_n_passage(cfg.map.clone());
             cfg.stuck = Duration::from_secs(20);
         },
     )
