@@ -141,6 +141,7 @@ pub async fn sweep(
                 run,
                 tasks: tasks.clone(),
                 kill: None,
+                closed: None,
             },
             &mut |e| progress(ScaleEvent::Run(&e)),
         )

@@ -11,6 +11,7 @@
 use crate::{connect, crew_span, members, monitored, Harness, RunConfig};
 use rome_client::sim::TruthClient;
 use rome_client::{DataClient, DataOptions};
+use rome_maps::geometry::Point;
 use rome_maps::{Network, World};
 use rome_nav::crew::Reports;
 use rome_nav::fleet::dispatcher::{DispatchConfig, Dispatcher, Note};
@@ -38,6 +39,10 @@ pub struct TaskRun {
     /// A robot whose whole crew is killed as it takes its first task (a
     /// fault to inject).
     pub kill: Option<String>,
+    /// People who stand still at these points from the start, and leave
+    /// the building after this much simulated time: a corridor closed for
+    /// a while (a fault to inject).
+    pub closed: Option<(Vec<Point>, Duration)>,
 }
 
 /// What happened.
@@ -102,6 +107,11 @@ pub enum Said {
     NotArrived(String, String, bool),
     /// It waits its turn for a junction or passage (`Some`), or no longer.
     Waits(Option<String>),
+    /// Out of service where it was blocked twice, it rests this many
+    /// seconds before it tries to get clear: it is not lost for good.
+    Rests(f64),
+    /// It got clear to this position and takes tasks again.
+    Back(String),
     /// A value it read was skipped, or one of its clients failed.
     Trouble(String),
 }
@@ -120,6 +130,8 @@ impl std::fmt::Display for Said {
             }
             Said::Waits(Some(part)) => write!(f, "waits for {part}"),
             Said::Waits(None) => write!(f, "goes on"),
+            Said::Rests(s) => write!(f, "rests {s:.0} s, then drives itself clear"),
+            Said::Back(at) => write!(f, "got clear to {at}; takes tasks again"),
             Said::Trouble(why) => write!(f, "{why}"),
         }
     }
@@ -218,6 +230,11 @@ async fn run_all(
                         }
                         DutyNote::Planner(Progress::Holding(_, true)) => say(Said::Waits(None)),
                         DutyNote::Planner(_) => {}
+                        DutyNote::Resting(rest) => say(Said::Rests(rest.as_secs_f64())),
+                        DutyNote::Back(at) => say(Said::Back(at.to_string())),
+                        DutyNote::NotBack(why) => {
+                            say(Said::Trouble(format!("did not get clear: {why}")))
+                        }
                     })
                     .await;
                 if let Err(e) = r {
@@ -251,6 +268,14 @@ async fn run_all(
     for (id, spec) in &cfg.tasks {
         tasks::add_as(&adder, id, spec).await?;
     }
+    // The people who close a corridor, and when they leave.
+    let mut closed: Option<(Vec<usize>, Duration)> = cfg.closed.as_ref().map(|(at, until)| {
+        let mut w = rig.world.lock();
+        (
+            at.iter().map(|p| w.add_walker(*p, *p, 0.0)).collect(),
+            *until,
+        )
+    });
     rig.trace(run.trace.as_deref())?;
     let stepper = match clock {
         Some(clock) => rig.world.start_lockstep(clock, run.speed, |_| {}),
@@ -273,6 +298,7 @@ async fn run_all(
     let mut contact_places: Vec<ContactAt> = Vec::new();
     // Robots that take no more tasks: lost, or their crew killed.
     let mut lost = vec![false; names.len()];
+    let mut resting = vec![false; names.len()];
     loop {
         let ended = statuses.len() == cfg.tasks.len() && statuses.values().all(|s| s.state.ended());
         // Nobody left to do what remains.
@@ -280,6 +306,17 @@ async fn run_all(
         let now = rig.world.lock().time_ms();
         if ended || Duration::from_millis(now - t0) > run.limit {
             break;
+        }
+        if let Some((people, _)) =
+            closed.take_if(|(_, until)| Duration::from_millis(now - t0) >= *until)
+        {
+            // Gone from the building: far off, where no sonar reaches.
+            let gone = Point::new(-1.0e7, -1.0e7);
+            let mut w = rig.world.lock();
+            for k in people {
+                let p = &mut w.walkers_mut()[k];
+                (p.at, p.from, p.to) = (gone, gone, gone);
+            }
         }
         tokio::select! {
             biased;
@@ -307,7 +344,13 @@ async fn run_all(
                                 _ => doing[k] = None,
                             }
                             busy[k] = matches!(said, Said::Took(_));
-                            lost[k] |= matches!(said, Said::NotArrived(_, _, true));
+                            // Resting is not lost for good: it comes back.
+                            match said {
+                                Said::Rests(_) => resting[k] = true,
+                                Said::Back(_) => resting[k] = false,
+                                _ => {}
+                            }
+                            lost[k] |= matches!(said, Said::NotArrived(_, _, true)) && !resting[k];
                             still[k] = (now, rig.world.lock().robot(rig.index[k]).travelled_mm);
                             if !killed && busy[k] && cfg.kill.as_deref() == Some(name.as_str()) {
                                 // The whole crew dies at once, Planner too.

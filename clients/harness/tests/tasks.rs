@@ -38,7 +38,7 @@ async fn run_with(
     robots: &[(&str, &str)],
     tasks: Vec<(&str, TaskSpec)>,
     kill: Option<&str>,
-    adjust: impl FnOnce(&mut RunConfig),
+    adjust: impl FnOnce(&mut TaskRun),
 ) -> TaskReport {
     rome_tests::show_warnings_on_failure();
     let map = rome_maps::load_named("eb3").expect("eb3 loads");
@@ -49,15 +49,16 @@ async fn run_with(
     let mut cfg = RunConfig::fleet(map, routes);
     cfg.limit = Duration::from_secs(15 * 60);
     cfg.plfinder = false;
-    adjust(&mut cfg);
-    let run = TaskRun {
+    let mut run = TaskRun {
         run: cfg,
         tasks: tasks
             .into_iter()
             .map(|(id, s)| (id.to_string(), s))
             .collect(),
         kill: kill.map(Into::into),
+        closed: None,
     };
+    adjust(&mut run);
     let report = run_tasks(run, &mut |e| match e {
         TaskEvent::Task(s, what) => println!("{} ({}): {what}", s.id, s.to),
         TaskEvent::Robot(r, said) => println!("{r}: {said}"),
@@ -145,7 +146,7 @@ async fn a_task_that_takes_far_too_long_is_given_up_as_overdue_and_the_robot_goe
         &[("r1", "350R")],
         pinned(&[("T1", "376L", "r1"), ("T2", "352L", "r1")]),
         None,
-        |cfg| cfg.slowest_mm_s = 1e9,
+        |t| t.run.slowest_mm_s = 1e9,
     )
     .await;
     let t1 = status(&r, "T1");
@@ -199,9 +200,9 @@ async fn a_robot_waiting_its_turn_for_a_narrow_passage_is_not_blocked() {
         &[("r1", "303R"), ("r2", "A353R")],
         pinned(&[("T1", "A352L", "r1"), ("T2", "301L", "r2")]),
         None,
-        |cfg| {
-            cfg.map = rome_tests::with_corridor_n_passage(cfg.map.clone());
-            cfg.stuck = Duration::from_secs(20);
+        |t| {
+            t.run.map = rome_tests::with_corridor_n_passage(t.run.map.clone());
+            t.run.stuck = Duration::from_secs(20);
         },
     )
     .await;
@@ -217,4 +218,50 @@ async fn a_robot_waiting_its_turn_for_a_narrow_passage_is_not_blocked() {
         assert_eq!(t.tried, vec![robot.to_string()], "{t:?}");
         assert!(t.why.is_empty(), "{t:?}");
     }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_robot_blocked_twice_in_one_place_rests_gets_clear_and_takes_tasks_again() {
+    // Three people stand across corridor N (2.44 m wide) halfway from
+    // A326L to A336L for the first 150 s, and a robot may stand still for
+    // 20 s. r1, sent through them twice, is blocked twice in one place and
+    // goes out of service. Out of service for good, it never took T3.
+    let map = rome_maps::load_named("eb3").expect("eb3 loads");
+    let world = rome_maps::World::from_map(&map);
+    let at = |p: &str| world.position(p).expect("on the map").in_corridor();
+    let (a, b) = (at("A326L"), at("A336L"));
+    let along = (b - a).normalize();
+    let across = rome_maps::geometry::Vector::new(-along.y, along.x);
+    let middle = a + (b - a) * 0.5;
+    let people = [-800.0, 0.0, 800.0].map(|k| middle + across * k).to_vec();
+    let r = run_with(
+        &[("r1", "A326L")],
+        pinned(&[
+            ("T1", "A336L", "r1"),
+            ("T2", "A336L", "r1"),
+            ("T3", "A336L", "r1"),
+        ]),
+        None,
+        |t| {
+            t.run.stuck = Duration::from_secs(20);
+            t.closed = Some((people, Duration::from_secs(150)));
+        },
+    )
+    .await;
+    for id in ["T1", "T2"] {
+        let t = status(&r, id);
+        assert_eq!(t.state, TaskState::Failed, "{t:?}");
+        assert!(t.why.iter().any(|w| w.contains("blocked at (")), "{t:?}");
+    }
+    let t3 = status(&r, "T3");
+    assert_eq!(t3.state, TaskState::Done, "{t3:?}");
+    assert_eq!(t3.tried, vec!["r1".to_string()], "{t3:?}");
+    // It was sent only once it was back: after its rest, with the people
+    // gone.
+    let t2 = status(&r, "T2");
+    let rest_ms = rome_nav::fleet::duty::REST_FIRST.as_millis() as u64;
+    assert!(
+        t3.assigned_ms >= t2.ended_ms.map(|e| e + rest_ms),
+        "{t2:?} {t3:?}"
+    );
 }

@@ -12,9 +12,13 @@
 //! A run that fails or is cancelled midway stops the robot away from any
 //! position the map names: it reports where its odometry puts it
 //! (`@x,y` in metres, and `at_mm`), and its next task is planned from
-//! there. A robot whose odometry cannot be read, or that is blocked twice
-//! in one place, is `lost`, taking no more tasks until it is started again
-//! with `--from`. A value on the
+//! there. A robot whose odometry cannot be read, or that is overdue twice
+//! running, is `lost`, taking no more tasks until it is started again with
+//! `--from`. A robot blocked twice in one place is `lost` too, but only for
+//! a rest: then it drives itself clear to a position of the map
+//! ([`clear_to`]) and takes tasks again, or rests twice as long and tries
+//! another position. Left standing for good, such robots become the very
+//! knots that block the next ones. A value on the
 //! blackboard that does not decode is reported and skipped; it never ends
 //! the Planner.
 
@@ -46,6 +50,82 @@ const OVERDUE_GRACE: Duration = Duration::from_secs(120);
 /// How far a robot must get from where it was, mm, within
 /// [`DutyConfig::stuck`], not to be blocked.
 const BLOCKED_RADIUS_MM: f64 = 2_000.0;
+
+/// How long a robot blocked twice in one place first stands out of
+/// service before it tries to drive itself clear. Whatever held it may
+/// have moved on by then; each try that fails doubles the rest, up to
+/// [`REST_MAX`].
+pub const REST_FIRST: Duration = Duration::from_secs(120);
+
+/// The longest rest between two tries at getting clear.
+pub const REST_MAX: Duration = Duration::from_secs(960);
+
+/// How far along its route a position must be for a robot to drive to it
+/// to get clear, mm: a nearer one lies in the knot the robot stood in.
+pub const CLEAR_MIN_MM: f64 = 3_000.0;
+
+/// How far from the robot, in a straight line, positions are looked at to
+/// get clear, mm.
+const CLEAR_NEAR_MM: f64 = 30_000.0;
+
+/// The position a robot out of service at `at`, facing `heading_deg`,
+/// drives to, to get clear of where it was blocked: one at least
+/// [`CLEAR_MIN_MM`] along its route, behind the robot if any is (the way
+/// it came, which it drove through; ahead is what blocked it), the
+/// nearest by route of those (ties by name, so every run picks the
+/// same), leaving out those it `tried` already. `None`: none within 30 m.
+pub fn clear_to(
+    world: &World,
+    network: &Network,
+    at: Point,
+    heading_deg: f64,
+    tried: &[String],
+) -> Option<(String, f64)> {
+    let ahead = rome_maps::geometry::direction(heading_deg);
+    world
+        .positions
+        .iter()
+        .filter(|(name, p)| !tried.contains(name) && (p.in_corridor() - at).norm() <= CLEAR_NEAR_MM)
+        .filter_map(|(name, p)| {
+            let route = world.route_from(network, ("here", at), &[], name).ok()?;
+            let in_front = (p.in_corridor() - at).dot(&ahead) > 0.0;
+            (route.length_mm >= CLEAR_MIN_MM).then(|| (in_front, name.clone(), route.length_mm))
+        })
+        .min_by(|a, b| {
+            (a.0.cmp(&b.0))
+                .then_with(|| a.2.total_cmp(&b.2))
+                .then_with(|| a.1.cmp(&b.1))
+        })
+        .map(|(_, name, length)| (name, length))
+}
+
+/// How far a robot getting clear backs away from what stands before it
+/// at most, mm.
+const CLEAR_BACK_MM: f64 = 800.0;
+
+/// How near what lies behind it a robot backing away may come, mm.
+const CLEAR_BEHIND_MM: f64 = 150.0;
+
+/// How far a robot getting clear first backs away, mm, from its sonar
+/// ranges (24, sonar 12 ahead, 0 behind): only with something within half
+/// a metre in its front half, and as far as the three sonars behind leave
+/// room; 0 for less than 0.2 m of room.
+pub fn clear_back_mm(sonar_mm: &[u32]) -> f64 {
+    let near = |k: &[usize]| {
+        k.iter()
+            .filter_map(|i| sonar_mm.get(*i))
+            .fold(f64::INFINITY, |a, r| a.min(f64::from(*r)))
+    };
+    if near(&[8, 9, 10, 11, 12, 13, 14, 15, 16]) > 500.0 {
+        return 0.0;
+    }
+    let room = near(&[23, 0, 1]) - CLEAR_BEHIND_MM;
+    if room < 200.0 {
+        0.0
+    } else {
+        room.min(CLEAR_BACK_MM)
+    }
+}
 
 /// Where the last task left the robot: its last D goal's direction, and
 /// the walls (left, right) beside the goal, mm.
@@ -109,6 +189,13 @@ pub enum DutyNote<'a> {
     /// Navigator's reason, or the data server's). It stands where the step
     /// left it and takes tasks as before.
     NotAside(String),
+    /// Out of service where it was blocked twice, it stands this long
+    /// before it tries to drive itself clear to a position of the map.
+    Resting(Duration),
+    /// It drove itself clear to this position and takes tasks again.
+    Back(&'a str),
+    /// It did not get clear: why. It rests again, twice as long.
+    NotBack(String),
 }
 
 /// A robot that takes tasks: its blackboard, base, the map, and where it
@@ -163,10 +250,47 @@ impl OnDuty<'_> {
         // Where the last task was given up as blocked, if it was.
         let mut blocked_at: Option<(f64, f64)> = None;
         let mut overdue_before = false;
+        // Out of service until it gets clear: how long it rests before
+        // the next try, and the positions it tried to get to.
+        let mut out: Option<(Duration, Vec<String>)> = None;
         // How the last task ended, when it ended on its goal: the goal's
         // direction and the walls beside it.
         let mut last_leg: Option<LastLeg> = None;
         loop {
+            if let Some((rest, tried)) = out.as_mut() {
+                rome_clock::sleep(*rest).await;
+                let cleared = self
+                    .get_clear(
+                        cfg,
+                        tried,
+                        (&mut registered, &mut facing, &mut last_leg),
+                        &mut note,
+                    )
+                    .await;
+                match cleared {
+                    Ok(at) => {
+                        duty.at = at;
+                        duty.at_mm = None;
+                        duty.state = DutyState::Idle;
+                        blocked_at = None;
+                        overdue_before = false;
+                        out = None;
+                        note(DutyNote::Back(&duty.at));
+                    }
+                    Err(why) => {
+                        *rest = (*rest * 2).min(REST_MAX);
+                        if let Ok(p) = self.robot.pose().await {
+                            let (x, y) = (f64::from(p.x_mm), f64::from(p.y_mm));
+                            duty.at = format!("@{:.1},{:.1}", x / 1000.0, y / 1000.0);
+                            duty.at_mm = Some([x, y]);
+                        }
+                        note(DutyNote::NotBack(why));
+                        note(DutyNote::Resting(*rest));
+                    }
+                }
+                self.report(&duty).await?;
+                continue;
+            }
             let given = match (last_leg.take(), cfg.aside_after) {
                 (Some((direction, walls)), Some(after)) => {
                     let given = ds.wait_timeout(&task_sem(self.name), after).await?;
@@ -208,6 +332,7 @@ impl OnDuty<'_> {
                     cfg,
                     &from,
                     &a,
+                    true,
                     (&mut registered, &mut facing, &mut last_leg),
                     &mut note,
                 )
@@ -237,13 +362,15 @@ impl OnDuty<'_> {
                             .as_deref()
                             .is_some_and(|w| w.starts_with(BLOCKED));
                         // Blocked twice in one place: whatever holds it
-                        // there will hold it for the next task too, and a
+                        // there would hold it for the next task too, and a
                         // robot that keeps failing tasks keeps them from
-                        // robots that could do them.
+                        // robots that could do them. It rests, then tries
+                        // to get clear.
                         if blocked
                             && blocked_at.is_some_and(|(bx, by)| (x - bx).hypot(y - by) < 1_000.0)
                         {
                             duty.state = DutyState::Lost;
+                            out = Some((REST_FIRST, Vec::new()));
                         }
                         blocked_at = blocked.then_some((x, y));
                         // Overdue twice running: it keeps losing its way.
@@ -259,6 +386,11 @@ impl OnDuty<'_> {
                     _ => duty.state = DutyState::Lost,
                 },
             }
+            // Said first, so that whoever watches never takes it for lost
+            // for good.
+            if let Some((rest, _)) = &out {
+                note(DutyNote::Resting(*rest));
+            }
             note(DutyNote::Ended(
                 &outcome,
                 (duty.state != DutyState::Lost).then_some(duty.at.as_str()),
@@ -269,6 +401,65 @@ impl OnDuty<'_> {
         }
     }
 
+    /// Drives from where the robot stands to the nearest position it has
+    /// not tried yet ([`clear_to`]), as a task of its own that nobody
+    /// cancels: the position it arrived at, or why not.
+    async fn get_clear(
+        &self,
+        cfg: &DutyConfig,
+        tried: &mut Vec<String>,
+        state: (&mut bool, &mut Option<f64>, &mut Option<LastLeg>),
+        note: &mut impl FnMut(DutyNote<'_>),
+    ) -> Result<String, String> {
+        // Out of the knot first: backing away from what stands before it
+        // gives both room to turn and pass.
+        let sonar = self.robot.sonar().await.map_err(|e| e.to_string())?;
+        let back = clear_back_mm(&sonar.sonar_mm);
+        if back > 0.0 {
+            self.robot
+                .move_by(-back, 200.0, -1.0)
+                .await
+                .map_err(|e| e.to_string())?;
+            // At 0.2 m/s, 0.8 m takes 4 s; a base that never says it is
+            // done is given up on after 20 s.
+            for _ in 0..200 {
+                rome_clock::sleep(Duration::from_millis(100)).await;
+                let mode = self.robot.mode().await.map_err(|e| e.to_string())?;
+                if !["point_go", "stopping"].contains(&mode.mode.as_str()) {
+                    break;
+                }
+            }
+        }
+        let p = self.robot.pose().await.map_err(|e| e.to_string())?;
+        let here = Point::new(f64::from(p.x_mm), f64::from(p.y_mm));
+        let Some((to, _)) = clear_to(self.world, self.network, here, p.heading_deg, tried) else {
+            return Err(format!(
+                "no position of the map it has not tried within {:.0} m",
+                CLEAR_NEAR_MM / 1000.0
+            ));
+        };
+        tried.push(to.clone());
+        let a = Assignment {
+            task: format!("clear to {to}"),
+            to,
+            via: Vec::new(),
+        };
+        let from = (
+            format!("@{:.1},{:.1}", here.x / 1000.0, here.y / 1000.0),
+            Some(here),
+        );
+        // Its own drive is no task: only what the Planner says is passed on.
+        let mut planner_only = |n: DutyNote<'_>| {
+            if let DutyNote::Planner(_) = n {
+                note(n)
+            }
+        };
+        let (outcome, at) = self
+            .carry_out(cfg, &from, &a, false, state, &mut planner_only)
+            .await;
+        at.ok_or_else(|| outcome.why.unwrap_or_else(|| "no reason given".to_string()))
+    }
+
     async fn report(&self, duty: &Duty) -> Result<(), NavError> {
         let ds = self.board.client();
         ds.set(&duty_var(self.name), duty).await?;
@@ -277,12 +468,14 @@ impl OnDuty<'_> {
     }
 
     /// Drives one task: how it went, and where the robot stands after it
-    /// (`None`: nowhere the map names).
+    /// (`None`: nowhere the map names). With `cancellable`, it stops when
+    /// the robot's `Task` no longer names `a`.
     async fn carry_out(
         &self,
         cfg: &DutyConfig,
         from: &(String, Option<Point>),
         a: &Assignment,
+        cancellable: bool,
         (registered, facing, last_leg): (&mut bool, &mut Option<f64>, &mut Option<LastLeg>),
         note: &mut impl FnMut(DutyNote<'_>),
     ) -> (Outcome, Option<String>) {
@@ -333,7 +526,7 @@ impl OnDuty<'_> {
         let ended = tokio::select! {
             biased;
             r = drive => r.map(|_| ()).map_err(|e| format!("the Planner stopped: {e}")),
-            why = self.cancelled(a, cfg.check_every) => Err(why),
+            why = self.cancelled(a, cfg.check_every), if cancellable => Err(why),
             why = self.blocked(cfg, &waiting) => Err(why),
             why = self.overdue(cfg, &waiting, plan.route.length_mm) => Err(why),
         };
@@ -455,5 +648,75 @@ impl OnDuty<'_> {
                 );
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn eb3() -> (World, Network) {
+        let map = rome_maps::load_named("eb3").expect("eb3 loads");
+        let world = World::from_map(&map);
+        let network = Network::new(&map, &world);
+        (world, network)
+    }
+
+    #[test]
+    fn a_robot_gets_clear_behind_it_first_then_ahead_never_twice_to_one_place() {
+        let (world, network) = eb3();
+        // On A336L in corridor N, facing south (180°): that position, and
+        // any under 3 m of route, is in the knot it stands in.
+        let at = world.position("A336L").expect("A336L").in_corridor();
+        let behind = |to: &str| {
+            let p = world.position(to).expect("named").in_corridor();
+            (p - at).dot(&rome_maps::geometry::direction(180.0)) <= 0.0
+        };
+        let mut tried = Vec::new();
+        let mut seen_ahead = false;
+        for _ in 0..12 {
+            let (to, length) = clear_to(&world, &network, at, 180.0, &tried).expect("a position");
+            assert!(length >= CLEAR_MIN_MM, "{to} is {length:.0} mm away");
+            let far = (world.position(&to).expect("named").in_corridor() - at).norm();
+            assert!(far <= CLEAR_NEAR_MM, "{to} is {far:.0} mm away");
+            assert!(!tried.contains(&to), "{to} was tried already");
+            // Every position behind before any ahead.
+            assert!(
+                !(seen_ahead && behind(&to)),
+                "{to} behind after one ahead: {tried:?}"
+            );
+            seen_ahead |= !behind(&to);
+            tried.push(to);
+        }
+        assert!(behind(&tried[0]), "{tried:?}");
+        assert!(!tried.iter().any(|t| t == "A336L"), "{tried:?}");
+    }
+
+    #[test]
+    fn a_robot_with_every_position_near_tried_has_nowhere_to_get_clear_to() {
+        let (world, network) = eb3();
+        let at = world.position("A336L").expect("A336L").in_corridor();
+        let all: Vec<String> = world.positions.keys().cloned().collect();
+        assert_eq!(clear_to(&world, &network, at, 0.0, &all), None);
+        // Far from everything: nothing within reach either.
+        let nowhere = Point::new(-1.0e6, -1.0e6);
+        assert_eq!(clear_to(&world, &network, nowhere, 0.0, &[]), None);
+    }
+
+    #[test]
+    fn a_robot_getting_clear_backs_away_only_from_something_close_ahead_and_as_room_allows() {
+        let open = vec![5_000u32; 24];
+        assert_eq!(clear_back_mm(&open), 0.0, "nothing close ahead");
+        let mut touching = open.clone();
+        touching[12] = 100;
+        assert_eq!(clear_back_mm(&touching), CLEAR_BACK_MM);
+        let mut side = open.clone();
+        side[6] = 100; // 90° right: a wall beside it, not a knot
+        assert_eq!(clear_back_mm(&side), 0.0);
+        let mut boxed = touching.clone();
+        boxed[0] = 500;
+        assert_eq!(clear_back_mm(&boxed), 500.0 - CLEAR_BEHIND_MM);
+        boxed[23] = 300;
+        assert_eq!(clear_back_mm(&boxed), 0.0, "under 0.2 m of room behind");
     }
 }

@@ -342,11 +342,17 @@ pub async fn take_tasks(common: &CommonArgs, d: Duty) -> anyhow::Result<u8> {
             o.why.as_deref().unwrap_or("no reason"),
             match at {
                 Some(at) => format!("; goes on from {at}"),
-                None => "; its odometry cannot be read: it takes no more tasks until started again with --from".to_string(),
+                None => "; out of service".to_string(),
             }
         ),
         DutyNote::Skipped(why) => eprintln!("rome planner: skipped {why}"),
         DutyNote::NotAside(why) => eprintln!("rome planner: did not step aside: {why}"),
+        DutyNote::Resting(rest) => println!(
+            "blocked twice in one place: out of service for {:.0} s, then drives itself clear",
+            rest.as_secs_f64()
+        ),
+        DutyNote::Back(at) => println!("got clear to {at}; takes tasks again"),
+        DutyNote::NotBack(why) => eprintln!("rome planner: did not get clear: {why}"),
     })
     .await?;
     Ok(exit::OK)

@@ -102,7 +102,7 @@ pub async fn run(args: Args) -> anyhow::Result<u8> {
         }
         ScaleEvent::Run(TaskEvent::Robot(
             robot,
-            said @ (Said::NotArrived(..) | Said::Trouble(_)),
+            said @ (Said::NotArrived(..) | Said::Trouble(_) | Said::Rests(_) | Said::Back(_)),
         )) => {
             eprintln!("{robot}: {said}");
         }
