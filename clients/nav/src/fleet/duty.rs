@@ -99,34 +99,6 @@ pub fn clear_to(
         .map(|(_, name, length)| (name, length))
 }
 
-/// How far a robot getting clear backs away from what stands before it
-/// at most, mm.
-const CLEAR_BACK_MM: f64 = 800.0;
-
-/// How near what lies behind it a robot backing away may come, mm.
-const CLEAR_BEHIND_MM: f64 = 150.0;
-
-/// How far a robot getting clear first backs away, mm, from its sonar
-/// ranges (24, sonar 12 ahead, 0 behind): only with something within half
-/// a metre in its front half, and as far as the three sonars behind leave
-/// room; 0 for less than 0.2 m of room.
-pub fn clear_back_mm(sonar_mm: &[u32]) -> f64 {
-    let near = |k: &[usize]| {
-        k.iter()
-            .filter_map(|i| sonar_mm.get(*i))
-            .fold(f64::INFINITY, |a, r| a.min(f64::from(*r)))
-    };
-    if near(&[8, 9, 10, 11, 12, 13, 14, 15, 16]) > 500.0 {
-        return 0.0;
-    }
-    let room = near(&[23, 0, 1]) - CLEAR_BEHIND_MM;
-    if room < 200.0 {
-        0.0
-    } else {
-        room.min(CLEAR_BACK_MM)
-    }
-}
-
 /// Where the last task left the robot: its last D goal's direction, and
 /// the walls (left, right) beside the goal, mm.
 type LastLeg = (f64, (f64, f64));
@@ -411,25 +383,6 @@ impl OnDuty<'_> {
         state: (&mut bool, &mut Option<f64>, &mut Option<LastLeg>),
         note: &mut impl FnMut(DutyNote<'_>),
     ) -> Result<String, String> {
-        // Out of the knot first: backing away from what stands before it
-        // gives both room to turn and pass.
-        let sonar = self.robot.sonar().await.map_err(|e| e.to_string())?;
-        let back = clear_back_mm(&sonar.sonar_mm);
-        if back > 0.0 {
-            self.robot
-                .move_by(-back, 200.0, -1.0)
-                .await
-                .map_err(|e| e.to_string())?;
-            // At 0.2 m/s, 0.8 m takes 4 s; a base that never says it is
-            // done is given up on after 20 s.
-            for _ in 0..200 {
-                rome_clock::sleep(Duration::from_millis(100)).await;
-                let mode = self.robot.mode().await.map_err(|e| e.to_string())?;
-                if !["point_go", "stopping"].contains(&mode.mode.as_str()) {
-                    break;
-                }
-            }
-        }
         let p = self.robot.pose().await.map_err(|e| e.to_string())?;
         let here = Point::new(f64::from(p.x_mm), f64::from(p.y_mm));
         let Some((to, _)) = clear_to(self.world, self.network, here, p.heading_deg, tried) else {
@@ -701,22 +654,5 @@ mod tests {
         // Far from everything: nothing within reach either.
         let nowhere = Point::new(-1.0e6, -1.0e6);
         assert_eq!(clear_to(&world, &network, nowhere, 0.0, &[]), None);
-    }
-
-    #[test]
-    fn a_robot_getting_clear_backs_away_only_from_something_close_ahead_and_as_room_allows() {
-        let open = vec![5_000u32; 24];
-        assert_eq!(clear_back_mm(&open), 0.0, "nothing close ahead");
-        let mut touching = open.clone();
-        touching[12] = 100;
-        assert_eq!(clear_back_mm(&touching), CLEAR_BACK_MM);
-        let mut side = open.clone();
-        side[6] = 100; // 90° right: a wall beside it, not a knot
-        assert_eq!(clear_back_mm(&side), 0.0);
-        let mut boxed = touching.clone();
-        boxed[0] = 500;
-        assert_eq!(clear_back_mm(&boxed), 500.0 - CLEAR_BEHIND_MM);
-        boxed[23] = 300;
-        assert_eq!(clear_back_mm(&boxed), 0.0, "under 0.2 m of room behind");
     }
 }
