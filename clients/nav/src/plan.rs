@@ -600,10 +600,11 @@ impl Corridor {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
-    fn eb3() -> (World, Network) {
+    /// EB3's world and route network.
+    pub(crate) fn eb3() -> (World, Network) {
         let map = rome_maps::load_named("eb3").expect("eb3 loads");
         let world = World::from_map(&map);
         let net = Network::new(&map, &world);

@@ -103,6 +103,33 @@ pub fn clear_to(
 /// the walls (left, right) beside the goal, mm.
 type LastLeg = (f64, (f64, f64));
 
+/// What went wrong lately, which decides whether the robot goes out of
+/// service; forgotten once it arrives somewhere.
+#[derive(Debug, Default)]
+struct Trouble {
+    /// Where the last task was given up as blocked, if it was.
+    blocked_at: Option<(f64, f64)>,
+    /// Whether the last task was given up as overdue.
+    overdue_before: bool,
+    /// Out of service until it gets clear: how long it rests before the
+    /// next try, and the positions it tried to get to.
+    out: Option<(Duration, Vec<String>)>,
+}
+
+/// The robot stands at the position `at`, ready for a task.
+fn idle_at(duty: &mut Duty, at: String) {
+    duty.at = at;
+    duty.at_mm = None;
+    duty.state = DutyState::Idle;
+}
+
+/// The robot stands where no position is named, at (`x`, `y`) mm by its
+/// odometry.
+fn stands_off(duty: &mut Duty, x: f64, y: f64) {
+    duty.at = format!("@{:.1},{:.1}", x / 1000.0, y / 1000.0);
+    duty.at_mm = Some([x, y]);
+}
+
 /// How the robot takes tasks.
 #[derive(Debug, Clone)]
 pub struct DutyConfig {
@@ -219,17 +246,12 @@ impl OnDuty<'_> {
         self.report(&duty).await?;
         let mut facing = cfg.facing;
         let mut registered = false;
-        // Where the last task was given up as blocked, if it was.
-        let mut blocked_at: Option<(f64, f64)> = None;
-        let mut overdue_before = false;
-        // Out of service until it gets clear: how long it rests before
-        // the next try, and the positions it tried to get to.
-        let mut out: Option<(Duration, Vec<String>)> = None;
+        let mut trouble = Trouble::default();
         // How the last task ended, when it ended on its goal: the goal's
         // direction and the walls beside it.
         let mut last_leg: Option<LastLeg> = None;
         loop {
-            if let Some((rest, tried)) = out.as_mut() {
+            if let Some((rest, tried)) = trouble.out.as_mut() {
                 rome_clock::sleep(*rest).await;
                 let cleared = self
                     .get_clear(
@@ -241,20 +263,14 @@ impl OnDuty<'_> {
                     .await;
                 match cleared {
                     Ok(at) => {
-                        duty.at = at;
-                        duty.at_mm = None;
-                        duty.state = DutyState::Idle;
-                        blocked_at = None;
-                        overdue_before = false;
-                        out = None;
+                        idle_at(&mut duty, at);
+                        trouble = Trouble::default();
                         note(DutyNote::Back(&duty.at));
                     }
                     Err(why) => {
                         *rest = (*rest * 2).min(REST_MAX);
                         if let Ok(p) = self.robot.pose().await {
-                            let (x, y) = (f64::from(p.x_mm), f64::from(p.y_mm));
-                            duty.at = format!("@{:.1},{:.1}", x / 1000.0, y / 1000.0);
-                            duty.at_mm = Some([x, y]);
+                            stands_off(&mut duty, f64::from(p.x_mm), f64::from(p.y_mm));
                         }
                         note(DutyNote::NotBack(why));
                         note(DutyNote::Resting(*rest));
@@ -314,11 +330,8 @@ impl OnDuty<'_> {
             }
             match at {
                 Some(at) => {
-                    duty.at = at;
-                    duty.at_mm = None;
-                    duty.state = DutyState::Idle;
-                    blocked_at = None;
-                    overdue_before = false;
+                    idle_at(&mut duty, at);
+                    trouble = Trouble::default();
                 }
                 // Stopped between named positions: it goes on from where
                 // its odometry puts it (registered at its first task's
@@ -326,8 +339,7 @@ impl OnDuty<'_> {
                 None => match self.robot.pose().await {
                     Ok(p) if registered => {
                         let (x, y) = (f64::from(p.x_mm), f64::from(p.y_mm));
-                        duty.at = format!("@{:.1},{:.1}", x / 1000.0, y / 1000.0);
-                        duty.at_mm = Some([x, y]);
+                        stands_off(&mut duty, x, y);
                         duty.state = DutyState::Idle;
                         let blocked = outcome
                             .why
@@ -339,28 +351,30 @@ impl OnDuty<'_> {
                         // robots that could do them. It rests, then tries
                         // to get clear.
                         if blocked
-                            && blocked_at.is_some_and(|(bx, by)| (x - bx).hypot(y - by) < 1_000.0)
+                            && trouble
+                                .blocked_at
+                                .is_some_and(|(bx, by)| (x - bx).hypot(y - by) < 1_000.0)
                         {
                             duty.state = DutyState::Lost;
-                            out = Some((REST_FIRST, Vec::new()));
+                            trouble.out = Some((REST_FIRST, Vec::new()));
                         }
-                        blocked_at = blocked.then_some((x, y));
+                        trouble.blocked_at = blocked.then_some((x, y));
                         // Overdue twice running: it keeps losing its way.
                         let overdue_now = outcome
                             .why
                             .as_deref()
                             .is_some_and(|w| w.starts_with(OVERDUE));
-                        if overdue_now && overdue_before {
+                        if overdue_now && trouble.overdue_before {
                             duty.state = DutyState::Lost;
                         }
-                        overdue_before = overdue_now;
+                        trouble.overdue_before = overdue_now;
                     }
                     _ => duty.state = DutyState::Lost,
                 },
             }
             // Said first, so that whoever watches never takes it for lost
             // for good.
-            if let Some((rest, _)) = &out {
+            if let Some((rest, _)) = &trouble.out {
                 note(DutyNote::Resting(*rest));
             }
             note(DutyNote::Ended(
@@ -608,12 +622,7 @@ impl OnDuty<'_> {
 mod tests {
     use super::*;
 
-    fn eb3() -> (World, Network) {
-        let map = rome_maps::load_named("eb3").expect("eb3 loads");
-        let world = World::from_map(&map);
-        let network = Network::new(&map, &world);
-        (world, network)
-    }
+    use crate::plan::tests::eb3;
 
     #[test]
     fn a_robot_gets_clear_behind_it_first_then_ahead_never_twice_to_one_place() {
