@@ -260,8 +260,9 @@ async fn a_robot_blocked_twice_in_one_place_rests_gets_clear_and_takes_tasks_aga
     // gone.
     let t2 = status(&r, "T2");
     let rest_ms = rome_nav::fleet::duty::REST_FIRST.as_millis() as u64;
+    let t2_ended = t2.ended_ms.expect("T2 ended");
     assert!(
-        t3.assigned_ms >= t2.ended_ms.map(|e| e + rest_ms),
+        t3.assigned_ms.is_some_and(|a| a >= t2_ended + rest_ms),
         "{t2:?} {t3:?}"
     );
 }

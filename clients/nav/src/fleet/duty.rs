@@ -85,10 +85,14 @@ pub fn clear_to(
     world
         .positions
         .iter()
-        .filter(|(name, p)| !tried.contains(name) && (p.in_corridor() - at).norm() <= CLEAR_NEAR_MM)
+        .filter(|(name, _)| !tried.contains(name))
         .filter_map(|(name, p)| {
+            let off = p.in_corridor() - at;
+            if off.norm() > CLEAR_NEAR_MM {
+                return None;
+            }
             let route = world.route_from(network, ("here", at), &[], name).ok()?;
-            let in_front = (p.in_corridor() - at).dot(&ahead) > 0.0;
+            let in_front = off.dot(&ahead) > 0.0;
             (route.length_mm >= CLEAR_MIN_MM).then(|| (in_front, name.clone(), route.length_mm))
         })
         .min_by(|a, b| {
@@ -123,10 +127,16 @@ fn idle_at(duty: &mut Duty, at: String) {
     duty.state = DutyState::Idle;
 }
 
+/// How a point where no position is named is written in `Duty.at`:
+/// `@x,y` in metres.
+fn off_label(x_mm: f64, y_mm: f64) -> String {
+    format!("@{:.1},{:.1}", x_mm / 1000.0, y_mm / 1000.0)
+}
+
 /// The robot stands where no position is named, at (`x`, `y`) mm by its
 /// odometry.
 fn stands_off(duty: &mut Duty, x: f64, y: f64) {
-    duty.at = format!("@{:.1},{:.1}", x / 1000.0, y / 1000.0);
+    duty.at = off_label(x, y);
     duty.at_mm = Some([x, y]);
 }
 
@@ -411,10 +421,7 @@ impl OnDuty<'_> {
             to,
             via: Vec::new(),
         };
-        let from = (
-            format!("@{:.1},{:.1}", here.x / 1000.0, here.y / 1000.0),
-            Some(here),
-        );
+        let from = (off_label(here.x, here.y), Some(here));
         // Its own drive is no task: only what the Planner says is passed on.
         let mut planner_only = |n: DutyNote<'_>| {
             if let DutyNote::Planner(_) = n {
