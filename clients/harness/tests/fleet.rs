@@ -1,6 +1,6 @@
 //! Several robots at once through one data server, in one process, judged
-//! by ground truth: robots that meet head-on (in a wide corridor and a
-//! narrow one) or catch up with each other,
+//! by ground truth: robots that meet head-on (in a wide corridor, a
+//! narrow one, and on the way to a corner) or catch up with each other,
 //! robots taking turns through a narrow passage, and a run whose mode is
 //! made to fail and is reported failed.
 
@@ -198,4 +198,56 @@ async fn two_robots_head_on_in_a_narrow_corridor_pass_without_touching() {
     // They met inside it: a second apart at their speeds is 0.8 m of
     // closing, so some tick has them within a few metres.
     assert!(closest < 3_000.0, "closest approach in N {closest:.0} mm");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn two_robots_head_on_where_one_drives_to_a_corner_pass_without_touching() {
+    // r2 drives up corridor N to its corner with corridor M: a light, then
+    // one Enter-Corner goal of 15.5 m, in the Corner state. r1 comes round
+    // that corner and down N. They meet with r2 some metres short of the
+    // turning space. Both must keep right, the one heading for the corner
+    // too: in the Corner state alone r2 stayed on the middle until its
+    // infrared saw r1, and the two stood nose to nose for 12 s.
+    let cfg = RunConfig::fleet(
+        eb3(),
+        vec![
+            RouteSpec::new("r1", "305R", "A338L"),
+            RouteSpec::new("r2", "A336L", "301L"),
+        ],
+    );
+    // (distance apart, r1's and r2's x) at the closest approach in N.
+    let mut closest = (f64::MAX, 0.0, 0.0);
+    let r = fleet(cfg, |e| {
+        if let Event::Tick { robots, .. } = e {
+            let (a, b) = (robots[0].pose, robots[1].pose);
+            let apart = (a.at.x - b.at.x).hypot(a.at.y - b.at.y);
+            if in_corridor_n(&a) && in_corridor_n(&b) && apart < closest.0 {
+                closest = (apart, a.at.x, b.at.x);
+            }
+        }
+    })
+    .await;
+    for robot in &r.robots {
+        // Not `assert_clean`: r1's odometry strays up to 1.3 m between
+        // the turn into N and its first light there, met or not.
+        assert!(robot.arrived(), "{}", robot.table());
+        assert_eq!(robot.modes_done, robot.modes_needed, "{}", robot.table());
+        assert_eq!(
+            robot.contacts.total(),
+            0,
+            "{}: {:?}",
+            robot.robot,
+            robot.contacts
+        );
+    }
+    let (apart, r1_x, r2_x) = closest;
+    assert!(apart < 3_000.0, "closest approach in N {apart:.0} mm");
+    // N's middle is x = 60 m. r1 drives south, its right is west; r2
+    // north, its right is east.
+    assert!(
+        r1_x < 59_700.0 && r2_x > 60_300.0,
+        "at the closest approach ({apart:.0} mm) r1 was {:.0} mm and r2 {:.0} mm right of the middle",
+        60_000.0 - r1_x,
+        r2_x - 60_000.0
+    );
 }

@@ -72,15 +72,12 @@ pub struct Hallway {
     turns: Vec<u64>,
     calm_since: u64,
     slow_until: u64,
-    /// Keep to the right until the robot has driven this far, mm.
-    keep_right_until: f64,
+    /// Whether another robot comes head-on, and how long to keep right.
+    pub oncoming: Oncoming,
     /// Where across the hallway to keep, mm left of its middle: a goal
     /// that lies off the middle (a door on a corridor's end wall) is
     /// approached along its own line, as far as the walls leave room.
     pub lane_mm: f64,
-    /// (distance driven, range on the axis ahead) over the last metre and
-    /// a half, while something is there, mm.
-    ahead: std::collections::VecDeque<(f64, f64)>,
 }
 
 impl Hallway {
@@ -93,9 +90,8 @@ impl Hallway {
             turns: Vec::new(),
             calm_since: now_ms,
             slow_until: 0,
-            keep_right_until: f64::NEG_INFINITY,
+            oncoming: Oncoming::default(),
             lane_mm: 0.0,
-            ahead: std::collections::VecDeque::new(),
         }
     }
 
@@ -116,29 +112,7 @@ impl Hallway {
         } else {
             cfg.cruise_mm_s
         };
-        // Beyond the thesis: something on the axis ahead that comes towards
-        // the robot (the range shrinks faster than the robot drives: another
-        // robot, met head-on) makes it keep to the right for the next few
-        // metres, so the two pass each other as people do in a hallway.
-        // Something still or going the same way is left to the open
-        // direction, as any obstacle.
-        let ahead = (11..=13)
-            .map(|i| f64::from(sonar[i]))
-            .fold(f64::MAX, f64::min);
-        if ahead > 600.0 && ahead < KEEP_RIGHT_AHEAD_MM && ahead + 500.0 < self.room_mm {
-            self.ahead
-                .retain(|(a, _)| along_mm - a <= 1_500.0 && *a <= along_mm);
-            self.ahead.push_back((along_mm, ahead));
-            if let (Some(first), Some(last)) = (self.ahead.front(), self.ahead.back()) {
-                let driven = last.0 - first.0;
-                if driven >= 300.0 && (first.1 - last.1) / driven > ONCOMING_CLOSING {
-                    self.keep_right_until = along_mm + KEEP_RIGHT_FOR_MM;
-                }
-            }
-        } else {
-            self.ahead.clear();
-        }
-        let keep_right = along_mm < self.keep_right_until;
+        let keep_right = self.oncoming.watch(sonar, along_mm, self.room_mm);
         // Keeping off the middle, for another robot or for the goal, the
         // near wall lies within 60° of ahead: only what is ahead counts.
         let off_middle = keep_right || self.lane_mm != 0.0;
@@ -237,6 +211,57 @@ impl Hallway {
             self.safe_mm = (self.safe_mm * 1.25).min(SAFE_START_MM);
             self.calm_since = now_ms;
         }
+    }
+}
+
+/// Beyond the thesis: something on the axis ahead that comes towards the
+/// robot (the range shrinks faster than the robot drives: another robot,
+/// met head-on) makes it keep to the right for the next few metres, so the
+/// two pass each other as people do in a hallway. Something still or going
+/// the same way is left to the open direction, as any obstacle.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Oncoming {
+    /// (distance driven, range on the axis ahead) over the last metre and
+    /// a half, while something is there, mm.
+    ahead: std::collections::VecDeque<(f64, f64)>,
+    /// Keep to the right until the robot has driven this far, mm.
+    until: f64,
+}
+
+impl Default for Oncoming {
+    fn default() -> Oncoming {
+        Oncoming {
+            ahead: std::collections::VecDeque::new(),
+            until: f64::NEG_INFINITY,
+        }
+    }
+}
+
+impl Oncoming {
+    /// Adds a scan taken `along_mm` into the drive, with the goal
+    /// `room_mm` ahead (nearer than that, something is in the way, not the
+    /// hallway's end); whether to keep right now. A scan seen twice at the
+    /// same distance counts once.
+    pub fn watch(&mut self, sonar: &[u32], along_mm: f64, room_mm: f64) -> bool {
+        let ahead = (11..=13)
+            .map(|i| f64::from(sonar[i]))
+            .fold(f64::MAX, f64::min);
+        if ahead > 600.0 && ahead < KEEP_RIGHT_AHEAD_MM && ahead + 500.0 < room_mm {
+            self.ahead
+                .retain(|(a, _)| along_mm - a <= 1_500.0 && *a <= along_mm);
+            if self.ahead.back() != Some(&(along_mm, ahead)) {
+                self.ahead.push_back((along_mm, ahead));
+            }
+            if let (Some(first), Some(last)) = (self.ahead.front(), self.ahead.back()) {
+                let driven = last.0 - first.0;
+                if driven >= 300.0 && (first.1 - last.1) / driven > ONCOMING_CLOSING {
+                    self.until = along_mm + KEEP_RIGHT_FOR_MM;
+                }
+            }
+        } else {
+            self.ahead.clear();
+        }
+        along_mm < self.until
     }
 }
 

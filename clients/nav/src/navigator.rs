@@ -21,7 +21,7 @@ pub use crate::drive::{
     SAFE_START_MM, SONARS, SPACING,
 };
 pub use crate::hallway::{
-    bearing, corner_step, open_sonar, sonar_add, sonar_towards, Hallway, Walls,
+    bearing, corner_step, open_sonar, sonar_add, sonar_towards, Hallway, Oncoming, Walls,
 };
 use crate::NavError;
 use blocked::Headway;
@@ -33,6 +33,11 @@ use std::time::Duration;
 /// Over this last stretch of a D goal that lies off the corridor's middle,
 /// the robot moves onto the goal's line, mm.
 pub const LANE_APPROACH_MM: f64 = 5_000.0;
+
+/// Driving to a corner, a robot keeps right for an oncoming one only while
+/// the turning space is farther than this, mm: over the last metres it
+/// lines up on the corridor's middle to turn.
+pub const ENTER_PASSING_MM: f64 = 2_500.0;
 /// Scans in a row (a tenth of a second each) a robot told to drive may
 /// stand still before Check-Bumper looks why.
 const STILL_SCANS: u32 = 3;
@@ -466,6 +471,7 @@ impl Navigator {
         // Scans in a row on which a robot told to drive stood still.
         let mut still_scans = 0u32;
         let mut headway: Option<Headway> = None;
+        let mut oncoming = Oncoming::default();
         loop {
             // The goal function: progress along the goal direction, so a
             // robot that swerves round another does not count the swerve.
@@ -535,8 +541,39 @@ impl Navigator {
                 tracing::warn!("navigator: {why}");
             }
             self.blocked = blocked;
+            // Beyond the thesis: driving up a corridor to a corner, a robot
+            // met head-on keeps right as in a hallway, by the Center-Hallway
+            // state, until it has passed; the Corner state has no
+            // keep-right, and its infrared stop-and-go would see the near
+            // wall of a narrow corridor once the robot is over.
+            let remaining = goal.distance as f64 - travelled;
+            let passing = goal.goal_type == GoalType::E
+                && remaining > ENTER_PASSING_MM
+                && oncoming.watch(&scan.sonar_mm, self.odometer, remaining);
             // The state.
-            let drive = if corner {
+            let drive = if passing {
+                let hallway = self
+                    .hallway
+                    .get_or_insert_with(|| Hallway::new(hallway_start));
+                hallway.room_mm = remaining;
+                hallway.lane_mm = 0.0;
+                hallway.oncoming = oncoming.clone();
+                // At the Corner state's speed: the E goal's end is judged
+                // for it, and a swerve at cruising speed carries the robot
+                // past the turning space.
+                let cfg = NavConfig {
+                    cruise_mm_s: self.cfg.corner_mm_s.min(self.cfg.cruise_mm_s),
+                    ..self.cfg.clone()
+                };
+                hallway.step(
+                    &cfg,
+                    &scan.sonar_mm,
+                    pose.heading.deg(),
+                    goal.direction_deg,
+                    self.odometer,
+                    scan.time_ms,
+                )
+            } else if corner {
                 corner_step(
                     &self.cfg,
                     &scan,

@@ -225,3 +225,55 @@ fn between_two_sonars_the_wall_is_read_by_the_nearer_one() {
     let read = walls.width().expect("both walls in view");
     assert!((read - (width - 760.0)).abs() < 1.0, "{read}");
 }
+
+/// A hallway scan with something `ahead_mm` away on the axis ahead.
+fn with_ahead(ahead_mm: u32) -> Vec<u32> {
+    let mut s = hallway_scan(800, 800);
+    s[12] = ahead_mm;
+    s
+}
+
+#[test]
+fn something_closing_faster_than_the_robot_drives_is_oncoming_and_a_still_one_is_not() {
+    // Another robot met head-on: over 0.5 m driven the range shrinks by
+    // 1 m (both drive at the same speed).
+    let mut o = Oncoming::default();
+    let met: Vec<bool> = (0..6)
+        .map(|k| o.watch(&with_ahead(4_000 - 200 * k), 100.0 * f64::from(k), 20_000.0))
+        .collect();
+    assert_eq!(met, [false, false, false, true, true, true]);
+    // Kept right for 3 m past the last sighting, then no more.
+    assert!(o.watch(&with_ahead(10_000), 3_400.0, 20_000.0));
+    assert!(!o.watch(&with_ahead(10_000), 3_600.0, 20_000.0));
+    // Something standing in the hallway: the range shrinks as fast as the
+    // robot drives.
+    let mut o = Oncoming::default();
+    assert!((0..10).all(|k| !o.watch(
+        &with_ahead(4_000 - 100 * k),
+        100.0 * f64::from(k),
+        20_000.0
+    )));
+    // The goal's own end wall (no nearer than the goal) is never oncoming,
+    // however fast it seems to come.
+    let mut o = Oncoming::default();
+    assert!((0..6).all(|k| !o.watch(
+        &with_ahead(4_000 - 200 * k),
+        100.0 * f64::from(k),
+        f64::from(4_000 - 200 * k)
+    )));
+}
+
+#[test]
+fn a_scan_watched_twice_at_one_distance_counts_once() {
+    // The Enter-Corner goal watches a scan, then hands it to Center-Hallway,
+    // which watches it again: the answer is the same as watching it once.
+    let (mut once, mut twice) = (Oncoming::default(), Oncoming::default());
+    for k in 0..6 {
+        let (s, along) = (with_ahead(4_000 - 200 * k), 100.0 * f64::from(k));
+        let a = once.watch(&s, along, 20_000.0);
+        let b = twice.watch(&s, along, 20_000.0);
+        assert_eq!(twice.watch(&s, along, 20_000.0), b);
+        assert_eq!(a, b);
+    }
+    assert_eq!(once, twice);
+}
