@@ -535,7 +535,12 @@ impl Navigator {
             } else {
                 headway
                     .get_or_insert_with(|| Headway::new(scan.time_ms, travelled))
-                    .update(scan.time_ms, travelled, &scan.sonar_mm)
+                    .update(
+                        scan.time_ms,
+                        travelled,
+                        &scan.sonar_mm,
+                        normalize_deg(goal.direction_deg - pose.heading.deg()),
+                    )
             };
             if let (Some(why), None) = (&blocked, &self.blocked) {
                 tracing::warn!("navigator: {why}");

@@ -2,15 +2,21 @@
 //! hallway goal, it has gained less than [`HEADWAY_MM`] along the goal
 //! direction in [`BLOCKED_AFTER_MS`] of robot time. Swerving, turning in
 //! place and bumping to and fro all count as no headway. The reason names
-//! what the sonars see nearest in front, so a person reading
-//! `nav/<robot>/Status` knows what stands in the way.
+//! what the sonars see nearest towards the goal (else nearest in front),
+//! so a person reading `nav/<robot>/Status` knows what stands in the way.
 
 use crate::hallway::bearing;
+use rome_maps::geometry::normalize_deg;
 
 /// Headway along the goal that counts as getting somewhere, mm.
 pub const HEADWAY_MM: f64 = 300.0;
 /// How long without headway before the robot is blocked, ms of robot time.
 pub const BLOCKED_AFTER_MS: u64 = 20_000;
+/// What stands within this angle of the goal direction, degrees, and
+/// nearer than [`IN_THE_WAY_MM`], is what the reason names.
+const TOWARDS_GOAL_DEG: f64 = 45.0;
+/// See [`TOWARDS_GOAL_DEG`], mm.
+const IN_THE_WAY_MM: u32 = 2_000;
 
 /// The watch over one goal's headway.
 #[derive(Debug, Clone, PartialEq)]
@@ -27,25 +33,36 @@ impl Headway {
         }
     }
 
-    /// Takes the robot's progress at `now_ms`; the reason it is blocked,
-    /// while it is.
-    pub fn update(&mut self, now_ms: u64, travelled_mm: f64, sonar: &[u32]) -> Option<String> {
+    /// Takes the robot's progress at `now_ms` and its scan, with the goal
+    /// direction `goal_rel_deg` counter-clockwise of its heading; the reason
+    /// it is blocked, while it is.
+    pub fn update(
+        &mut self,
+        now_ms: u64,
+        travelled_mm: f64,
+        sonar: &[u32],
+        goal_rel_deg: f64,
+    ) -> Option<String> {
         if travelled_mm >= self.mark.1 + HEADWAY_MM || now_ms < self.mark.0 {
             self.mark = (now_ms, travelled_mm);
             return None;
         }
         let stuck_ms = now_ms - self.mark.0;
-        (stuck_ms >= BLOCKED_AFTER_MS).then(|| reason(sonar, stuck_ms))
+        (stuck_ms >= BLOCKED_AFTER_MS).then(|| reason(sonar, goal_rel_deg, stuck_ms))
     }
 }
 
 /// "blocked: something 0.4 m ahead (sonar 12); no headway for 25 s".
-fn reason(sonar: &[u32], stuck_ms: u64) -> String {
-    // The front half of the ring: sonars 6 (right) to 18 (left).
-    let nearest = (6..=18.min(sonar.len().saturating_sub(1)))
-        .map(|i| (i, sonar[i]))
-        .min_by_key(|(_, r)| *r);
-    let what = match nearest {
+fn reason(sonar: &[u32], goal_rel_deg: f64, stuck_ms: u64) -> String {
+    // What stands towards the goal, if anything is near there; else the
+    // nearest thing in the front half of the ring (sonars 6, right, to 18,
+    // left). In a narrow corridor that is a side wall, which a robot
+    // standing beside it is always near, and says little.
+    let towards = nearest(sonar, |i| {
+        normalize_deg(bearing(i) - goal_rel_deg).abs() <= TOWARDS_GOAL_DEG
+    })
+    .filter(|(_, r)| *r < IN_THE_WAY_MM);
+    let what = match towards.or_else(|| nearest(sonar, |i| (6..=18).contains(&i))) {
         Some((i, r)) => {
             let b = bearing(i);
             let side = if b.abs() < 20.0 {
@@ -68,6 +85,15 @@ fn reason(sonar: &[u32], stuck_ms: u64) -> String {
     )
 }
 
+/// The sonar with the shortest reading among those `keep` keeps, and the
+/// reading.
+fn nearest(sonar: &[u32], keep: impl Fn(usize) -> bool) -> Option<(usize, u32)> {
+    (0..sonar.len())
+        .filter(|i| keep(*i))
+        .map(|i| (i, sonar[i]))
+        .min_by_key(|(_, r)| *r)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -82,20 +108,45 @@ mod tests {
     fn no_headway_for_twenty_seconds_is_blocked_and_names_what_is_ahead() {
         let mut h = Headway::new(0, 0.0);
         let ahead = ring(12, 420);
-        assert_eq!(h.update(10_000, 200.0, &ahead), None);
+        assert_eq!(h.update(10_000, 200.0, &ahead, 0.0), None);
         // Bumping to and fro: back and forth, no headway.
-        assert_eq!(h.update(15_000, -100.0, &ahead), None);
+        assert_eq!(h.update(15_000, -100.0, &ahead, 0.0), None);
         assert_eq!(
-            h.update(20_000, 250.0, &ahead).as_deref(),
+            h.update(20_000, 250.0, &ahead, 0.0).as_deref(),
             Some("blocked: something 0.4 m ahead (sonar 12); no headway for 20 s")
         );
         // Once it gets on, it is not blocked, and the watch starts again.
-        assert_eq!(h.update(21_000, 320.0, &ahead), None);
-        assert_eq!(h.update(40_000, 400.0, &ahead), None);
+        assert_eq!(h.update(21_000, 320.0, &ahead, 0.0), None);
+        assert_eq!(h.update(40_000, 400.0, &ahead, 0.0), None);
         let left = ring(15, 900);
         assert_eq!(
-            h.update(41_000, 400.0, &left).as_deref(),
+            h.update(41_000, 400.0, &left, 0.0).as_deref(),
             Some("blocked: something 0.9 m 45° left (sonar 15); no headway for 20 s")
+        );
+    }
+
+    #[test]
+    fn the_reason_names_what_stands_towards_the_goal_not_the_wall_beside() {
+        // Wedged in a narrow corridor: the right wall 0.1 m off, another
+        // robot 0.5 m ahead and to the left, the goal straight on.
+        let mut s = ring(6, 100);
+        s[13] = 500;
+        let mut h = Headway::new(0, 0.0);
+        assert_eq!(
+            h.update(20_000, 0.0, &s, 0.0).as_deref(),
+            Some("blocked: something 0.5 m ahead (sonar 13); no headway for 20 s")
+        );
+        // Turned 90° left of the goal: the goal lies on sonar 6's side.
+        assert_eq!(
+            h.update(20_000, 0.0, &s, -90.0).as_deref(),
+            Some("blocked: something 0.1 m 90° right (sonar 6); no headway for 20 s")
+        );
+        // Nothing near towards the goal: the nearest thing in front.
+        let mut s = ring(6, 100);
+        s[12] = 4_000;
+        assert_eq!(
+            h.update(20_000, 0.0, &s, 0.0).as_deref(),
+            Some("blocked: something 0.1 m 90° right (sonar 6); no headway for 20 s")
         );
     }
 
@@ -103,7 +154,10 @@ mod tests {
     fn steady_headway_is_never_blocked() {
         let mut h = Headway::new(0, 0.0);
         for k in 1..200u64 {
-            assert_eq!(h.update(k * 1_000, k as f64 * 400.0, &ring(12, 300)), None);
+            assert_eq!(
+                h.update(k * 1_000, k as f64 * 400.0, &ring(12, 300), 0.0),
+                None
+            );
         }
     }
 }
