@@ -170,34 +170,60 @@ fn in_corridor_n(p: &rome_sim::Pose) -> bool {
     (p.at.x - 60_000.0).abs() < 1_300.0 && p.at.y > 9_000.0 && p.at.y < 53_000.0
 }
 
+/// Where two robots passed in corridor N.
+struct Passed {
+    /// How close they came while both were in N, mm.
+    apart: f64,
+    /// r1's and r2's x then, mm (N's middle is x = 60 m).
+    x: (f64, f64),
+}
+
+/// Runs r1 from `one` and r2 from `two` on EB3; the report, and where
+/// they came closest in corridor N.
+async fn through_corridor_n(one: (&str, &str), two: (&str, &str)) -> (FleetReport, Passed) {
+    let cfg = RunConfig::fleet(
+        eb3(),
+        vec![
+            RouteSpec::new("r1", one.0, one.1),
+            RouteSpec::new("r2", two.0, two.1),
+        ],
+    );
+    let mut closest = Passed {
+        apart: f64::MAX,
+        x: (0.0, 0.0),
+    };
+    let r = fleet(cfg, |e| {
+        if let Event::Tick { robots, .. } = e {
+            let (a, b) = (robots[0].pose, robots[1].pose);
+            let apart = (a.at.x - b.at.x).hypot(a.at.y - b.at.y);
+            if in_corridor_n(&a) && in_corridor_n(&b) && apart < closest.apart {
+                closest = Passed {
+                    apart,
+                    x: (a.at.x, b.at.x),
+                };
+            }
+        }
+    })
+    .await;
+    (r, closest)
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn two_robots_head_on_in_a_narrow_corridor_pass_without_touching() {
     // Corridor N is 2.44 m wide: two robots of 0.76 m pass only if both
     // are well over to their right by the time they meet. Steering over
     // at the hallway's gentle rate, each touched a wall as they passed.
-    let cfg = RunConfig::fleet(
-        eb3(),
-        vec![
-            RouteSpec::new("r1", "303R", "A352L"),
-            RouteSpec::new("r2", "A353R", "301L"),
-        ],
-    );
-    let mut closest = f64::MAX;
-    let r = fleet(cfg, |e| {
-        if let Event::Tick { robots, .. } = e {
-            let (a, b) = (robots[0].pose, robots[1].pose);
-            if in_corridor_n(&a) && in_corridor_n(&b) {
-                closest = closest.min((a.at.x - b.at.x).hypot(a.at.y - b.at.y));
-            }
-        }
-    })
-    .await;
+    let (r, passed) = through_corridor_n(("303R", "A352L"), ("A353R", "301L")).await;
     for robot in &r.robots {
         assert_clean(robot);
     }
     // They met inside it: a second apart at their speeds is 0.8 m of
     // closing, so some tick has them within a few metres.
-    assert!(closest < 3_000.0, "closest approach in N {closest:.0} mm");
+    assert!(
+        passed.apart < 3_000.0,
+        "closest approach in N {:.0} mm",
+        passed.apart
+    );
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -208,25 +234,7 @@ async fn two_robots_head_on_where_one_drives_to_a_corner_pass_without_touching()
     // turning space. Both must keep right, the one heading for the corner
     // too: in the Corner state alone r2 stayed on the middle until its
     // infrared saw r1, and the two stood nose to nose for 12 s.
-    let cfg = RunConfig::fleet(
-        eb3(),
-        vec![
-            RouteSpec::new("r1", "305R", "A338L"),
-            RouteSpec::new("r2", "A336L", "301L"),
-        ],
-    );
-    // (distance apart, r1's and r2's x) at the closest approach in N.
-    let mut closest = (f64::MAX, 0.0, 0.0);
-    let r = fleet(cfg, |e| {
-        if let Event::Tick { robots, .. } = e {
-            let (a, b) = (robots[0].pose, robots[1].pose);
-            let apart = (a.at.x - b.at.x).hypot(a.at.y - b.at.y);
-            if in_corridor_n(&a) && in_corridor_n(&b) && apart < closest.0 {
-                closest = (apart, a.at.x, b.at.x);
-            }
-        }
-    })
-    .await;
+    let (r, passed) = through_corridor_n(("305R", "A338L"), ("A336L", "301L")).await;
     for robot in &r.robots {
         // Not `assert_clean`: r1's odometry strays up to 1.3 m between
         // the turn into N and its first light there, met or not.
@@ -240,7 +248,7 @@ async fn two_robots_head_on_where_one_drives_to_a_corner_pass_without_touching()
             robot.contacts
         );
     }
-    let (apart, r1_x, r2_x) = closest;
+    let (apart, (r1_x, r2_x)) = (passed.apart, passed.x);
     assert!(apart < 3_000.0, "closest approach in N {apart:.0} mm");
     // N's middle is x = 60 m. r1 drives south, its right is west; r2
     // north, its right is east.
