@@ -89,6 +89,10 @@ pub struct NavConfig {
     /// as before, only what is within 15° of ahead does, and a robot
     /// keeping right grazes one that stands on the middle.
     pub front_quarter_guard: bool,
+    /// Whether an Enter-Corner goal keeps right for an oncoming robot,
+    /// driven by Center-Hallway while it does (docs/navigation.md). Else
+    /// the whole goal is the Corner state's, as the thesis has it.
+    pub corner_keep_right: bool,
 }
 
 impl Default for NavConfig {
@@ -111,6 +115,7 @@ impl Default for NavConfig {
             onto_line: true,
             brisk_keep_right: true,
             front_quarter_guard: true,
+            corner_keep_right: true,
         }
     }
 }

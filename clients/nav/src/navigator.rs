@@ -552,7 +552,8 @@ impl Navigator {
             // keep-right, and its infrared stop-and-go would see the near
             // wall of a narrow corridor once the robot is over.
             let remaining = goal.distance as f64 - travelled;
-            let passing = goal.goal_type == GoalType::E
+            let passing = self.cfg.corner_keep_right
+                && goal.goal_type == GoalType::E
                 && remaining > ENTER_PASSING_MM
                 && oncoming.watch(&scan.sonar_mm, self.odometer, remaining);
             // The state.
