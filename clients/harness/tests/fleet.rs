@@ -1,6 +1,7 @@
 //! Several robots at once through one data server, in one process, judged
 //! by ground truth: robots that meet head-on (in a wide corridor, a
 //! narrow one, and on the way to a corner) or catch up with each other,
+//! a robot leaving a corner as another comes along the corridor,
 //! robots taking turns through a narrow passage, and a run whose mode is
 //! made to fail and is reported failed.
 
@@ -258,4 +259,25 @@ async fn two_robots_head_on_where_one_drives_to_a_corner_pass_without_touching()
         60_000.0 - r1_x,
         r2_x - 60_000.0
     );
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_robot_leaving_a_corner_keeps_right_for_one_coming_along_the_corridor() {
+    // r1 comes down corridor N and turns east into P (a Leave-Corner goal
+    // of 1.8 m), as r2 comes west along P past N's mouth. In the Corner
+    // state alone, r1's infrared saw r2 ahead and it spun away from it
+    // until clear, round to facing west; it drove on that way, 49 m from
+    // its goal, touching r2 on the way. Keeping right as in a hallway, it
+    // leaves the turning space with r2 passing on its left.
+    let cfg = RunConfig::fleet(
+        eb3(),
+        vec![
+            RouteSpec::new("r1", "A332L", "A353L"),
+            RouteSpec::new("r2", "A357R", "A352L"),
+        ],
+    );
+    let r = fleet(cfg, |_| {}).await;
+    for robot in &r.robots {
+        assert_clean(robot);
+    }
 }

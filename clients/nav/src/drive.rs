@@ -89,9 +89,10 @@ pub struct NavConfig {
     /// as before, only what is within 15° of ahead does, and a robot
     /// keeping right grazes one that stands on the middle.
     pub front_quarter_guard: bool,
-    /// Whether an Enter-Corner goal keeps right for an oncoming robot,
-    /// driven by Center-Hallway while it does (docs/navigation.md). Else
-    /// the whole goal is the Corner state's, as the thesis has it.
+    /// Whether Enter-Corner and Leave-Corner goals keep right for an
+    /// oncoming robot, driven by Center-Hallway while they do
+    /// (docs/navigation.md). Else the whole goal is the Corner state's, as
+    /// the thesis has it.
     pub corner_keep_right: bool,
 }
 

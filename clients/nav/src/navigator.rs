@@ -38,6 +38,10 @@ pub const LANE_APPROACH_MM: f64 = 5_000.0;
 /// the turning space is farther than this, mm: over the last metres it
 /// lines up on the corridor's middle to turn.
 pub const ENTER_PASSING_MM: f64 = 2_500.0;
+/// A Leave-Corner goal driven keeping right ends only with the robot
+/// heading within this of the corridor's axis, degrees: half of what the
+/// report judges a corner by ([`crate::report::CORNER_HEADING_DEG`]).
+pub const LEFT_CORNER_SWERVE_DEG: f64 = 10.0;
 /// Scans in a row (a tenth of a second each) a robot told to drive may
 /// stand still before Check-Bumper looks why.
 const STILL_SCANS: u32 = 3;
@@ -472,6 +476,8 @@ impl Navigator {
         let mut still_scans = 0u32;
         let mut headway: Option<Headway> = None;
         let mut oncoming = Oncoming::default();
+        // Whether the last scan was driven keeping right for someone met.
+        let mut passing = false;
         loop {
             // The goal function: progress along the goal direction, so a
             // robot that swerves round another does not count the swerve.
@@ -507,8 +513,16 @@ impl Navigator {
                     counted_low && n >= goal.distance
                 }
                 GoalType::D => travelled + stopping >= goal.distance as f64,
+                // A robot that keeps right while it leaves a corner has
+                // left it once it heads down the corridor again, not while
+                // it swerves.
+                GoalType::C => {
+                    let off = normalize_deg(goal.direction_deg - pose.heading.deg());
+                    travelled >= goal.distance as f64
+                        && !(passing && off.abs() > LEFT_CORNER_SWERVE_DEG)
+                }
                 // A ride is not driven here ([`Navigator::ride`]).
-                GoalType::C | GoalType::V => travelled >= goal.distance as f64,
+                GoalType::V => travelled >= goal.distance as f64,
                 GoalType::E => {
                     let ahead = f64::from(
                         scan.sonar_mm[sonar_towards(goal.direction_deg - pose.heading.deg())],
@@ -546,22 +560,35 @@ impl Navigator {
                 tracing::warn!("navigator: {why}");
             }
             self.blocked = blocked;
-            // Beyond the thesis: driving up a corridor to a corner, a robot
-            // met head-on keeps right as in a hallway, by the Center-Hallway
-            // state, until it has passed; the Corner state has no
+            // Beyond the thesis: driving up a corridor to a corner, or out
+            // of a turning space into the next corridor, a robot met
+            // head-on keeps right as in a hallway, by the Center-Hallway
+            // state, until it has passed. The Corner state has no
             // keep-right, and its infrared stop-and-go would see the near
-            // wall of a narrow corridor once the robot is over.
+            // wall of a narrow corridor once the robot is over; leaving a
+            // corner, it would spin away from the oncoming robot until
+            // clear, round to the way it came.
             let remaining = goal.distance as f64 - travelled;
-            let passing = self.cfg.corner_keep_right
-                && goal.goal_type == GoalType::E
-                && remaining > ENTER_PASSING_MM
-                && oncoming.watch(&scan.sonar_mm, self.odometer, remaining);
+            // A Leave-Corner goal ends a few metres into a corridor that
+            // goes on: what stands beyond its end is not an end wall.
+            let room = if goal.goal_type == GoalType::C {
+                f64::INFINITY
+            } else {
+                remaining
+            };
+            passing = self.cfg.corner_keep_right
+                && match goal.goal_type {
+                    GoalType::E => remaining > ENTER_PASSING_MM,
+                    GoalType::C => true,
+                    _ => false,
+                }
+                && oncoming.watch(&scan.sonar_mm, self.odometer, room);
             // The state.
             let drive = if passing {
                 let hallway = self
                     .hallway
                     .get_or_insert_with(|| Hallway::new(hallway_start));
-                hallway.room_mm = remaining;
+                hallway.room_mm = room;
                 hallway.lane_mm = 0.0;
                 hallway.oncoming = oncoming.clone();
                 // At the Corner state's speed: the E goal's end is judged
