@@ -13,6 +13,17 @@ fn eb3() -> rome_maps::Map {
     rome_maps::load_named("eb3").expect("eb3 loads")
 }
 
+/// r1 from `one.0` to `one.1` and r2 from `two.0` to `two.1` on EB3.
+fn two_on_eb3(one: (&str, &str), two: (&str, &str)) -> RunConfig {
+    RunConfig::fleet(
+        eb3(),
+        vec![
+            RouteSpec::new("r1", one.0, one.1),
+            RouteSpec::new("r2", two.0, two.1),
+        ],
+    )
+}
+
 async fn fleet(cfg: RunConfig, mut on: impl FnMut(&Event)) -> FleetReport {
     rome_tests::show_warnings_on_failure();
     let mut cfg = cfg;
@@ -54,13 +65,7 @@ fn assert_clean(r: &Report) {
 async fn two_robots_meeting_head_on_in_one_corridor_both_arrive() {
     // Both in corridor A, r1 westwards and r2 eastwards: they pass each
     // other half-way, each seeing the other on sonar.
-    let cfg = RunConfig::fleet(
-        eb3(),
-        vec![
-            RouteSpec::new("r1", "356R", "372L"),
-            RouteSpec::new("r2", "371R", "353L"),
-        ],
-    );
+    let cfg = two_on_eb3(("356R", "372L"), ("371R", "353L"));
     let mut closest = f64::MAX;
     let r = fleet(cfg, |e| {
         if let Event::Tick { robots, .. } = e {
@@ -182,13 +187,7 @@ struct Passed {
 /// Runs r1 from `one` and r2 from `two` on EB3; the report, and where
 /// they came closest in corridor N.
 async fn through_corridor_n(one: (&str, &str), two: (&str, &str)) -> (FleetReport, Passed) {
-    let cfg = RunConfig::fleet(
-        eb3(),
-        vec![
-            RouteSpec::new("r1", one.0, one.1),
-            RouteSpec::new("r2", two.0, two.1),
-        ],
-    );
+    let cfg = two_on_eb3(one, two);
     let mut closest = Passed {
         apart: f64::MAX,
         x: (0.0, 0.0),
@@ -269,13 +268,7 @@ async fn a_robot_leaving_a_corner_keeps_right_for_one_coming_along_the_corridor(
     // until clear, round to facing west; it drove on that way, 49 m from
     // its goal, touching r2 on the way. Keeping right as in a hallway, it
     // leaves the turning space with r2 passing on its left.
-    let cfg = RunConfig::fleet(
-        eb3(),
-        vec![
-            RouteSpec::new("r1", "A332L", "A353L"),
-            RouteSpec::new("r2", "A357R", "A352L"),
-        ],
-    );
+    let cfg = two_on_eb3(("A332L", "A353L"), ("A357R", "A352L"));
     let r = fleet(cfg, |_| {}).await;
     for robot in &r.robots {
         assert_clean(robot);
