@@ -30,10 +30,9 @@ fn setup(limit_s: u64, jobs: usize) -> Setup {
 /// Thirty people in every run, two runs at a time, cruising at `cruise`
 /// mm/s (`None`: the Navigator's own). The robot steers out of people's
 /// way at the thesis' gentle rate, heeds only what is within 15° of
-/// ahead while it does, and drives into and out of corners in the Corner
-/// state all the way: briskly, guarding its front quarter, or keeping
-/// right into and out of corners, it is pushed less often or elsewhere,
-/// and these runs
+/// ahead while it does, and drives to a corner in the Corner state all
+/// the way: briskly, guarding its front quarter, or keeping right on the
+/// way to a corner, it is pushed less often or elsewhere, and these runs
 /// are chosen for the pushes and the steering round people that the
 /// Navigator must recover from.
 fn among_people(limit_s: u64, cruise: Option<f64>) -> Setup {

@@ -89,11 +89,15 @@ pub struct NavConfig {
     /// as before, only what is within 15° of ahead does, and a robot
     /// keeping right grazes one that stands on the middle.
     pub front_quarter_guard: bool,
-    /// Whether Enter-Corner and Leave-Corner goals keep right for an
-    /// oncoming robot, driven by Center-Hallway while they do
-    /// (docs/navigation.md). Else the whole goal is the Corner state's, as
-    /// the thesis has it.
+    /// Whether an Enter-Corner goal keeps right for an oncoming robot,
+    /// driven by Center-Hallway while it does (docs/navigation.md). Else
+    /// the whole goal is the Corner state's, as the thesis has it.
     pub corner_keep_right: bool,
+    /// Whether a Leave-Corner goal does the same. Off by default: it ends
+    /// the runaway of a robot that spun away from one met as it left a
+    /// corner, and helps ten robots, but forty touched each other more
+    /// (docs/traffic.md, "Keeping right out of a corner").
+    pub leave_corner_keep_right: bool,
 }
 
 impl Default for NavConfig {
@@ -117,6 +121,7 @@ impl Default for NavConfig {
             brisk_keep_right: true,
             front_quarter_guard: true,
             corner_keep_right: true,
+            leave_corner_keep_right: false,
         }
     }
 }

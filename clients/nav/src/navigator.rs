@@ -576,13 +576,11 @@ impl Navigator {
             } else {
                 remaining
             };
-            passing = self.cfg.corner_keep_right
-                && match goal.goal_type {
-                    GoalType::E => remaining > ENTER_PASSING_MM,
-                    GoalType::C => true,
-                    _ => false,
-                }
-                && oncoming.watch(&scan.sonar_mm, self.odometer, room);
+            passing = match goal.goal_type {
+                GoalType::E => self.cfg.corner_keep_right && remaining > ENTER_PASSING_MM,
+                GoalType::C => self.cfg.leave_corner_keep_right,
+                _ => false,
+            } && oncoming.watch(&scan.sonar_mm, self.odometer, room);
             // The state.
             let drive = if passing {
                 let hallway = self
