@@ -4,22 +4,11 @@
 
 mod common;
 
+use common::until;
 use rome_client::DataOptions;
 use rome_nav::board::{Goal, GoalType, Sem, Status, Var};
 use rome_nav::NavError;
 use std::time::{Duration, Instant};
-
-/// Waits, checking every 20 ms, until `ok` holds or `within` passes.
-async fn until(within: Duration, mut ok: impl FnMut() -> bool) -> bool {
-    let deadline = Instant::now() + within;
-    while Instant::now() < deadline {
-        if ok() {
-            return true;
-        }
-        tokio::time::sleep(Duration::from_millis(20)).await;
-    }
-    ok()
-}
 
 /// Waits for the Navigator to end the goal at hand, and returns why it
 /// says it ended it.

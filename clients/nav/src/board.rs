@@ -26,6 +26,9 @@
 //! see: `Status` (the Navigator's mode and state), `Plate` (each door plate
 //! the PlFinder reports) and `HeadingFix` (each HIMM correction), and the
 //! ceiling-light children's `$LightToken` (§5.6). The CTracker writes
+//! `CountedAt` (where the robot was when it took `Overshoot`) before the
+//! count that ends a segment, so the Navigator measures the next D goal
+//! from there, and
 //! `TrackLog` (lights seen and missed in the segment) before up($EndLMode),
 //! so the Planner judges each L segment by what happened; the Planner
 //! writes `Corridor` (where the segment's line of lights lies in the map,
@@ -119,6 +122,9 @@ pub enum Var {
     CeilingLight,
     /// How far past the last light the robot was when it was counted, mm.
     Overshoot,
+    /// Where the robot was (odometry) when the CTracker took `Overshoot`,
+    /// `null` while a segment is counted ([`CountedAt`]).
+    CountedAt,
     /// The Navigator's mode, state and pose, for people watching.
     Status,
     /// The last door plate found.
@@ -168,6 +174,7 @@ impl Var {
             Var::LightOffset => "LightOffset",
             Var::CeilingLight => "CeilingLight",
             Var::Overshoot => "Overshoot",
+            Var::CountedAt => "CountedAt",
             Var::Status => "Status",
             Var::Plate => "Plate",
             Var::HeadingFix => "HeadingFix",
@@ -227,6 +234,24 @@ pub struct RideInfo {
     pub exit_mm: i64,
     /// How long to wait for the car (to come, or to arrive), seconds.
     pub wait_s: f64,
+}
+
+/// `CountedAt`: where the robot was, in odometry, when the CTracker
+/// counted an L segment's last light and took its `Overshoot`. The
+/// Navigator measures the next D goal from here, not from where it
+/// learned of the count: over a slow link that can be a metre further on,
+/// and the Planner's overshoot compensation would miss by as much.
+///
+/// ```text
+/// {"x_mm":12040.5,"y_mm":3310.0}
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CountedAt {
+    /// x, mm.
+    pub x_mm: f64,
+    /// y, mm.
+    pub y_mm: f64,
 }
 
 /// One goal as the Planner hands it to the Navigator.

@@ -349,6 +349,9 @@ impl CTracker {
         let (mut last, mut count, mut log) = match resume {
             Some(t) => (t.last_mm, t.count.min(total), t.log),
             None => {
+                self.board
+                    .set(Var::CountedAt, &None::<crate::board::CountedAt>)
+                    .await?;
                 self.board.set(Var::CeilingLight, &0i64).await?;
                 let log = SegmentLog {
                     lights: total,
@@ -499,11 +502,19 @@ impl CTracker {
         along: impl Fn(&Pose) -> f64,
     ) -> Result<(), NavError> {
         if count == total {
-            let overshoot = along(&self.pose().await?) - light_at;
+            let at = self.pose().await?;
+            let overshoot = along(&at) - light_at;
             log.overshoot_mm = overshoot;
             self.board
                 .set(Var::Overshoot, &(overshoot.round() as i64))
                 .await?;
+            // Said before the count, so a Navigator that reads the count
+            // finds where the overshoot was taken.
+            let counted_at = crate::board::CountedAt {
+                x_mm: at.at.x,
+                y_mm: at.at.y,
+            };
+            self.board.set(Var::CountedAt, &Some(counted_at)).await?;
         }
         self.board.set(Var::CeilingLight, &(count as i64)).await?;
         self.board.up(Sem::LightDet).await?;

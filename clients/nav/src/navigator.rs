@@ -713,7 +713,7 @@ impl Navigator {
         self.carry = None;
         self.blocked = None;
         match goal.goal_type {
-            GoalType::L => self.carry = Some(pose),
+            GoalType::L => self.carry = Some(self.after_count(goal, pose).await),
             GoalType::E => {
                 self.send(Drive::Halt).await?;
                 self.settle(scans).await?;

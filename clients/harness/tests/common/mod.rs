@@ -86,3 +86,18 @@ pub async fn drive_d(planner: &Board, heading: f64, mm: i64, within: std::time::
         .expect("the Navigator carries out the D goal")
         .expect("the Planner hears it done");
 }
+
+/// Waits, checking every 20 ms, until `ok` holds (in ground truth, as the
+/// tests' `rig.truth`) or `within` passes.
+// Each test binary compiles this module; not every one waits on truth.
+#[allow(dead_code)]
+pub async fn until(within: std::time::Duration, mut ok: impl FnMut() -> bool) -> bool {
+    let deadline = std::time::Instant::now() + within;
+    while std::time::Instant::now() < deadline {
+        if ok() {
+            return true;
+        }
+        tokio::time::sleep(std::time::Duration::from_millis(20)).await;
+    }
+    ok()
+}

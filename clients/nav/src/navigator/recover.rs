@@ -53,7 +53,64 @@ fn step_in_the_way(now: f64, expected: f64, remaining: f64) -> bool {
     came || touching
 }
 
+/// How far behind the Navigator's own pose, along the goal, the
+/// CTracker's `CountedAt` may lie, mm: farther is a value from elsewhere
+/// (a count seldom arrives seconds late at cruise).
+const COUNTED_BEHIND_MM: f64 = 5_000.0;
+/// ... and how far ahead: the CTracker's pose may be a scan newer.
+const COUNTED_AHEAD_MM: f64 = 300.0;
+/// ... and how far across, mm.
+const COUNTED_ACROSS_MM: f64 = 1_000.0;
+
+/// Where the D goal after an L segment along `direction_deg` is measured
+/// from: the CTracker's `counted` when it lies plausibly behind `pose`
+/// (where the Navigator learned of the count), else `None`.
+pub(super) fn counted_start(
+    counted: Option<crate::board::CountedAt>,
+    pose: &Pose,
+    direction_deg: f64,
+) -> Option<Pose> {
+    let c = counted?;
+    if !(c.x_mm.is_finite() && c.y_mm.is_finite()) {
+        return None;
+    }
+    let axis = rome_maps::geometry::direction(direction_deg);
+    let (dx, dy) = (c.x_mm - pose.at.x, c.y_mm - pose.at.y);
+    let along = dx * axis.x + dy * axis.y;
+    let across = dy * axis.x - dx * axis.y;
+    let plausible = (-COUNTED_BEHIND_MM..=COUNTED_AHEAD_MM).contains(&along)
+        && across.abs() <= COUNTED_ACROSS_MM;
+    plausible.then(|| Pose {
+        at: rome_maps::geometry::Point::new(c.x_mm, c.y_mm),
+        heading: pose.heading,
+    })
+}
+
 impl Navigator {
+    /// Where the D goal after the L goal just ended at `pose` is measured
+    /// from: where the CTracker counted the last light and took the
+    /// overshoot the Planner takes off that goal. The count reaches the
+    /// Navigator later, over a slow or lossy link a metre or more later;
+    /// measured from `pose`, the robot would stop that much past its goal.
+    pub(super) async fn after_count(&self, goal: &Goal, pose: Pose) -> Pose {
+        let counted = self.board.get(Var::CountedAt).await.ok().flatten();
+        match counted_start(counted, &pose, goal.direction_deg) {
+            Some(at) => {
+                tracing::debug!(
+                    late_mm = at.dist(&pose),
+                    "navigator: the next goal is measured from where the count was taken"
+                );
+                at
+            }
+            None => {
+                if counted.is_some() {
+                    tracing::warn!(?counted, "navigator: CountedAt lies nowhere near the robot; the next goal is measured from here");
+                }
+                pose
+            }
+        }
+    }
+
     /// Ends the goal at hand because a value it depends on is bad: the
     /// robot is stopped, the reason goes to `Status.failed`, and the
     /// Planner is told the goal is over, so this Navigator goes on to the
@@ -335,5 +392,32 @@ mod step_tests {
     fn something_beyond_the_end_of_the_step_is_no_matter() {
         // Came closer than expected, but beyond what is left of the step.
         assert!(!step_in_the_way(1_200.0, 2_000.0, 300.0));
+    }
+
+    #[test]
+    fn a_d_goal_is_measured_from_a_count_taken_behind_the_robot() {
+        use super::counted_start;
+        use crate::board::CountedAt;
+        use rome_maps::geometry::Pose;
+        // Heading 90 (West): along is -x.
+        let here = Pose::new(10_000.0, 5_000.0, 90.0);
+        let at = |x_mm, y_mm| Some(CountedAt { x_mm, y_mm });
+        // Taken 1.1 m behind: measured from there.
+        let from = counted_start(at(11_100.0, 5_020.0), &here, 90.0).expect("a start");
+        assert_eq!((from.at.x, from.at.y), (11_100.0, 5_020.0));
+        assert_eq!(from.heading, here.heading);
+        // A scan newer than the Navigator's pose, a little ahead: taken.
+        assert!(counted_start(at(9_800.0, 5_000.0), &here, 90.0).is_some());
+        // Nowhere near: far behind, ahead, across, or not a number.
+        for bad in [
+            at(16_000.0, 5_000.0),
+            at(9_000.0, 5_000.0),
+            at(10_500.0, 6_500.0),
+            at(f64::NAN, 5_000.0),
+            at(10_500.0, f64::INFINITY),
+            None,
+        ] {
+            assert_eq!(counted_start(bad, &here, 90.0), None, "{bad:?}");
+        }
     }
 }

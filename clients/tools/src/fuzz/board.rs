@@ -28,6 +28,7 @@ const READS: &[(Var, Option<Sem>)] = &[
     (Var::GoalLane, None),
     (Var::GoalWalls, None),
     (Var::Overshoot, None),
+    (Var::CountedAt, None),
     (Var::TrackLog, None),
     (Var::Status, None),
     (Var::Traffic, None),
