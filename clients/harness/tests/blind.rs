@@ -66,26 +66,6 @@ async fn hand_l_segment(
         .expect("the L goal is handed over");
 }
 
-/// Hands over an L goal of more lights than the corridor has (it can only
-/// end by the count) and waits until the robot has driven half a metre.
-async fn set_off_on_l(rig: &rome_harness::Harness, planner: &rome_nav::board::Board, heading: f64) {
-    planner
-        .give_goal(&Goal {
-            goal_type: GoalType::L,
-            distance: 50,
-            direction_deg: heading,
-        })
-        .await
-        .expect("the goal is handed over");
-    let start = rig.truth(0);
-    let moved = until(Duration::from_secs(20), || {
-        let p = rig.truth(0);
-        (p.at.x - start.at.x).hypot(p.at.y - start.at.y) > 500.0
-    })
-    .await;
-    assert!(moved, "the robot never set off on its L goal");
-}
-
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn an_l_goal_stops_the_robot_when_the_light_count_goes_unanswered() {
     let (mut rig, _stepper, heading, planner) = common::one_robot(1.0).await;
@@ -99,7 +79,8 @@ async fn an_l_goal_stops_the_robot_when_the_light_count_goes_unanswered() {
 
     // Many more lights than the corridor has: the goal can only end by
     // the count, which is about to become unreadable.
-    set_off_on_l(&rig, &planner, heading).await;
+    // Many more lights than the corridor has: it can only end by the count.
+    common::set_off_on_l(&rig, &planner, heading, 50).await;
     let world = rig.world.clone();
     let i = rig.index[0];
     let speed = move || world.lock().robot(i).drive.wheel_speed().abs();
@@ -140,7 +121,8 @@ async fn a_light_count_that_is_not_a_number_ends_the_goal_and_the_navigator_take
     let (rig, _stepper, heading, planner) = common::one_robot(1.0).await;
     let navigating = common::navigator(&rig, DataOptions::new("navigator")).await;
 
-    set_off_on_l(&rig, &planner, heading).await;
+    // Many more lights than the corridor has: it can only end by the count.
+    common::set_off_on_l(&rig, &planner, heading, 50).await;
     planner
         .set(Var::CeilingLight, &serde_json::json!({"lights": "many"}))
         .await

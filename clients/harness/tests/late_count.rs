@@ -8,7 +8,7 @@ mod common;
 use common::until;
 use rome_client::{DataOptions, RobotClient, RobotOptions};
 use rome_maps::geometry::{direction, Pose};
-use rome_nav::board::{CountedAt, Goal, GoalType, Sem, Var};
+use rome_nav::board::{CountedAt, Sem, Var};
 use std::time::Duration;
 
 /// How far past the count the robot drives before the count is said.
@@ -22,6 +22,15 @@ fn along(from: &Pose, to: &Pose, heading: f64) -> f64 {
     (to.at.x - from.at.x) * axis.x + (to.at.y - from.at.y) * axis.y
 }
 
+/// As the CTracker says a count: where it was taken, then the count.
+async fn say_count(planner: &rome_nav::board::Board, at: Option<CountedAt>, count: i64) {
+    planner.set(Var::CountedAt, &at).await.expect("CountedAt");
+    planner
+        .set(Var::CeilingLight, &count)
+        .await
+        .expect("CeilingLight");
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_d_goal_after_a_late_count_is_measured_from_where_the_light_was_counted() {
     let (rig, _stepper, heading, planner) = common::one_robot(1.0).await;
@@ -31,28 +40,8 @@ async fn a_d_goal_after_a_late_count_is_measured_from_where_the_light_was_counte
         .expect("the tracker's robot client");
 
     // As a CTracker starting a segment of one light.
-    planner
-        .set(Var::CountedAt, &None::<CountedAt>)
-        .await
-        .expect("CountedAt");
-    planner
-        .set(Var::CeilingLight, &0i64)
-        .await
-        .expect("CeilingLight");
-    planner
-        .give_goal(&Goal {
-            goal_type: GoalType::L,
-            distance: 1,
-            direction_deg: heading,
-        })
-        .await
-        .expect("the L goal is handed over");
-    let start = rig.truth(0);
-    let moving = until(Duration::from_secs(20), || {
-        along(&start, &rig.truth(0), heading) > 500.0
-    })
-    .await;
-    assert!(moving, "the robot never set off on its L goal");
+    say_count(&planner, None, 0).await;
+    common::set_off_on_l(&rig, &planner, heading, 1).await;
 
     // The light is counted here (the tracker's odometry, and the truth
     // beside it) ...
@@ -64,20 +53,11 @@ async fn a_d_goal_after_a_late_count_is_measured_from_where_the_light_was_counte
     })
     .await;
     assert!(late, "the robot stopped before the count was said");
-    planner
-        .set(
-            Var::CountedAt,
-            &Some(CountedAt {
-                x_mm: odometry.at.x,
-                y_mm: odometry.at.y,
-            }),
-        )
-        .await
-        .expect("CountedAt");
-    planner
-        .set(Var::CeilingLight, &1i64)
-        .await
-        .expect("CeilingLight");
+    let at = CountedAt {
+        x_mm: odometry.at.x,
+        y_mm: odometry.at.y,
+    };
+    say_count(&planner, Some(at), 1).await;
     tokio::time::timeout(Duration::from_secs(20), planner.down(Sem::RobotStatus))
         .await
         .expect("the Navigator ends the L goal on the count")

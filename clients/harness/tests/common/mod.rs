@@ -101,3 +101,24 @@ pub async fn until(within: std::time::Duration, mut ok: impl FnMut() -> bool) ->
     }
     ok()
 }
+
+/// Hands over an L goal of `lights` lights and waits until the robot has
+/// driven half a metre.
+#[allow(dead_code)]
+pub async fn set_off_on_l(rig: &Harness, planner: &Board, heading: f64, lights: i64) {
+    planner
+        .give_goal(&Goal {
+            goal_type: GoalType::L,
+            distance: lights,
+            direction_deg: heading,
+        })
+        .await
+        .expect("the goal is handed over");
+    let start = rig.truth(0);
+    let moved = until(std::time::Duration::from_secs(20), || {
+        let p = rig.truth(0);
+        (p.at.x - start.at.x).hypot(p.at.y - start.at.y) > 500.0
+    })
+    .await;
+    assert!(moved, "the robot never set off on its L goal");
+}
