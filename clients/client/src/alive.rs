@@ -37,7 +37,7 @@ pub async fn list(
         .liveliness()
         .get(root.alive_all())
         .timeout(timeout)
-        .with(flume::unbounded())
+        .with(crate::call::replies())
         .await
         .map_err(ClientError::zenoh)?;
     let mut out = Vec::new();

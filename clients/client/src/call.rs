@@ -9,8 +9,9 @@ use crate::ClientError;
 use rome_schema::{decode, ErrorReply};
 use std::time::Duration;
 use zenoh::bytes::Encoding;
+use zenoh::handlers::Callback;
 use zenoh::qos::Priority;
-use zenoh::query::ConsolidationMode;
+use zenoh::query::{ConsolidationMode, Reply};
 use zenoh::Session;
 
 /// The payload of the error reply Zenoh hands a querier itself when a
@@ -40,6 +41,22 @@ pub(crate) enum Waiting {
     Idle,
 }
 
+/// A reply channel for a query, unbounded and quiet. Unbounded: a server
+/// in this process hands its replies over from its own task, and a full
+/// channel would make it wait for this reader (in lock-step, where one
+/// participant runs at a time, for ever). Quiet: a reply that comes after
+/// the reader has gone (Zenoh's own timeout reply, after the answer was
+/// taken; a second server's) is no one's business any more, where Zenoh's
+/// own channels log each one as an error.
+pub(crate) fn replies() -> (Callback<Reply>, flume::Receiver<Reply>) {
+    let (tx, rx) = flume::unbounded();
+    let callback = Callback::from(move |reply: Reply| {
+        // Err only when the reader has gone: see above.
+        let _ = tx.send(reply);
+    });
+    (callback, rx)
+}
+
 /// One query for `selector`; `Ok(None)` when nothing answered in `timeout`.
 pub(crate) async fn attempt(
     session: &Session,
@@ -56,7 +73,8 @@ pub(crate) async fn attempt(
         // arrives, not held until the server has finished with the query
         // (Zenoh's default, to pick the latest of several).
         .consolidation(ConsolidationMode::None)
-        .priority(band);
+        .priority(band)
+        .with(replies());
     if let Some(p) = payload {
         get = get.payload(p.to_vec()).encoding(Encoding::APPLICATION_JSON);
     }

@@ -313,11 +313,9 @@ impl DataClient {
             .get(key)
             .timeout(self.inner.options.max_attempt_timeout)
             .priority(self.band())
-            // Unbounded: a server in this process hands its replies over
-            // from its own task, and Zenoh's default channel (256) would
-            // make it wait for this reader to make room. In lock-step,
-            // where one participant runs at a time, it would wait for ever.
-            .with(flume::unbounded())
+            // Unbounded: Zenoh's default channel (256) would hold a server
+            // in this process up for this reader ([`call::replies`]).
+            .with(call::replies())
             .await
             .map_err(ClientError::zenoh)?;
         let mut out = Vec::new();

@@ -40,6 +40,7 @@ impl TruthClient {
             .session
             .get(self.key.as_str())
             .timeout(self.timeout)
+            .with(crate::call::replies())
             .await
             .map_err(ClientError::zenoh)?;
         let no_reply = || ClientError::NoReply {
