@@ -391,7 +391,13 @@ async fn a_full_queue_behind_a_lock_answers_busy_and_serves_the_rest_afterwards(
     let holder = rig.client("holder", 128).await;
     let lock = holder.lock().await.unwrap();
     let cap = rome_hardware::server::EVENT_QUEUE;
-    let c = rig.client("flood", 128).await;
+    // Those queued wait far longer than the busy answers can take to come
+    // on a loaded machine: a queued request whose wait ran out would be
+    // answered "locked", neither done nor busy.
+    let session = NetOptions::loopback_client(rig.port).open().await.unwrap();
+    let mut o = RobotOptions::new("flood");
+    o.queue_wait = Duration::from_secs(300);
+    let c = RobotClient::connect(&session, "r1", o).await.unwrap();
     let waiting: Vec<_> = (0..cap + 20)
         .map(|_| {
             let c = c.clone();
