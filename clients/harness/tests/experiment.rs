@@ -369,14 +369,16 @@ async fn a_base_that_stops_on_a_touch_keeps_its_odometry_among_people() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_robot_left_aside_by_people_steps_onto_its_goals_line() {
-    // 6.1 #18 among thirty people at 0.7 m/s: steering for people near the
-    // end, the robot finishes its D goal 0.6 m right of the goal's line,
-    // its odometry good. Measuring itself against the walls the map puts
-    // beside the goal, it steps sideways onto the line.
+    // 6.1 #18's route among thirty people at 0.7 m/s, people placed with
+    // seed 44: steering for people near the end, the robot finishes its D
+    // goal 0.85 m off the goal's line, its odometry good. Measuring itself
+    // against the walls the map puts beside the goal, it steps sideways
+    // onto the line. (Any change in how the robot drives moves the people
+    // it meets: the seed is one where it is left aside.)
     let (steps, stays) = with_and_without(
         among_people(900, Some(700.0)),
         |nav| nav.onto_line = false,
-        trial(18, "341L", "311L", 18),
+        trial(18, "341L", "311L", 44),
     )
     .await;
     assert!(steps.arrived() && steps.miss_cm < 30.0, "{}", steps.table());
