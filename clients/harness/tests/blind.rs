@@ -79,7 +79,6 @@ async fn an_l_goal_stops_the_robot_when_the_light_count_goes_unanswered() {
 
     // Many more lights than the corridor has: the goal can only end by
     // the count, which is about to become unreadable.
-    // Many more lights than the corridor has: it can only end by the count.
     common::set_off_on_l(&rig, &planner, heading, 50).await;
     let world = rig.world.clone();
     let i = rig.index[0];
