@@ -718,13 +718,25 @@ impl Sim {
             walls_fresh = true;
             // A body stops where it would touch a wall or another robot;
             // the wheels may go on turning (and the encoders counting).
-            blocked = scene::nearest_of(&self.scene, &self.walls, to, ROBOT_RADIUS_MM, &self.open)
-                .is_some()
-                || others.iter().any(|o| {
-                    nalgebra::distance_squared(&o.at, &to) < (2.0 * ROBOT_RADIUS_MM).powi(2)
-                });
+            let touches =
+                scene::nearest_of(&self.scene, &self.walls, to, ROBOT_RADIUS_MM, &self.open)
+                    .is_some()
+                    || others.iter().any(|o| {
+                        // Two robots that move in one step may end a hair
+                        // inside each other: only a move deeper in is
+                        // stopped, or they could never part.
+                        let after = nalgebra::distance_squared(&o.at, &to);
+                        after < (2.0 * ROBOT_RADIUS_MM).powi(2)
+                            && after < nalgebra::distance_squared(&o.at, &r.pose.at)
+                    });
+            // A turn in place is never blocked: the hair that slipping
+            // wheels move the body would otherwise stop every turn of a
+            // robot that touches something, and two robots touching side
+            // by side could never turn away from each other.
+            let in_place = (vl + vr).abs() < 1e-9;
+            blocked = touches && !in_place;
             let heading = Heading::from_deg(truth.heading);
-            if blocked {
+            if touches {
                 // Turning in place never makes a disc touch anything new.
                 r.pose.heading = heading;
             } else {

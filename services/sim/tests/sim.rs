@@ -816,3 +816,51 @@ fn a_person_walks_to_and_fro_and_is_met_like_a_robot() {
     assert!(back.at.x < 5_000.0, "{back:?}");
     assert_eq!(back.to.x, 3_000.0);
 }
+
+#[test]
+fn a_robot_touching_another_still_turns_in_place_with_its_bumper_watched() {
+    // Wheels that slip move a turning body a hair along its heading; that
+    // hair, towards the robot it touches, must not stop the turn (turning
+    // in place never makes a disc touch anything new). Stopped, two
+    // robots side by side in a corridor mouth stood touching for ever.
+    for seed in 1..=5 {
+        let mut sim = room(SimConfig {
+            seed,
+            ..SimConfig::default()
+        });
+        let a = sim.add_robot("a", at(4_000.0, 3_000.0, -90.0)).unwrap(); // East
+        let gap = 2.0 * ROBOT_RADIUS_MM + 0.001;
+        sim.add_robot("b", at(4_000.0 + gap, 3_000.0, 90.0))
+            .unwrap();
+        sim.robot_mut(a).bumpers.watch = true;
+        sim.robot_mut(a).drive.turn(90.0, 45.0, 90.0).unwrap();
+        sim.run_for(5_000);
+        let robot = sim.robot(a);
+        let turned = rome_maps::geometry::normalize_deg(-90.0 - robot.pose.heading.deg());
+        assert!((turned - 90.0).abs() < 5.0, "seed {seed}: turned {turned}°");
+    }
+}
+
+#[test]
+fn two_robots_that_met_in_one_step_can_still_back_away_from_each_other() {
+    // Both move within one step, each clear of where the other was: they
+    // may end a hair inside each other. Every move that left them inside,
+    // backing away included, was taken for a new touch and stopped, so
+    // the two stood locked together for good.
+    let mut sim = room(quiet());
+    let a = sim.add_robot("a", at(3_000.0, 3_000.0, -90.0)).unwrap(); // East
+    let b = sim.add_robot("b", at(6_000.0, 3_000.0, 90.0)).unwrap(); // West
+    for r in [a, b] {
+        sim.robot_mut(r).bumpers.watch = true;
+        sim.robot_mut(r).drive.go(300.0).unwrap();
+    }
+    sim.run_for(10_000);
+    let gap = |sim: &Sim| nalgebra::distance(&sim.robot(a).pose.at, &sim.robot(b).pose.at);
+    let met = gap(&sim);
+    assert!(met < 2.0 * ROBOT_RADIUS_MM + 5.0, "they met: {met}");
+    for r in [a, b] {
+        sim.robot_mut(r).drive.go(-300.0).unwrap();
+    }
+    sim.run_for(3_000);
+    assert!(gap(&sim) > met + 1_000.0, "{met} → {}", gap(&sim));
+}
