@@ -100,6 +100,9 @@ pub struct Navigator {
     /// A goal the Planner handed before the one at hand ended, which
     /// replaces it.
     handed: Option<Goal>,
+    /// The goal at hand, for the Status written while the Navigator waits
+    /// outside its loop ([`Navigator::beat`]).
+    at_hand: Option<status::AtHand>,
 }
 
 impl Navigator {
@@ -122,6 +125,7 @@ impl Navigator {
             odometer_at: None,
             speed,
             handed: None,
+            at_hand: None,
         }
     }
 
@@ -182,6 +186,7 @@ impl Navigator {
                 },
             };
             self.goals += 1;
+            self.at_hand = status::AtHand::for_goal(&goal);
             tracing::info!(?goal, n = self.goals, "navigator: goal");
             let done = if goal.goal_type == GoalType::V {
                 self.ride(&goal, &scans).await
@@ -386,9 +391,10 @@ impl Navigator {
 
     /// Waits until the base has finished an in-place turn, a move by a
     /// distance or a stop; the scan that showed it.
-    async fn settle(&self, scans: &rome_client::robot::Stream<Scan>) -> Result<Scan, NavError> {
+    async fn settle(&mut self, scans: &rome_client::robot::Stream<Scan>) -> Result<Scan, NavError> {
         for _ in 0..600 {
             let scan = self.next_scan(scans).await?;
+            self.beat(scan.time_ms, None).await?;
             if self.base_settled().await? {
                 return Ok(scan);
             }
@@ -760,24 +766,11 @@ impl Navigator {
             _ => 0.0,
         }
     }
-
-    async fn publish(&self, goal: &Goal, pose: &Pose, corner: bool) -> Result<(), NavError> {
-        let mut status = Status::at(
-            self.goals,
-            goal.goal_type,
-            if corner { "corner" } else { "center-hallway" },
-            pose,
-            self.hallway.as_ref().map_or(0.0, |h| h.safe_mm),
-        );
-        status.blocked = self.blocked.clone();
-        status.failed = None;
-        self.board.set(Var::Status, &status).await?;
-        Ok(())
-    }
 }
 
 pub mod blocked;
 mod recover;
 mod ride;
+mod status;
 #[cfg(test)]
 mod tests;
