@@ -6,7 +6,7 @@
 
 mod common;
 
-use rome_client::{DataOptions, RobotClient, RobotOptions};
+use rome_client::DataOptions;
 use rome_maps::geometry::{direction, normalize_deg, Pose};
 use rome_nav::board::{Status, Var};
 use rome_nav::navigator::ROBOT_RADIUS_MM;
@@ -25,9 +25,7 @@ const IN_THE_WAY_MM: f64 = 1_300.0;
 async fn a_navigator_held_up_on_a_sideways_step_still_says_it_is_alive() {
     let (rig, _stepper, heading, planner) = common::one_robot(4.0).await;
     let navigating = common::navigator(&rig, DataOptions::new("navigator")).await;
-    let eyes = RobotClient::connect(&rig.session, "r1", RobotOptions::new("test"))
-        .await
-        .expect("the test's robot client");
+    let eyes = common::robot_client(&rig, "test").await;
 
     // Out of the doorway into the corridor, where the side sonars see
     // both walls.

@@ -6,7 +6,7 @@
 mod common;
 
 use common::until;
-use rome_client::{DataOptions, RobotClient, RobotOptions};
+use rome_client::DataOptions;
 use rome_maps::geometry::{direction, Pose};
 use rome_nav::board::{CountedAt, Sem, Var};
 use std::time::Duration;
@@ -35,9 +35,7 @@ async fn say_count(planner: &rome_nav::board::Board, at: Option<CountedAt>, coun
 async fn a_d_goal_after_a_late_count_is_measured_from_where_the_light_was_counted() {
     let (rig, _stepper, heading, planner) = common::one_robot(1.0).await;
     let navigating = common::navigator(&rig, DataOptions::new("navigator")).await;
-    let tracker = RobotClient::connect(&rig.session, "r1", RobotOptions::new("ctracker"))
-        .await
-        .expect("the tracker's robot client");
+    let tracker = common::robot_client(&rig, "ctracker").await;
 
     // As a CTracker starting a segment of one light.
     say_count(&planner, None, 0).await;

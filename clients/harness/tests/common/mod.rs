@@ -45,11 +45,16 @@ pub async fn navigator(
     let ds = DataClient::connect(&rig.session, opts)
         .await
         .expect("navigator data client");
-    let robot = RobotClient::connect(&rig.session, "r1", RobotOptions::new("navigator"))
-        .await
-        .expect("navigator robot client");
+    let robot = robot_client(rig, "navigator").await;
     let mut nav = Navigator::new(robot, Board::new(ds, "r1"), NavConfig::default());
     tokio::spawn(async move { nav.run().await })
+}
+
+/// A robot client of r1's for a test that reads the robot as `who` does.
+pub async fn robot_client(rig: &Harness, who: &str) -> RobotClient {
+    RobotClient::connect(&rig.session, "r1", RobotOptions::new(who))
+        .await
+        .unwrap_or_else(|e| panic!("{who}'s robot client: {e}"))
 }
 
 /// A CTracker for r1, running until it ends.
@@ -59,9 +64,7 @@ pub async fn ctracker(rig: &Harness) -> tokio::task::JoinHandle<Result<(), rome_
     let ds = DataClient::connect(&rig.session, DataOptions::new("ctracker"))
         .await
         .expect("ctracker data client");
-    let robot = RobotClient::connect(&rig.session, "r1", RobotOptions::new("ctracker"))
-        .await
-        .expect("ctracker robot client");
+    let robot = robot_client(rig, "ctracker").await;
     let tracker = rome_nav::ctracker::CTracker::new(
         robot,
         Board::new(ds, "r1"),
