@@ -394,7 +394,7 @@ impl Navigator {
     async fn settle(&mut self, scans: &rome_client::robot::Stream<Scan>) -> Result<Scan, NavError> {
         for _ in 0..600 {
             let scan = self.next_scan(scans).await?;
-            self.beat(scan.time_ms, None).await?;
+            self.beat(scan.time_ms, || None).await?;
             if self.base_settled().await? {
                 return Ok(scan);
             }

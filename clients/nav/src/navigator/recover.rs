@@ -253,7 +253,7 @@ impl Navigator {
             self.robot.move_by(left, 200.0, -1.0).await?;
             let stopped = loop {
                 let scan = self.next_scan(scans).await?;
-                self.beat(scan.time_ms, None).await?;
+                self.beat(scan.time_ms, || None).await?;
                 let moved = self.pose().await?.dist(&from);
                 let now = ahead(&scan);
                 let remaining = left - moved;
@@ -279,11 +279,13 @@ impl Navigator {
             loop {
                 let scan = self.next_scan(scans).await?;
                 let now = ahead(&scan);
-                let why = format!(
-                    "waiting: something {:.1} m ahead is in the way of the sideways step onto the goal's line",
-                    now / 1_000.0
-                );
-                self.beat(scan.time_ms, Some(why)).await?;
+                let why = || {
+                    Some(format!(
+                        "waiting: something {:.1} m ahead is in the way of the sideways step onto the goal's line",
+                        now / 1_000.0
+                    ))
+                };
+                self.beat(scan.time_ms, why).await?;
                 if now >= (left + STEP_ROOM_MM).min(STEP_CLEAR_MM) {
                     expected = now;
                     break;

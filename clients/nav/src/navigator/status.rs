@@ -40,6 +40,20 @@ fn state(corner: bool) -> &'static str {
 }
 
 impl Navigator {
+    /// The Status of a goal of `goal_type` at `pose`, with why the robot
+    /// gets nowhere if it does.
+    fn status_at(&self, goal_type: GoalType, corner: bool, pose: &Pose) -> Status {
+        let mut status = Status::at(
+            self.goals,
+            goal_type,
+            state(corner),
+            pose,
+            self.hallway.as_ref().map_or(0.0, |h| h.safe_mm),
+        );
+        status.blocked = self.blocked.clone();
+        status
+    }
+
     /// Writes the Status of `goal` at `pose`.
     pub(super) async fn publish(
         &mut self,
@@ -47,15 +61,7 @@ impl Navigator {
         pose: &Pose,
         corner: bool,
     ) -> Result<(), NavError> {
-        let mut status = Status::at(
-            self.goals,
-            goal.goal_type,
-            state(corner),
-            pose,
-            self.hallway.as_ref().map_or(0.0, |h| h.safe_mm),
-        );
-        status.blocked = self.blocked.clone();
-        status.failed = None;
+        let status = self.status_at(goal.goal_type, corner, pose);
         self.board.set(Var::Status, &status).await?;
         if let Some(at_hand) = self.at_hand.as_mut() {
             at_hand.next_ms = None;
@@ -65,11 +71,12 @@ impl Navigator {
 
     /// While the Navigator waits outside its loop, at the scan of time
     /// `t_ms`: the goal's Status, once a second, with the robot's pose
-    /// and what it waits for (`waiting`) if that is known.
+    /// and what it waits for (`waiting`, asked only when a write is due)
+    /// if that is known.
     pub(super) async fn beat(
         &mut self,
         t_ms: u64,
-        waiting: Option<String>,
+        waiting: impl FnOnce() -> Option<String>,
     ) -> Result<(), NavError> {
         let Some(at_hand) = self.at_hand.as_mut() else {
             return Ok(());
@@ -85,8 +92,10 @@ impl Navigator {
         at_hand.next_ms = Some(t_ms + BEAT_MS);
         let (goal_type, corner) = (at_hand.goal_type, at_hand.corner);
         let pose = Pose::from(&self.robot.pose().await?);
-        let mut status = Status::at(self.goals, goal_type, state(corner), &pose, 0.0);
-        status.blocked = waiting.or_else(|| self.blocked.clone());
+        let mut status = self.status_at(goal_type, corner, &pose);
+        if let Some(why) = waiting() {
+            status.blocked = Some(why);
+        }
         self.board.set(Var::Status, &status).await?;
         Ok(())
     }
