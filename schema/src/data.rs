@@ -36,6 +36,9 @@ pub mod param {
     /// back by itself if the owner dies; a `signal` with `undo` and `owner`
     /// gives such a unit back.
     pub const UNDO: &str = "undo";
+    /// `units=N`: how many units a `wait` takes or a `signal` adds at
+    /// once (1 when absent).
+    pub const UNITS: &str = "units";
 }
 
 /// The default history length of a new variable.

@@ -127,6 +127,54 @@ async fn a_passage_held_by_a_client_killed_with_sigkill_opens_for_the_next() {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_wait_for_every_unit_ends_when_the_last_holder_leaves_or_dies() {
+    // A one-way lane: robots going one way each hold a unit of its
+    // semaphore; one about to go the other way waits for all of them.
+    let server = TestServer::start().await;
+    let ds = server.client("test").await;
+    ds.create_semaphore("Lane", 3).await.unwrap();
+    let mut dies = peer!(server.port, ["holder", "--sem", "Lane"]);
+    let leaves = server.client("leaves").await;
+    leaves.wait_undo("Lane").await.unwrap();
+    eventually(Duration::from_secs(15), "two hold a unit", || async {
+        let s = ds.semaphore("Lane").await.unwrap();
+        (s.value, s.held) == (1, 2)
+    })
+    .await;
+    let other_way = server.client("other-way").await;
+    let waiting = tokio::spawn(async move {
+        other_way.wait_undo_units("Lane", 3).await.unwrap();
+        other_way
+    });
+    eventually(Duration::from_secs(15), "the other way waits", || async {
+        ds.semaphore("Lane").await.unwrap().waiters == 1
+    })
+    .await;
+    // One unit alone is not taken past the queued wait for three.
+    assert!(
+        !ds.try_wait("Lane").await.unwrap(),
+        "a unit went past the wait for all"
+    );
+    leaves.give_back("Lane").await.unwrap();
+    assert_eq!(
+        ds.semaphore("Lane").await.unwrap().waiters,
+        1,
+        "granted with one still held"
+    );
+    dies.kill(); // SIGKILL in the lane: its unit comes back by itself.
+    let other_way = tokio::time::timeout(Duration::from_secs(30), waiting)
+        .await
+        .expect("the wait for every unit ended")
+        .unwrap();
+    let s = ds.semaphore("Lane").await.unwrap();
+    assert_eq!((s.value, s.waiters, s.held), (0, 0, 3));
+    other_way.give_back_units("Lane", 3).await.unwrap();
+    let s = ds.semaphore("Lane").await.unwrap();
+    assert_eq!((s.value, s.held), (3, 0));
+    server.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn waiters_that_time_out_and_retry_lose_and_duplicate_nothing() {
     const UNITS: u64 = 150;
     let server = TestServer::start().await;

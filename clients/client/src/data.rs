@@ -504,20 +504,30 @@ impl DataClient {
 
     /// up() (`DataSignal(DS, "$XYZ")`).
     pub async fn signal(&self, name: &str) -> Result<SignalReply, ClientError> {
-        self.up(name, false).await
+        self.up(name, false, 1).await
     }
 
     /// Gives back a unit taken with [`DataClient::wait_undo`].
     pub async fn give_back(&self, name: &str) -> Result<SignalReply, ClientError> {
-        self.up(name, true).await
+        self.up(name, true, 1).await
     }
 
-    /// up(), giving back this client's undo unit when `undo`.
-    async fn up(&self, name: &str, undo: bool) -> Result<SignalReply, ClientError> {
+    /// Gives back `units` units taken with [`DataClient::wait_undo_units`].
+    pub async fn give_back_units(
+        &self,
+        name: &str,
+        units: u64,
+    ) -> Result<SignalReply, ClientError> {
+        self.up(name, true, units).await
+    }
+
+    /// up() by `units`, giving back this client's undo units when `undo`.
+    async fn up(&self, name: &str, undo: bool, units: u64) -> Result<SignalReply, ClientError> {
         let signal = Signal {
             name: Name::semaphore(name)?,
             op: Some(self.next_id()),
             undo_owner: undo.then(|| self.inner.owner.clone()),
+            units,
         };
         self.request(&signal).await
     }
@@ -560,7 +570,7 @@ impl DataClient {
 
     /// Blocking down() (`DataWait(DS, "$XYZ")`), for as long as it takes.
     pub async fn wait(&self, name: &str) -> Result<(), ClientError> {
-        self.wait_until(name, None, false).await.map(|_| ())
+        self.wait_until(name, None, false, 1).await.map(|_| ())
     }
 
     /// Blocking down() whose unit stays on this client's account: if the
@@ -568,13 +578,21 @@ impl DataClient {
     /// the unit back by itself (System V's SEM_UNDO). For a resource held
     /// for a while, such as a narrow passage.
     pub async fn wait_undo(&self, name: &str) -> Result<(), ClientError> {
-        self.wait_until(name, None, true).await.map(|_| ())
+        self.wait_until(name, None, true, 1).await.map(|_| ())
+    }
+
+    /// [`DataClient::wait_undo`] for `units` units at once, taken when this
+    /// wait is first in the queue and that many are free. Waiting for
+    /// every unit of a semaphore, then giving them straight back, waits
+    /// until nobody holds one.
+    pub async fn wait_undo_units(&self, name: &str, units: u64) -> Result<(), ClientError> {
+        self.wait_until(name, None, true, units).await.map(|_| ())
     }
 
     /// Blocking down() for at most `timeout`: whether a unit was taken.
     /// On `false` nothing was taken and the place in the queue is given up.
     pub async fn wait_timeout(&self, name: &str, timeout: Duration) -> Result<bool, ClientError> {
-        self.wait_until(name, Some(rome_clock::Instant::now() + timeout), false)
+        self.wait_until(name, Some(rome_clock::Instant::now() + timeout), false, 1)
             .await
     }
 
@@ -583,6 +601,7 @@ impl DataClient {
         name: &str,
         deadline: Option<rome_clock::Instant>,
         undo: bool,
+        units: u64,
     ) -> Result<bool, ClientError> {
         let name = Name::semaphore(name)?;
         let ticket = self.next_id();
@@ -596,8 +615,11 @@ impl DataClient {
             name: name.clone(),
             ticket: ticket.clone(),
             undo,
+            units,
         };
-        let taken = self.wait_ticket(&name, &ticket, deadline, undo).await;
+        let taken = self
+            .wait_ticket(&name, &ticket, deadline, undo, units)
+            .await;
         // A wait that failed gives its place up too: its ack may have been
         // confirmed by a server whose answer never came back, and a unit
         // kept by a living owner that no longer waits would be lost to
@@ -614,6 +636,7 @@ impl DataClient {
         ticket: &str,
         deadline: Option<rome_clock::Instant>,
         undo: bool,
+        units: u64,
     ) -> Result<bool, ClientError> {
         let key = self.key(DataOp::Wait, name);
         let o = &self.inner.options;
@@ -633,6 +656,7 @@ impl DataClient {
                 owner: Some(self.inner.owner.clone()),
                 hold,
                 undo,
+                units,
             };
             let tried = Instant::now();
             // A hold is simulated time in a lock-step run, which may go
@@ -677,9 +701,15 @@ impl DataClient {
     /// A wait dropped before it ended: its ticket leaves the queue, and a
     /// unit it was granted or took meanwhile goes back (an undo unit to
     /// the owner's account first, so it can be given back).
-    async fn abandon(&self, name: &Name, ticket: &str, undo: bool) -> Result<(), ClientError> {
+    async fn abandon(
+        &self,
+        name: &Name,
+        ticket: &str,
+        undo: bool,
+        units: u64,
+    ) -> Result<(), ClientError> {
         if self.give_up(name, ticket).await? {
-            self.up(name.as_str(), undo).await?;
+            self.up(name.as_str(), undo, units).await?;
         }
         Ok(())
     }
@@ -715,6 +745,7 @@ struct Place {
     name: Name,
     ticket: String,
     undo: bool,
+    units: u64,
 }
 
 impl Drop for Place {
@@ -725,9 +756,14 @@ impl Drop for Place {
         if tokio::runtime::Handle::try_current().is_err() {
             return;
         }
-        let (name, ticket, undo) = (self.name.clone(), self.ticket.clone(), self.undo);
+        let (name, ticket, undo, units) = (
+            self.name.clone(),
+            self.ticket.clone(),
+            self.undo,
+            self.units,
+        );
         rome_clock::spawn("abandoned wait", async move {
-            if let Err(e) = client.abandon(&name, &ticket, undo).await {
+            if let Err(e) = client.abandon(&name, &ticket, undo, units).await {
                 tracing::debug!(error = %e, sem = %name.as_str(), "an abandoned wait could not give its place up");
             }
         });

@@ -59,19 +59,25 @@ impl Apply for Request {
             Request::Read(read) => Ok(Applied::reply(&store.semaphore(&read.name)?)),
             Request::Create(c) => Ok(Applied::reply(&store.create(&c.name, c.value)?)),
             Request::Signal(s) => {
-                let signalled =
-                    store.signal_as(&s.name, s.op.as_deref(), s.undo_owner.as_deref(), now)?;
+                let signalled = store.signal_units(
+                    &s.name,
+                    s.op.as_deref(),
+                    s.undo_owner.as_deref(),
+                    s.units,
+                    now,
+                )?;
                 // The waits it granted are answered by the server.
                 let mut applied = Applied::reply(&signalled.reply);
                 applied.grants = signalled.grants;
                 Ok(applied)
             }
             Request::Wait(w) => {
-                let reply = store.wait_undo(
+                let reply = store.wait_units(
                     &w.name,
                     w.ticket.as_deref(),
                     w.owner.as_deref(),
                     w.undo,
+                    w.units,
                     now,
                 )?;
                 if reply.status == WaitStatus::Pending {

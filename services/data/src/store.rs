@@ -127,8 +127,10 @@ struct Ticket {
     sem: Name,
     owner: Option<String>,
     state: TicketState,
-    /// The unit stays on the owner's account once confirmed.
+    /// The units stay on the owner's account once confirmed.
     undo: bool,
+    /// How many units it takes at once (1 but for a `units=N` wait).
+    units: u64,
 }
 
 /// Units an owner holds on a semaphore with `undo`, and since when.

@@ -157,18 +157,24 @@ fn every_request_parses_back_as_it_was_encoded() {
         value: crate::data::MAX_SEMAPHORE_VALUE,
     };
     assert_eq!(round_trip(&create), Request::Create(create));
-    for undo_owner in [None, Some("c7".to_string())] {
+    for (undo_owner, units) in [
+        (None, 1),
+        (Some("c7".to_string()), 1),
+        (Some("c7".to_string()), 64),
+    ] {
         let signal = Signal {
             name: n.clone(),
             op: Some("c7.13".into()),
             undo_owner,
+            units,
         };
         assert_eq!(round_trip(&signal), Request::Signal(signal));
     }
-    for (ticket, owner, undo) in [
-        (None, None, false),
-        (Some("c7.15".to_string()), Some("c7".to_string()), false),
-        (Some("c7.16".to_string()), Some("c7".to_string()), true),
+    for (ticket, owner, undo, units) in [
+        (None, None, false, 1),
+        (Some("c7.15".to_string()), Some("c7".to_string()), false, 1),
+        (Some("c7.16".to_string()), Some("c7".to_string()), true, 1),
+        (Some("c7.17".to_string()), Some("c7".to_string()), true, 64),
     ] {
         let wait = Wait {
             name: n.clone(),
@@ -176,6 +182,7 @@ fn every_request_parses_back_as_it_was_encoded() {
             owner,
             hold: Duration::from_millis(250),
             undo,
+            units,
         };
         assert_eq!(round_trip(&wait), Request::Wait(wait));
     }
@@ -201,11 +208,18 @@ fn an_encoded_request_uses_only_parameters_the_server_knows() {
         owner: Some("o".into()),
         hold: Duration::from_millis(crate::data::MAX_HOLD_MS),
         undo: true,
+        units: 2,
     };
     let keys: Vec<&str> = wait.params().iter().map(|(k, _)| *k).collect();
     assert_eq!(
         keys,
-        [param::TICKET, param::OWNER, param::HOLD_MS, param::UNDO]
+        [
+            param::TICKET,
+            param::OWNER,
+            param::HOLD_MS,
+            param::UNDO,
+            param::UNITS
+        ]
     );
     assert!(matches!(round_trip(&wait), Request::Wait(w) if w == wait));
 }

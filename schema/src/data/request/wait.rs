@@ -1,4 +1,4 @@
-use crate::data::{param, WaitReply, DEFAULT_HOLD_MS, MAX_HOLD_MS};
+use crate::data::{param, WaitReply, DEFAULT_HOLD_MS, MAX_HOLD_MS, MAX_SEMAPHORE_VALUE};
 use crate::{ErrorReply, Name, Params};
 use std::time::Duration;
 
@@ -29,6 +29,13 @@ request! {
     /// ```text
     /// get rome/data/wait/passage/J?ticket=c7-16;owner=c7;undo=true
     /// ```
+    ///
+    /// With `units=N` the ticket takes N units at once, when it is first in
+    /// the queue and N are free; those behind it wait meanwhile:
+    ///
+    /// ```text
+    /// get rome/data/wait/traffic/lane/012-015/up?ticket=c7-18;owner=c7;undo=true;units=64
+    /// ```
     #[derive(Debug, Clone, PartialEq, Eq)]
     Wait: Wait -> WaitReply, "The semaphore." {
         /// The wait's identity across retries.
@@ -39,6 +46,8 @@ request! {
         pub hold: Duration,
         /// The unit stays on the owner's account until given back.
         pub undo: bool,
+        /// How many units it takes at once (at least 1).
+        pub units: u64,
     }
 
     fn params(&self) -> Vec<(&'static str, String)> {
@@ -53,10 +62,13 @@ request! {
         if self.undo {
             params.push((param::UNDO, "true".to_string()));
         }
+        if self.units != 1 {
+            params.push((param::UNITS, self.units.to_string()));
+        }
         params
     }
 
-    /// Parses `ticket`, `owner`, `hold_ms` and `undo`.
+    /// Parses `ticket`, `owner`, `hold_ms`, `undo` and `units`.
     fn parse(name: Name, mut params: Params, _: Option<&[u8]>) -> Result<Self, ErrorReply> {
         let ticket = params.take_id(param::TICKET)?;
         let owner = params.take_id(param::OWNER)?;
@@ -64,9 +76,12 @@ request! {
             .take_int(param::HOLD_MS, 0, i128::from(MAX_HOLD_MS))?
             .map_or(DEFAULT_HOLD_MS, |v| v as u64);
         let undo = params.take_bool(param::UNDO)?;
+        let units = params
+            .take_int(param::UNITS, 1, i128::from(MAX_SEMAPHORE_VALUE))?
+            .map_or(1, |v| v as u64);
         params.finish(
             "wait",
-            &[param::TICKET, param::OWNER, param::HOLD_MS, param::UNDO],
+            &[param::TICKET, param::OWNER, param::HOLD_MS, param::UNDO, param::UNITS],
         )?;
         Ok(Wait {
             name,
@@ -74,6 +89,7 @@ request! {
             owner,
             hold: Duration::from_millis(hold_ms),
             undo,
+            units,
         })
     }
 }

@@ -65,7 +65,7 @@ impl Quick {
                     // which only the loop does; asked under the same lock
                     // as the wait is applied, so the answer holds.
                     if let Request::Wait(w) = &request {
-                        if !store.wait_answers_at_once(&w.name, w.ticket.as_deref()) {
+                        if !store.wait_answers_at_once(&w.name, w.ticket.as_deref(), w.units) {
                             return false;
                         }
                     }

@@ -110,6 +110,17 @@ struct TicketRecord {
     owner: Option<String>,
     granted: bool,
     undo: bool,
+    /// Absent in files written before waits could take several units.
+    #[serde(default = "one", skip_serializing_if = "is_one")]
+    units: u64,
+}
+
+fn one() -> u64 {
+    1
+}
+
+fn is_one(n: &u64) -> bool {
+    *n == 1
 }
 
 #[derive(Serialize, Deserialize)]
@@ -370,6 +381,7 @@ impl Disk {
                         }
                     },
                     undo: record.undo,
+                    units: record.units.max(1),
                 },
             );
         }
@@ -453,6 +465,7 @@ fn edits(store: &Store, changes: &Changes) -> Vec<Edit> {
             owner: t.owner.clone(),
             granted: matches!(t.state, TicketState::Granted { .. }),
             undo: t.undo,
+            units: t.units,
         });
         out.push(Edit::Ticket(id.clone(), record.map(|r| json(&r))));
     }
@@ -520,8 +533,8 @@ mod tests {
         for (id, t) in tickets {
             let granted = matches!(t.state, TicketState::Granted { .. });
             out += &format!(
-                "ticket {id} {} {:?} granted={granted} undo={}\n",
-                t.sem, t.owner, t.undo
+                "ticket {id} {} {:?} granted={granted} undo={} units={}\n",
+                t.sem, t.owner, t.undo, t.units
             );
         }
         for ((sem, owner), h) in &s.held {
@@ -584,8 +597,16 @@ mod tests {
                 6 => s.create(&sem, rng.next(2)).map(|_| ()),
                 7 => s.signal(&sem, Some(&op), now).map(|_| ()),
                 8 => s.try_wait(&sem, Some(&op), now).map(|_| ()),
+                // Tickets numbered 0 wait for two units at once.
                 9 => s
-                    .wait_undo(&sem, Some(&ticket), Some(owner), rng.next(2) == 0, now)
+                    .wait_units(
+                        &sem,
+                        Some(&ticket),
+                        Some(owner),
+                        rng.next(2) == 0,
+                        1 + u64::from(ticket.ends_with("-0")),
+                        now,
+                    )
                     .map(|_| ()),
                 10 => s.wait(&sem, None, None, now).map(|_| ()),
                 11 => s.ack(&sem, &ticket, now).map(|_| ()),

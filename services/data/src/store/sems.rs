@@ -80,11 +80,18 @@ impl Store {
         let Some(sem) = self.sems.get_mut(name) else {
             return grants;
         };
-        while sem.value > 0 {
+        // First come first served: a wait for several units at the head
+        // of the queue keeps those behind it waiting until they are all
+        // free, so it is not starved by single units going past it.
+        while let Some(front) = sem.queue.front() {
+            let units = self.tickets.get(front).map_or(1, |t| t.units);
+            if sem.value < units {
+                break;
+            }
             let Some(ticket) = sem.queue.pop_front() else {
                 break;
             };
-            sem.value -= 1;
+            sem.value -= units;
             if let Some(c) = self.changes.as_mut() {
                 c.sems.insert(name.clone());
                 c.tickets.insert(ticket.clone());
@@ -124,6 +131,20 @@ impl Store {
         undo_owner: Option<&str>,
         now: Instant,
     ) -> Result<Signalled, ErrorReply> {
+        self.signal_units(name, op, undo_owner, 1, now)
+    }
+
+    /// up() by `units` at once (System V's `semop` with a positive count);
+    /// with `undo_owner`, gives back that many of the units the owner
+    /// holds with `undo` (refused if it holds fewer).
+    pub fn signal_units(
+        &mut self,
+        name: &Name,
+        op: Option<&str>,
+        undo_owner: Option<&str>,
+        units: u64,
+        now: Instant,
+    ) -> Result<Signalled, ErrorReply> {
         match self.recall(op) {
             Some(Remembered::Signal(reply)) if reply.name == name.as_str() => {
                 return Ok(Signalled {
@@ -135,33 +156,42 @@ impl Store {
             None => {}
         }
         let sem = self.sems.get_mut(name).ok_or_else(|| unknown_sem(name))?;
-        if sem.value >= MAX_SEMAPHORE_VALUE {
+        if units == 0 || sem.value > MAX_SEMAPHORE_VALUE - units.min(MAX_SEMAPHORE_VALUE) {
             return Err(err(
                 ErrorCode::OutOfRange,
-                format!("semaphore '{name}' is at its maximum value {MAX_SEMAPHORE_VALUE}"),
+                format!(
+                    "semaphore '{name}' at {} cannot go up by {units}: its maximum is {MAX_SEMAPHORE_VALUE} and a signal adds at least 1",
+                    sem.value
+                ),
             ));
         }
         if let Some(owner) = undo_owner {
             let key = (name.clone(), owner.to_string());
+            let holds = self.held.get(&key).map_or(0, |h| h.units);
+            if holds == 0 {
+                return Err(err(
+                    ErrorCode::Conflict,
+                    format!("client '{owner}' holds no unit of semaphore '{name}' to give back (undo signals only return units taken by an undo wait)"),
+                ));
+            }
+            if holds < units {
+                return Err(err(
+                    ErrorCode::Conflict,
+                    format!("client '{owner}' holds {holds} unit(s) of semaphore '{name}', fewer than the {units} it gives back"),
+                ));
+            }
             self.touch_held(&key);
-            match self.held.get_mut(&key) {
-                Some(h) if h.units > 1 => h.units -= 1,
-                Some(_) => {
-                    self.held.remove(&key);
-                }
-                None => {
-                    return Err(err(
-                        ErrorCode::Conflict,
-                        format!("client '{owner}' holds no unit of semaphore '{name}' to give back (undo signals only return units taken by an undo wait)"),
-                    ))
-                }
+            if holds == units {
+                self.held.remove(&key);
+            } else if let Some(h) = self.held.get_mut(&key) {
+                h.units -= units;
             }
         }
         self.touch_sem(name);
         let Some(sem) = self.sems.get_mut(name) else {
             return Err(unknown_sem(name));
         };
-        sem.value += 1;
+        sem.value += units;
         let grants = self.dispatch(name, now);
         let value = self.sems.get(name).map_or(0, |s| s.value);
         let reply = SignalReply {
@@ -210,7 +240,7 @@ impl Store {
         if acquired {
             self.touch_sem(name);
             if let Some(owner) = undo_owner {
-                self.hold_undo(name, owner.to_string(), now);
+                self.hold_undo(name, owner.to_string(), 1, now);
             }
         }
         let reply = TryWaitReply {
@@ -281,6 +311,28 @@ impl Store {
         undo: bool,
         now: Instant,
     ) -> Result<WaitReply, ErrorReply> {
+        self.wait_units(name, ticket, owner, undo, 1, now)
+    }
+
+    /// down() by `units` at once: the ticket is granted when that many are
+    /// free and it is first in the queue (System V's `semop` with a
+    /// negative count). Waiting for every unit of a semaphore and giving
+    /// them straight back is how a client waits until nobody holds one.
+    pub fn wait_units(
+        &mut self,
+        name: &Name,
+        ticket: Option<&str>,
+        owner: Option<&str>,
+        undo: bool,
+        units: u64,
+        now: Instant,
+    ) -> Result<WaitReply, ErrorReply> {
+        if units == 0 {
+            return Err(err(
+                ErrorCode::BadParameter,
+                "a wait takes at least 1 unit (units=0 would wait for nothing)",
+            ));
+        }
         if undo && owner.is_none() {
             return Err(err(
                 ErrorCode::BadParameter,
@@ -301,6 +353,17 @@ impl Store {
             }
         };
         self.check_ticket_sem(name, &ticket)?;
+        if let Some(t) = self.tickets.get(&ticket) {
+            if t.units != units {
+                return Err(err(
+                    ErrorCode::Conflict,
+                    format!(
+                        "ticket '{ticket}' waits for {} unit(s), not {units}",
+                        t.units
+                    ),
+                ));
+            }
+        }
         if let Some(t) = self.tickets.get_mut(&ticket) {
             return Ok(match t.state {
                 TicketState::Granted { .. } => self.wait_reply(name, &ticket, WaitStatus::Granted),
@@ -323,6 +386,7 @@ impl Store {
                 owner: owner.map(str::to_string),
                 state: TicketState::Queued { lapse_at: None },
                 undo,
+                units,
             },
         );
         if let Some(sem) = self.sems.get_mut(name) {
@@ -340,7 +404,7 @@ impl Store {
     /// Whether [`Store::wait_undo`] on `name` with `ticket` would answer at
     /// once (granted, or the reply of a wait already confirmed) rather than
     /// queue the ticket and ask for its query to be held.
-    pub fn wait_answers_at_once(&self, name: &Name, ticket: Option<&str>) -> bool {
+    pub fn wait_answers_at_once(&self, name: &Name, ticket: Option<&str>, units: u64) -> bool {
         let Some(sem) = self.sems.get(name) else {
             return false;
         };
@@ -350,7 +414,7 @@ impl Store {
         match ticket.and_then(|t| self.remembered.get(t)) {
             Some(Remembered::Confirmed(_)) => true,
             Some(_) => false,
-            None => sem.value > 0 && sem.queue.is_empty(),
+            None => sem.value >= units.max(1) && sem.queue.is_empty(),
         }
     }
 
@@ -407,14 +471,14 @@ impl Store {
 
     /// Puts one unit of `name` on `owner`'s undo account: it goes back by
     /// itself if the owner dies before giving it back.
-    fn hold_undo(&mut self, name: &Name, owner: String, now: Instant) {
+    fn hold_undo(&mut self, name: &Name, owner: String, units: u64, now: Instant) {
         let key = (name.clone(), owner);
         self.touch_held(&key);
         let h = self.held.entry(key).or_insert(Held {
             units: 0,
             since: now,
         });
-        h.units += 1;
+        h.units += units;
         h.since = now;
     }
 
@@ -432,10 +496,11 @@ impl Store {
                 if let Some(Ticket {
                     owner: Some(owner),
                     undo: true,
+                    units,
                     ..
                 }) = self.tickets.remove(ticket)
                 {
-                    self.hold_undo(name, owner, now);
+                    self.hold_undo(name, owner, units, now);
                 }
                 let reply = self.wait_reply(name, ticket, WaitStatus::Confirmed);
                 self.remember(Some(ticket), now, Remembered::Confirmed(reply.clone()));
@@ -460,7 +525,7 @@ impl Store {
         let Some(sem) = self.sems.get_mut(&t.sem) else {
             return Vec::new();
         };
-        sem.value = sem.value.saturating_add(1);
+        sem.value = sem.value.saturating_add(t.units);
         self.dispatch(&t.sem, now)
     }
 

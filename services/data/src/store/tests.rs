@@ -251,6 +251,58 @@ fn an_undo_unit_goes_back_when_its_holder_dies_or_gives_it_back() {
 }
 
 #[test]
+fn a_wait_for_several_units_takes_them_together_and_in_its_turn() {
+    let mut s = Store::new(4);
+    let t = Instant::now();
+    let p = n("Lane");
+    s.create(&p, 3).unwrap();
+    let take = |s: &mut Store, ticket: &str, owner: &str, units: u64| {
+        s.wait_units(&p, Some(ticket), Some(owner), true, units, t)
+            .unwrap()
+            .status
+    };
+    assert_eq!(take(&mut s, "a-1", "a", 1), WaitStatus::Granted);
+    s.ack(&p, "a-1", t).unwrap();
+    // b wants all three: two are free, so it queues; c, behind it, wants
+    // one of the two free ones and still waits its turn.
+    assert_eq!(take(&mut s, "b-1", "b", 3), WaitStatus::Pending);
+    assert_eq!(take(&mut s, "c-1", "c", 1), WaitStatus::Pending);
+    assert_eq!(s.semaphore(&p).unwrap().value, 2);
+    // The same ticket asking for another count is refused.
+    let err = s
+        .wait_units(&p, Some("b-1"), Some("b"), true, 2, t)
+        .unwrap_err();
+    assert_eq!(err.code, ErrorCode::Conflict);
+    let err = s.wait_units(&p, None, None, false, 0, t).unwrap_err();
+    assert_eq!(err.code, ErrorCode::BadParameter);
+    // a gives its unit back: b gets all three, c still waits.
+    let grants = s.signal_as(&p, None, Some("a"), t).unwrap().grants;
+    let granted: Vec<&str> = grants.iter().map(|g| g.ticket.as_str()).collect();
+    assert_eq!(granted, ["b-1"]);
+    s.ack(&p, "b-1", t).unwrap();
+    let st = s.semaphore(&p).unwrap();
+    assert_eq!((st.value, st.waiters, st.held), (0, 1, 3));
+    // b cannot give back more than it holds; two of three it can.
+    let err = s.signal_units(&p, None, Some("b"), 4, t).unwrap_err();
+    assert_eq!(err.code, ErrorCode::Conflict);
+    assert!(err.message.contains("holds 3 unit"), "{}", err.message);
+    let grants = s.signal_units(&p, None, Some("b"), 2, t).unwrap().grants;
+    assert_eq!(grants.len(), 1);
+    assert_eq!(grants[0].ticket, "c-1");
+    s.ack(&p, "c-1", t).unwrap();
+    // b dies with its last unit: it comes back; c's stays with c.
+    s.owner_gone("b", t);
+    let st = s.semaphore(&p).unwrap();
+    assert_eq!((st.value, st.waiters, st.held), (2, 0, 1));
+    // A granted wait for several that its owner leaves before the ack
+    // gives all of them back.
+    assert_eq!(take(&mut s, "d-1", "d", 2), WaitStatus::Granted);
+    assert_eq!(s.semaphore(&p).unwrap().value, 0);
+    s.owner_gone("d", t);
+    assert_eq!(s.semaphore(&p).unwrap().value, 2);
+}
+
+#[test]
 fn a_holder_never_seen_alive_loses_its_undo_unit_after_the_grace() {
     let mut s = Store::new(4);
     let t = Instant::now();
@@ -372,13 +424,15 @@ fn a_wait_answers_at_once_exactly_when_the_predicate_says_so() {
         serial += u64::from(next(3) == 0);
         let number = serial.saturating_sub(next(4));
         let (sem, ticket) = (&sems[(number % 2) as usize], format!("t{number}"));
+        // Every third ticket waits for two units at once.
+        let units = 1 + u64::from(number % 3 == 0);
         let owner = ["o1", "o2"][next(2) as usize];
         match next(12) {
             0..=5 => {
                 let anonymous = next(4) == 0;
                 let ticket = (!anonymous).then_some(ticket.as_str());
-                let said = s.wait_answers_at_once(sem, ticket);
-                let r = s.wait(sem, ticket, Some(owner), t);
+                let said = s.wait_answers_at_once(sem, ticket, units);
+                let r = s.wait_units(sem, ticket, Some(owner), false, units, t);
                 let answered = matches!(&r, Ok(r) if r.status != WaitStatus::Pending);
                 assert_eq!(said, answered, "wait {sem} {ticket:?}: {r:?}");
                 if said {
