@@ -116,6 +116,10 @@ pub struct RunConfig {
     /// wait for a junction stand on the corridor's centre line at its
     /// mouth, where those leaving it cannot get past (docs/traffic.md).
     pub traffic: bool,
+    /// Robots drive corridors too narrow to pass in one way at a time
+    /// (`rome_nav::traffic::lanes`). Off by default: ten robots on EB3
+    /// did fewer tasks and touched more with it (docs/traffic.md).
+    pub lanes: bool,
     /// The network of the run's session: by default it talks to nobody
     /// else; with endpoints, `rome view`, `rome echo` or `rome record` in
     /// other processes can watch.
@@ -167,6 +171,7 @@ impl RunConfig {
             covered: Vec::new(),
             people: 0,
             traffic: false,
+            lanes: false,
             net: NetOptions::isolated(),
             trace: None,
         }
@@ -301,6 +306,9 @@ async fn run_all(
         let mut plan = Plan::through(&world_map, &network, &r.from, &r.via, &r.to)?;
         if !cfg.traffic {
             plan = plan.without_junctions();
+        }
+        if !cfg.lanes {
+            plan = plan.without_lanes();
         }
         progress(Event::Planned {
             robot: k,

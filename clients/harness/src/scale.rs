@@ -30,6 +30,8 @@ pub struct ScaleConfig {
     pub seed: u64,
     /// Reserve junctions as well as narrow passages.
     pub traffic: bool,
+    /// Drive narrow corridors one way at a time.
+    pub lanes: bool,
     /// Give a run up after this much simulated time.
     pub limit: Duration,
     /// A robot standing still this long with a task counts as stuck.
@@ -132,6 +134,7 @@ pub async fn sweep(
         run.seed = cfg.seed;
         run.limit = cfg.limit;
         run.traffic = cfg.traffic;
+        run.lanes = cfg.lanes;
         run.trace = cfg.traces.as_ref().map(|d| d.join(format!("{n}.trace")));
         // The plate finder reads camera images that no task needs.
         run.plfinder = false;

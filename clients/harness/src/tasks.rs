@@ -195,6 +195,7 @@ async fn run_all(
         let mut duty = DutyConfig::at(&r.from);
         duty.facing = Some(0.0);
         duty.traffic = run.traffic;
+        duty.lanes = run.lanes;
         duty.stuck = run.stuck;
         duty.slowest_mm_s = run.slowest_mm_s;
         let (name, etx) = (r.robot.clone(), etx.clone());

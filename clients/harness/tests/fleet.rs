@@ -2,8 +2,8 @@
 //! by ground truth: robots that meet head-on (in a wide corridor, a
 //! narrow one, and on the way to a corner) or catch up with each other,
 //! a robot leaving a corner as another comes along the corridor,
-//! robots taking turns through a narrow passage, and a run whose mode is
-//! made to fail and is reported failed.
+//! robots taking turns through a narrow passage or a lane, and a run
+//! whose mode is made to fail and is reported failed.
 
 use rome_harness::{self as run, Event, FleetReport, PartState, RouteSpec, RunConfig};
 use rome_nav::report::Report;
@@ -143,6 +143,40 @@ async fn robots_take_turns_through_a_narrow_passage() {
     .await;
     for robot in &r.robots {
         assert_eq!(robot.plan.passages.len(), 1, "{}", robot.robot);
+        assert_clean(robot);
+    }
+    assert_eq!(both_inside, 0, "both robots were in corridor N at once");
+    assert_eq!(waited.len(), 1, "exactly one robot waited: {waited:?}");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn with_lanes_robots_drive_a_narrow_corridor_one_way_at_a_time() {
+    // The same two robots head on through corridor N, which is now only
+    // as narrow as it is (2.44 m): with lanes one waits outside until the
+    // other has left. Without them they meet inside (the test below).
+    let mut cfg = two_on_eb3(("303R", "A352L"), ("A353R", "301L"));
+    cfg.lanes = true;
+    let (mut both_inside, mut waited) = (0, Vec::new());
+    let r = fleet(cfg, |e| match e {
+        Event::Tick { robots, .. }
+            if in_corridor_n(&robots[0].pose) && in_corridor_n(&robots[1].pose) =>
+        {
+            both_inside += 1;
+        }
+        Event::Traffic {
+            robot,
+            part,
+            state: PartState::Waiting,
+        } if part.starts_with(rome_nav::traffic::lanes::LANE_PREFIX) => waited.push(*robot),
+        _ => {}
+    })
+    .await;
+    for robot in &r.robots {
+        let lanes: Vec<&str> = (robot.plan.holds.iter())
+            .map(|h| h.semaphore.as_str())
+            .filter(|s| s.starts_with(rome_nav::traffic::lanes::LANE_PREFIX))
+            .collect();
+        assert!(lanes.len() >= 2, "{}: {lanes:?}", robot.robot);
         assert_clean(robot);
     }
     assert_eq!(both_inside, 0, "both robots were in corridor N at once");

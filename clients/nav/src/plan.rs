@@ -13,6 +13,7 @@
 //! 6.1–6.2 count E and C together as the corner column.
 
 use crate::board::{Corridor, Goal, GoalType, RouteInfo};
+use crate::traffic::lanes::{self, Leg, LANE_PREFIX};
 use crate::traffic::{Hold, Junctions, PASSAGE_PREFIX};
 use rome_maps::geometry::{direction, distance, heading_to, normalize_deg, Point};
 use rome_maps::{Network, Route, RouteError, World};
@@ -219,16 +220,35 @@ impl Plan {
             drive_through(world, &mut route)?;
         }
         let mut plan = Plan::segment(world, route);
-        plan.holds
-            .extend(junction_holds(&Junctions::of(network), &plan.steps));
+        let junctions = Junctions::of(network);
+        plan.holds.extend(junction_holds(&junctions, &plan.steps));
+        let legs: Vec<Leg> = (plan.route.legs().iter().enumerate())
+            .map(|(i, &(a, b, _, _))| {
+                let (first, last) = leg_steps(&plan.steps, i + 1);
+                Leg { a, b, first, last }
+            })
+            .collect();
+        let width = |p: Point, q: Point| {
+            let (l, r) = walls_beside(world, p, q, heading_to(p, q))?;
+            Some(l + r)
+        };
+        plan.holds.extend(lanes::holds(&junctions, width, &legs));
         Ok(plan)
     }
 
     /// Leaves out the junctions: the robot reserves only the narrow
-    /// passages, as before there was traffic control.
+    /// passages and the lanes.
     pub fn without_junctions(mut self) -> Plan {
-        self.holds
-            .retain(|h| h.semaphore.starts_with(PASSAGE_PREFIX));
+        self.holds.retain(|h| {
+            h.semaphore.starts_with(PASSAGE_PREFIX) || h.semaphore.starts_with(LANE_PREFIX)
+        });
+        self
+    }
+
+    /// Leaves out the lanes: robots meet head on in corridors too narrow
+    /// to pass in, as before lanes were driven one way at a time.
+    pub fn without_lanes(mut self) -> Plan {
+        self.holds.retain(|h| !h.semaphore.starts_with(LANE_PREFIX));
         self
     }
 
@@ -487,18 +507,7 @@ fn passages_on(
             if !beside || overlap < 500.0 {
                 continue;
             }
-            let first = if subpath == 1 {
-                0
-            } else {
-                steps
-                    .iter()
-                    .position(|s| s.subpath == subpath - 1 && s.goal.goal_type == GoalType::E)
-                    .unwrap_or(0)
-            };
-            let last = steps
-                .iter()
-                .position(|s| s.subpath == subpath && s.goal.goal_type == GoalType::C)
-                .unwrap_or(steps.len().saturating_sub(1));
+            let (first, last) = leg_steps(steps, subpath);
             match out.iter_mut().find(|p| &p.name == name) {
                 Some(p) => {
                     p.first = p.first.min(first);
@@ -513,6 +522,26 @@ fn passages_on(
         }
     }
     out
+}
+
+/// The steps that hold what leg `subpath` drives through: from the one
+/// that takes the robot into the turning space before it (or the first)
+/// to the one that takes it out of the turning space after it (or the
+/// last).
+fn leg_steps(steps: &[Step], subpath: usize) -> (usize, usize) {
+    let first = if subpath == 1 {
+        0
+    } else {
+        steps
+            .iter()
+            .position(|s| s.subpath == subpath - 1 && s.goal.goal_type == GoalType::E)
+            .unwrap_or(0)
+    };
+    let last = steps
+        .iter()
+        .position(|s| s.subpath == subpath && s.goal.goal_type == GoalType::C)
+        .unwrap_or(steps.len().saturating_sub(1));
+    (first, last)
 }
 
 /// How far a ray from `at` along `heading_deg` goes before it meets a

@@ -8,10 +8,12 @@
 //! `$EndLMode` and takes the CTracker's `Overshoot` off the dead-reckoning
 //! distance that follows: the overshoot compensation of Chapter 6.
 //!
-//! Traffic ([`crate::traffic`]): before the junctions and narrow passages
-//! of the route (a chain of them between two stretches of plain corridor)
-//! the Planner takes their semaphores (value 1) with undo waits, in the
-//! order of their names, and gives each back once the robot has left it:
+//! Traffic ([`crate::traffic`]): before the junctions, narrow passages
+//! and lanes of the route (a chain of them between two stretches of plain
+//! corridor) the Planner takes their semaphores with undo waits, in the
+//! order of their names (a junction or passage alone, a lane one way
+//! among others going that way), and gives each back once the robot has
+//! left it:
 //! robots take turns and never wait for each other in a circle, and a
 //! robot whose Planner dies inside does not close them, because the data
 //! server takes the units back when the Planner's liveliness goes. If a
@@ -27,6 +29,7 @@ use crate::board::{Board, Corridor, Goal, GoalType, Sem, Var};
 use crate::plan::{Plan, Step};
 use crate::report::judge_step;
 pub use crate::report::Handed;
+use crate::traffic::lanes::{Lane, LANE_CAPACITY};
 use crate::traffic::{chains, Chain, TrafficState};
 use crate::NavError;
 use rome_client::sim::TruthClient;
@@ -213,8 +216,10 @@ pub async fn give_back_all(board: &Board) -> Result<(), NavError> {
         // Never written: the run never got to its traffic.
         Err(_) => return Ok(()),
     };
-    for sem in &traffic.holds {
-        match board.client().give_back(sem).await {
+    let ds = board.client();
+    let lane_drained = traffic.draining.iter().map(|sem| (sem, LANE_CAPACITY));
+    for (sem, units) in traffic.holds.iter().map(|s| (s, 1)).chain(lane_drained) {
+        match ds.give_back_units(sem, units).await {
             Ok(_) => {}
             // Given back already, just before the blackboard was written.
             Err(e) if e.code() == Some(rome_schema::ErrorCode::Conflict) => {}
@@ -385,33 +390,104 @@ async fn take(
     progress: &mut impl FnMut(Progress<'_>),
 ) -> Result<(), NavError> {
     let ds = board.client();
-    let mut stopped = !moving;
+    let mut waiting = Waiting {
+        board,
+        step,
+        stopped: !moving,
+    };
     for hold in &chain.holds {
         let sem = &hold.semaphore;
-        ds.create_semaphore(sem, 1).await?;
-        // Free: taken at once (the common case, and one a lock-step clock
-        // waits for). Busy: the robot stops and waits in the queue.
-        if !ds.try_wait_undo(sem).await? {
-            progress(Progress::Waiting(sem));
-            traffic.waits_for = Some(sem.clone());
-            board.set(Var::Traffic, &*traffic).await?;
-            if !stopped {
-                board
-                    .give_goal(&Goal {
-                        goal_type: GoalType::D,
-                        distance: 0,
-                        direction_deg: step.goal.direction_deg,
-                    })
-                    .await?;
-                board.down(Sem::RobotStatus).await?;
-                stopped = true;
+        if let Some(lane) = Lane::of(sem) {
+            take_lane(&lane, &mut waiting, traffic, progress).await?;
+        } else {
+            ds.create_semaphore(sem, 1).await?;
+            // Free: taken at once (the common case, and one a lock-step
+            // clock waits for). Busy: the robot stops and waits in the queue.
+            if !ds.try_wait_undo(sem).await? {
+                waiting.begin(sem, traffic, progress).await?;
+                ds.wait_undo(sem).await?;
             }
-            ds.wait_undo(sem).await?;
         }
         traffic.waits_for = None;
         traffic.holds.push(sem.clone());
         board.set(Var::Traffic, &*traffic).await?;
         progress(Progress::Holding(sem, true));
     }
+    Ok(())
+}
+
+/// A robot about to wait for a part of the building.
+struct Waiting<'a> {
+    board: &'a Board,
+    step: &'a Step,
+    stopped: bool,
+}
+
+impl Waiting<'_> {
+    /// Says what the robot waits for, and stops it if it may be moving.
+    async fn begin(
+        &mut self,
+        sem: &str,
+        traffic: &mut TrafficState,
+        progress: &mut impl FnMut(Progress<'_>),
+    ) -> Result<(), NavError> {
+        // Once for a part, though a lane may be waited for twice (its
+        // gate, then the other way emptying); what it drains is written.
+        if traffic.waits_for.as_deref() != Some(sem) || traffic.draining.is_some() {
+            if traffic.waits_for.as_deref() != Some(sem) {
+                progress(Progress::Waiting(sem));
+            }
+            traffic.waits_for = Some(sem.to_string());
+            self.board.set(Var::Traffic, &*traffic).await?;
+        }
+        if !self.stopped {
+            self.board
+                .give_goal(&Goal {
+                    goal_type: GoalType::D,
+                    distance: 0,
+                    direction_deg: self.step.goal.direction_deg,
+                })
+                .await?;
+            self.board.down(Sem::RobotStatus).await?;
+            self.stopped = true;
+        }
+        Ok(())
+    }
+}
+
+/// Takes a unit of `lane`'s way ([`crate::traffic::lanes`]): through its
+/// gate, once nobody drives it the other way.
+async fn take_lane(
+    lane: &Lane,
+    waiting: &mut Waiting<'_>,
+    traffic: &mut TrafficState,
+    progress: &mut impl FnMut(Progress<'_>),
+) -> Result<(), NavError> {
+    let ds = waiting.board.client();
+    ds.create_semaphore(&lane.gate, 1).await?;
+    ds.create_semaphore(&lane.way, LANE_CAPACITY).await?;
+    ds.create_semaphore(&lane.other, LANE_CAPACITY).await?;
+    if !ds.try_wait_undo(&lane.gate).await? {
+        waiting.begin(&lane.way, traffic, progress).await?;
+        ds.wait_undo(&lane.gate).await?;
+    }
+    // Held now: a run that ends from here on gives it back.
+    traffic.holds.push(lane.gate.clone());
+    // Only a robot holding the gate takes a unit of either way, so once the
+    // other way is empty nobody enters it until the gate is given back.
+    if ds.semaphore(&lane.other).await?.value < LANE_CAPACITY {
+        traffic.draining = Some(lane.other.clone());
+        waiting.begin(&lane.way, traffic, progress).await?;
+        ds.wait_undo_units(&lane.other, LANE_CAPACITY).await?;
+        ds.give_back_units(&lane.other, LANE_CAPACITY).await?;
+        traffic.draining = None;
+    }
+    if !ds.try_wait_undo(&lane.way).await? {
+        // More robots than the lane's capacity one way: rarer than rare.
+        waiting.begin(&lane.way, traffic, progress).await?;
+        ds.wait_undo(&lane.way).await?;
+    }
+    ds.give_back(&lane.gate).await?;
+    traffic.holds.retain(|s| s != &lane.gate);
     Ok(())
 }

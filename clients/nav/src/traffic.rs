@@ -4,7 +4,9 @@
 //!
 //! The parts are the junctions (turning spaces: the route network's
 //! waypoints, those nearer than [`JUNCTION_MERGE_MM`] to each other taken
-//! as one crossing) and the narrow passages (edges tagged `passage=NAME`).
+//! as one crossing), the narrow passages (edges tagged `passage=NAME`) and
+//! the lanes (corridors too narrow to pass in, driven one way at a time:
+//! [`lanes`]).
 //! Each is a semaphore of value 1 (§4.6.1): `$traffic/junction/NNN` and
 //! `$passage/NAME`. A robot holds a junction it turns in, from its
 //! Enter-Corner step (whose line ends within [`JUNCTION_REACH_MM`] of the
@@ -28,6 +30,8 @@
 //! names that rise all the way round it: there is none. Every unit is
 //! taken with an undo wait, so a robot whose Planner dies frees what it
 //! held (the data server sees its liveliness go).
+
+pub mod lanes;
 
 use rome_maps::geometry::{distance, Point};
 use rome_maps::Network;
@@ -165,10 +169,16 @@ pub fn chains(holds: &[Hold]) -> Vec<Chain> {
     sorted.sort_by_key(|h| (h.first, h.last));
     let mut out: Vec<Chain> = Vec::new();
     for h in sorted {
+        // A chain that drives a lane both ways holds it the first way
+        // throughout: waiting for the other way to empty, it would wait
+        // for itself.
+        let other = lanes::Lane::of(&h.semaphore).map(|l| l.other);
         match out.last_mut() {
             Some(c) if h.first <= c.last => {
                 c.last = c.last.max(h.last);
-                match c.holds.iter_mut().find(|x| x.semaphore == h.semaphore) {
+                let same =
+                    |x: &Hold| x.semaphore == h.semaphore || Some(&x.semaphore) == other.as_ref();
+                match c.holds.iter_mut().find(|x| same(x)) {
                     Some(x) => {
                         x.first = x.first.min(h.first);
                         x.last = x.last.max(h.last);
@@ -195,6 +205,8 @@ pub fn describe(semaphore: &str) -> String {
         format!("the narrow passage {name}")
     } else if let Some(k) = semaphore.strip_prefix("$traffic/junction/") {
         format!("junction {k}")
+    } else if let Some(lane) = lanes::Lane::of(semaphore) {
+        lane.describe()
     } else {
         semaphore.to_string()
     }
@@ -208,6 +220,11 @@ pub struct TrafficState {
     pub holds: Vec<String>,
     /// The part it waits for, if any.
     pub waits_for: Option<String>,
+    /// A lane's way whose every unit it may hold for a moment, making
+    /// sure nobody drives the lane the other way ([`lanes`]): given back
+    /// with the rest if the run ends there.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub draining: Option<String>,
 }
 
 #[cfg(test)]

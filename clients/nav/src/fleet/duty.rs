@@ -150,6 +150,10 @@ pub struct DutyConfig {
     pub facing: Option<f64>,
     /// Reserve the junctions it turns in, not only narrow passages.
     pub traffic: bool,
+    /// Drive corridors too narrow to pass in one way at a time
+    /// ([`crate::traffic::lanes`]; not yet better in fleets: off by
+    /// default).
+    pub lanes: bool,
     /// How often a run looks whether its task was cancelled.
     pub check_every: Duration,
     /// A run that has not taken the robot two metres from where it was
@@ -174,6 +178,7 @@ impl DutyConfig {
             at: at.to_string(),
             facing: None,
             traffic: false,
+            lanes: false,
             check_every: Duration::from_secs(1),
             stuck: Duration::from_secs(180),
             slowest_mm_s: 100.0,
@@ -467,8 +472,18 @@ impl OnDuty<'_> {
             None => Plan::through(self.world, self.network, label, &a.via, &a.to),
         };
         let plan = match planned {
-            Ok(p) if cfg.traffic => p,
-            Ok(p) => p.without_junctions(),
+            Ok(p) => {
+                let p = if cfg.traffic {
+                    p
+                } else {
+                    p.without_junctions()
+                };
+                if cfg.lanes {
+                    p
+                } else {
+                    p.without_lanes()
+                }
+            }
             // Not moved: it still stands where it stood.
             Err(e) => {
                 let still = point.is_none().then(|| label.clone());

@@ -130,12 +130,25 @@ impl Robot {
     }
 }
 
+/// Whether robot `r` may take `part` now, given who holds what: a
+/// junction or passage when nobody else holds it, a lane's way when
+/// nobody holds the other way (a lane's gate only makes the ways take
+/// turns; who may be in the lane together is this).
+fn free(held: &HashMap<String, Vec<usize>>, part: &str, r: usize) -> bool {
+    let others = |p: &str| held.get(p).is_some_and(|h| h.iter().any(|&x| x != r));
+    match lanes::Lane::of(part) {
+        Some(lane) => !others(&lane.other),
+        None => !others(part),
+    }
+}
+
 /// Runs robots with a random interleaving: at each turn one robot that
-/// can act takes its next part or drives its next step. Every part has
-/// one unit. Returns the robots that wait for each other when nobody can
-/// act before all are done: a deadlock.
+/// can act takes its next part or drives its next step. Junctions and
+/// passages have one unit; a lane is shared by robots going one way.
+/// Returns the robots that wait for each other when nobody can act before
+/// all are done: a deadlock.
 fn run(mut robots: Vec<Robot>, rng: &mut Rng) -> Option<Vec<usize>> {
-    let mut held: HashMap<String, usize> = HashMap::new();
+    let mut held: HashMap<String, Vec<usize>> = HashMap::new();
     loop {
         let can: Vec<usize> = (0..robots.len())
             .filter(|&r| {
@@ -144,7 +157,7 @@ fn run(mut robots: Vec<Robot>, rng: &mut Rng) -> Option<Vec<usize>> {
                     return false;
                 }
                 match robot.take[robot.step].get(robot.taken) {
-                    Some(part) => held.get(part).is_none_or(|&h| h == r),
+                    Some(part) => free(&held, part, r),
                     None => true,
                 }
             })
@@ -157,12 +170,14 @@ fn run(mut robots: Vec<Robot>, rng: &mut Rng) -> Option<Vec<usize>> {
         let robot = &mut robots[r];
         match robot.take[robot.step].get(robot.taken) {
             Some(part) => {
-                held.insert(part.clone(), r);
+                held.entry(part.clone()).or_default().push(r);
                 robot.taken += 1;
             }
             None => {
                 for part in &robot.give[robot.step] {
-                    held.remove(part);
+                    if let Some(h) = held.get_mut(part) {
+                        h.retain(|&x| x != r);
+                    }
                 }
                 robot.step += 1;
                 robot.taken = 0;
@@ -205,6 +220,12 @@ fn made_up_routes(junctions: usize, n: usize, rng: &mut Rng) -> Vec<(Vec<Hold>, 
                 holds.push(hold(&Junctions::semaphore(k), step, step + 1));
                 if rng.below(4) == 0 {
                     holds.push(hold(&format!("$passage/p{}", rng.below(3)), step, step + 3));
+                }
+                // Sometimes a lane, either way, runs on from the turn.
+                if rng.below(3) == 0 {
+                    let way = ["up", "down"][rng.below(2)];
+                    let lane = format!("$traffic/lane/00{}-00{}/{way}", k, rng.below(junctions));
+                    holds.push(hold(&lane, step + 1, step + 2 + rng.below(2)));
                 }
                 step += 1;
             }
@@ -339,4 +360,65 @@ fn a_plan_holds_the_junctions_it_turns_in() {
         .holds
         .iter()
         .all(|h| h.first <= h.last && h.last < plan.steps.len()));
+}
+
+#[test]
+fn a_plan_holds_each_narrow_corridor_it_drives_one_way_and_no_wide_one() {
+    let map = rome_maps::load_named("eb3").unwrap();
+    let world = World::from_map(&map);
+    let network = Network::new(&map, &world);
+    let lanes_of = |a: &str, b: &str| -> Vec<String> {
+        let plan = Plan::new(&world, &network, a, b).unwrap();
+        let mut out: Vec<String> = plan
+            .holds
+            .iter()
+            .filter(|h| lanes::Lane::of(&h.semaphore).is_some())
+            .map(|h| h.semaphore.clone())
+            .collect();
+        out.sort();
+        out
+    };
+    // Corridor A is 3.66 m wide: two robots pass there.
+    assert!(lanes_of("350R", "376L").is_empty());
+    // Down corridor N (2.44 m) and west along P; and back, the other way
+    // of the same two lanes.
+    let there = lanes_of("303R", "A352L");
+    let back = lanes_of("A352L", "303R");
+    assert_eq!(there.len(), 2, "{there:?}");
+    assert!(there.iter().all(|s| s.ends_with("/down")), "{there:?}");
+    let twins: Vec<String> = there
+        .iter()
+        .map(|s| lanes::Lane::of(s).unwrap().other)
+        .collect();
+    assert_eq!(back, twins);
+    // Along P in one stretch: one lane, the same whichever door it starts at.
+    assert_eq!(lanes_of("A360L", "A352L"), lanes_of("A358L", "A356L"));
+}
+
+/// Lanes taken as they come deadlock head on; taken whole before the
+/// chain, they do not.
+#[test]
+fn two_lanes_head_on_are_a_circle_only_when_taken_as_they_come() {
+    let one = vec![
+        hold("$traffic/lane/001-002/up", 0, 2),
+        hold("$traffic/lane/002-003/up", 1, 3),
+    ];
+    let other = vec![
+        hold("$traffic/lane/002-003/down", 0, 2),
+        hold("$traffic/lane/001-002/down", 1, 3),
+    ];
+    let routes = vec![(one.clone(), 4), (other, 4), (one, 4)];
+    let mut rng = Rng(2);
+    assert!(deadlocks(&routes, Discipline::AsItComes, 200, &mut rng) > 0);
+    assert_eq!(deadlocks(&routes, Discipline::Chains, 200, &mut rng), 0);
+}
+
+#[test]
+fn a_chain_driving_a_lane_both_ways_holds_it_one_way() {
+    let c = chains(&[
+        hold("$traffic/lane/001-002/up", 0, 2),
+        hold("$traffic/lane/001-002/down", 2, 4),
+    ]);
+    assert_eq!(c.len(), 1);
+    assert_eq!(c[0].holds, vec![hold("$traffic/lane/001-002/up", 0, 4)]);
 }

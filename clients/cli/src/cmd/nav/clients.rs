@@ -76,6 +76,10 @@ pub struct PlannerArgs {
     /// (docs/traffic.md).
     #[arg(long)]
     traffic: bool,
+    /// Drive corridors too narrow to pass in one way at a time: wait
+    /// outside for robots going the other way to leave (docs/traffic.md).
+    #[arg(long)]
+    lanes: bool,
     /// Give up after this many seconds of wall time (exit status 3), with
     /// the goals judged so far; without it the Planner waits as long as the
     /// robot takes.
@@ -243,12 +247,16 @@ pub async fn planner(common: &CommonArgs, args: PlannerArgs) -> anyhow::Result<u
             at: args.from.clone(),
             heading: args.heading,
             traffic: args.traffic,
+            lanes: args.lanes,
         };
         return super::fleet::take_tasks(common, duty).await;
     };
     let mut plan = Plan::through(&world, &network, &args.from, &args.via, &to)?;
     if !args.traffic {
         plan = plan.without_junctions();
+    }
+    if !args.lanes {
+        plan = plan.without_lanes();
     }
     let via = if args.via.is_empty() {
         String::new()

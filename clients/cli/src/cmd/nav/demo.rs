@@ -107,6 +107,10 @@ pub struct Args {
     /// passages (docs/traffic.md; not yet better at high density).
     #[arg(long)]
     pub traffic: bool,
+    /// Drive corridors too narrow to pass in one way at a time; without
+    /// it robots meet head on there and pass keeping right (docs/traffic.md).
+    #[arg(long)]
+    pub lanes: bool,
     /// Leave out the door-plate finder.
     #[arg(long)]
     pub no_plfinder: bool,
@@ -262,6 +266,7 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
     cfg.covered = args.cover_camera.clone();
     cfg.people = args.people as usize;
     cfg.traffic = args.traffic;
+    cfg.lanes = args.lanes;
     cfg.trace = args.trace.clone();
     cfg.limit = Duration::from_secs_f64(args.limit_min * 60.0);
     if args.no_noise {

@@ -298,6 +298,8 @@ pub struct Duty {
     pub heading: Option<f64>,
     /// Reserve junctions too.
     pub traffic: bool,
+    /// Drive narrow corridors one way at a time.
+    pub lanes: bool,
 }
 
 /// `rome planner --tasks`: takes tasks until interrupted.
@@ -322,6 +324,7 @@ pub async fn take_tasks(common: &CommonArgs, d: Duty) -> anyhow::Result<u8> {
     let mut cfg = DutyConfig::at(&d.at);
     cfg.facing = d.heading;
     cfg.traffic = d.traffic;
+    cfg.lanes = d.lanes;
     println!("{} takes tasks at {}", d.name, d.at);
     on.serve(&cfg, |n| match n {
         DutyNote::Took(a, plan) => println!(

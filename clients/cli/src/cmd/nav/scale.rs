@@ -34,6 +34,10 @@ pub struct Args {
     /// Reserve the junctions robots turn in, not only narrow passages.
     #[arg(long)]
     traffic: bool,
+    /// Drive corridors too narrow to pass in one way at a time; without
+    /// it robots meet head on there and pass keeping right (docs/traffic.md).
+    #[arg(long)]
+    lanes: bool,
     /// Give a run up after this many simulated minutes.
     #[arg(long, default_value_t = 1440.0)]
     limit_min: f64,
@@ -72,6 +76,7 @@ pub async fn run(args: Args) -> anyhow::Result<u8> {
         tasks: args.tasks,
         seed: args.seed,
         traffic: args.traffic,
+        lanes: args.lanes,
         limit: Duration::from_secs_f64(args.limit_min * 60.0),
         stuck: Duration::from_secs(60),
         traces: args.trace.then(|| args.out.clone()),
