@@ -127,6 +127,24 @@ fn semaphores_from_the_shell() {
         "GoalData = 0 (0 waiting)"
     );
 
+    // Selector parameters on a query, as z_get takes them: two units at
+    // once, then two given back; none at all is refused by name.
+    sh.ok(&["sem", "create", "Lane", "3"]);
+    let got = sh.ok(&["echo", "--get", "rome/data/wait/Lane?units=2;hold_ms=500"]);
+    assert!(got.contains("status: granted"), "{got}");
+    assert_eq!(
+        sh.ok(&["sem", "get", "Lane"]).trim(),
+        "Lane = 1 (0 waiting)"
+    );
+    sh.ok(&["echo", "--get", "rome/data/signal/Lane?units=2"]);
+    assert_eq!(
+        sh.ok(&["sem", "get", "Lane"]).trim(),
+        "Lane = 3 (0 waiting)"
+    );
+    let (code, out, _) = sh.run(&["echo", "--get", "rome/data/wait/Lane?units=0"]);
+    assert_eq!(code, 1, "{out}");
+    assert!(out.contains("parameter 'units' must be between 1"), "{out}");
+
     let (code, _, err) = sh.run(&["sem", "signal", "Nope"]);
     assert_eq!(code, 1);
     assert!(

@@ -28,7 +28,9 @@ use zenoh::sample::{Sample, SampleKind};
 /// Flags of `rome echo`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// The key expression to watch, e.g. 'rome/robot/r1/base/state' or 'rome/**'.
+    /// The key expression to watch, e.g. 'rome/robot/r1/base/state' or
+    /// 'rome/**'; with --get a selector, parameters and all
+    /// ('rome/data/wait/Lane?units=2;hold_ms=500').
     pub key: String,
     /// Send one query (a get) on the key instead of subscribing, and print the replies.
     #[arg(long)]
@@ -67,8 +69,19 @@ enum Heard {
 
 /// Watches, queries or measures the key.
 pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
-    let key = zenoh::key_expr::KeyExpr::try_from(args.key.clone())
-        .map_err(|e| anyhow::anyhow!("'{}' is not a key expression: {e}", args.key))?;
+    // A query may carry selector parameters, as `z_get -s 'KEY?A=1;B=2'`.
+    let (key, parameters) = match args.key.split_once('?') {
+        Some((key, parameters)) if args.get => (key, parameters),
+        _ => (args.key.as_str(), ""),
+    };
+    let key = zenoh::key_expr::KeyExpr::try_from(key.to_string()).map_err(|e| {
+        let hint = if args.key.contains('?') && !args.get {
+            " (parameters after '?' go with --get only)"
+        } else {
+            ""
+        };
+        anyhow::anyhow!("'{}' is not a key expression{hint}: {e}", args.key)
+    })?;
     for (name, v) in [
         ("--window", Some(args.window)),
         ("--duration", args.duration),
@@ -91,7 +104,7 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
         }
     };
     if args.get {
-        return get(&session, &key, &args).await;
+        return get(&session, &key, parameters, &args).await;
     }
     let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel();
     let samples = {
@@ -163,14 +176,16 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
 async fn get(
     session: &zenoh::Session,
     key: &zenoh::key_expr::KeyExpr<'static>,
+    parameters: &str,
     args: &Args,
 ) -> anyhow::Result<u8> {
     anyhow::ensure!(
         args.timeout.is_finite() && args.timeout > 0.0,
         "--timeout must be a positive number of seconds"
     );
+    let selector = zenoh::query::Selector::from((key.clone(), parameters.to_string()));
     let mut get = session
-        .get(key.clone())
+        .get(selector)
         .consolidation(ConsolidationMode::None)
         .timeout(Duration::from_secs_f64(args.timeout));
     if let Some(p) = &args.payload {

@@ -35,7 +35,7 @@ pub enum SemCmd {
         /// The semaphore.
         name: String,
     },
-    /// Show a semaphore's value and waiters.
+    /// Show a semaphore's value, waiters and units held with undo.
     Get {
         /// The semaphore.
         name: String,
@@ -95,7 +95,14 @@ pub async fn run(common: &CommonArgs, cmd: SemCmd) -> anyhow::Result<u8> {
         }
         SemCmd::Get { name } => {
             let s = ds.semaphore(&name).await?;
-            println!("{} = {} ({} waiting)", s.name, s.value, s.waiters);
+            // Units held with undo come back by themselves if their holder
+            // dies: a lane's robots, a narrow passage's one.
+            let held = if s.held > 0 {
+                format!(", {} held with undo", s.held)
+            } else {
+                String::new()
+            };
+            println!("{} = {} ({} waiting{held})", s.name, s.value, s.waiters);
         }
         SemCmd::Ls { json } => {
             let sems = ds.semaphores().await?;
@@ -105,9 +112,15 @@ pub async fn run(common: &CommonArgs, cmd: SemCmd) -> anyhow::Result<u8> {
                 eprintln!("no semaphores yet");
             } else {
                 let width = sems.iter().map(|s| s.name.len()).max().unwrap_or(4).max(4);
-                println!("{:width$}  {:>6}  {:>7}", "NAME", "VALUE", "WAITING");
+                println!(
+                    "{:width$}  {:>6}  {:>7}  {:>4}",
+                    "NAME", "VALUE", "WAITING", "HELD"
+                );
                 for s in &sems {
-                    println!("{:width$}  {:>6}  {:>7}", s.name, s.value, s.waiters);
+                    println!(
+                        "{:width$}  {:>6}  {:>7}  {:>4}",
+                        s.name, s.value, s.waiters, s.held
+                    );
                 }
             }
         }
