@@ -431,15 +431,14 @@ impl Waiting<'_> {
         traffic: &mut TrafficState,
         progress: &mut impl FnMut(Progress<'_>),
     ) -> Result<(), NavError> {
-        // Once for a part, though a lane may be waited for twice (its
-        // gate, then the other way emptying); what it drains is written.
-        if traffic.waits_for.as_deref() != Some(sem) || traffic.draining.is_some() {
-            if traffic.waits_for.as_deref() != Some(sem) {
-                progress(Progress::Waiting(sem));
-            }
-            traffic.waits_for = Some(sem.to_string());
-            self.board.set(Var::Traffic, &*traffic).await?;
+        // Said once for a part, though a lane may be waited for twice (its
+        // gate, then the other way emptying); the blackboard is written
+        // each time, so what a lane drains is on it.
+        if traffic.waits_for.as_deref() != Some(sem) {
+            progress(Progress::Waiting(sem));
         }
+        traffic.waits_for = Some(sem.to_string());
+        self.board.set(Var::Traffic, &*traffic).await?;
         if !self.stopped {
             self.board
                 .give_goal(&Goal {
