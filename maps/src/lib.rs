@@ -41,7 +41,7 @@ pub mod world;
 
 pub use model::Map;
 pub use parse::{parse, ParseError};
-pub use route::{Network, Route, RouteError};
+pub use route::{Network, OneWay, Route, RouteError};
 pub use validate::{validate, Problem};
 pub use world::World;
 

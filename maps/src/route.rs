@@ -77,6 +77,38 @@ fn hint(similar: &[String]) -> String {
     }
 }
 
+/// A stretch of corridor driven one way only: from `a` toward `b`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct OneWay {
+    /// Where it starts (the middle of the turning space at that end).
+    pub a: Point,
+    /// Where it ends.
+    pub b: Point,
+    /// How far either side of the line from `a` to `b` a point lies in it,
+    /// and how far past either end, mm.
+    pub reach_mm: f64,
+}
+
+impl OneWay {
+    /// Whether the straight move from `p` to `q` runs against it: both lie
+    /// in it and the move heads back toward `a` (more than 60° off the way).
+    pub fn against(&self, p: Point, q: Point) -> bool {
+        let len = distance(self.a, self.b);
+        let (step, moved) = (q - p, distance(p, q));
+        if len < 1.0 || moved < 1.0 {
+            return false;
+        }
+        let u = (self.b - self.a) / len;
+        let inside = |x: Point| {
+            let d = x - self.a;
+            let along = d.dot(&u);
+            let across = (d.x * u.y - d.y * u.x).abs();
+            across <= self.reach_mm && along >= -self.reach_mm && along <= len + self.reach_mm
+        };
+        inside(p) && inside(q) && step.dot(&u) < -0.5 * moved
+    }
+}
+
 /// The corridor network of a map: waypoints and the walls that block lines.
 #[derive(Debug, Clone)]
 pub struct Network {
@@ -84,6 +116,8 @@ pub struct Network {
     walls: Vec<(Point, Point)>,
     /// Which waypoints see each other, and how far apart they are.
     edges: Vec<Vec<(usize, f64)>>,
+    /// Stretches driven one way only; paths never run against them.
+    one_way: Vec<OneWay>,
 }
 
 impl Network {
@@ -130,6 +164,7 @@ impl Network {
             edges: vec![Vec::new(); waypoints.len()],
             waypoints,
             walls,
+            one_way: Vec::new(),
         };
         for i in 0..net.waypoints.len() {
             for j in i + 1..net.waypoints.len() {
@@ -149,6 +184,35 @@ impl Network {
         &self.waypoints
     }
 
+    /// The pairs of waypoints joined by a straight line, each once.
+    pub fn links(&self) -> Vec<(usize, usize)> {
+        (self.edges.iter().enumerate())
+            .flat_map(|(i, e)| {
+                e.iter()
+                    .filter(move |(j, _)| *j > i)
+                    .map(move |(j, _)| (i, *j))
+            })
+            .collect()
+    }
+
+    /// The same network with these stretches driven one way only: every
+    /// path it finds afterwards keeps to their way.
+    pub fn with_one_way(mut self, one_way: Vec<OneWay>) -> Network {
+        self.one_way = one_way;
+        self
+    }
+
+    /// The stretches driven one way only.
+    pub fn one_way(&self) -> &[OneWay] {
+        &self.one_way
+    }
+
+    /// Whether a path may go straight from `p` to `q`: no wall between,
+    /// and not against a one-way stretch.
+    fn open(&self, p: Point, q: Point) -> bool {
+        self.clear(p, q) && !self.one_way.iter().any(|w| w.against(p, q))
+    }
+
     /// Whether the straight line from p to q meets no wall.
     pub fn clear(&self, p: Point, q: Point) -> bool {
         !self.walls.iter().any(|&(a, b)| crosses(p, q, a, b))
@@ -156,7 +220,7 @@ impl Network {
 
     /// The shortest path between two points in corridors.
     fn path(&self, from: Point, to: Point) -> Option<(Vec<Point>, f64)> {
-        if self.clear(from, to) {
+        if self.open(from, to) {
             return Some((vec![from, to], distance(from, to)));
         }
         let n = self.waypoints.len();
@@ -169,13 +233,18 @@ impl Network {
         let neighbours = |i: usize| -> Vec<(usize, f64)> {
             let mut out = Vec::new();
             if i < n {
-                out.extend(self.edges[i].iter().copied());
-                if self.clear(self.waypoints[i], to) {
-                    out.push((goal, distance(self.waypoints[i], to)));
+                let p = self.waypoints[i];
+                let ahead = |&&(j, _): &&(usize, f64)| {
+                    self.one_way.is_empty()
+                        || !self.one_way.iter().any(|w| w.against(p, self.waypoints[j]))
+                };
+                out.extend(self.edges[i].iter().filter(ahead).copied());
+                if self.open(p, to) {
+                    out.push((goal, distance(p, to)));
                 }
             } else if i == start {
                 for (k, w) in self.waypoints.iter().enumerate() {
-                    if self.clear(from, *w) {
+                    if self.open(from, *w) {
                         out.push((k, distance(from, *w)));
                     }
                 }
