@@ -120,6 +120,9 @@ pub struct RunConfig {
     /// (`rome_nav::traffic::lanes`). Off by default: ten robots on EB3
     /// did fewer tasks and touched more with it (docs/traffic.md).
     pub lanes: bool,
+    /// The narrow corridors that lie on loops are driven one way only,
+    /// and routes keep to their way (`rome_nav::traffic::oneway`).
+    pub one_way: bool,
     /// The network of the run's session: by default it talks to nobody
     /// else; with endpoints, `rome view`, `rome echo` or `rome record` in
     /// other processes can watch.
@@ -172,6 +175,7 @@ impl RunConfig {
             people: 0,
             traffic: false,
             lanes: false,
+            one_way: false,
             net: NetOptions::isolated(),
             trace: None,
         }
@@ -294,7 +298,10 @@ async fn run_all(
         return Err(NavError::Config("no robots to run".into()));
     }
     let world_map = World::from_map(&cfg.map);
-    let network = Network::new(&cfg.map, &world_map);
+    let mut network = Network::new(&cfg.map, &world_map);
+    if cfg.one_way {
+        network = rome_nav::traffic::oneway::with_one_way(&world_map, network);
+    }
     let mut plans = Vec::new();
     for (k, r) in cfg.routes.iter().enumerate() {
         if cfg.routes[..k].iter().any(|o| o.robot == r.robot) {

@@ -32,6 +32,8 @@ pub struct ScaleConfig {
     pub traffic: bool,
     /// Drive narrow corridors one way at a time.
     pub lanes: bool,
+    /// Drive the narrow corridors of loops one way only.
+    pub one_way: bool,
     /// Give a run up after this much simulated time.
     pub limit: Duration,
     /// A robot standing still this long with a task counts as stuck.
@@ -135,6 +137,7 @@ pub async fn sweep(
         run.limit = cfg.limit;
         run.traffic = cfg.traffic;
         run.lanes = cfg.lanes;
+        run.one_way = cfg.one_way;
         run.trace = cfg.traces.as_ref().map(|d| d.join(format!("{n}.trace")));
         // The plate finder reads camera images that no task needs.
         run.plfinder = false;

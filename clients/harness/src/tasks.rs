@@ -155,7 +155,10 @@ async fn run_all(
     let wall = Instant::now();
     let run = &cfg.run;
     let world = World::from_map(&run.map);
-    let network = Network::new(&run.map, &world);
+    let mut network = Network::new(&run.map, &world);
+    if run.one_way {
+        network = rome_nav::traffic::oneway::with_one_way(&world, network);
+    }
     let mut starts = Vec::new();
     for r in &run.routes {
         let p = world

@@ -184,6 +184,51 @@ async fn with_lanes_robots_drive_a_narrow_corridor_one_way_at_a_time() {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn with_one_way_corridors_nobody_drives_corridor_n_north_and_both_arrive() {
+    // The same two robots: r2's shortest way to 301L is north up N. With
+    // the new wing's narrow corridors one way (N is south), it goes round
+    // by another corridor, and they never meet head on.
+    let mut cfg = two_on_eb3(("303R", "A352L"), ("A353R", "301L"));
+    cfg.one_way = true;
+    let (mut north, mut last_y) = (0, [None::<f64>; 2]);
+    let r = fleet(cfg, |e| {
+        if let Event::Tick { robots, .. } = e {
+            for (k, robot) in robots.iter().take(2).enumerate() {
+                let y = robot.pose.at.y;
+                if in_corridor_n(&robot.pose) && last_y[k].is_some_and(|before| y > before + 5.0) {
+                    north += 1;
+                }
+                last_y[k] = Some(y);
+            }
+        }
+    })
+    .await;
+    for robot in &r.robots {
+        assert_clean(robot);
+    }
+    assert_eq!(north, 0, "ticks with a robot driving north in corridor N");
+    // The shortest way, which the one-way network refused, is up N.
+    let map = eb3();
+    let world = rome_maps::World::from_map(&map);
+    let plain = rome_maps::Network::new(&map, &world);
+    let short = world.route(&plain, "A353R", &[], "301L").expect("a route");
+    let taken = &r.robots[1].plan.route;
+    assert!(
+        taken.length_mm > short.length_mm + 10_000.0,
+        "r2 went {:.1} m, the shortest way is {:.1} m",
+        taken.length_mm / 1000.0,
+        short.length_mm / 1000.0
+    );
+    let up_n = |w: &[rome_maps::geometry::Point]| {
+        (w[0].x - 60_000.0).abs() < 1_300.0
+            && (w[1].x - 60_000.0).abs() < 1_300.0
+            && w[1].y > w[0].y + 10_000.0
+    };
+    assert!(short.points.windows(2).any(up_n), "{:?}", short.points);
+    assert!(!taken.points.windows(2).any(up_n), "{:?}", taken.points);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_robot_whose_camera_is_covered_has_its_light_segment_failed_with_the_reason() {
     let mut cfg = RunConfig::fleet(eb3(), vec![RouteSpec::new("r1", "350R", "372L")]);
     cfg.covered = vec!["r1".into()];

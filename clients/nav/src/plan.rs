@@ -581,7 +581,12 @@ fn goal_walls(world: &World, goal: Point, heading_deg: f64) -> Option<(f64, f64)
 
 /// The walls left and right of the route between `from` and `to`: the
 /// median distance over eleven points along it.
-fn walls_beside(world: &World, from: Point, to: Point, heading_deg: f64) -> Option<(f64, f64)> {
+pub(crate) fn walls_beside(
+    world: &World,
+    from: Point,
+    to: Point,
+    heading_deg: f64,
+) -> Option<(f64, f64)> {
     let median = |mut v: Vec<f64>| {
         if v.len() < 6 {
             return None;

@@ -30,8 +30,13 @@
 //! names that rise all the way round it: there is none. Every unit is
 //! taken with an undo wait, so a robot whose Planner dies frees what it
 //! held (the data server sees its liveliness go).
+//!
+//! [`oneway`] is the other way to keep robots from meeting head on in
+//! narrow corridors: give those on loops a fixed way, and plan routes that
+//! keep to it. Nothing is reserved for them then.
 
 pub mod lanes;
+pub mod oneway;
 
 use rome_maps::geometry::{distance, Point};
 use rome_maps::Network;

@@ -38,6 +38,10 @@ pub struct Args {
     /// it robots meet head on there and pass keeping right (docs/traffic.md).
     #[arg(long)]
     lanes: bool,
+    /// Drive the narrow corridors that lie on loops one way only, each its
+    /// own way, and plan routes that keep to it (docs/traffic.md).
+    #[arg(long)]
+    one_way: bool,
     /// Give a run up after this many simulated minutes.
     #[arg(long, default_value_t = 1440.0)]
     limit_min: f64,
@@ -77,6 +81,7 @@ pub async fn run(args: Args) -> anyhow::Result<u8> {
         seed: args.seed,
         traffic: args.traffic,
         lanes: args.lanes,
+        one_way: args.one_way,
         limit: Duration::from_secs_f64(args.limit_min * 60.0),
         stuck: Duration::from_secs(60),
         traces: args.trace.then(|| args.out.clone()),
