@@ -202,15 +202,15 @@ impl Network {
         self
     }
 
-    /// The stretches driven one way only.
-    pub fn one_way(&self) -> &[OneWay] {
-        &self.one_way
+    /// Whether the move from `p` to `q` runs against a one-way stretch.
+    fn against(&self, p: Point, q: Point) -> bool {
+        self.one_way.iter().any(|w| w.against(p, q))
     }
 
     /// Whether a path may go straight from `p` to `q`: no wall between,
     /// and not against a one-way stretch.
     fn open(&self, p: Point, q: Point) -> bool {
-        self.clear(p, q) && !self.one_way.iter().any(|w| w.against(p, q))
+        self.clear(p, q) && !self.against(p, q)
     }
 
     /// Whether the straight line from p to q meets no wall.
@@ -234,10 +234,7 @@ impl Network {
             let mut out = Vec::new();
             if i < n {
                 let p = self.waypoints[i];
-                let ahead = |&&(j, _): &&(usize, f64)| {
-                    self.one_way.is_empty()
-                        || !self.one_way.iter().any(|w| w.against(p, self.waypoints[j]))
-                };
+                let ahead = |&&(j, _): &&(usize, f64)| !self.against(p, self.waypoints[j]);
                 out.extend(self.edges[i].iter().filter(ahead).copied());
                 if self.open(p, to) {
                     out.push((goal, distance(p, to)));

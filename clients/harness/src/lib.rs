@@ -133,6 +133,17 @@ pub struct RunConfig {
 }
 
 impl RunConfig {
+    /// The route network every robot of the run plans on: the map's, with
+    /// its narrow corridors on loops one way if [`RunConfig::one_way`].
+    fn network(&self, world: &World) -> Network {
+        let network = Network::new(&self.map, world);
+        if self.one_way {
+            rome_nav::traffic::oneway::with_one_way(world, network)
+        } else {
+            network
+        }
+    }
+
     /// The wall-clock pace of a run that is not lock-step.
     pub fn wall_speed(&self) -> f64 {
         self.speed.unwrap_or(DEFAULT_WALL_SPEED)
@@ -298,10 +309,7 @@ async fn run_all(
         return Err(NavError::Config("no robots to run".into()));
     }
     let world_map = World::from_map(&cfg.map);
-    let mut network = Network::new(&cfg.map, &world_map);
-    if cfg.one_way {
-        network = rome_nav::traffic::oneway::with_one_way(&world_map, network);
-    }
+    let network = cfg.network(&world_map);
     let mut plans = Vec::new();
     for (k, r) in cfg.routes.iter().enumerate() {
         if cfg.routes[..k].iter().any(|o| o.robot == r.robot) {

@@ -12,7 +12,7 @@ use crate::{connect, crew_span, members, monitored, Harness, RunConfig};
 use rome_client::sim::TruthClient;
 use rome_client::{DataClient, DataOptions};
 use rome_maps::geometry::Point;
-use rome_maps::{Network, World};
+use rome_maps::World;
 use rome_nav::crew::Reports;
 use rome_nav::fleet::dispatcher::{DispatchConfig, Dispatcher, Note};
 use rome_nav::fleet::duty::{DutyConfig, DutyNote, OnDuty};
@@ -155,10 +155,7 @@ async fn run_all(
     let wall = Instant::now();
     let run = &cfg.run;
     let world = World::from_map(&run.map);
-    let mut network = Network::new(&run.map, &world);
-    if run.one_way {
-        network = rome_nav::traffic::oneway::with_one_way(&world, network);
-    }
+    let network = run.network(&world);
     let mut starts = Vec::new();
     for r in &run.routes {
         let p = world
