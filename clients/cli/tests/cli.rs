@@ -405,6 +405,43 @@ fn demo_names_a_room_it_does_not_know() {
     assert!(err.contains("no position '999X'"), "{err}");
 }
 
+/// `--one-way` sends a route that would run north up corridor N (narrow,
+/// on the new wing's loop, one way south) round the loop instead, and the
+/// dry run says so; a building has no one-way corridors to ask for.
+#[test]
+fn planner_one_way_plans_round_the_loop() {
+    let length = |extra: &[&str]| {
+        let mut args = vec!["planner", "--from", "A353R", "--to", "301L", "--dry-run"];
+        args.extend_from_slice(extra);
+        let out = offline_ok(args);
+        let text = String::from_utf8_lossy(&out.stdout).to_string();
+        let first = text.lines().next().unwrap_or_default().to_string();
+        let metres = first
+            .split(": ")
+            .nth(1)
+            .and_then(|r| r.split(" m").next())
+            .and_then(|m| m.parse::<f64>().ok());
+        (
+            metres.unwrap_or_else(|| panic!("no length in {first:?}")),
+            text,
+        )
+    };
+    let (plain, text) = length(&[]);
+    let (one_way, text_one_way) = length(&["--one-way"]);
+    assert!(
+        one_way > plain + 50.0,
+        "one way {one_way} m, plain {plain} m\n{text}\n{text_one_way}"
+    );
+    let out = Command::new(ROME)
+        .args(["planner", "--building", "tower", "--from", "1:A"])
+        .args(["--to", "2:B", "--one-way"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("'--one-way'"), "{err}");
+}
+
 #[test]
 fn help_names_the_commands_and_exit_codes() {
     let out = Command::new(ROME).arg("--help").output().unwrap();

@@ -136,12 +136,7 @@ impl RunConfig {
     /// The route network every robot of the run plans on: the map's, with
     /// its narrow corridors on loops one way if [`RunConfig::one_way`].
     fn network(&self, world: &World) -> Network {
-        let network = Network::new(&self.map, world);
-        if self.one_way {
-            rome_nav::traffic::oneway::with_one_way(world, network)
-        } else {
-            network
-        }
+        rome_nav::traffic::oneway::network(&self.map, world, self.one_way)
     }
 
     /// The wall-clock pace of a run that is not lock-step.

@@ -16,7 +16,7 @@ use super::lanes::PASSING_MM;
 use super::{Junctions, JUNCTION_REACH_MM};
 use crate::plan::walls_beside;
 use rome_maps::geometry::{distance, heading_to, Point};
-use rome_maps::{Network, OneWay, World};
+use rome_maps::{Map, Network, OneWay, World};
 
 /// How far past a junction's middle a stretch's width is measured, mm
 /// (as for lanes): out of the turning space.
@@ -26,6 +26,18 @@ const MEASURE_FROM_JUNCTION_MM: f64 = 2_500.0;
 pub fn with_one_way(world: &World, network: Network) -> Network {
     let ways = one_way(world, &network);
     network.with_one_way(ways)
+}
+
+/// The map's route network, one way where [`one_way`] says if `one_way`:
+/// the one place a Planner, a dispatcher or a whole run builds it, so
+/// that all of a fleet's robots plan on the same.
+pub fn network(map: &Map, world: &World, one_way: bool) -> Network {
+    let network = Network::new(map, world);
+    if one_way {
+        with_one_way(world, network)
+    } else {
+        network
+    }
 }
 
 /// The narrow stretches of `network` that lie on a loop, each with its

@@ -47,7 +47,7 @@ pub struct PlannerArgs {
     /// between floors rides an elevator (§5.4.6), which the robot's
     /// Navigator operates through the elevator's server (`rome sim
     /// --building`).
-    #[arg(long, value_name = "BUILDING", conflicts_with_all = ["map", "tasks", "via", "traffic"])]
+    #[arg(long, value_name = "BUILDING", conflicts_with_all = ["map", "tasks", "via", "traffic", "lanes", "one_way"])]
     building: Option<String>,
     /// Start: a door jamb like 350R; the robot is registered there.
     #[arg(long)]
@@ -80,6 +80,11 @@ pub struct PlannerArgs {
     /// outside for robots going the other way to leave (docs/traffic.md).
     #[arg(long)]
     lanes: bool,
+    /// Drive the narrow corridors that lie on loops one way only, each its
+    /// own way, and plan routes that keep to it; every robot of the fleet
+    /// and the dispatcher must agree on it (docs/traffic.md).
+    #[arg(long)]
+    one_way: bool,
     /// Give up after this many seconds of wall time (exit status 3), with
     /// the goals judged so far; without it the Planner waits as long as the
     /// robot takes.
@@ -235,7 +240,7 @@ pub async fn planner(common: &CommonArgs, args: PlannerArgs) -> anyhow::Result<u
     let wall = std::time::Instant::now();
     let map = rome_maps::load_named(&args.map)?;
     let world = rome_maps::World::from_map(&map);
-    let network = rome_maps::Network::new(&map, &world);
+    let network = traffic::oneway::network(&map, &world, args.one_way);
     let Some(to) = args.to.clone() else {
         let (board, robot) = connect(common, &args.robot.robot, "planner").await?;
         let duty = super::fleet::Duty {

@@ -56,7 +56,7 @@ pub struct Args {
     /// `tower`, or a .bldg file): --from and --to are `FLOOR:POSITION`
     /// (`3:350R`), robots ride elevators between floors (§5.4.6), and one
     /// picture a floor is drawn (`rome-demo-3.png` …).
-    #[arg(long, value_name = "BUILDING", conflicts_with_all = ["map", "robots", "record", "traffic"])]
+    #[arg(long, value_name = "BUILDING", conflicts_with_all = ["map", "robots", "record", "traffic", "lanes", "one_way"])]
     pub building: Option<String>,
     /// With --building: cover this robot's sideways camera (a fault to
     /// inject: it cannot see an elevator's marker). Repeatable.
@@ -111,6 +111,10 @@ pub struct Args {
     /// it robots meet head on there and pass keeping right (docs/traffic.md).
     #[arg(long)]
     pub lanes: bool,
+    /// Drive the narrow corridors that lie on loops one way only, and plan
+    /// routes that keep to it (docs/traffic.md).
+    #[arg(long)]
+    pub one_way: bool,
     /// Leave out the door-plate finder.
     #[arg(long)]
     pub no_plfinder: bool,
@@ -267,6 +271,7 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
     cfg.people = args.people as usize;
     cfg.traffic = args.traffic;
     cfg.lanes = args.lanes;
+    cfg.one_way = args.one_way;
     cfg.trace = args.trace.clone();
     cfg.limit = Duration::from_secs_f64(args.limit_min * 60.0);
     if args.no_noise {

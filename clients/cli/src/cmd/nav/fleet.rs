@@ -34,6 +34,10 @@ pub struct DispatcherArgs {
     /// died is noticed within it).
     #[arg(long, default_value_t = 1.0, value_name = "SECS")]
     every: f64,
+    /// Measure routes with the narrow corridors of loops one way, as the
+    /// robots' Planners do with `--one-way` (docs/traffic.md).
+    #[arg(long)]
+    one_way: bool,
 }
 
 /// `rome task …`.
@@ -96,7 +100,7 @@ pub async fn dispatcher(common: &CommonArgs, args: DispatcherArgs) -> anyhow::Re
     rome_common::check_positive("--every", args.every, "seconds")?;
     let map = rome_maps::load_named(&args.map)?;
     let world = World::from_map(&map);
-    let network = Network::new(&map, &world);
+    let network = rome_nav::traffic::oneway::network(&map, &world, args.one_way);
     let ds = rome_common::connect_data(common, "dispatcher").await?;
     let session = common.open(Side::Client).await?;
     let cfg = DispatchConfig {
