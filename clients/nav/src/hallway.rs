@@ -393,6 +393,12 @@ impl Walls {
     }
 }
 
+/// The Corner state's stop-and-go turn in place, degrees per second.
+const SPIN_DEG_S: f64 = 8.0;
+
+/// How far off the goal direction the Corner state ever turns, degrees.
+const SPIN_BOUND_DEG: f64 = 90.0;
+
 /// The Corner state (§5.4.2): a narrow window of sonars toward the goal
 /// direction, infrared stop-and-go. Like Center-Hallway, when the window's
 /// open direction is the goal direction itself and both walls are in view,
@@ -414,13 +420,21 @@ pub fn corner_step(
     let ir = |i: usize| scan.ir.get(i).is_some_and(|b| *b != 0);
     let (right, left) = (ir(0) || ir(1), ir(2) || ir(3));
     if right || left {
-        let rate = *walls.spin.get_or_insert(match (right, left) {
-            (true, false) => 8.0,
-            (false, true) => -8.0,
-            _ if err >= 0.0 => 8.0,
-            _ => -8.0,
+        let rate = walls.spin.get_or_insert(match (right, left) {
+            (true, false) => SPIN_DEG_S,
+            (false, true) => -SPIN_DEG_S,
+            _ if err >= 0.0 => SPIN_DEG_S,
+            _ => -SPIN_DEG_S,
         });
-        return Drive::Spin(rate);
+        // Beyond the thesis: the turn away never goes past a right angle
+        // to the goal direction; there it turns back. Among robots, one
+        // passing close beside kept the detectors lit, and then the wall
+        // the turn swung towards: a robot turned 200° in place and drove
+        // off the wrong way along the corridor.
+        if err.abs() >= SPIN_BOUND_DEG && rate.signum() != err.signum() {
+            *rate = -*rate;
+        }
+        return Drive::Spin(*rate);
     }
     walls.spin = None;
     let open = open_sonar(&scan.sonar_mm, heading_deg, goal_deg, 1);

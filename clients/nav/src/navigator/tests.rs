@@ -277,3 +277,41 @@ fn a_scan_watched_twice_at_one_distance_counts_once() {
     }
     assert_eq!(once, twice);
 }
+
+/// A scan in the Corner state: `ir` lit on the detectors given (0–3).
+fn corner_scan(sonar: Vec<u32>, lit: &[usize]) -> Scan {
+    let mut ir = vec![0u8; 24];
+    for &i in lit {
+        ir[i] = 1;
+    }
+    Scan {
+        robot: "r1".into(),
+        seq: 0,
+        time_ms: 0,
+        sonar_mm: sonar,
+        ir,
+    }
+}
+
+#[test]
+fn a_corner_spin_away_from_a_detection_turns_back_at_a_right_angle_to_the_goal() {
+    // Something on the left front stays lit (a robot passing close, then
+    // the wall the spin swings towards): the robot turns away, right, but
+    // never more than 90° off the goal direction.
+    let cfg = NavConfig::default();
+    let mut walls = Walls::default();
+    let (goal, mut heading) = (-90.0, -90.0);
+    let mut worst: f64 = 0.0;
+    let mut turned_back = false;
+    for _ in 0..100 {
+        let scan = corner_scan(hallway_scan(800, 800), &[2]);
+        let Drive::Spin(rate) = corner_step(&cfg, &scan, heading, goal, &mut walls, 0.0) else {
+            panic!("a detection spins in place");
+        };
+        turned_back |= rate > 0.0;
+        heading += rate;
+        worst = worst.max(normalize_deg(goal - heading).abs());
+    }
+    assert!(turned_back, "the spin never turned back");
+    assert!(worst <= 90.0 + 8.0, "turned {worst}° off the goal");
+}
