@@ -72,19 +72,8 @@ pub struct PlannerArgs {
     /// Print the plan and exit without driving.
     #[arg(long)]
     dry_run: bool,
-    /// Reserve the junctions the robot turns in, not only narrow passages
-    /// (docs/traffic.md).
-    #[arg(long)]
-    traffic: bool,
-    /// Drive corridors too narrow to pass in one way at a time: wait
-    /// outside for robots going the other way to leave (docs/traffic.md).
-    #[arg(long)]
-    lanes: bool,
-    /// Drive the narrow corridors that lie on loops one way only, each its
-    /// own way, and plan routes that keep to it; every robot of the fleet
-    /// and the dispatcher must agree on it (docs/traffic.md).
-    #[arg(long)]
-    one_way: bool,
+    #[command(flatten)]
+    rules: super::traffic::TrafficArgs,
     /// Give up after this many seconds of wall time (exit status 3), with
     /// the goals judged so far; without it the Planner waits as long as the
     /// robot takes.
@@ -240,7 +229,7 @@ pub async fn planner(common: &CommonArgs, args: PlannerArgs) -> anyhow::Result<u
     let wall = std::time::Instant::now();
     let map = rome_maps::load_named(&args.map)?;
     let world = rome_maps::World::from_map(&map);
-    let network = traffic::oneway::network(&map, &world, args.one_way);
+    let network = traffic::oneway::network(&map, &world, args.rules.one_way);
     let Some(to) = args.to.clone() else {
         let (board, robot) = connect(common, &args.robot.robot, "planner").await?;
         let duty = super::fleet::Duty {
@@ -251,16 +240,16 @@ pub async fn planner(common: &CommonArgs, args: PlannerArgs) -> anyhow::Result<u
             name: args.robot.robot.clone(),
             at: args.from.clone(),
             heading: args.heading,
-            traffic: args.traffic,
-            lanes: args.lanes,
+            traffic: args.rules.traffic,
+            lanes: args.rules.lanes,
         };
         return super::fleet::take_tasks(common, duty).await;
     };
     let mut plan = Plan::through(&world, &network, &args.from, &args.via, &to)?;
-    if !args.traffic {
+    if !args.rules.traffic {
         plan = plan.without_junctions();
     }
-    if !args.lanes {
+    if !args.rules.lanes {
         plan = plan.without_lanes();
     }
     let via = if args.via.is_empty() {

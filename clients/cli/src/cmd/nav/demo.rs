@@ -103,18 +103,9 @@ pub struct Args {
     /// Leave out the local mapper (no heading or sideways correction).
     #[arg(long)]
     pub no_himm: bool,
-    /// Robots also reserve the junctions they turn in, not only narrow
-    /// passages (docs/traffic.md; not yet better at high density).
-    #[arg(long)]
-    pub traffic: bool,
-    /// Drive corridors too narrow to pass in one way at a time; without
-    /// it robots meet head on there and pass keeping right (docs/traffic.md).
-    #[arg(long)]
-    pub lanes: bool,
-    /// Drive the narrow corridors that lie on loops one way only, and plan
-    /// routes that keep to it (docs/traffic.md).
-    #[arg(long)]
-    pub one_way: bool,
+    /// The traffic flags.
+    #[command(flatten)]
+    pub rules: super::traffic::TrafficArgs,
     /// Leave out the door-plate finder.
     #[arg(long)]
     pub no_plfinder: bool,
@@ -269,9 +260,9 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
     cfg.plfinder = !args.no_plfinder;
     cfg.covered = args.cover_camera.clone();
     cfg.people = args.people as usize;
-    cfg.traffic = args.traffic;
-    cfg.lanes = args.lanes;
-    cfg.one_way = args.one_way;
+    cfg.traffic = args.rules.traffic;
+    cfg.lanes = args.rules.lanes;
+    cfg.one_way = args.rules.one_way;
     cfg.trace = args.trace.clone();
     cfg.limit = Duration::from_secs_f64(args.limit_min * 60.0);
     if args.no_noise {

@@ -12,6 +12,7 @@
 //!   feature `sim`).
 //! - [`colony`]: §4.8.2's colony-style networks as prioritised clients.
 //! - [`map`]: `rome map check|render|route`.
+//! - [`traffic`]: the traffic flags those that drive robots share.
 
 pub mod between;
 pub mod clients;
@@ -27,3 +28,4 @@ pub mod floors;
 pub mod map;
 #[cfg(feature = "sim")]
 pub mod scale;
+pub mod traffic;

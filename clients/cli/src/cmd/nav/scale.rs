@@ -31,17 +31,8 @@ pub struct Args {
     /// Seed of the robots' starts, the tasks and the world.
     #[arg(long, default_value_t = 1)]
     seed: u64,
-    /// Reserve the junctions robots turn in, not only narrow passages.
-    #[arg(long)]
-    traffic: bool,
-    /// Drive corridors too narrow to pass in one way at a time; without
-    /// it robots meet head on there and pass keeping right (docs/traffic.md).
-    #[arg(long)]
-    lanes: bool,
-    /// Drive the narrow corridors that lie on loops one way only, each its
-    /// own way, and plan routes that keep to it (docs/traffic.md).
-    #[arg(long)]
-    one_way: bool,
+    #[command(flatten)]
+    rules: super::traffic::TrafficArgs,
     /// Give a run up after this many simulated minutes.
     #[arg(long, default_value_t = 1440.0)]
     limit_min: f64,
@@ -79,9 +70,9 @@ pub async fn run(args: Args) -> anyhow::Result<u8> {
         sizes,
         tasks: args.tasks,
         seed: args.seed,
-        traffic: args.traffic,
-        lanes: args.lanes,
-        one_way: args.one_way,
+        traffic: args.rules.traffic,
+        lanes: args.rules.lanes,
+        one_way: args.rules.one_way,
         limit: Duration::from_secs_f64(args.limit_min * 60.0),
         stuck: Duration::from_secs(60),
         traces: args.trace.then(|| args.out.clone()),

@@ -1,0 +1,23 @@
+//! The traffic flags of every command that drives robots on a map
+//! (`rome planner`, `rome demo`, `rome fleet`), defined once so that they
+//! read the same everywhere (docs/traffic.md).
+
+/// How robots keep out of each other's way beyond narrow passages, which
+/// are always reserved.
+#[derive(Debug, Clone, Copy, clap::Args)]
+pub struct TrafficArgs {
+    /// Reserve the junctions robots turn in, not only narrow passages
+    /// (not yet better at high density).
+    #[arg(long)]
+    pub traffic: bool,
+    /// Drive corridors too narrow to pass in one way at a time: wait
+    /// outside for robots going the other way to leave. Without it robots
+    /// meet head on there and pass keeping right.
+    #[arg(long)]
+    pub lanes: bool,
+    /// Drive the narrow corridors that lie on loops one way only, each its
+    /// own way, and plan routes that keep to it; every robot of a fleet
+    /// and its dispatcher must agree on it.
+    #[arg(long)]
+    pub one_way: bool,
+}
