@@ -166,6 +166,30 @@ pub const ZENOH_RUNTIME_ENV: &str = "ZENOH_RUNTIME";
 pub const ZENOH_RUNTIME: &str =
     "(rx: (handover: app), acc: (handover: app), net: (handover: app), app: (worker_threads: 2))";
 
+/// The exit status a shell gives a program ended by a broken pipe
+/// (128 + SIGPIPE).
+const BROKEN_PIPE_EXIT: i32 = 141;
+
+/// A reader that stops reading (`rome planner … --dry-run | head -1`) ends
+/// the program quietly, with the status a shell gives a broken pipe, as
+/// it ends other command-line tools. Rust ignores SIGPIPE, so the next
+/// line printed would otherwise panic. Putting the signal back would do
+/// it too, but would also let it kill a server writing to a socket or a
+/// pipe whose reader has gone.
+fn quiet_on_broken_pipe() {
+    let before = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        let payload = info.payload();
+        let text = (payload.downcast_ref::<String>().map(String::as_str))
+            .or_else(|| payload.downcast_ref::<&str>().copied())
+            .unwrap_or_default();
+        if text.starts_with("failed printing to stdout") && text.contains("Broken pipe") {
+            std::process::exit(BROKEN_PIPE_EXIT);
+        }
+        before(info);
+    }));
+}
+
 /// Whether Zenoh can read the layout in `ZENOH_RUNTIME`; what is wrong
 /// with it if not. Zenoh reads the variable when it first starts a
 /// runtime and panics on a value it cannot parse; this reads it first,
@@ -252,6 +276,7 @@ pub fn parse() -> Cli {
 
 /// Runs a parsed command line and returns the process exit code.
 pub fn main(cli: Cli) -> ExitCode {
+    quiet_on_broken_pipe();
     let server = cli.command.is_server();
     cli.common.init_logging(server);
     // These end on the interrupt themselves, to finish what they write.

@@ -442,6 +442,23 @@ fn planner_one_way_plans_round_the_loop() {
     assert!(err.contains("'--one-way'"), "{err}");
 }
 
+/// Output into a pipe nobody reads any more (`rome … | head -1`) ends
+/// `rome` quietly with a shell's broken-pipe status, not a panic.
+#[test]
+fn a_closed_pipe_ends_rome_quietly() {
+    let (reader, writer) = std::io::pipe().unwrap();
+    drop(reader);
+    let out = Command::new(ROME)
+        .args(["planner", "--from", "A353R", "--to", "301L", "--dry-run"])
+        .stdout(writer)
+        .stderr(std::process::Stdio::piped())
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!err.contains("panicked"), "{err}");
+    assert_eq!(out.status.code(), Some(141), "{err}");
+}
+
 #[test]
 fn help_names_the_commands_and_exit_codes() {
     let out = Command::new(ROME).arg("--help").output().unwrap();
