@@ -45,7 +45,7 @@ Every program meets the others through Zenoh. With no --connect/--listen/--confi
 listen on tcp/0.0.0.0:7447 and clients connect to tcp/127.0.0.1:7447, so one machine works \
 out of the box; point --connect at a router or server for anything else. Servers run as \
 Zenoh peers and everything else as Zenoh clients unless --mode says otherwise.",
-    after_help = "Exit codes: 0 success, 1 error, 2 bad usage, 3 not acquired / timed out (sem try-wait, sem wait --timeout), 130 interrupted.\n\
+    after_help = "Exit codes: 0 success, 1 error, 2 bad usage, 3 not acquired / timed out (sem try-wait, sem wait --timeout), 130 interrupted, 141 output pipe closed.\n\
 Keys, payloads and plain-Zenoh examples: docs/keys.md"
 )]
 pub struct Cli {
