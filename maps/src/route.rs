@@ -186,19 +186,27 @@ impl Network {
 
     /// The pairs of waypoints joined by a straight line, each once.
     pub fn links(&self) -> Vec<(usize, usize)> {
-        (self.edges.iter().enumerate())
-            .flat_map(|(i, e)| {
-                e.iter()
-                    .filter(move |(j, _)| *j > i)
-                    .map(move |(j, _)| (i, *j))
-            })
-            .collect()
+        // One way, a link is kept in one direction only.
+        let mut links: Vec<(usize, usize)> = (self.edges.iter().enumerate())
+            .flat_map(|(i, e)| e.iter().map(move |&(j, _)| (i.min(j), i.max(j))))
+            .collect();
+        links.sort_unstable();
+        links.dedup();
+        links
     }
 
     /// The same network with these stretches driven one way only: every
     /// path it finds afterwards keeps to their way.
     pub fn with_one_way(mut self, one_way: Vec<OneWay>) -> Network {
         self.one_way = one_way;
+        // The links against a way are dropped once here, not filtered out
+        // on every path search.
+        for i in 0..self.edges.len() {
+            let p = self.waypoints[i];
+            let mut e = std::mem::take(&mut self.edges[i]);
+            e.retain(|&(j, _)| !self.against(p, self.waypoints[j]));
+            self.edges[i] = e;
+        }
         self
     }
 
@@ -234,8 +242,7 @@ impl Network {
             let mut out = Vec::new();
             if i < n {
                 let p = self.waypoints[i];
-                let ahead = |&&(j, _): &&(usize, f64)| !self.against(p, self.waypoints[j]);
-                out.extend(self.edges[i].iter().filter(ahead).copied());
+                out.extend(self.edges[i].iter().copied());
                 if self.open(p, to) {
                     out.push((goal, distance(p, to)));
                 }
