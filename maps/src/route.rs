@@ -90,22 +90,47 @@ pub struct OneWay {
 }
 
 impl OneWay {
-    /// Whether the straight move from `p` to `q` runs against it: both lie
-    /// in it and the move heads back toward `a` (more than 60° off the way).
+    /// Whether the straight move from `p` to `q` runs against it: it heads
+    /// back toward `a` (more than 60° off the way), and either both ends
+    /// lie in it, or it drives more than `reach_mm` of it. The second case
+    /// is a line of sight that enters from outside: a corridor in line
+    /// with the stretch sees straight down it, and a move from there to a
+    /// door inside, or through to the far end, is as much against the way
+    /// as one that starts inside.
     pub fn against(&self, p: Point, q: Point) -> bool {
         let len = distance(self.a, self.b);
         let (step, moved) = (q - p, distance(p, q));
-        if len < 1.0 || moved < 1.0 {
+        if len < 1.0 || moved < 1.0 || step.dot(&(self.b - self.a)) >= -0.5 * moved * len {
             return false;
         }
         let u = (self.b - self.a) / len;
-        let inside = |x: Point| {
+        // Where a point lies: along the way from `a`, and to its left.
+        let at = |x: Point| {
             let d = x - self.a;
-            let along = d.dot(&u);
-            let across = (d.x * u.y - d.y * u.x).abs();
-            across <= self.reach_mm && along >= -self.reach_mm && along <= len + self.reach_mm
+            (d.dot(&u), d.y * u.x - d.x * u.y)
         };
-        inside(p) && inside(q) && step.dot(&u) < -0.5 * moved
+        let ((ap, cp), (aq, cq)) = (at(p), at(q));
+        let inside = |along: f64, across: f64| {
+            across.abs() <= self.reach_mm && along >= -self.reach_mm && along <= len + self.reach_mm
+        };
+        if inside(ap, cp) && inside(aq, cq) {
+            return true;
+        }
+        // The share of the move, 0 to 1, that lies between the ends and
+        // within reach across.
+        let mut span = (0.0_f64, 1.0_f64);
+        for (from, to, lo, hi) in [(ap, aq, 0.0, len), (cp, cq, -self.reach_mm, self.reach_mm)] {
+            let d = to - from;
+            if d.abs() < 1e-9 {
+                if from < lo || from > hi {
+                    return false;
+                }
+                continue;
+            }
+            let (s0, s1) = ((lo - from) / d, (hi - from) / d);
+            span = (span.0.max(s0.min(s1)), span.1.min(s0.max(s1)));
+        }
+        (span.1 - span.0) * moved > self.reach_mm
     }
 }
 

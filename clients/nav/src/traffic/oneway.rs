@@ -211,16 +211,64 @@ mod tests {
                     .unwrap_or_else(|e| panic!("{from} → {to}: {e}"));
                 assert!(one.length_mm >= plain.length_mm - 1.0);
                 longer += usize::from(one.length_mm > plain.length_mm + 1.0);
-                // No leg runs against a one-way stretch.
+                // No leg drives back along a one-way stretch.
                 for w in one.points.windows(2) {
                     assert!(
-                        !ways.iter().any(|x| x.against(w[0], w[1])),
-                        "{from} → {to} runs against {ways:?}"
+                        !ways.iter().any(|x| drives_back(x, w[0], w[1])),
+                        "{from} → {to} runs against {ways:?}: {:?}",
+                        one.points
                     );
                 }
             }
         }
         assert!(longer > 0, "some routes go round");
+    }
+
+    /// Whether the leg from `p` to `q`, walked in steps of 100 mm, moves
+    /// back toward `w.a` for more than a metre while within 1 m of the
+    /// stretch's line and more than its reach from either end: checked
+    /// point by point, not by [`OneWay::against`].
+    fn drives_back(w: &OneWay, p: Point, q: Point) -> bool {
+        let len = distance(w.a, w.b);
+        let u = (w.b - w.a) / len;
+        let steps = (distance(p, q) / 100.0).ceil().max(1.0) as usize;
+        let mut back = 0.0;
+        for k in 0..steps {
+            let at = |k: usize| p + (q - p) * (k as f64 / steps as f64);
+            let (x, y) = (at(k), at(k + 1));
+            let d = x - w.a;
+            let (along, across) = (d.dot(&u), (d.x * u.y - d.y * u.x).abs());
+            let within = across <= 1_000.0 && along > w.reach_mm && along < len - w.reach_mm;
+            if within {
+                back += (-(y - x).dot(&u)).max(0.0);
+            }
+        }
+        back > 1_000.0
+    }
+
+    #[test]
+    fn a_corridor_in_line_with_a_one_way_stretch_does_not_see_down_it() {
+        // EB3's corridor B (x = 8 m, north of corridor M) lies in line with
+        // corridor G (south of M), which is driven north. A route from B
+        // to a door in G goes round by N and P, not straight down G.
+        let (world, network) = load("eb3");
+        let ways = one_way(&world, &network);
+        let directed = network.clone().with_one_way(ways.clone());
+        let plain = world.route(&network, "392L", &[], "A397L").unwrap();
+        let one = world.route(&directed, "392L", &[], "A397L").unwrap();
+        assert!(
+            (plain.points.windows(2)).any(|w| ways.iter().any(|x| drives_back(x, w[0], w[1]))),
+            "both ways, the route drives down G: {:?}",
+            plain.points
+        );
+        for w in one.points.windows(2) {
+            assert!(
+                !ways.iter().any(|x| drives_back(x, w[0], w[1])),
+                "{:?}",
+                one.points
+            );
+        }
+        assert!(one.length_mm > plain.length_mm + 50_000.0, "{one:?}");
     }
 
     #[test]
