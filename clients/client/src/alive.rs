@@ -29,6 +29,31 @@ pub async fn list(
     root: &Root,
     timeout: Duration,
 ) -> Result<Vec<Participant>, ClientError> {
+    // A liveliness query alone can miss a token: this session answers the
+    // tokens it already knows itself, and the query ends at the router's
+    // final answer, which may overtake those local answers on a busy
+    // machine (seen as a data server missing from the list, a few times
+    // in a thousand). A subscriber has no end to overtake, so it is
+    // declared first, and the list is everything either of them heard.
+    let heard = Arc::new(Mutex::new(Heard::default()));
+    let sink = heard.clone();
+    let _subscriber = session
+        .liveliness()
+        .declare_subscriber(root.alive_all())
+        .history(true)
+        .callback(move |sample: Sample| {
+            let key = sample.key_expr().to_string();
+            let mut heard = sink.lock().unwrap_or_else(PoisonError::into_inner);
+            if sample.kind() == SampleKind::Delete {
+                heard.alive.remove(&key);
+                heard.gone.insert(key);
+            } else {
+                heard.gone.remove(&key);
+                heard.alive.insert(key);
+            }
+        })
+        .await
+        .map_err(ClientError::zenoh)?;
     // Unbounded: the replies of this process's own tokens are delivered
     // before the get returns its receiver, so a bounded channel holding
     // fewer than there are tokens (the default 256; forty robots in one
@@ -40,11 +65,20 @@ pub async fn list(
         .with(crate::call::replies())
         .await
         .map_err(ClientError::zenoh)?;
-    let mut out = Vec::new();
+    let mut keys = BTreeSet::new();
     while let Ok(reply) = replies.recv_async().await {
-        let Ok(sample) = reply.result() else { continue };
-        let key = sample.key_expr().as_str();
-        if let Some(alive) = root.parse_alive(key) {
+        if let Ok(sample) = reply.result() {
+            keys.insert(sample.key_expr().to_string());
+        }
+    }
+    {
+        let heard = heard.lock().unwrap_or_else(PoisonError::into_inner);
+        keys.extend(heard.alive.iter().cloned());
+        keys.retain(|k| !heard.gone.contains(k));
+    }
+    let mut out = Vec::new();
+    for key in keys {
+        if let Some(alive) = root.parse_alive(&key) {
             out.push(Participant {
                 class: match alive.class {
                     AliveClass::Server => "server",
@@ -52,13 +86,19 @@ pub async fn list(
                 },
                 role: alive.role.to_string(),
                 id: alive.id.to_string(),
-                key: key.to_string(),
+                key: key.clone(),
             });
         }
     }
     out.sort();
-    out.dedup();
     Ok(out)
+}
+
+/// Token keys a liveliness subscriber heard come and go.
+#[derive(Default)]
+struct Heard {
+    alive: BTreeSet<String>,
+    gone: BTreeSet<String>,
 }
 
 /// The build and protocol each live program says beside its liveliness
