@@ -313,13 +313,8 @@ async fn run_all(
                 r.robot
             )));
         }
-        let mut plan = Plan::through(&world_map, &network, &r.from, &r.via, &r.to)?;
-        if !cfg.traffic {
-            plan = plan.without_junctions();
-        }
-        if !cfg.lanes {
-            plan = plan.without_lanes();
-        }
+        let plan = Plan::through(&world_map, &network, &r.from, &r.via, &r.to)?
+            .keeping(cfg.traffic, cfg.lanes);
         progress(Event::Planned {
             robot: k,
             plan: plan.clone(),

@@ -252,6 +252,22 @@ impl Plan {
         self
     }
 
+    /// The holds a fleet's rules keep: without `traffic` only the narrow
+    /// passages and lanes ([`Plan::without_junctions`]), without `lanes`
+    /// no lanes ([`Plan::without_lanes`]).
+    pub fn keeping(self, traffic: bool, lanes: bool) -> Plan {
+        let plan = if traffic {
+            self
+        } else {
+            self.without_junctions()
+        };
+        if lanes {
+            plan
+        } else {
+            plan.without_lanes()
+        }
+    }
+
     /// The route as tables name it ([`label`]).
     pub fn label(&self) -> String {
         match &self.route.stops[..] {

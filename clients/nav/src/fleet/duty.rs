@@ -472,18 +472,7 @@ impl OnDuty<'_> {
             None => Plan::through(self.world, self.network, label, &a.via, &a.to),
         };
         let plan = match planned {
-            Ok(p) => {
-                let p = if cfg.traffic {
-                    p
-                } else {
-                    p.without_junctions()
-                };
-                if cfg.lanes {
-                    p
-                } else {
-                    p.without_lanes()
-                }
-            }
+            Ok(p) => p.keeping(cfg.traffic, cfg.lanes),
             // Not moved: it still stands where it stood.
             Err(e) => {
                 let still = point.is_none().then(|| label.clone());

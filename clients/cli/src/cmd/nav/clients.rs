@@ -245,13 +245,8 @@ pub async fn planner(common: &CommonArgs, args: PlannerArgs) -> anyhow::Result<u
         };
         return super::fleet::take_tasks(common, duty).await;
     };
-    let mut plan = Plan::through(&world, &network, &args.from, &args.via, &to)?;
-    if !args.rules.traffic {
-        plan = plan.without_junctions();
-    }
-    if !args.rules.lanes {
-        plan = plan.without_lanes();
-    }
+    let plan = Plan::through(&world, &network, &args.from, &args.via, &to)?
+        .keeping(args.rules.traffic, args.rules.lanes);
     let via = if args.via.is_empty() {
         String::new()
     } else {
