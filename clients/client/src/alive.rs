@@ -35,25 +35,7 @@ pub async fn list(
     // machine (seen as a data server missing from the list, a few times
     // in a thousand). A subscriber has no end to overtake, so it is
     // declared first, and the list is everything either of them heard.
-    let heard = Arc::new(Mutex::new(Heard::default()));
-    let sink = heard.clone();
-    let _subscriber = session
-        .liveliness()
-        .declare_subscriber(root.alive_all())
-        .history(true)
-        .callback(move |sample: Sample| {
-            let key = sample.key_expr().to_string();
-            let mut heard = sink.lock().unwrap_or_else(PoisonError::into_inner);
-            if sample.kind() == SampleKind::Delete {
-                heard.alive.remove(&key);
-                heard.gone.insert(key);
-            } else {
-                heard.gone.remove(&key);
-                heard.alive.insert(key);
-            }
-        })
-        .await
-        .map_err(ClientError::zenoh)?;
+    let (heard, _subscriber) = hear(session, root, |key| Some(key.to_string())).await?;
     // Unbounded: the replies of this process's own tokens are delivered
     // before the get returns its receiver, so a bounded channel holding
     // fewer than there are tokens (the default 256; forty robots in one
@@ -94,11 +76,45 @@ pub async fn list(
     Ok(out)
 }
 
-/// Token keys a liveliness subscriber heard come and go.
+/// What a liveliness subscriber heard come and go, by a name taken from
+/// each token's key.
 #[derive(Default)]
 struct Heard {
     alive: BTreeSet<String>,
+    /// Gone since the subscriber began: an answer to a query, which may
+    /// have been taken just before, does not bring them back.
     gone: BTreeSet<String>,
+}
+
+/// Subscribes (with the tokens already there) to every live token of the
+/// deployment, each named by `name` from its key (`None`: not ours).
+async fn hear(
+    session: &Session,
+    root: &Root,
+    name: impl Fn(&str) -> Option<String> + Send + Sync + 'static,
+) -> Result<(Arc<Mutex<Heard>>, zenoh::pubsub::Subscriber<()>), ClientError> {
+    let heard = Arc::new(Mutex::new(Heard::default()));
+    let sink = heard.clone();
+    let subscriber = session
+        .liveliness()
+        .declare_subscriber(root.alive_all())
+        .history(true)
+        .callback(move |sample: Sample| {
+            let Some(id) = name(sample.key_expr().as_str()) else {
+                return;
+            };
+            let mut heard = sink.lock().unwrap_or_else(PoisonError::into_inner);
+            if sample.kind() == SampleKind::Delete {
+                heard.alive.remove(&id);
+                heard.gone.insert(id);
+            } else {
+                heard.gone.remove(&id);
+                heard.alive.insert(id);
+            }
+        })
+        .await
+        .map_err(ClientError::zenoh)?;
+    Ok((heard, subscriber))
 }
 
 /// The build and protocol each live program says beside its liveliness
@@ -147,16 +163,8 @@ pub async fn await_server(
 /// round). A liveliness query each time waits for every peer's answer,
 /// which with many peers in one process took the query's whole timeout.
 pub struct Watch {
-    seen: Arc<Mutex<Seen>>,
+    seen: Arc<Mutex<Heard>>,
     _subscriber: zenoh::pubsub::Subscriber<()>,
-}
-
-#[derive(Default)]
-struct Seen {
-    alive: BTreeSet<String>,
-    /// Gone since the watch began: the first query's answer, which may
-    /// have been taken just before, does not bring them back.
-    gone: BTreeSet<String>,
 }
 
 impl Watch {
@@ -167,29 +175,11 @@ impl Watch {
         root: &Root,
         timeout: Duration,
     ) -> Result<Watch, ClientError> {
-        let seen = Arc::new(Mutex::new(Seen::default()));
-        let sink = seen.clone();
         let keys = root.clone();
-        let subscriber = session
-            .liveliness()
-            .declare_subscriber(root.alive_all())
-            .history(true)
-            .callback(move |sample: Sample| {
-                let Some(alive) = keys.parse_alive(sample.key_expr().as_str()) else {
-                    return;
-                };
-                let id = alive.id.to_string();
-                let mut seen = sink.lock().unwrap_or_else(PoisonError::into_inner);
-                if sample.kind() == SampleKind::Delete {
-                    seen.alive.remove(&id);
-                    seen.gone.insert(id);
-                } else {
-                    seen.gone.remove(&id);
-                    seen.alive.insert(id);
-                }
-            })
-            .await
-            .map_err(ClientError::zenoh)?;
+        let (seen, subscriber) = hear(session, root, move |key| {
+            keys.parse_alive(key).map(|alive| alive.id.to_string())
+        })
+        .await?;
         let first = list(session, root, timeout).await?;
         {
             let mut s = seen.lock().unwrap_or_else(PoisonError::into_inner);
