@@ -34,6 +34,9 @@ pub struct ScaleConfig {
     pub lanes: bool,
     /// Drive the narrow corridors of loops one way only.
     pub one_way: bool,
+    /// Add the tasks one this much simulated time after another, as a
+    /// stream of errands, instead of all at the start.
+    pub every: Option<Duration>,
     /// Give a run up after this much simulated time.
     pub limit: Duration,
     /// A robot standing still this long with a task counts as stuck.
@@ -146,6 +149,7 @@ pub async fn sweep(
             TaskRun {
                 run,
                 tasks: tasks.clone(),
+                every: cfg.every,
                 kill: None,
                 closed: None,
             },

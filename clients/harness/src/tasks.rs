@@ -36,6 +36,10 @@ pub struct TaskRun {
     pub run: RunConfig,
     /// The tasks, with their ids, added as the world starts.
     pub tasks: Vec<(String, TaskSpec)>,
+    /// Add the tasks one at a time, the next this much simulated time
+    /// after the last (errands that come in a stream), instead of all as
+    /// the world starts.
+    pub every: Option<Duration>,
     /// A robot whose whole crew is killed as it takes its first task (a
     /// fault to inject).
     pub kill: Option<String>,
@@ -266,9 +270,16 @@ async fn run_all(
     });
     drop(etx);
     let adder = DataClient::connect(&session, DataOptions::new("cli")).await?;
-    for (id, spec) in &cfg.tasks {
+    // All at once, or the first now and the rest as they come.
+    let at_once = if cfg.every.is_some() {
+        1
+    } else {
+        cfg.tasks.len()
+    };
+    for (id, spec) in cfg.tasks.iter().take(at_once) {
         tasks::add_as(&adder, id, spec).await?;
     }
+    let mut added = at_once.min(cfg.tasks.len());
     // The people who close a corridor, and when they leave.
     let mut closed: Option<(Vec<usize>, Duration)> = cfg.closed.as_ref().map(|(at, until)| {
         let mut w = rig.world.lock();
@@ -366,6 +377,15 @@ async fn run_all(
                 progress(event);
             }
             _ = tick.tick() => {
+                if let Some(every) = cfg.every {
+                    while added < cfg.tasks.len()
+                        && Duration::from_millis(now - t0) >= every * added as u32
+                    {
+                        let (id, spec) = &cfg.tasks[added];
+                        tasks::add_as(&adder, id, spec).await?;
+                        added += 1;
+                    }
+                }
                 for k in 0..names.len() {
                     let (moved, c, at) = {
                         let w = rig.world.lock();

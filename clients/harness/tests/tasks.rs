@@ -2,7 +2,8 @@
 //! ground truth: each task goes to the nearest free robot and is done
 //! there; a task pinned to a robot waits for it; a task for nowhere fails
 //! with the reason; a task whose robot's crew dies goes to another robot
-//! and says why; a robot between tasks steps aside for the others.
+//! and says why; a robot between tasks steps aside for the others; tasks
+//! that come as a stream are added when they come.
 
 use rome_harness::tasks::{run_tasks, TaskEvent, TaskReport, TaskRun};
 use rome_harness::{RouteSpec, RunConfig};
@@ -55,6 +56,7 @@ async fn run_with(
             .into_iter()
             .map(|(id, s)| (id.to_string(), s))
             .collect(),
+        every: None,
         kill: kill.map(Into::into),
         closed: None,
     };
@@ -265,4 +267,36 @@ async fn a_robot_blocked_twice_in_one_place_rests_gets_clear_and_takes_tasks_aga
         t3.assigned_ms.is_some_and(|a| a >= t2_ended + rest_ms),
         "{t2:?} {t3:?}"
     );
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn tasks_that_come_as_a_stream_are_added_when_they_come_and_all_done() {
+    // One robot, three short errands, the next 30 s after the last: each
+    // is added on the dispatcher's data when it comes, not before, and
+    // none is handed to the robot before it was added.
+    let ids = ["T1", "T2", "T3"];
+    let tasks = ids
+        .iter()
+        .zip(["352L", "350R", "356R"])
+        .map(|(id, to)| (*id, spec(to, None)))
+        .collect();
+    let every = Duration::from_secs(30);
+    let r = run_with(&[("r1", "350R")], tasks, None, |run| {
+        run.every = Some(every);
+    })
+    .await;
+    all_done(&r, &ids);
+    let added: Vec<u64> = ids.iter().map(|id| status(&r, id).added_ms).collect();
+    for pair in added.windows(2) {
+        let apart = pair[1] - pair[0];
+        // Added at the first tick of the world's clock past its time.
+        assert!(
+            (30_000..=31_000).contains(&apart),
+            "added {apart} ms after the one before: {added:?}"
+        );
+    }
+    for id in ids {
+        let s = status(&r, id);
+        assert!(s.assigned_ms.is_some_and(|a| a >= s.added_ms), "{s:?}");
+    }
 }

@@ -6,6 +6,7 @@
 //! rome fleet --robots 1,5,10,20,40 --tasks 200 # the sweep of docs/tasks.md
 //! rome fleet --map annex --seed 7 --out runs/  # where fleet.csv and fleet.svg go
 //! rome fleet --robots 10 --trace               # and fleet/10.trace: every instant's ground truth
+//! rome fleet --robots 40 --tasks 200 --every 15 # a task every 15 s instead of all at once
 //! ```
 
 use crate::progress::Progress;
@@ -33,6 +34,12 @@ pub struct Args {
     seed: u64,
     #[command(flatten)]
     rules: super::traffic::TrafficArgs,
+    /// Add the tasks as a stream, one every SECS of simulated time,
+    /// instead of all at the start: the wait for a robot is then the
+    /// dispatcher's and the fleet's, not a backlog's, and throughput is
+    /// at most the rate they come at.
+    #[arg(long, value_name = "SECS")]
+    every: Option<f64>,
     /// Give a run up after this many simulated minutes.
     #[arg(long, default_value_t = 1440.0)]
     limit_min: f64,
@@ -54,6 +61,9 @@ pub struct Args {
 /// Runs the sweep; exit status 1 when a task was not done.
 pub async fn run(args: Args) -> anyhow::Result<u8> {
     rome_common::check_positive("--limit-min", args.limit_min, "minutes")?;
+    if let Some(every) = args.every {
+        rome_common::check_positive("--every", every, "seconds")?;
+    }
     anyhow::ensure!(args.tasks > 0, "--tasks must be at least 1");
     let mut sizes = args.robots.clone();
     anyhow::ensure!(
@@ -73,14 +83,19 @@ pub async fn run(args: Args) -> anyhow::Result<u8> {
         traffic: args.rules.traffic,
         lanes: args.rules.lanes,
         one_way: args.rules.one_way,
+        every: args.every.map(Duration::from_secs_f64),
         limit: Duration::from_secs_f64(args.limit_min * 60.0),
         stuck: Duration::from_secs(60),
         traces: args.trace.then(|| args.out.clone()),
     };
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot make {}", args.out.display()))?;
+    let stream = match args.every {
+        Some(s) => format!(", one every {s} s"),
+        None => String::new(),
+    };
     println!(
-        "{} task(s) on {} for fleets of {:?} robots, seed {}",
+        "{} task(s){stream} on {} for fleets of {:?} robots, seed {}",
         cfg.tasks, args.map, cfg.sizes, cfg.seed
     );
     println!("{}", scale::HEADER);
