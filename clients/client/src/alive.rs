@@ -36,23 +36,7 @@ pub async fn list(
     // in a thousand). A subscriber has no end to overtake, so it is
     // declared first, and the list is everything either of them heard.
     let (heard, _subscriber) = hear(session, root, |key| Some(key.to_string())).await?;
-    // Unbounded: the replies of this process's own tokens are delivered
-    // before the get returns its receiver, so a bounded channel holding
-    // fewer than there are tokens (the default 256; forty robots in one
-    // process have more) would wait for a reader that never comes.
-    let replies = session
-        .liveliness()
-        .get(root.alive_all())
-        .timeout(timeout)
-        .with(crate::call::replies())
-        .await
-        .map_err(ClientError::zenoh)?;
-    let mut keys = BTreeSet::new();
-    while let Ok(reply) = replies.recv_async().await {
-        if let Ok(sample) = reply.result() {
-            keys.insert(sample.key_expr().to_string());
-        }
-    }
+    let mut keys = query(session, root, timeout).await?;
     {
         let heard = heard.lock().unwrap_or_else(PoisonError::into_inner);
         keys.extend(heard.alive.iter().cloned());
@@ -74,6 +58,32 @@ pub async fn list(
     }
     out.sort();
     Ok(out)
+}
+
+/// The keys of the live tokens a liveliness query hears within `timeout`.
+async fn query(
+    session: &Session,
+    root: &Root,
+    timeout: Duration,
+) -> Result<BTreeSet<String>, ClientError> {
+    // Unbounded: the replies of this process's own tokens are delivered
+    // before the get returns its receiver, so a bounded channel holding
+    // fewer than there are tokens (the default 256; forty robots in one
+    // process have more) would wait for a reader that never comes.
+    let replies = session
+        .liveliness()
+        .get(root.alive_all())
+        .timeout(timeout)
+        .with(crate::call::replies())
+        .await
+        .map_err(ClientError::zenoh)?;
+    let mut keys = BTreeSet::new();
+    while let Ok(reply) = replies.recv_async().await {
+        if let Ok(sample) = reply.result() {
+            keys.insert(sample.key_expr().to_string());
+        }
+    }
+    Ok(keys)
 }
 
 /// What a liveliness subscriber heard come and go, by a name taken from
@@ -168,7 +178,7 @@ pub struct Watch {
 }
 
 impl Watch {
-    /// Subscribes, then lists once (waiting up to `timeout`), so the
+    /// Subscribes, then asks once (waiting up to `timeout`), so the
     /// watch starts with everyone already there.
     pub async fn start(
         session: &Session,
@@ -180,12 +190,17 @@ impl Watch {
             keys.parse_alive(key).map(|alive| alive.id.to_string())
         })
         .await?;
-        let first = list(session, root, timeout).await?;
+        // Its own subscriber already hears what the query may lose.
+        let first = query(session, root, timeout).await?;
         {
             let mut s = seen.lock().unwrap_or_else(PoisonError::into_inner);
-            for p in first {
-                if !s.gone.contains(&p.id) {
-                    s.alive.insert(p.id);
+            for key in first {
+                let Some(alive) = root.parse_alive(&key) else {
+                    continue;
+                };
+                let id = alive.id.to_string();
+                if !s.gone.contains(&id) {
+                    s.alive.insert(id);
                 }
             }
         }
