@@ -151,6 +151,31 @@ pub async fn run_tasks(
     monitored(lockstep, |clock| run_all(cfg, progress, clock)).await
 }
 
+/// Adds the tasks from `next` on that are due `elapsed` into the run:
+/// task k at k × `every`, or all at once without it. Returns the first not
+/// yet added.
+async fn add_due(
+    adder: &DataClient,
+    all: &[(String, TaskSpec)],
+    every: Option<Duration>,
+    mut next: usize,
+    elapsed: Duration,
+) -> Result<usize, NavError> {
+    let due = |k: usize| match every {
+        None => true,
+        // Past what a Duration holds is never.
+        Some(every) => (u32::try_from(k).ok())
+            .and_then(|k| every.checked_mul(k))
+            .is_some_and(|at| elapsed >= at),
+    };
+    while next < all.len() && due(next) {
+        let (id, spec) = &all[next];
+        tasks::add_as(adder, id, spec).await?;
+        next += 1;
+    }
+    Ok(next)
+}
+
 async fn run_all(
     cfg: TaskRun,
     progress: &mut impl FnMut(TaskEvent),
@@ -270,16 +295,7 @@ async fn run_all(
     });
     drop(etx);
     let adder = DataClient::connect(&session, DataOptions::new("cli")).await?;
-    // All at once, or the first now and the rest as they come.
-    let at_once = if cfg.every.is_some() {
-        1
-    } else {
-        cfg.tasks.len()
-    };
-    for (id, spec) in cfg.tasks.iter().take(at_once) {
-        tasks::add_as(&adder, id, spec).await?;
-    }
-    let mut added = at_once.min(cfg.tasks.len());
+    let mut added = add_due(&adder, &cfg.tasks, cfg.every, 0, Duration::ZERO).await?;
     // The people who close a corridor, and when they leave.
     let mut closed: Option<(Vec<usize>, Duration)> = cfg.closed.as_ref().map(|(at, until)| {
         let mut w = rig.world.lock();
@@ -377,15 +393,8 @@ async fn run_all(
                 progress(event);
             }
             _ = tick.tick() => {
-                if let Some(every) = cfg.every {
-                    while added < cfg.tasks.len()
-                        && Duration::from_millis(now - t0) >= every * added as u32
-                    {
-                        let (id, spec) = &cfg.tasks[added];
-                        tasks::add_as(&adder, id, spec).await?;
-                        added += 1;
-                    }
-                }
+                let elapsed = Duration::from_millis(now - t0);
+                added = add_due(&adder, &cfg.tasks, cfg.every, added, elapsed).await?;
                 for k in 0..names.len() {
                     let (moved, c, at) = {
                         let w = rig.world.lock();

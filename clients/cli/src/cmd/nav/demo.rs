@@ -138,7 +138,7 @@ async fn building(
     cfg.himm = !args.no_himm;
     cfg.covered = args.cover_camera.clone();
     cfg.people = args.people as usize;
-    cfg.limit = Duration::from_secs_f64(args.limit_min * 60.0);
+    cfg.limit = rome_common::minutes("--limit-min", args.limit_min)?;
     if args.no_noise {
         cfg.noise = Noise::none();
     }
@@ -233,7 +233,7 @@ fn routes(args: &Args, map: &rome_maps::Map) -> anyhow::Result<Vec<RouteSpec>> {
 /// Runs the demo.
 pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
     let map = rome_maps::load_named(&args.map)?;
-    rome_common::check_positive("--limit-min", args.limit_min, "minutes")?;
+    let limit = rome_common::minutes("--limit-min", args.limit_min)?;
     let mut routes = routes(&args, &map)?;
     if let Some(v) = args.cruise {
         rome_common::check_cruise(v)?;
@@ -264,7 +264,7 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
     cfg.lanes = args.rules.lanes;
     cfg.one_way = args.rules.one_way;
     cfg.trace = args.trace.clone();
-    cfg.limit = Duration::from_secs_f64(args.limit_min * 60.0);
+    cfg.limit = limit;
     if args.no_noise {
         cfg.noise = Noise::none();
     }

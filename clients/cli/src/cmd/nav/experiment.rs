@@ -21,7 +21,6 @@ use anyhow::Context;
 use rome_harness::experiment::{self, Outcome, Setup};
 use rome_sim::Noise;
 use std::path::PathBuf;
-use std::time::Duration;
 
 /// The experiment's cruising speed, mm/s: at the Navigator's default of 400
 /// the 40 runs average 22.5 m/min, at 700 they average 36 and all still
@@ -100,7 +99,7 @@ async fn building(name: &str, args: &Args) -> anyhow::Result<u8> {
     if args.no_noise {
         cfg.noise = Noise::none();
     }
-    cfg.limit = Duration::from_secs_f64(args.limit_min * 60.0);
+    cfg.limit = rome_common::minutes("--limit-min", args.limit_min)?;
     cfg.nav.cruise_mm_s = args.cruise;
     super::floors::experiment(super::floors::FloorsExperiment {
         building,
@@ -119,8 +118,8 @@ async fn building(name: &str, args: &Args) -> anyhow::Result<u8> {
 
 /// Runs the experiment; exit status 1 when a run did not arrive.
 pub async fn run(args: Args) -> anyhow::Result<u8> {
-    rome_common::check_positive("--limit-min", args.limit_min, "minutes")?;
-    rome_common::check_positive("--wall-limit-min", args.wall_limit_min, "minutes")?;
+    let limit = rome_common::minutes("--limit-min", args.limit_min)?;
+    let wall_limit = rome_common::minutes("--wall-limit-min", args.wall_limit_min)?;
     rome_common::check_cruise(args.cruise)?;
     if let Some(b) = &args.building {
         return building(b, &args).await;
@@ -164,10 +163,10 @@ pub async fn run(args: Args) -> anyhow::Result<u8> {
             Noise::default()
         },
         jobs,
-        limit: Duration::from_secs_f64(args.limit_min * 60.0),
+        limit,
         cruise_mm_s: Some(args.cruise),
         people: args.people as usize,
-        wall_limit: Duration::from_secs_f64(args.wall_limit_min * 60.0),
+        wall_limit,
         nav: rome_nav::navigator::NavConfig::default(),
     };
     std::fs::create_dir_all(&args.out)

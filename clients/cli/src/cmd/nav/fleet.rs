@@ -97,15 +97,13 @@ pub struct CancelArgs {
 
 /// `rome dispatcher`: hands tasks to robots until interrupted.
 pub async fn dispatcher(common: &CommonArgs, args: DispatcherArgs) -> anyhow::Result<u8> {
-    rome_common::check_positive("--every", args.every, "seconds")?;
+    let every = rome_common::seconds("--every", args.every)?;
     let map = rome_maps::load_named(&args.map)?;
     let world = World::from_map(&map);
     let network = rome_nav::traffic::oneway::network(&map, &world, args.one_way);
     let ds = rome_common::connect_data(common, "dispatcher").await?;
     let session = common.open(Side::Client).await?;
-    let cfg = DispatchConfig {
-        every: std::time::Duration::from_secs_f64(args.every),
-    };
+    let cfg = DispatchConfig { every };
     let d = Dispatcher::new(ds, session, world, network, cfg);
     d.run(|n| match n {
         Note::Waiting => println!("another dispatcher runs; waiting to take over"),

@@ -60,10 +60,10 @@ pub struct Args {
 
 /// Runs the sweep; exit status 1 when a task was not done.
 pub async fn run(args: Args) -> anyhow::Result<u8> {
-    rome_common::check_positive("--limit-min", args.limit_min, "minutes")?;
-    if let Some(every) = args.every {
-        rome_common::check_positive("--every", every, "seconds")?;
-    }
+    let limit = rome_common::minutes("--limit-min", args.limit_min)?;
+    let every = (args.every)
+        .map(|s| rome_common::seconds("--every", s))
+        .transpose()?;
     anyhow::ensure!(args.tasks > 0, "--tasks must be at least 1");
     let mut sizes = args.robots.clone();
     anyhow::ensure!(
@@ -83,8 +83,8 @@ pub async fn run(args: Args) -> anyhow::Result<u8> {
         traffic: args.rules.traffic,
         lanes: args.rules.lanes,
         one_way: args.rules.one_way,
-        every: args.every.map(Duration::from_secs_f64),
-        limit: Duration::from_secs_f64(args.limit_min * 60.0),
+        every,
+        limit,
         stuck: Duration::from_secs(60),
         traces: args.trace.then(|| args.out.clone()),
     };
