@@ -236,7 +236,7 @@ impl Network {
     }
 
     /// Whether the move from `p` to `q` runs against a one-way stretch.
-    fn against(&self, p: Point, q: Point) -> bool {
+    pub fn against(&self, p: Point, q: Point) -> bool {
         self.one_way.iter().any(|w| w.against(p, q))
     }
 

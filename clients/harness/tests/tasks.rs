@@ -193,6 +193,29 @@ async fn a_robot_between_tasks_steps_aside_and_another_passes_it_in_a_narrow_cor
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_robot_waiting_for_its_first_task_steps_aside_and_another_passes_it() {
+    // r1 starts at A336L in corridor N and is given nothing; r2 comes the
+    // long way round and passes it on its way to A342R. Left on the
+    // middle, r1 is touched.
+    let r = run(
+        &[("r1", "A336L"), ("r2", "309R")],
+        pinned(&[("T2", "A342R", "r2")]),
+        None,
+    )
+    .await;
+    all_done(&r, &["T2"]);
+    let (x, _) = r.at_end["r1"];
+    assert!(
+        (x - 60_000.0).abs() > 500.0,
+        "r1 stands at x = {:.2} m, the corridor's middle is 60 m",
+        x / 1000.0
+    );
+    for (robot, c) in &r.contacts {
+        assert_eq!((c.wall, c.robot), (0, 0), "{robot} touched: {c:?}");
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_robot_waiting_its_turn_for_a_narrow_passage_is_not_blocked() {
     // Corridor N is a narrow passage, and r1 and r2 meet head-on there:
     // one waits outside the whole time the other takes to drive its 44 m,

@@ -107,6 +107,36 @@ pub fn clear_to(
 /// the walls (left, right) beside the goal, mm.
 type LastLeg = (f64, (f64, f64));
 
+/// The leg a robot standing at the position `at` before its first task
+/// steps aside from, as one that arrived there would: along the corridor
+/// (the wall's direction, or the opposite), the way one-way traffic goes
+/// where a stretch is one way, else the nearer to `facing_deg`, with the
+/// walls beside it as the map has them. Robots waiting in a one-way
+/// corridor then all stand by the same wall, and the others pass them on
+/// the other side. `None`: the map does not name `at`, or no walls are
+/// found beside it.
+pub fn start_leg(world: &World, network: &Network, at: &str, facing_deg: f64) -> Option<LastLeg> {
+    let position = world.position(at)?;
+    let p = position.in_corridor();
+    let along = |d: f64| rome_maps::geometry::direction(d) * 1_000.0;
+    let way = position.wall_heading_deg;
+    let ahead = rome_maps::geometry::normalize_deg(way - facing_deg).abs() <= 90.0;
+    let (first, second) = if ahead {
+        (way, way + 180.0)
+    } else {
+        (way + 180.0, way)
+    };
+    let direction = if network.against(p, p + along(first)) {
+        second
+    } else {
+        first
+    };
+    let direction = rome_maps::geometry::normalize_deg(direction);
+    let walls =
+        crate::plan::walls_beside(world, p - along(direction), p + along(direction), direction)?;
+    Some((direction, walls))
+}
+
 /// What went wrong lately, which decides whether the robot goes out of
 /// service; forgotten once it arrives somewhere.
 #[derive(Debug, Default)]
@@ -265,6 +295,29 @@ impl OnDuty<'_> {
         // How the last task ended, when it ended on its goal: the goal's
         // direction and the walls beside it.
         let mut last_leg: Option<LastLeg> = None;
+        // Waiting for its first task, it would stand on the middle of the
+        // corridor, where in a narrow one nobody passes it untouched: it
+        // is registered where it stands and steps aside as it would
+        // between tasks.
+        if cfg.aside_after.is_some() {
+            let heading = match facing {
+                Some(f) => f,
+                None => self.robot.pose().await?.heading_deg,
+            };
+            let leg = heading
+                .is_finite()
+                .then(|| start_leg(self.world, self.network, &cfg.at, heading))
+                .flatten();
+            if let (Some(leg), Some(p)) = (leg, self.world.position(&cfg.at)) {
+                let p = p.in_corridor();
+                (self.robot)
+                    .set_pose(p.x.round() as i64, p.y.round() as i64, heading)
+                    .await?;
+                registered = true;
+                facing = None;
+                last_leg = Some(leg);
+            }
+        }
         loop {
             if let Some((rest, tried)) = trouble.out.as_mut() {
                 rome_clock::sleep(*rest).await;
@@ -663,6 +716,44 @@ mod tests {
         }
         assert!(behind(&tried[0]), "{tried:?}");
         assert!(!tried.iter().any(|t| t == "A336L"), "{tried:?}");
+    }
+
+    #[test]
+    fn a_robot_waiting_for_its_first_task_steps_aside_the_way_one_way_traffic_goes() {
+        let (world, network) = eb3();
+        let network = crate::traffic::oneway::with_one_way(&world, network);
+        let step = |d: f64| rome_maps::geometry::direction(d) * 1_000.0;
+        let (mut turned, mut none) = (0, Vec::new());
+        for (name, position) in &world.positions {
+            let way = position.wall_heading_deg;
+            let p = position.in_corridor();
+            let one_way = [way, way + 180.0].map(|d| network.against(p, p + step(d)));
+            for facing in [way, way + 180.0] {
+                // Beside an open side (a hall, a corridor's end) there is
+                // no wall to step to: it stays on the middle.
+                let Some((d, (left, right))) = start_leg(&world, &network, name, facing) else {
+                    none.push(name.as_str());
+                    break;
+                };
+                assert!(
+                    left + right > 2_000.0,
+                    "{name}: walls {left:.0} + {right:.0}"
+                );
+                let off = rome_maps::geometry::normalize_deg(d - facing).abs();
+                if one_way.iter().any(|&a| a) {
+                    assert!(!network.against(p, p + step(d)), "{name}: {d}° against");
+                    turned += usize::from(off > 90.0);
+                } else {
+                    assert!(off < 1.0, "{name}: facing {facing}°, leg {d}°");
+                }
+            }
+        }
+        // Each position in a one-way stretch is faced against its way once.
+        assert!(turned > 20, "{turned} legs turned to the way");
+        assert!(
+            none.len() * 10 < world.positions.len(),
+            "no leg at {none:?}"
+        );
     }
 
     #[test]
