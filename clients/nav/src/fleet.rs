@@ -8,7 +8,9 @@
 //! - [`assign`]: which free robot takes which task (shortest route).
 //! - [`dispatcher`]: the one dispatcher's rounds (`rome dispatcher`).
 //! - [`duty`]: a robot taking tasks (`rome planner --tasks`).
+//! - [`aside`]: where a robot without a task waits.
 
+pub mod aside;
 pub mod assign;
 pub mod dispatcher;
 pub mod duty;

@@ -22,6 +22,7 @@
 //! blackboard that does not decode is reported and skipped; it never ends
 //! the Planner.
 
+use super::aside::{leg_at, start_leg, step_is_clear, LastLeg};
 use super::schema::{
     decode, duty_var, task_sem, task_var, Assignment, Duty, DutyState, Outcome, WAKE,
 };
@@ -101,40 +102,6 @@ pub fn clear_to(
                 .then_with(|| a.1.cmp(&b.1))
         })
         .map(|(_, name, length)| (name, length))
-}
-
-/// Where the last task left the robot: its last D goal's direction, and
-/// the walls (left, right) beside the goal, mm.
-type LastLeg = (f64, (f64, f64));
-
-/// The leg a robot standing at the position `at` before its first task
-/// steps aside from, as one that arrived there would: along the corridor
-/// (the wall's direction, or the opposite), the way one-way traffic goes
-/// where a stretch is one way, else the nearer to `facing_deg`, with the
-/// walls beside it as the map has them. Robots waiting in a one-way
-/// corridor then all stand by the same wall, and the others pass them on
-/// the other side. `None`: the map does not name `at`, or no walls are
-/// found beside it.
-pub fn start_leg(world: &World, network: &Network, at: &str, facing_deg: f64) -> Option<LastLeg> {
-    let position = world.position(at)?;
-    let p = position.in_corridor();
-    let along = |d: f64| rome_maps::geometry::direction(d) * 1_000.0;
-    let way = position.wall_heading_deg;
-    let ahead = rome_maps::geometry::normalize_deg(way - facing_deg).abs() <= 90.0;
-    let (first, second) = if ahead {
-        (way, way + 180.0)
-    } else {
-        (way + 180.0, way)
-    };
-    let direction = if network.against(p, p + along(first)) {
-        second
-    } else {
-        first
-    };
-    let direction = rome_maps::geometry::normalize_deg(direction);
-    let walls =
-        crate::plan::walls_beside(world, p - along(direction), p + along(direction), direction)?;
-    Some((direction, walls))
 }
 
 /// What went wrong lately, which decides whether the robot goes out of
@@ -349,7 +316,19 @@ impl OnDuty<'_> {
             }
             let given = match (last_leg.take(), cfg.aside_after) {
                 (Some((direction, walls)), Some(after)) => {
-                    let given = ds.wait_timeout(&task_sem(self.name), after).await?;
+                    let mut given = ds.wait_timeout(&task_sem(self.name), after).await?;
+                    // Someone standing beside the way over: it waits for
+                    // them to go, or for a task.
+                    let mut said = false;
+                    while !given && !self.step_is_clear((direction, walls)).await {
+                        if !said {
+                            note(DutyNote::NotAside(
+                                "something stands by the way over to the wall; waiting".into(),
+                            ));
+                            said = true;
+                        }
+                        given = ds.wait_timeout(&task_sem(self.name), after).await?;
+                    }
                     if !given {
                         match planner::step_aside(self.board, direction, walls).await {
                             Ok(None) => {}
@@ -409,6 +388,11 @@ impl OnDuty<'_> {
                         let (x, y) = (f64::from(p.x_mm), f64::from(p.y_mm));
                         stands_off(&mut duty, x, y);
                         duty.state = DutyState::Idle;
+                        // Stopped short, it would wait on the corridor's
+                        // middle too: it steps aside across the way it
+                        // drove.
+                        let h = p.heading_deg;
+                        last_leg = leg_at(self.world, self.network, Point::new(x, y), h, h);
                         let blocked = outcome
                             .why
                             .as_deref()
@@ -439,6 +423,9 @@ impl OnDuty<'_> {
                     }
                     _ => duty.state = DutyState::Lost,
                 },
+            }
+            if duty.state == DutyState::Lost {
+                last_leg = None;
             }
             // Said first, so that whoever watches never takes it for lost
             // for good.
@@ -490,6 +477,16 @@ impl OnDuty<'_> {
             .carry_out(cfg, &from, &a, false, state, &mut planner_only)
             .await;
         at.ok_or_else(|| outcome.why.unwrap_or_else(|| "no reason given".to_string()))
+    }
+
+    /// Whether the step aside from `leg` is free by the robot's sonars
+    /// ([`step_is_clear`]); when they cannot be read, the Navigator's own
+    /// watch as it steps is left to judge.
+    async fn step_is_clear(&self, leg: LastLeg) -> bool {
+        match (self.robot.pose().await, self.robot.sonar().await) {
+            (Ok(p), Ok(s)) => step_is_clear(&s.sonar_mm, p.heading_deg, leg),
+            _ => true,
+        }
     }
 
     async fn report(&self, duty: &Duty) -> Result<(), NavError> {
@@ -716,44 +713,6 @@ mod tests {
         }
         assert!(behind(&tried[0]), "{tried:?}");
         assert!(!tried.iter().any(|t| t == "A336L"), "{tried:?}");
-    }
-
-    #[test]
-    fn a_robot_waiting_for_its_first_task_steps_aside_the_way_one_way_traffic_goes() {
-        let (world, network) = eb3();
-        let network = crate::traffic::oneway::with_one_way(&world, network);
-        let step = |d: f64| rome_maps::geometry::direction(d) * 1_000.0;
-        let (mut turned, mut none) = (0, Vec::new());
-        for (name, position) in &world.positions {
-            let way = position.wall_heading_deg;
-            let p = position.in_corridor();
-            let one_way = [way, way + 180.0].map(|d| network.against(p, p + step(d)));
-            for facing in [way, way + 180.0] {
-                // Beside an open side (a hall, a corridor's end) there is
-                // no wall to step to: it stays on the middle.
-                let Some((d, (left, right))) = start_leg(&world, &network, name, facing) else {
-                    none.push(name.as_str());
-                    break;
-                };
-                assert!(
-                    left + right > 2_000.0,
-                    "{name}: walls {left:.0} + {right:.0}"
-                );
-                let off = rome_maps::geometry::normalize_deg(d - facing).abs();
-                if one_way.iter().any(|&a| a) {
-                    assert!(!network.against(p, p + step(d)), "{name}: {d}° against");
-                    turned += usize::from(off > 90.0);
-                } else {
-                    assert!(off < 1.0, "{name}: facing {facing}°, leg {d}°");
-                }
-            }
-        }
-        // Each position in a one-way stretch is faced against its way once.
-        assert!(turned > 20, "{turned} legs turned to the way");
-        assert!(
-            none.len() * 10 < world.positions.len(),
-            "no leg at {none:?}"
-        );
     }
 
     #[test]
