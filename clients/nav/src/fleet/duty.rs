@@ -22,7 +22,7 @@
 //! blackboard that does not decode is reported and skipped; it never ends
 //! the Planner.
 
-use super::aside::{leg_at, start_leg, step_is_clear, LastLeg};
+use super::aside::{leg_at, start_leg, LastLeg};
 use super::schema::{
     decode, duty_var, task_sem, task_var, Assignment, Duty, DutyState, Outcome, WAKE,
 };
@@ -316,19 +316,7 @@ impl OnDuty<'_> {
             }
             let given = match (last_leg.take(), cfg.aside_after) {
                 (Some((direction, walls)), Some(after)) => {
-                    let mut given = ds.wait_timeout(&task_sem(self.name), after).await?;
-                    // Someone standing beside the way over: it waits for
-                    // them to go, or for a task.
-                    let mut said = false;
-                    while !given && !self.step_is_clear((direction, walls)).await {
-                        if !said {
-                            note(DutyNote::NotAside(
-                                "something stands by the way over to the wall; waiting".into(),
-                            ));
-                            said = true;
-                        }
-                        given = ds.wait_timeout(&task_sem(self.name), after).await?;
-                    }
+                    let given = ds.wait_timeout(&task_sem(self.name), after).await?;
                     if !given {
                         match planner::step_aside(self.board, direction, walls).await {
                             Ok(None) => {}
@@ -477,16 +465,6 @@ impl OnDuty<'_> {
             .carry_out(cfg, &from, &a, false, state, &mut planner_only)
             .await;
         at.ok_or_else(|| outcome.why.unwrap_or_else(|| "no reason given".to_string()))
-    }
-
-    /// Whether the step aside from `leg` is free by the robot's sonars
-    /// ([`step_is_clear`]); when they cannot be read, the Navigator's own
-    /// watch as it steps is left to judge.
-    async fn step_is_clear(&self, leg: LastLeg) -> bool {
-        match (self.robot.pose().await, self.robot.sonar().await) {
-            (Ok(p), Ok(s)) => step_is_clear(&s.sonar_mm, p.heading_deg, leg),
-            _ => true,
-        }
     }
 
     async fn report(&self, duty: &Duty) -> Result<(), NavError> {
