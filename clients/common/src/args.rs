@@ -52,7 +52,8 @@ pub struct CommonArgs {
         global = true,
         env = "ROME_CONNECT_TIMEOUT",
         default_value_t = 10.0,
-        value_name = "SECS"
+        value_name = "SECS",
+        value_parser = crate::time::parse_seconds
     )]
     pub connect_timeout: f64,
     /// Who this program is in a deployment with access control (a role:
@@ -142,8 +143,10 @@ impl CommonArgs {
         // A server in client mode (behind a router) waits for it as a
         // client does, so servers and router may start in any order.
         let client_mode = side == Side::Client || net.mode.as_deref() == Some("client");
-        if client_mode && self.connect_timeout.is_finite() && self.connect_timeout > 0.0 {
-            net.connect_timeout = Some(std::time::Duration::from_secs_f64(self.connect_timeout));
+        if client_mode {
+            // Set in code rather than parsed, a bad value leaves Zenoh's own.
+            net.connect_timeout =
+                crate::time::seconds("--connect-timeout", self.connect_timeout).ok();
         }
         net
     }

@@ -87,10 +87,9 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
         ("--duration", args.duration),
     ] {
         if let Some(v) = v {
-            anyhow::ensure!(
-                v.is_finite() && v > 0.0,
-                "{name} must be a positive number of seconds, got {v}"
-            );
+            // Checked here, so that the durations made of them below
+            // cannot panic.
+            rome_common::seconds(name, v)?;
         }
     }
     let session = common.open(Side::Client).await?;
@@ -179,15 +178,12 @@ async fn get(
     parameters: &str,
     args: &Args,
 ) -> anyhow::Result<u8> {
-    anyhow::ensure!(
-        args.timeout.is_finite() && args.timeout > 0.0,
-        "--timeout must be a positive number of seconds"
-    );
+    let timeout = rome_common::seconds("--timeout", args.timeout)?;
     let selector = zenoh::query::Selector::from((key.clone(), parameters.to_string()));
     let mut get = session
         .get(selector)
         .consolidation(ConsolidationMode::None)
-        .timeout(Duration::from_secs_f64(args.timeout));
+        .timeout(timeout);
     if let Some(p) = &args.payload {
         get = get.payload(p.clone()).encoding(Encoding::APPLICATION_JSON);
     }

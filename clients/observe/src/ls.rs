@@ -16,7 +16,7 @@
 use crate::echo::Rates;
 use rome_common::args::{CommonArgs, Side};
 use rome_common::exit;
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 /// Flags of `rome ls`.
 #[derive(Debug, clap::Args)]
@@ -41,13 +41,9 @@ struct Stream {
 
 /// Lists who is alive, and how often each robot device publishes.
 pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
-    anyhow::ensure!(
-        args.timeout.is_finite() && args.timeout > 0.0,
-        "--timeout must be a positive number of seconds"
-    );
+    let window = rome_common::seconds("--timeout", args.timeout)?;
     let session = common.open(Side::Client).await?;
     let root = common.root()?;
-    let window = Duration::from_secs_f64(args.timeout);
     let rates = std::sync::Arc::new(std::sync::Mutex::new(Rates::default()));
     let started = Instant::now();
     let _streams = {

@@ -22,7 +22,7 @@ use rome_common::progress::Progress;
 use std::collections::{BTreeMap, HashMap};
 use std::io::{BufWriter, Seek, Write};
 use std::path::{Path, PathBuf};
-use std::time::{Duration, SystemTime};
+use std::time::SystemTime;
 use tokio::sync::{mpsc, oneshot};
 use zenoh::bytes::Encoding;
 use zenoh::sample::{Sample, SampleKind};
@@ -56,12 +56,9 @@ pub struct Summary {
 
 /// Records until Ctrl-C or `--duration`.
 pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
-    if let Some(d) = args.duration {
-        anyhow::ensure!(
-            d.is_finite() && d > 0.0,
-            "--duration must be a positive number of seconds, got {d}"
-        );
-    }
+    let duration = (args.duration)
+        .map(|d| rome_common::seconds("--duration", d))
+        .transpose()?;
     let keys = common.keys_or_all(&args.keys)?;
     let session = common.open(Side::Client).await?;
     if !common.listen.is_empty() {
@@ -76,8 +73,8 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
         args.output.display()
     );
     let until = async {
-        match args.duration {
-            Some(d) => tokio::time::sleep(Duration::from_secs_f64(d)).await,
+        match duration {
+            Some(d) => tokio::time::sleep(d).await,
             None => std::future::pending().await,
         }
     };
