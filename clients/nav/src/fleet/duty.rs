@@ -4,9 +4,10 @@
 //! goal, drives there as [`crate::planner::run`] does, and reports how it
 //! went.
 //!
-//! A robot that arrived and is given no other task within
+//! A robot without a task (at its start, where its last task ended, or
+//! where a task stopped short) that is given none within
 //! [`DutyConfig::aside_after`] steps over to the corridor's right wall, out
-//! of the others' way ([`planner::step_aside`]).
+//! of the others' way ([`planner::step_aside`]; which wall: [`super::aside`]).
 //!
 //! A task that cannot be planned fails and the robot stays where it is.
 //! A run that fails or is cancelled midway stops the robot away from any
@@ -162,9 +163,10 @@ pub struct DutyConfig {
     /// given up as overdue: a robot that drives on without getting there
     /// has lost its way, and is never blocked.
     pub slowest_mm_s: f64,
-    /// A robot that stands where its task ended, and is given no other
-    /// task within this long, steps over to the corridor's right wall
-    /// ([`planner::step_aside`]); `None`: it stays on the middle.
+    /// A robot without a task (at its start, or where its last task
+    /// ended) that is given none within this long steps over to the
+    /// corridor's right wall ([`planner::step_aside`]); `None`: it stays on
+    /// the middle, and is registered only at its first task.
     pub aside_after: Option<Duration>,
 }
 
@@ -259,8 +261,8 @@ impl OnDuty<'_> {
         let mut facing = cfg.facing;
         let mut registered = false;
         let mut trouble = Trouble::default();
-        // How the last task ended, when it ended on its goal: the goal's
-        // direction and the walls beside it.
+        // The leg it steps aside from while it has no task: its start's,
+        // its last goal's, or the one it stopped short on.
         let mut last_leg: Option<LastLeg> = None;
         // Waiting for its first task, it would stand on the middle of the
         // corridor, where in a narrow one nobody passes it untouched: it
