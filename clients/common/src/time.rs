@@ -15,7 +15,7 @@ pub fn check_positive(flag: &str, value: f64, unit: &str) -> anyhow::Result<()> 
 
 /// The longest time a flag may give, s (some 31 years): a time added to
 /// a clock or multiplied past this overflows a `Duration`, which panics.
-const LONGEST_S: f64 = 1.0e9;
+pub const LONGEST_S: f64 = 1.0e9;
 
 /// A flag's positive number of seconds as a `Duration`, with a clear error
 /// for what is not one or is longer than some 31 years.

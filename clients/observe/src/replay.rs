@@ -110,11 +110,6 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
         "--rate must be a positive number, got {}",
         args.rate
     );
-    anyhow::ensure!(
-        args.wait_subscriber.is_finite() && args.wait_subscriber >= 0.0,
-        "--wait-subscriber must be a number of seconds, got {}",
-        args.wait_subscriber
-    );
     let messages = load(&args.file)?;
     anyhow::ensure!(
         !messages.is_empty(),
@@ -122,6 +117,7 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
         args.file.display()
     );
     let span = messages.last().map_or(0, |m| m.log_ns) - messages[0].log_ns;
+    let subscriber_within = checked(&args, span)?;
     eprintln!(
         "rome replay: {} message(s) over {:.1} s from {} at rate {}",
         messages.len(),
@@ -132,13 +128,8 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
     // It stands in for the servers that published the run: with no flags it
     // listens on port 7447 (or joins whoever has it) for viewers to reach.
     let session = common.open(Side::Server).await?;
-    if args.wait_subscriber > 0.0 {
-        wait_subscriber(
-            &session,
-            &messages[0].key,
-            Duration::from_secs_f64(args.wait_subscriber),
-        )
-        .await?;
+    if let Some(within) = subscriber_within {
+        wait_subscriber(&session, &messages[0].key, within).await?;
     }
     loop {
         play(&session, &messages, args.rate).await?;
@@ -150,6 +141,32 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
     // before the session closes.
     session.close().await.ok();
     Ok(exit::OK)
+}
+
+/// The time flags checked against a file of `span_ns`: how long to wait
+/// for a subscriber (`None`: not at all).
+fn checked(args: &Args, span_ns: u64) -> anyhow::Result<Option<Duration>> {
+    // 0 (the default) does not wait at all; any other value is a time
+    // checked as every time flag is.
+    let within = if args.wait_subscriber == 0.0 {
+        None
+    } else {
+        Some(rome_common::seconds(
+            "--wait-subscriber",
+            args.wait_subscriber,
+        )?)
+    };
+    // A slow enough rate stretches the file past what a clock can count.
+    let span_s = span_ns as f64 / 1e9;
+    let stretched = span_s / args.rate;
+    anyhow::ensure!(
+        stretched <= rome_common::time::LONGEST_S,
+        "--rate {:?} would stretch the file's {span_s:.1} s over {stretched:.3e} s, \
+         past the longest time a flag may give ({} s)",
+        args.rate,
+        rome_common::time::LONGEST_S
+    );
+    Ok(within)
 }
 
 /// Waits until a subscriber matching `key` is known.
@@ -206,4 +223,39 @@ pub async fn play(session: &Session, messages: &[Message], rate: f64) -> anyhow:
     }
     progress.finish();
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{checked, Args};
+    use std::time::Duration;
+
+    fn args(rate: f64, wait_subscriber: f64) -> Args {
+        Args {
+            file: "run.mcap".into(),
+            rate,
+            repeat: false,
+            wait_subscriber,
+        }
+    }
+
+    #[test]
+    fn time_flags_that_no_clock_could_count_are_refused_by_name() {
+        let minute = 60_000_000_000;
+        assert_eq!(checked(&args(1.0, 0.0), minute).unwrap(), None);
+        assert_eq!(
+            checked(&args(0.5, 20.0), minute).unwrap(),
+            Some(Duration::from_secs(20))
+        );
+        // Both panicked where they were turned into durations.
+        let e = checked(&args(1.0, 1e30), minute).unwrap_err().to_string();
+        assert!(e.starts_with("--wait-subscriber must be at most"), "{e}");
+        let e = checked(&args(1.0, -1.0), minute).unwrap_err().to_string();
+        assert!(e.starts_with("--wait-subscriber must be a positive"), "{e}");
+        let e = checked(&args(1e-300, 0.0), minute).unwrap_err().to_string();
+        assert!(
+            e.starts_with("--rate 1e-300 would stretch the file's 60.0 s"),
+            "{e}"
+        );
+    }
 }
