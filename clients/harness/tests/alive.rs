@@ -43,14 +43,19 @@ async fn a_navigator_held_up_on_a_sideways_step_still_says_it_is_alive() {
         .set(Var::GoalWalls, &Some(walls))
         .await
         .expect("GoalWalls");
-    // Once the robot has turned for the step, another robot stops in its
-    // way and stays there.
+    // Once the robot has turned for the step and set off on it, another
+    // robot crosses into its way and stays there. (One already there when
+    // it turned is not waited for: the step ends short of it.)
     let someone = {
         let (world, k) = (rig.world.clone(), rig.index[0]);
         tokio::spawn(async move {
+            let mut turned_at = None;
             for _ in 0..2_000 {
                 let at = world.lock().robot(k).pose;
                 if normalize_deg(at.heading.deg() - heading) > 80.0 {
+                    turned_at.get_or_insert(at.at);
+                }
+                if turned_at.is_some_and(|p| (at.at - p).norm() > 100.0) {
                     let way = direction(heading + 90.0);
                     let stop = Pose::new(
                         at.at.x + way.x * IN_THE_WAY_MM,

@@ -27,6 +27,11 @@ const STEP_ROOM_MM: f64 = 400.0;
 const STEP_CLEAR_MM: f64 = 1_500.0;
 /// Scans (10 a second) a halted sideways step waits for its way at most.
 const STEP_WAIT_SCANS: u32 = 200;
+/// How near beyond its radius a sideways step brings the body to an echo
+/// heard at rest, beside its way as well as ahead, mm. A wall the step
+/// heads for stands farther off than that at the step's end (a robot
+/// stepping aside stops [`crate::drive::ROBOT_RADIUS_MM`] + 150 mm from it).
+const STEP_SIDE_CLEARANCE_MM: f64 = 100.0;
 /// How near what lies behind a robot that backs away from a touch it
 /// may come, mm.
 const BACK_CLEARANCE_MM: f64 = 100.0;
@@ -51,6 +56,32 @@ fn step_in_the_way(now: f64, expected: f64, remaining: f64) -> bool {
     let came = now < expected - STEP_CAME_MM && now < remaining + STEP_ROOM_MM;
     let touching = now < STEP_TOUCH_MM && remaining > now;
     came || touching
+}
+
+/// How much of a sideways step of `mm` the scene at rest leaves room for
+/// (`sonar_mm`, ranges from the skin, taken facing the step's way): the
+/// body stops [`STEP_SIDE_CLEARANCE_MM`] short of every echo point it
+/// would sweep. The sonars ahead watch the step as it goes; this also
+/// counts those beside it, such as a robot that already stands aside a
+/// little way along the wall the step heads for, which the body would
+/// reach sideways, not head on.
+fn step_room(sonar_mm: &[u32], mm: f64) -> f64 {
+    let reach = ROBOT_RADIUS_MM + STEP_SIDE_CLEARANCE_MM;
+    let mut room = mm;
+    for (i, range) in sonar_mm.iter().enumerate() {
+        let range = f64::from(*range);
+        if range >= rome_schema::robot::body::SONAR_MAX_MM {
+            continue;
+        }
+        let bearing = rome_schema::robot::body::sonar_bearing_deg(i).to_radians();
+        let d = range + ROBOT_RADIUS_MM;
+        let (along, across) = (d * bearing.cos(), d * bearing.sin());
+        if along <= 0.0 || across.abs() >= reach {
+            continue;
+        }
+        room = room.min(along - (reach * reach - across * across).sqrt());
+    }
+    room.max(0.0)
 }
 
 /// How far behind the Navigator's own pose, along the goal, the
@@ -245,7 +276,14 @@ impl Navigator {
         mm: f64,
     ) -> Result<(), NavError> {
         let ahead = |s: &Scan| f64::from((10..=14).map(|i| s.sonar_mm[i]).min().unwrap_or(0));
-        let mut left = mm;
+        let mut left = step_room(&at_rest.sonar_mm, mm);
+        if left < mm {
+            tracing::info!(
+                room = left,
+                step = mm,
+                "navigator: something beside the sideways step's way; stepping only as far as it leaves room"
+            );
+        }
         let mut expected = ahead(&at_rest);
         let mut waited = 0;
         while left > OFF_LINE_MM / 3.0 {
@@ -367,7 +405,61 @@ impl Navigator {
 
 #[cfg(test)]
 mod step_tests {
-    use super::{backing_room, step_in_the_way};
+    use super::{backing_room, step_in_the_way, step_room, ROBOT_RADIUS_MM};
+    use rome_schema::robot::body::{sonar_bearing_deg, SONARS, SONAR_HALF_BEAM_DEG, SONAR_MAX_MM};
+
+    /// Ranges from the skin of a robot at the origin facing +x, to a
+    /// robot's disc at `other` (if any) and a wall across the way at
+    /// `wall_x` mm: the nearest of rays across each beam.
+    fn ranges(other: Option<(f64, f64)>, wall_x: f64) -> Vec<u32> {
+        (0..SONARS)
+            .map(|i| {
+                let mut nearest = SONAR_MAX_MM;
+                for k in -5..=5 {
+                    let b = (sonar_bearing_deg(i) + SONAR_HALF_BEAM_DEG * f64::from(k) / 5.0)
+                        .to_radians();
+                    let (dx, dy) = (b.cos(), b.sin());
+                    if dx > 0.0 {
+                        nearest = nearest.min(wall_x / dx);
+                    }
+                    if let Some((cx, cy)) = other {
+                        let t = cx * dx + cy * dy;
+                        let miss2 = cx * cx + cy * cy - t * t;
+                        let r2 = ROBOT_RADIUS_MM * ROBOT_RADIUS_MM;
+                        if t > 0.0 && miss2 < r2 {
+                            nearest = nearest.min(t - (r2 - miss2).sqrt());
+                        }
+                    }
+                }
+                (nearest - ROBOT_RADIUS_MM).clamp(0.0, SONAR_MAX_MM) as u32
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_sideways_step_stops_short_of_a_robot_standing_aside_beside_its_end() {
+        // A robot 690 mm from the aside line steps to it, 530 mm from the
+        // wall; alone, it steps the whole way.
+        let step = 690.0;
+        let wall = step + 530.0;
+        assert_eq!(step_room(&ranges(None, wall), step), step);
+        // Another stands on that line 730 mm along the wall, to either
+        // side: the whole step would bring the two 0.73 m apart, less than
+        // two radii (what happened among forty robots in corridor N).
+        for side in [730.0, -730.0] {
+            let other = (step, side);
+            let room = step_room(&ranges(Some(other), wall), step);
+            let apart = (other.0 - room).hypot(other.1);
+            assert!(
+                apart >= 2.0 * ROBOT_RADIUS_MM + 50.0,
+                "stepped {room:.0} of {step} mm, ending {apart:.0} mm from the other"
+            );
+            // It still steps, where there is room.
+            assert!(room > 150.0, "stepped only {room:.0} mm");
+        }
+        // One farther along the wall leaves the step whole.
+        assert_eq!(step_room(&ranges(Some((step, 1_500.0)), wall), step), step);
+    }
 
     #[test]
     fn backing_away_from_a_touch_stops_short_of_what_is_behind() {
