@@ -41,6 +41,21 @@ pub const KEEP_RIGHT_BEAR_DEG: f64 = 8.0;
 pub const ROBOT_RADIUS_MM: f64 = 380.0;
 /// A robot's radius with room to spare when keeping right, mm.
 pub const ROBOT_CLEARANCE_MM: f64 = ROBOT_RADIUS_MM + 300.0;
+/// A side sonar (5–7 right, 17–19 left) reading less than this has a wall
+/// or a robot nearer the skin than the ring can follow, mm: 50 mm past its
+/// shortest range ([`rome_schema::robot::body::SONAR_MIN_MM`]), below
+/// which everything reads alike, so the side walls no longer say how the
+/// robot moves along them.
+pub const SIDE_TOUCH_MM: u32 = 200;
+/// The other side's sonars must all read at least this for the robot to
+/// bear away from a near side, mm: more than a robot passing beside
+/// reads, less than the far wall of the narrowest corridor (2 m) reads
+/// from a robot 150 mm off the near one.
+pub const SIDE_TOUCH_ROOM_MM: u32 = 1_000;
+/// How fast the robot bears away from a side that near, degrees per
+/// second: at cruising speed a heading 10° into the wall is undone within
+/// half a metre, before the 150 mm to the wall are driven.
+pub const SIDE_TOUCH_JOG_DEG_S: f64 = 8.0;
 
 /// How the Navigator drives.
 #[derive(Debug, Clone, PartialEq)]
@@ -89,6 +104,11 @@ pub struct NavConfig {
     /// as before, only what is within 15° of ahead does, and a robot
     /// keeping right grazes one that stands on the middle.
     pub front_quarter_guard: bool,
+    /// Whether Center-Hallway bears away from a side nearer than
+    /// [`SIDE_TOUCH_MM`] while the other side is clear
+    /// (`hallway::side_touch`). Else, as before, a robot within the side
+    /// sonars' shortest range of a wall drives on by odometry's heading.
+    pub bear_off_near_side: bool,
     /// Whether an Enter-Corner goal keeps right for an oncoming robot,
     /// driven by Center-Hallway while it does (docs/navigation.md). Else
     /// the whole goal is the Corner state's, as the thesis has it.
@@ -120,6 +140,7 @@ impl Default for NavConfig {
             onto_line: true,
             brisk_keep_right: true,
             front_quarter_guard: true,
+            bear_off_near_side: true,
             corner_keep_right: true,
             leave_corner_keep_right: false,
         }

@@ -5,7 +5,8 @@
 use crate::drive::{
     Drive, NavConfig, FORWARD, JOG_RATE_DEG_S, KEEP_RIGHT_AHEAD_MM, KEEP_RIGHT_BEAR_DEG,
     KEEP_RIGHT_FOR_MM, KEEP_RIGHT_JOG_DEG_S, ONCOMING_CLOSING, OPEN_ENOUGH_MM, PASSING_GUARD_MM,
-    ROBOT_CLEARANCE_MM, ROBOT_RADIUS_MM, SAFE_START_MM, SONARS, SPACING,
+    ROBOT_CLEARANCE_MM, ROBOT_RADIUS_MM, SAFE_START_MM, SIDE_TOUCH_JOG_DEG_S, SIDE_TOUCH_MM,
+    SIDE_TOUCH_ROOM_MM, SONARS, SPACING,
 };
 use rome_maps::geometry::normalize_deg;
 use rome_schema::robot::Scan;
@@ -51,6 +52,27 @@ pub fn open_sonar(sonar: &[u32], heading_deg: f64, axis_deg: f64, half: i64) -> 
         }
     }
     best
+}
+
+/// Beyond the thesis: which way to bear (+1 counter-clockwise, −1
+/// clockwise) when one side's sonars read a wall or a robot nearer the
+/// skin than [`SIDE_TOUCH_MM`] and the other side is clear for
+/// [`SIDE_TOUCH_ROOM_MM`]. So near, the side sonar reads its shortest
+/// range whatever the distance, and a heading a few degrees into the wall
+/// (odometry's heading error, on a robot setting out from beside a wall)
+/// goes unseen until the touch. Something on the other side too (a
+/// doorway, or a robot passing) leaves no side to bear to.
+pub fn side_touch(sonar: &[u32]) -> Option<f64> {
+    let near = |side: [usize; 3]| side.iter().any(|&i| sonar[i] < SIDE_TOUCH_MM);
+    let clear = |side: [usize; 3]| side.iter().all(|&i| sonar[i] >= SIDE_TOUCH_ROOM_MM);
+    let (right, left) = ([5, 6, 7], [17, 18, 19]);
+    if near(right) && clear(left) {
+        Some(1.0)
+    } else if near(left) && clear(right) {
+        Some(-1.0)
+    } else {
+        None
+    }
 }
 
 fn circular(a: usize, b: usize) -> usize {
@@ -155,6 +177,9 @@ impl Hallway {
                 self.slow_until = now_ms + cfg.calm_ms;
                 return Drive::Turn(turn);
             }
+        }
+        if let Some(away) = side_touch(sonar).filter(|_| cfg.bear_off_near_side) {
+            return Drive::Jog(away * SIDE_TOUCH_JOG_DEG_S);
         }
         let room = self.walls.keep_right_mm();
         let brisk = keep_right && cfg.brisk_keep_right;

@@ -21,7 +21,8 @@ pub use crate::drive::{
     SAFE_START_MM, SONARS, SPACING,
 };
 pub use crate::hallway::{
-    bearing, corner_step, open_sonar, sonar_add, sonar_towards, Hallway, Oncoming, Walls,
+    bearing, corner_step, open_sonar, side_touch, sonar_add, sonar_towards, Hallway, Oncoming,
+    Walls,
 };
 use crate::NavError;
 use blocked::Headway;

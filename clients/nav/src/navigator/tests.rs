@@ -315,3 +315,64 @@ fn a_corner_spin_away_from_a_detection_turns_back_at_a_right_angle_to_the_goal()
     assert!(turned_back, "the spin never turned back");
     assert!(worst <= 90.0 + 8.0, "turned {worst}° off the goal");
 }
+
+/// The ring beside one wall on the right, `skin_mm` from the robot's skin
+/// and `rel_deg` (counter-clockwise) off parallel to it, nothing else in
+/// sonar range: the specular model, clamped at the shortest range.
+fn beside_a_wall_on_the_right(skin_mm: f64, rel_deg: f64) -> Vec<u32> {
+    use rome_schema::robot::body::{SONAR_MAX_INCIDENCE_DEG, SONAR_MIN_MM};
+    (0..24)
+        .map(|i| {
+            let off_square = normalize_deg(bearing(i) + rel_deg + 90.0);
+            if off_square.abs() > SONAR_MAX_INCIDENCE_DEG {
+                return 10_000;
+            }
+            let centre = skin_mm + ROBOT_RADIUS_MM;
+            let range = centre / off_square.to_radians().cos() - ROBOT_RADIUS_MM;
+            range.max(SONAR_MIN_MM).round() as u32
+        })
+        .collect()
+}
+
+#[test]
+fn a_robot_setting_out_beside_a_wall_with_its_heading_off_bears_away_before_the_touch() {
+    // A robot stood 150 mm from the wall on its right (as one stands aside
+    // between tasks) and sets out along it; odometry's heading is 4° off,
+    // into the wall. Nothing on the left is near enough for the walls to
+    // be fitted, so only the side sonars can tell: they read their
+    // shortest range all the way in.
+    let cfg = NavConfig::default();
+    let mut h = Hallway::new(0);
+    let (mut skin, mut rel, odometry_error) = (150.0_f64, -4.0_f64, 4.0);
+    let mut closest = skin;
+    let mut along = 0.0;
+    for k in 0..150u64 {
+        let s = beside_a_wall_on_the_right(skin, rel);
+        let drive = h.step(&cfg, &s, rel + odometry_error, 0.0, along, 100 * k);
+        let (turn, speed) = match drive {
+            Drive::Go(v) => (0.0, v),
+            Drive::Jog(r) => (r * 0.1, cfg.cruise_mm_s),
+            Drive::Turn(d) => (d, 0.0),
+            other => panic!("unexpected {other:?}"),
+        };
+        rel += turn;
+        let d = speed * 0.1;
+        along += d;
+        skin += d * rel.to_radians().sin();
+        closest = closest.min(skin);
+    }
+    assert!(along > 5_000.0, "drove only {along:.0} mm");
+    assert!(closest > 50.0, "came within {closest:.0} mm of the wall");
+    // Near on both sides, as in a doorway, or with a robot passing on the
+    // other side, it bears neither way.
+    for other in [150, 600] {
+        let mut s = beside_a_wall_on_the_right(150.0, 0.0);
+        s[18] = other;
+        assert_eq!(side_touch(&s), None, "other side at {other} mm");
+    }
+    assert_eq!(
+        side_touch(&beside_a_wall_on_the_right(150.0, 0.0)),
+        Some(1.0)
+    );
+    assert_eq!(side_touch(&beside_a_wall_on_the_right(400.0, 0.0)), None);
+}
