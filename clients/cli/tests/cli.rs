@@ -291,6 +291,13 @@ fn fleet_without_its_baseline_runs_only_the_sizes_asked_and_traces_them() {
     // one-robot run.
     assert_eq!(&cells[..3], ["2", "2", "2"], "{csv}");
     assert_eq!(cells[10], "", "{csv}");
+    // Where robots stood still too long, beside where they touched.
+    let stuck = std::fs::read_to_string(dir.join("stuck.csv")).unwrap();
+    assert_eq!(
+        stuck.lines().next(),
+        Some("robots,robot,since_s,still_s,x_m,y_m,task"),
+        "{stuck}"
+    );
     assert!(!dir.join("1.trace").exists());
     let trace = std::fs::read_to_string(dir.join("2.trace")).unwrap();
     let mut last = std::collections::BTreeMap::new();

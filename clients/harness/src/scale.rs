@@ -9,7 +9,7 @@
 //! as they get in each other's way or wait for work.
 
 use crate::routes::{pick_doors, pick_routes};
-use crate::tasks::{run_tasks, ContactAt, TaskEvent, TaskRun};
+use crate::tasks::{run_tasks, ContactAt, StillAt, TaskEvent, TaskRun};
 use crate::RunConfig;
 use rome_maps::Map;
 use rome_nav::fleet::schema::{TaskSpec, TaskState};
@@ -92,6 +92,9 @@ pub struct ScaleRow {
     pub data_p99_ms: f64,
     /// Where each contact began.
     pub contact_places: Vec<ContactAt>,
+    /// The robots counted in [`ScaleRow::stuck`], each where it stood
+    /// longest, by name.
+    pub stuck_places: Vec<(String, StillAt)>,
 }
 
 /// What a sweep tells whoever watches.
@@ -185,6 +188,9 @@ pub async fn sweep(
         let one = rows.iter().find(|r| r.robots == 1).map(|r| r.throughput_h);
         let load = rome_client::load::DATA.snapshot().since(&load);
         let ms = |q: f64| load.quantile(q).map_or(0.0, |d| d.as_secs_f64() * 1e3);
+        let stuck_places: Vec<(String, StillAt)> = (r.longest_still_at.clone().into_iter())
+            .filter(|(_, at)| at.still_s > cfg.stuck.as_secs_f64())
+            .collect();
         let row = ScaleRow {
             robots: n,
             tasks: cfg.tasks,
@@ -205,17 +211,14 @@ pub async fn sweep(
                 .map(|t| throughput_h / (n as f64 * t)),
             wall_contacts: r.contacts.values().map(|c| c.wall).sum(),
             robot_contacts: r.contacts.values().map(|c| c.robot).sum(),
-            stuck: r
-                .longest_still_s
-                .values()
-                .filter(|s| **s > cfg.stuck.as_secs_f64())
-                .count(),
+            stuck: stuck_places.len(),
             wall_s: r.wall.as_secs_f64(),
             data_requests: load.requests,
             data_per_s: load.requests as f64 / r.wall.as_secs_f64().max(1e-3),
             data_p50_ms: ms(0.5),
             data_p99_ms: ms(0.99),
             contact_places: r.contact_places,
+            stuck_places,
         };
         progress(ScaleEvent::End(&row));
         rows.push(row);
@@ -336,6 +339,29 @@ pub fn svg(rows: &[ScaleRow], title: &str) -> String {
     }
     s.push_str("</svg>\n");
     s
+}
+
+/// The header of stuck.csv.
+pub const STUCK_HEADER: &str = "robots,robot,since_s,still_s,x_m,y_m,task";
+
+/// Each robot counted as stuck in a run, where it stood longest, as lines
+/// of stuck.csv.
+pub fn stuck_lines(row: &ScaleRow) -> String {
+    let mut out = String::new();
+    for (robot, at) in &row.stuck_places {
+        let _ = writeln!(
+            out,
+            "{},{},{:.0},{:.0},{:.2},{:.2},{}",
+            row.robots,
+            robot,
+            at.since_s,
+            at.still_s,
+            at.x_mm / 1000.0,
+            at.y_mm / 1000.0,
+            at.task.as_deref().unwrap_or("")
+        );
+    }
+    out
 }
 
 /// The header of contacts.csv.

@@ -61,6 +61,9 @@ pub struct TaskReport {
     /// Each robot's longest time standing still (moved under half a metre)
     /// while it had a task, simulated s.
     pub longest_still_s: BTreeMap<String, f64>,
+    /// Where and when each robot's longest time standing still with a
+    /// task began (robots that never stood still with one are left out).
+    pub longest_still_at: BTreeMap<String, StillAt>,
     /// Each task's time spent waiting its turn for junctions and passages
     /// on the way, simulated s, by task id.
     pub traffic_wait_s: BTreeMap<String, f64>,
@@ -87,6 +90,22 @@ pub struct ContactAt {
     /// Another robot (`true`) or a wall.
     pub with_robot: bool,
     /// The task it was doing, if any.
+    pub task: Option<String>,
+}
+
+/// A robot's longest time standing still with a task: the robot's ground
+/// truth once it had stood there longest.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StillAt {
+    /// Simulated time since the start when it began to stand, s.
+    pub since_s: f64,
+    /// How long it stood, s.
+    pub still_s: f64,
+    /// Where it stood, mm.
+    pub x_mm: f64,
+    /// Where it stood, mm.
+    pub y_mm: f64,
+    /// The task it had.
     pub task: Option<String>,
 }
 
@@ -316,6 +335,7 @@ async fn run_all(
     let t0 = rig.world.lock().time_ms();
     let mut still: Vec<(u64, f64)> = vec![(t0, 0.0); names.len()];
     let mut longest = vec![0.0f64; names.len()];
+    let mut longest_at: Vec<Option<StillAt>> = vec![None; names.len()];
     // Each robot's task and since when it waits its turn, if it does.
     let mut doing: Vec<Option<String>> = vec![None; names.len()];
     let mut waits_since: Vec<Option<u64>> = vec![None; names.len()];
@@ -418,7 +438,17 @@ async fn run_all(
                     if !busy[k] || waits_since[k].is_some() || moved - still[k].1 >= 500.0 {
                         still[k] = (now, moved);
                     }
-                    longest[k] = longest[k].max((now - still[k].0) as f64 / 1000.0);
+                    let held = (now - still[k].0) as f64 / 1000.0;
+                    if held > longest[k] {
+                        longest[k] = held;
+                        longest_at[k] = Some(StillAt {
+                            since_s: (still[k].0 - t0) as f64 / 1000.0,
+                            still_s: held,
+                            x_mm: at.x,
+                            y_mm: at.y,
+                            task: doing[k].clone(),
+                        });
+                    }
                 }
             }
         }
@@ -437,12 +467,16 @@ async fn run_all(
         at_end.insert(name.clone(), (t.x_mm, t.y_mm));
     }
     let longest_still_s = names.iter().cloned().zip(longest).collect();
+    let longest_still_at = (names.iter().cloned().zip(longest_at))
+        .filter_map(|(name, at)| Some((name, at?)))
+        .collect();
     rig.stop().await;
     Ok(TaskReport {
         statuses: statuses.into_values().collect(),
         contacts,
         at_end,
         longest_still_s,
+        longest_still_at,
         traffic_wait_s,
         contact_places,
         sim_s,

@@ -278,6 +278,20 @@ async fn a_robot_blocked_twice_in_one_place_rests_gets_clear_and_takes_tasks_aga
         assert_eq!(t.state, TaskState::Failed, "{t:?}");
         assert!(t.why.iter().any(|w| w.contains("blocked at (")), "{t:?}");
     }
+    // Where it stood longest with a task: before the people, on T1 or T2.
+    let still = &r.longest_still_at["r1"];
+    assert_eq!(still.still_s, r.longest_still_s["r1"], "{still:?}");
+    assert!(still.still_s > 10.0, "{still:?}");
+    let stood = rome_maps::geometry::Point::new(still.x_mm, still.y_mm);
+    let from_people = rome_maps::geometry::distance(stood, middle);
+    assert!(
+        from_people < 2_500.0,
+        "{from_people:.0} mm from them: {still:?}"
+    );
+    assert!(
+        matches!(still.task.as_deref(), Some("T1" | "T2")),
+        "{still:?}"
+    );
     let t3 = status(&r, "T3");
     assert_eq!(t3.state, TaskState::Done, "{t3:?}");
     assert_eq!(t3.tried, vec!["r1".to_string()], "{t3:?}");

@@ -43,8 +43,9 @@ pub struct Args {
     /// Give a run up after this many simulated minutes.
     #[arg(long, default_value_t = 1440.0)]
     limit_min: f64,
-    /// Directory for fleet.csv, fleet.svg and contacts.csv (where and when
-    /// each contact began).
+    /// Directory for fleet.csv, fleet.svg, contacts.csv (where and when
+    /// each contact began) and stuck.csv (where each robot counted as
+    /// stuck stood longest).
     #[arg(long, short = 'o', default_value = "fleet")]
     out: PathBuf,
     /// Also write each run's ground truth at every instant to OUT/N.trace
@@ -131,25 +132,30 @@ pub async fn run(args: Args) -> anyhow::Result<u8> {
         }
     })
     .await?;
-    let mut csv = format!("{}\n", scale::HEADER);
-    for r in &rows {
-        csv.push_str(&scale::csv_line(r));
-        csv.push('\n');
-    }
-    let mut places = format!("{}\n", scale::CONTACTS_HEADER);
-    for r in &rows {
-        places.push_str(&scale::contact_lines(r));
-    }
-    let places_path = args.out.join("contacts.csv");
-    std::fs::write(&places_path, places)
-        .with_context(|| format!("cannot write {}", places_path.display()))?;
-    let csv_path = args.out.join("fleet.csv");
-    std::fs::write(&csv_path, csv)
-        .with_context(|| format!("cannot write {}", csv_path.display()))?;
+    // Each file: its header, then every run's lines.
+    let table = |header: &str, lines: &dyn Fn(&scale::ScaleRow) -> String| {
+        let mut out = format!("{header}\n");
+        for r in &rows {
+            out.push_str(&lines(r));
+        }
+        out
+    };
+    let write = |name: &str, text: String| {
+        let path = args.out.join(name);
+        std::fs::write(&path, text).with_context(|| format!("cannot write {}", path.display()))?;
+        anyhow::Ok(path)
+    };
+    write(
+        "contacts.csv",
+        table(scale::CONTACTS_HEADER, &scale::contact_lines),
+    )?;
+    write("stuck.csv", table(scale::STUCK_HEADER, &scale::stuck_lines))?;
+    let csv_path = write(
+        "fleet.csv",
+        table(scale::HEADER, &|r| format!("{}\n", scale::csv_line(r))),
+    )?;
     let title = format!("{} tasks on {}, seed {}", cfg.tasks, args.map, cfg.seed);
-    let svg_path = args.out.join("fleet.svg");
-    std::fs::write(&svg_path, scale::svg(&rows, &title))
-        .with_context(|| format!("cannot write {}", svg_path.display()))?;
+    let svg_path = write("fleet.svg", scale::svg(&rows, &title))?;
     println!("wrote {} and {}", csv_path.display(), svg_path.display());
     Ok(if rows.iter().all(|r| r.done == r.tasks) {
         crate::exit::OK
