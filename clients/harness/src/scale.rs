@@ -188,7 +188,7 @@ pub async fn sweep(
         let one = rows.iter().find(|r| r.robots == 1).map(|r| r.throughput_h);
         let load = rome_client::load::DATA.snapshot().since(&load);
         let ms = |q: f64| load.quantile(q).map_or(0.0, |d| d.as_secs_f64() * 1e3);
-        let stuck_places: Vec<(String, StillAt)> = (r.longest_still_at.clone().into_iter())
+        let stuck_places: Vec<(String, StillAt)> = (r.longest_still_at.into_iter())
             .filter(|(_, at)| at.still_s > cfg.stuck.as_secs_f64())
             .collect();
         let row = ScaleRow {

@@ -334,7 +334,6 @@ async fn run_all(
     let mut busy = vec![false; names.len()];
     let t0 = rig.world.lock().time_ms();
     let mut still: Vec<(u64, f64)> = vec![(t0, 0.0); names.len()];
-    let mut longest = vec![0.0f64; names.len()];
     let mut longest_at: Vec<Option<StillAt>> = vec![None; names.len()];
     // Each robot's task and since when it waits its turn, if it does.
     let mut doing: Vec<Option<String>> = vec![None; names.len()];
@@ -439,8 +438,7 @@ async fn run_all(
                         still[k] = (now, moved);
                     }
                     let held = (now - still[k].0) as f64 / 1000.0;
-                    if held > longest[k] {
-                        longest[k] = held;
+                    if held > longest_at[k].as_ref().map_or(0.0, |a| a.still_s) {
                         longest_at[k] = Some(StillAt {
                             since_s: (still[k].0 - t0) as f64 / 1000.0,
                             still_s: held,
@@ -466,7 +464,9 @@ async fn run_all(
         contacts.insert(name.clone(), t.contacts);
         at_end.insert(name.clone(), (t.x_mm, t.y_mm));
     }
-    let longest_still_s = names.iter().cloned().zip(longest).collect();
+    let longest_still_s = (names.iter().cloned().zip(&longest_at))
+        .map(|(name, at)| (name, at.as_ref().map_or(0.0, |a| a.still_s)))
+        .collect();
     let longest_still_at = (names.iter().cloned().zip(longest_at))
         .filter_map(|(name, at)| Some((name, at?)))
         .collect();
