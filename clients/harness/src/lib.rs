@@ -120,6 +120,10 @@ pub struct RunConfig {
     /// (`rome_nav::traffic::lanes`). Off by default: ten robots on EB3
     /// did fewer tasks and touched more with it (docs/traffic.md).
     pub lanes: bool,
+    /// A robot without a task in a junction drives on into a corridor
+    /// before it steps aside (`rome_nav::fleet::duty::DutyConfig::leave_open`).
+    /// Off by default, as there.
+    pub leave_open: bool,
     /// The narrow corridors that lie on loops are driven one way only,
     /// and routes keep to their way (`rome_nav::traffic::oneway`).
     pub one_way: bool,
@@ -181,6 +185,7 @@ impl RunConfig {
             people: 0,
             traffic: false,
             lanes: false,
+            leave_open: false,
             one_way: false,
             net: NetOptions::isolated(),
             trace: None,

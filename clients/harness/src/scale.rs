@@ -32,6 +32,8 @@ pub struct ScaleConfig {
     pub traffic: bool,
     /// Drive narrow corridors one way at a time.
     pub lanes: bool,
+    /// Robots without a task drive out of junctions before they step aside.
+    pub leave_open: bool,
     /// Drive the narrow corridors of loops one way only.
     pub one_way: bool,
     /// Add the tasks one this much simulated time after another, as a
@@ -143,6 +145,7 @@ pub async fn sweep(
         run.limit = cfg.limit;
         run.traffic = cfg.traffic;
         run.lanes = cfg.lanes;
+        run.leave_open = cfg.leave_open;
         run.one_way = cfg.one_way;
         run.trace = cfg.traces.as_ref().map(|d| d.join(format!("{n}.trace")));
         // The plate finder reads camera images that no task needs.

@@ -244,6 +244,7 @@ async fn run_all(
         duty.facing = Some(0.0);
         duty.traffic = run.traffic;
         duty.lanes = run.lanes;
+        duty.leave_open = run.leave_open;
         duty.stuck = run.stuck;
         duty.slowest_mm_s = run.slowest_mm_s;
         let (name, etx) = (r.robot.clone(), etx.clone());

@@ -193,6 +193,43 @@ async fn a_robot_between_tasks_steps_aside_and_another_passes_it_in_a_narrow_cor
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_robot_that_ended_its_task_in_a_junction_drives_out_of_it_and_steps_aside() {
+    // A392R lies in the T-junction at corridor N's foot (x = 60 m), where
+    // N, one way south, meets P (y = 6.5 m): no walls beside it to step
+    // aside to. r1 drives straight down N and ends its task there, facing
+    // P's south wall; r2 comes the long way round, down N to A342R.
+    let r = run_with(
+        &[("r1", "A342R"), ("r2", "309R")],
+        pinned(&[("T1", "A392R", "r1"), ("T2", "A342R", "r2")]),
+        None,
+        |t| {
+            t.run.one_way = true;
+            t.run.leave_open = true;
+        },
+    )
+    .await;
+    all_done(&r, &["T1", "T2"]);
+    // By ground truth, r1 left the junction (N's walls at x = 58.78 and
+    // 61.22 m, and its body's radius) and stands by one of P's walls.
+    let (x, y) = r.at_end["r1"];
+    assert!(
+        (x - 60_000.0).abs() > 1_220.0 + 380.0,
+        "r1 stands at ({:.2}, {:.2}) m, in the junction",
+        x / 1000.0,
+        y / 1000.0
+    );
+    assert!(
+        (y - 6_500.0).abs() > 500.0,
+        "r1 stands at ({:.2}, {:.2}) m, on P's middle",
+        x / 1000.0,
+        y / 1000.0
+    );
+    for (robot, c) in &r.contacts {
+        assert_eq!((c.wall, c.robot), (0, 0), "{robot} touched: {c:?}");
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_robot_waiting_for_its_first_task_steps_aside_and_another_passes_it() {
     // r1 starts at A336L in corridor N and is given nothing; r2 comes the
     // long way round and passes it on its way to A342R. Left on the

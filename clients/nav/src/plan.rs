@@ -562,7 +562,7 @@ fn leg_steps(steps: &[Step], subpath: usize) -> (usize, usize) {
 
 /// How far a ray from `at` along `heading_deg` goes before it meets a
 /// solid edge (not an opening), mm; `None` beyond `max_mm`.
-fn ray(world: &World, at: Point, heading_deg: f64, max_mm: f64) -> Option<f64> {
+pub(crate) fn ray(world: &World, at: Point, heading_deg: f64, max_mm: f64) -> Option<f64> {
     let d = direction(heading_deg);
     world
         .segments

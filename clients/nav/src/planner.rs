@@ -304,6 +304,31 @@ pub async fn step_aside(
     Ok(failed(board).await)
 }
 
+/// Drives a robot that stands with no walls beside it (a junction, a
+/// corridor's mouth) `distance_mm` along `direction_deg` into the corridor
+/// there, on its middle line (`walls` = (left, right) mm from that line
+/// where it ends), so that it can step aside there ([`step_aside`]). `Some`
+/// says why the Navigator ended the goal instead.
+pub async fn step_out(
+    board: &Board,
+    direction_deg: f64,
+    distance_mm: f64,
+    (left, right): (f64, f64),
+) -> Result<Option<String>, NavError> {
+    board.set(Var::GoalLane, &None::<i64>).await?;
+    let walls = (left.round() as i64, right.round() as i64);
+    board.set(Var::GoalWalls, &Some(walls)).await?;
+    board
+        .give_goal(&Goal {
+            goal_type: GoalType::D,
+            distance: distance_mm.round() as i64,
+            direction_deg,
+        })
+        .await?;
+    await_status(board).await?;
+    Ok(failed(board).await)
+}
+
 /// Waits on `$RobotStatus`: the Navigator is done with the goal. The
 /// Navigator writes its Status every second of robot time while it works
 /// on a goal: silence means it died with the goal.

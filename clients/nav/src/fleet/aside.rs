@@ -2,7 +2,9 @@
 //! corridor it stands in, not on its middle, where in a 2.44 m corridor no
 //! other robot passes it untouched. The robot steps there with
 //! [`crate::planner::step_aside`]; this module says from which leg: the
-//! direction it steps along and the walls beside it.
+//! direction it steps along and the walls beside it. A robot that stands
+//! where no walls are beside it (a junction) first drives on into a
+//! corridor ([`way_out`], [`crate::planner::step_out`]).
 
 use rome_maps::geometry::Point;
 use rome_maps::{Network, World};
@@ -55,6 +57,115 @@ pub fn leg_at(
     let walls =
         crate::plan::walls_beside(world, p - along(direction), p + along(direction), direction)?;
     Some((direction, walls))
+}
+
+/// The axis of the corridor at `p`, degrees (either way): the wall of the
+/// nearest position of the map within 3 m. A robot's odometry heading is no
+/// measure of it where it stopped in a turn or swerved round someone.
+/// `None`: no position that near.
+pub fn corridor_axis(world: &World, p: Point) -> Option<f64> {
+    world
+        .positions
+        .values()
+        .map(|q| (rome_maps::geometry::distance(q.in_corridor(), p), q))
+        .filter(|(d, _)| *d <= 3_000.0)
+        .min_by(|a, b| a.0.total_cmp(&b.0))
+        .map(|(_, q)| q.wall_heading_deg)
+}
+
+/// Where a robot that stands with no walls beside it (in a junction, at a
+/// corridor's mouth) drives before it steps aside: along or across the
+/// corridor it stands in, to the first point, in steps of [`OUT_STEP_MM`],
+/// that lies between a corridor's walls and is not reached against one-way
+/// traffic.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WayOut {
+    /// Which way it drives, degrees.
+    pub direction_deg: f64,
+    /// How far, mm.
+    pub distance_mm: f64,
+    /// The walls (left, right) beside its line there, mm.
+    pub walls: (f64, f64),
+}
+
+/// The steps in which a way out is looked for, mm.
+pub const OUT_STEP_MM: f64 = 500.0;
+
+/// How far along its way the walls must stand beside a robot's middle, mm,
+/// either way, once it is out: its radius and 0.3 m, as its odometry may
+/// be off by that.
+pub const OUT_BODY_MM: f64 = crate::drive::ROBOT_RADIUS_MM + 300.0;
+
+/// How far a way out may lead, mm: further, it is no step but a drive
+/// across the building, and the robot stays where it is.
+pub const OUT_MAX_MM: f64 = 6_000.0;
+
+/// The way out of the open for a robot at `p`, in a corridor along
+/// `axis_deg` (either way), facing `facing_deg` ([`WayOut`]). A robot that
+/// ended its task in a junction stands where every robot turning there
+/// drives, with no wall to step aside to: it drives on into a corridor
+/// first. The ways tried are along the axis and across it, the least
+/// turning first. `None`: walls stand beside it already, or none within
+/// [`OUT_MAX_MM`] along a way free of walls.
+pub fn way_out(
+    world: &World,
+    network: &Network,
+    p: Point,
+    axis_deg: f64,
+    facing_deg: f64,
+) -> Option<WayOut> {
+    use rome_maps::geometry::normalize_deg;
+    if leg_at(world, network, p, axis_deg, facing_deg).is_some() {
+        return None;
+    }
+    // Ahead first, then right (a turn to the right is negative), left, back.
+    let mut ways = [0.0, 90.0, 180.0, 270.0].map(|a| normalize_deg(axis_deg + a));
+    ways.sort_by(|a, b| {
+        let (ta, tb) = (normalize_deg(a - facing_deg), normalize_deg(b - facing_deg));
+        (ta.abs().round().total_cmp(&tb.abs().round())).then(ta.total_cmp(&tb))
+    });
+    let steps = (OUT_MAX_MM / OUT_STEP_MM) as usize;
+    ways.into_iter().find_map(|direction_deg| {
+        let along = rome_maps::geometry::direction(direction_deg);
+        // The body's front edge must not reach a wall on the way.
+        let free = crate::plan::ray(world, p, direction_deg, OUT_MAX_MM + 1_000.0)
+            .map_or(f64::INFINITY, |d| d - crate::drive::ROBOT_RADIUS_MM - 100.0);
+        (2..=steps)
+            .map(|k| k as f64 * OUT_STEP_MM)
+            .take_while(|&d| d <= free)
+            .find_map(|distance_mm| {
+                let q = p + along * distance_mm;
+                if network.against(p, q) {
+                    return None;
+                }
+                // Walls beside the whole body, with room to spare: a robot
+                // half in a corridor's mouth still stands in the way of
+                // those that turn there.
+                let beside = |k: f64| {
+                    let at = q + along * k;
+                    [90.0, -90.0].iter().all(|side| {
+                        crate::plan::ray(world, at, direction_deg + side, 5_000.0).is_some()
+                    })
+                };
+                if ![-OUT_BODY_MM, 0.0, OUT_BODY_MM].into_iter().all(beside) {
+                    return None;
+                }
+                let (_, walls) = leg_at(world, network, q, direction_deg, direction_deg)?;
+                // Room to pass it once it stands aside.
+                (walls.0 + walls.1 > 2_000.0).then_some(())?;
+                let walls = crate::plan::walls_beside(
+                    world,
+                    q - along * 1_000.0,
+                    q + along * 1_000.0,
+                    direction_deg,
+                )?;
+                Some(WayOut {
+                    direction_deg,
+                    distance_mm,
+                    walls,
+                })
+            })
+    })
 }
 
 #[cfg(test)]
@@ -117,5 +228,52 @@ mod tests {
                 "{left:.0} + {right:.0}"
             );
         }
+    }
+
+    #[test]
+    fn a_robot_that_ended_in_a_junction_drives_on_into_the_corridor_before_it_steps_aside() {
+        let (world, network) = eb3();
+        let network = crate::traffic::oneway::with_one_way(&world, network);
+        let mut out = Vec::new();
+        for (name, position) in &world.positions {
+            let way = position.wall_heading_deg;
+            let p = position.in_corridor();
+            for facing in [way, way + 180.0] {
+                if start_leg(&world, &network, name, facing).is_some() {
+                    assert_eq!(way_out(&world, &network, p, way, facing), None, "{name}");
+                    continue;
+                }
+                let Some(w) = way_out(&world, &network, p, way, facing) else {
+                    continue;
+                };
+                let d = w.direction_deg;
+                assert!(w.distance_mm <= OUT_MAX_MM, "{name}: {w:?}");
+                let q = p + rome_maps::geometry::direction(d) * w.distance_mm;
+                assert!(!network.against(p, q), "{name}: {w:?} against");
+                assert!(leg_at(&world, &network, q, d, d).is_some(), "{name}: {w:?}");
+                out.push(name.as_str());
+            }
+        }
+        // A392's jambs lie in the T-junction at corridor N's foot, where
+        // every robot coming down N turns: one way out, east along P.
+        for name in ["A392R", "A392L"] {
+            assert_eq!(out.iter().filter(|&&n| n == name).count(), 2, "{out:?}");
+        }
+        // Come straight down N (one way south), it faces P's south wall,
+        // and N is behind it: it turns into P.
+        let a392r = world.position("A392R").expect("A392R");
+        let (p, way) = (a392r.in_corridor(), a392r.wall_heading_deg);
+        let w = way_out(&world, &network, p, way, 180.0).expect("a way out");
+        assert_eq!(w.direction_deg.abs().round(), 90.0, "{w:?}");
+        assert!(w.distance_mm <= 2_000.0, "{w:?}");
+        assert!((w.walls.0 + w.walls.1 - 2_440.0).abs() < 50.0, "{w:?}");
+        // Stopped short of A392L in a turn, its heading 143°, a robot is in
+        // P (east-west), not across it; in N (north-south) likewise.
+        let axis = |x: f64, y: f64| {
+            let a = corridor_axis(&world, Point::new(x, y)).expect("a position near");
+            rome_maps::geometry::normalize_deg(a).abs().round()
+        };
+        assert_eq!(axis(58_360.0, 6_560.0), 90.0);
+        assert_eq!(axis(60_100.0, 30_000.0) % 180.0, 0.0);
     }
 }

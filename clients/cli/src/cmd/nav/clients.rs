@@ -47,7 +47,7 @@ pub struct PlannerArgs {
     /// between floors rides an elevator (§5.4.6), which the robot's
     /// Navigator operates through the elevator's server (`rome sim
     /// --building`).
-    #[arg(long, value_name = "BUILDING", conflicts_with_all = ["map", "tasks", "via", "traffic", "lanes", "one_way"])]
+    #[arg(long, value_name = "BUILDING", conflicts_with_all = ["map", "tasks", "via", "traffic", "lanes", "one_way", "leave_junctions"])]
     building: Option<String>,
     /// Start: a door jamb like 350R; the robot is registered there.
     #[arg(long)]
@@ -242,6 +242,7 @@ pub async fn planner(common: &CommonArgs, args: PlannerArgs) -> anyhow::Result<u
             heading: args.heading,
             traffic: args.rules.traffic,
             lanes: args.rules.lanes,
+            leave_open: args.rules.leave_junctions,
         };
         return super::fleet::take_tasks(common, duty).await;
     };

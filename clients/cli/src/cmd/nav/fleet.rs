@@ -302,6 +302,8 @@ pub struct Duty {
     pub traffic: bool,
     /// Drive narrow corridors one way at a time.
     pub lanes: bool,
+    /// Drive out of junctions before stepping aside.
+    pub leave_open: bool,
 }
 
 /// `rome planner --tasks`: takes tasks until interrupted.
@@ -327,6 +329,7 @@ pub async fn take_tasks(common: &CommonArgs, d: Duty) -> anyhow::Result<u8> {
     cfg.facing = d.heading;
     cfg.traffic = d.traffic;
     cfg.lanes = d.lanes;
+    cfg.leave_open = d.leave_open;
     println!("{} takes tasks at {}", d.name, d.at);
     on.serve(&cfg, |n| match n {
         DutyNote::Took(a, plan) => println!(

@@ -83,6 +83,7 @@ pub async fn run(args: Args) -> anyhow::Result<u8> {
         seed: args.seed,
         traffic: args.rules.traffic,
         lanes: args.rules.lanes,
+        leave_open: args.rules.leave_junctions,
         one_way: args.rules.one_way,
         every,
         limit,

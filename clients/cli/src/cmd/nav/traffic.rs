@@ -20,4 +20,9 @@ pub struct TrafficArgs {
     /// and its dispatcher must agree on it.
     #[arg(long)]
     pub one_way: bool,
+    /// With tasks: a robot waiting for one where no walls stand beside it (a task's
+    /// goal in a junction) drives on into a corridor before it steps aside
+    /// (not yet better in fleets).
+    #[arg(long)]
+    pub leave_junctions: bool,
 }
