@@ -287,21 +287,8 @@ pub async fn step_aside(
     if right <= ASIDE_FROM_WALL_MM {
         return Ok(None);
     }
-    let walls = (
-        (left + right - ASIDE_FROM_WALL_MM).round() as i64,
-        ASIDE_FROM_WALL_MM.round() as i64,
-    );
-    board.set(Var::GoalLane, &None::<i64>).await?;
-    board.set(Var::GoalWalls, &Some(walls)).await?;
-    board
-        .give_goal(&Goal {
-            goal_type: GoalType::D,
-            distance: 1,
-            direction_deg,
-        })
-        .await?;
-    await_status(board).await?;
-    Ok(failed(board).await)
+    let walls = (left + right - ASIDE_FROM_WALL_MM, ASIDE_FROM_WALL_MM);
+    d_goal_on_line(board, direction_deg, 1.0, walls).await
 }
 
 /// Drives a robot that stands with no walls beside it (a junction, a
@@ -310,6 +297,19 @@ pub async fn step_aside(
 /// where it ends), so that it can step aside there ([`step_aside`]). `Some`
 /// says why the Navigator ended the goal instead.
 pub async fn step_out(
+    board: &Board,
+    direction_deg: f64,
+    distance_mm: f64,
+    walls: (f64, f64),
+) -> Result<Option<String>, NavError> {
+    d_goal_on_line(board, direction_deg, distance_mm, walls).await
+}
+
+/// Hands the Navigator a D goal of `distance_mm` along `direction_deg`
+/// whose line lies `(left, right)` mm from the walls (`GoalWalls`, no
+/// lane), and waits for it to end: `Some` says why the Navigator ended it
+/// short.
+async fn d_goal_on_line(
     board: &Board,
     direction_deg: f64,
     distance_mm: f64,

@@ -255,7 +255,7 @@ mod tests {
             }
         }
         // A392's jambs lie in the T-junction at corridor N's foot, where
-        // every robot coming down N turns: one way out, east along P.
+        // every robot coming down N turns: a way out from either facing.
         for name in ["A392R", "A392L"] {
             assert_eq!(out.iter().filter(|&&n| n == name).count(), 2, "{out:?}");
         }
