@@ -90,7 +90,7 @@ impl LockStep {
                 parts: Mutex::new(Vec::new()),
                 next_part: AtomicU64::new(0),
                 turn: Mutex::new(Turn::default()),
-                subs: Mutex::new(BTreeMap::new()),
+                subs: Mutex::new(Subs::default()),
                 next_sub: AtomicU64::new(0),
                 externals: Mutex::new(Vec::new()),
                 activity: AtomicU64::new(0),
@@ -231,7 +231,7 @@ impl LockStep {
     /// not yet received.
     pub fn in_flight(&self) -> usize {
         locked(&self.sched.subs)
-            .values()
+            .all()
             .map(|e| e.pending.load(Ordering::Acquire))
             .sum()
     }
@@ -239,7 +239,7 @@ impl LockStep {
     /// Gives up on every message in flight (a publication dropped on the
     /// way): the clock no longer waits for them. Returns how many.
     pub fn forget_in_flight(&self) -> usize {
-        let entries: Vec<Arc<SubEntry>> = locked(&self.sched.subs).values().cloned().collect();
+        let entries: Vec<Arc<SubEntry>> = locked(&self.sched.subs).all().cloned().collect();
         let mut n = 0;
         for e in entries {
             while e.take_one() {

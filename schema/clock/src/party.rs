@@ -221,8 +221,8 @@ pub fn subscribed(matches: impl Fn(&str) -> bool + Send + Sync + 'static) -> Opt
 pub fn sending(key: &str) {
     let Some(part) = current() else { return };
     let sched = &part.sched;
-    let subs = locked(&sched.subs);
-    for e in subs.values().filter(|e| (e.matches)(key)) {
+    let mut subs = locked(&sched.subs);
+    for e in subs.matching(key) {
         sched.busy.fetch_add(1, Ordering::AcqRel);
         e.pending.fetch_add(1, Ordering::AcqRel);
     }
@@ -239,7 +239,7 @@ impl Inbound {
 
 impl Drop for Inbound {
     fn drop(&mut self) {
-        locked(&self.sched.subs).remove(&self.id);
+        locked(&self.sched.subs).remove(self.id);
         while self.entry.take_one() {
             self.sched.release();
         }

@@ -6,7 +6,7 @@
 pub(crate) mod rounds;
 
 use std::cell::RefCell;
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashMap};
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard, Weak};
 use std::task::Waker;
@@ -21,7 +21,7 @@ pub(crate) struct Sched {
     pub(crate) next_part: AtomicU64,
     pub(crate) turn: Mutex<Turn>,
     /// Participants' subscriptions, for counting messages in flight.
-    pub(crate) subs: Mutex<BTreeMap<u64, Arc<SubEntry>>>,
+    pub(crate) subs: Mutex<Subs>,
     pub(crate) next_sub: AtomicU64,
     /// Parties in other processes, busy until they say they are done.
     pub(crate) externals: Mutex<Vec<Weak<ExternalState>>>,
@@ -31,6 +31,63 @@ pub(crate) struct Sched {
     /// Rounds of a run split into processes, and the holds that wait on
     /// them.
     pub(crate) rounds: Mutex<rounds::Rounds>,
+}
+
+/// The subscriptions the clock counts messages for, with the ones each
+/// key published on matches. A fleet's participants publish on a few
+/// hundred keys over and over while thousands of subscriptions stand, so
+/// matching every subscription at every publication would cost more than
+/// the rest of the clock: a key's matches are worked out once and kept up
+/// to date as subscriptions come and go.
+#[derive(Default)]
+pub(crate) struct Subs {
+    all: BTreeMap<u64, Arc<SubEntry>>,
+    by_key: HashMap<String, Vec<Arc<SubEntry>>>,
+}
+
+/// Keys whose matches are kept at most; past it the memo starts again, so
+/// keys made up once each (a reply's, say) cannot grow it without bound.
+const KEYS_KEPT: usize = 4096;
+
+impl Subs {
+    pub(crate) fn insert(&mut self, id: u64, entry: Arc<SubEntry>) {
+        for (key, hits) in &mut self.by_key {
+            if (entry.matches)(key) {
+                hits.push(entry.clone());
+            }
+        }
+        self.all.insert(id, entry);
+    }
+
+    pub(crate) fn remove(&mut self, id: u64) {
+        if let Some(gone) = self.all.remove(&id) {
+            for hits in self.by_key.values_mut() {
+                hits.retain(|e| !Arc::ptr_eq(e, &gone));
+            }
+        }
+    }
+
+    /// Every subscription, in the order they were made.
+    pub(crate) fn all(&self) -> impl Iterator<Item = &Arc<SubEntry>> {
+        self.all.values()
+    }
+
+    /// The subscriptions a message on `key` goes to.
+    pub(crate) fn matching(&mut self, key: &str) -> &[Arc<SubEntry>] {
+        if !self.by_key.contains_key(key) {
+            if self.by_key.len() >= KEYS_KEPT {
+                self.by_key.clear();
+            }
+            let hits = self
+                .all
+                .values()
+                .filter(|e| (e.matches)(key))
+                .cloned()
+                .collect();
+            self.by_key.insert(key.to_owned(), hits);
+        }
+        &self.by_key[key]
+    }
 }
 
 /// A subscription the clock counts messages for.

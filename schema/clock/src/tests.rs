@@ -493,3 +493,29 @@ async fn outside_a_participant_time_is_tokios() {
     sleep(Duration::from_millis(20)).await;
     assert!(t.elapsed() >= Duration::from_millis(20));
 }
+
+#[test]
+fn a_keys_matches_follow_the_subscriptions_that_come_and_go() {
+    let entry = |prefix: &'static str| {
+        Arc::new(SubEntry {
+            matches: Box::new(move |k: &str| k.starts_with(prefix)),
+            pending: std::sync::atomic::AtomicUsize::new(0),
+        })
+    };
+    let names = |subs: &mut Subs, key: &str| subs.matching(key).len();
+    let mut subs = Subs::default();
+    subs.insert(0, entry("a/"));
+    assert_eq!(names(&mut subs, "a/1"), 1);
+    assert_eq!(names(&mut subs, "b/1"), 0);
+    // Made after both keys' matches were worked out.
+    subs.insert(1, entry("b/"));
+    subs.insert(2, entry(""));
+    assert_eq!(names(&mut subs, "a/1"), 2);
+    assert_eq!(names(&mut subs, "b/1"), 2);
+    subs.remove(0);
+    assert_eq!(names(&mut subs, "a/1"), 1);
+    subs.remove(2);
+    assert_eq!(names(&mut subs, "a/1"), 0);
+    assert_eq!(names(&mut subs, "b/1"), 1);
+    assert_eq!(subs.all().count(), 1);
+}
