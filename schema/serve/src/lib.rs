@@ -19,6 +19,8 @@
 //! - [`reply`], [`reply_err`], [`busy`]: answers, with failures to send
 //!   logged rather than returned (the asker may be gone).
 //! - [`Undeclared`]: a server that could not declare itself on Zenoh.
+//! - [`keys`]: keys published on again and again, declared once so
+//!   that Zenoh keeps their subscribers instead of matching every one.
 //! - [`parties`]: the processes that follow a lock-step clock, as the
 //!   clock's driver and every party hear them.
 //! - [`presence`]: a program's liveliness token with its version beside
@@ -26,6 +28,7 @@
 //!   A request from another protocol is refused here, before any server
 //!   parses it ([`ErrorCode::Version`]).
 
+pub mod keys;
 pub mod parties;
 pub mod presence;
 

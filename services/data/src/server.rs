@@ -228,6 +228,9 @@ struct Held {
 
 struct Server {
     session: Session,
+    /// The watch keys of written variables, declared once (see
+    /// `rome_serve::keys`).
+    keys: rome_serve::keys::Declared,
     config: ServerConfig,
     /// Shared with the queryable's callback, which answers some requests
     /// itself when nothing is queued ahead of them (see [`Quick`]).
@@ -343,6 +346,7 @@ pub async fn run(
         unsynced: false,
         batch: Vec::new(),
         batch_unsynced,
+        keys: rome_serve::keys::Declared::new(&session),
         session,
         held: HashMap::new(),
         generation: 0,
@@ -595,11 +599,15 @@ impl Server {
     }
 
     async fn send(&self, key: &str, message: &impl Serialize) {
+        let Some(declared) = self.keys.get(key) else {
+            tracing::error!(%key, "publication on an invalid key");
+            return;
+        };
         rome_clock::sending(key);
         // Block rather than drop: a watcher must see every commit.
         let sent = self
             .session
-            .put(key, encode(message))
+            .put(declared, encode(message))
             .encoding(Encoding::APPLICATION_JSON)
             .congestion_control(CongestionControl::Block)
             .await;

@@ -177,6 +177,8 @@ type Event = rome_serve::Event<std::convert::Infallible>;
 
 struct Server<S: Service> {
     session: Session,
+    /// The streams' keys, declared once (see `rome_serve::keys`).
+    keys: rome_serve::keys::Declared,
     config: ServerConfig,
     service: S,
     gate: Gate<Pending<S::Cmd>>,
@@ -269,6 +271,7 @@ pub async fn run<S: Service>(
         last: HashMap::new(),
         quiet,
         quick_reads,
+        keys: rome_serve::keys::Declared::new(&session),
         session,
         config,
         service,

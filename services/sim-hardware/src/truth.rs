@@ -79,6 +79,7 @@ pub async fn run(
         .await
         .map_err(|e| declare_err("the liveliness token", e))?;
     let mut server = TruthServer {
+        keys: rome_serve::keys::Declared::new(&session),
         session,
         root,
         world,
@@ -93,6 +94,8 @@ pub async fn run(
 
 struct TruthServer {
     session: Session,
+    /// Each robot's truth key, declared once (see `rome_serve::keys`).
+    keys: rome_serve::keys::Declared,
     root: Root,
     world: SimWorld,
 }
@@ -114,6 +117,9 @@ impl Handler<std::convert::Infallible> for TruthServer {
 
     async fn tick(&mut self) {
         for (key, truth) in snapshot(&self.world, &self.root) {
+            let Some(key) = self.keys.get(&key) else {
+                continue;
+            };
             let _ = self
                 .session
                 .put(key, encode(&truth))

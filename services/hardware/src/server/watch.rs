@@ -85,10 +85,14 @@ impl<S: Service> Server<S> {
             let key = self.config.key(chunk);
             let (bytes, encoding) = body.into_parts();
             self.last.insert(chunk, (bytes.clone(), encoding.clone()));
+            let Some(declared) = self.keys.get(&key) else {
+                tracing::warn!(%key, "no key to publish on");
+                return;
+            };
             rome_clock::sending(&key);
             let sent = self
                 .session
-                .put(&key, bytes)
+                .put(declared, bytes)
                 .encoding(encoding)
                 .timestamp(read_at)
                 .congestion_control(CongestionControl::Drop)
