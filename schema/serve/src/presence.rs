@@ -5,43 +5,38 @@
 
 use rome_clock::Stamp;
 use rome_schema::version::Speaks;
+use std::collections::{BTreeSet, HashMap};
+use std::sync::{Arc, LazyLock, Mutex, MutexGuard, Weak};
 use std::time::Duration;
 use zenoh::bytes::{Encoding, ZBytes};
 use zenoh::liveliness::LivelinessToken;
 use zenoh::query::Queryable;
-use zenoh::Session;
+use zenoh::session::ZenohId;
+use zenoh::{Session, Wait};
 
-/// A program's liveliness token and its version queryable; dropping it
-/// undeclares both.
+/// A program's liveliness token and its place on a version queryable;
+/// dropping it undeclares both (the queryable once nobody else of its
+/// session answers on it).
 pub struct Presence {
     _token: LivelinessToken,
-    _about: Option<Queryable<()>>,
+    _about: Option<About>,
 }
 
-/// Declares the liveliness token `key` and, on the same key, a queryable
-/// that answers [`Speaks::this`] as JSON. The token is what others rely
-/// on (locks, undo units, `rome ls`), so only its failure is an error; a
-/// version queryable that cannot be declared is logged and left out.
+/// Declares the liveliness token `key` and has [`Speaks::this`] answered
+/// as JSON on the same key. The token is what others rely on (locks, undo
+/// units, `rome ls`), so only its failure is an error; a version
+/// queryable that cannot be declared is logged and left out.
+///
+/// The programs of one session with keys side by side (`…/client/nav/*`,
+/// `…/server/robot/r1/*`) share one queryable that answers for each of
+/// them: a process that runs a whole fleet holds a thousand presences, and
+/// Zenoh matches every query against every queryable of the session. The
+/// shared key stays within the one each program may declare on under
+/// access control (`deploy/secure/router.json5`).
 pub async fn declare(session: &Session, key: &str) -> zenoh::Result<Presence> {
-    let about = session
-        .declare_queryable(key)
-        .callback({
-            let body = rome_schema::encode(&Speaks::this());
-            let own = key.to_string();
-            // On the token's own key, not the query's (`<root>/alive/**`),
-            // so the asker can tell the programs apart.
-            move |q| {
-                let reply = q
-                    .reply(own.as_str(), body.clone())
-                    .encoding(Encoding::APPLICATION_JSON);
-                if let Err(e) = zenoh::Wait::wait(reply) {
-                    tracing::debug!(error = %e, "version reply failed");
-                }
-            }
-        })
-        .await;
+    let about = About::join(session, key);
     let about = match about {
-        Ok(q) => Some(q),
+        Ok(a) => Some(a),
         Err(e) => {
             tracing::warn!(%key, error = %e, "the version queryable was not declared; `rome ls` will not show this program's version");
             None
@@ -52,6 +47,94 @@ pub async fn declare(session: &Session, key: &str) -> zenoh::Result<Presence> {
         _token: token,
         _about: about,
     })
+}
+
+/// One key answered on a shared version queryable.
+struct About {
+    shared: Arc<Shared>,
+    key: String,
+}
+
+/// A version queryable and the keys it answers for.
+struct Shared {
+    keys: Arc<Mutex<BTreeSet<String>>>,
+    _queryable: Queryable<()>,
+}
+
+/// The shared queryables by session and key expression; gone once the
+/// last [`About`] on one is dropped.
+type Registry = HashMap<(ZenohId, String), Weak<Shared>>;
+static SHARED: LazyLock<Mutex<Registry>> = LazyLock::new(Default::default);
+
+impl About {
+    fn join(session: &Session, key: &str) -> zenoh::Result<About> {
+        // The key's siblings: its last chunk made a wildcard.
+        let scope = match key.rsplit_once('/') {
+            Some((parent, _)) => format!("{parent}/*"),
+            None => key.to_string(),
+        };
+        let mut shared = SHARED.lock().unwrap_or_else(|p| p.into_inner());
+        shared.retain(|_, w| w.strong_count() > 0);
+        let id = (session.zid(), scope);
+        let on = match shared.get(&id).and_then(Weak::upgrade) {
+            Some(on) => on,
+            None => {
+                let on = Arc::new(Shared::declare(session, &id.1)?);
+                shared.insert(id, Arc::downgrade(&on));
+                on
+            }
+        };
+        locked(&on.keys).insert(key.to_string());
+        Ok(About {
+            shared: on,
+            key: key.to_string(),
+        })
+    }
+}
+
+impl Drop for About {
+    fn drop(&mut self) {
+        locked(&self.shared.keys).remove(&self.key);
+    }
+}
+
+impl Shared {
+    fn declare(session: &Session, scope: &str) -> zenoh::Result<Shared> {
+        let keys: Arc<Mutex<BTreeSet<String>>> = Default::default();
+        let body = rome_schema::encode(&Speaks::this());
+        let answered = keys.clone();
+        let queryable = session
+            .declare_queryable(scope)
+            .callback(move |q| {
+                // On each program's own key, not the query's
+                // (`<root>/alive/**`), so the asker can tell them apart.
+                let keys: Vec<String> = locked(&answered)
+                    .iter()
+                    .filter(|k| {
+                        zenoh::key_expr::keyexpr::new(k.as_str())
+                            .is_ok_and(|k| q.key_expr().intersects(k))
+                    })
+                    .cloned()
+                    .collect();
+                for own in keys {
+                    let reply = q
+                        .reply(own.as_str(), body.clone())
+                        .encoding(Encoding::APPLICATION_JSON);
+                    if let Err(e) = zenoh::Wait::wait(reply) {
+                        tracing::debug!(error = %e, "version reply failed");
+                    }
+                }
+            })
+            .wait()?;
+        Ok(Shared {
+            keys,
+            _queryable: queryable,
+        })
+    }
+}
+
+fn locked<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(|p| p.into_inner())
 }
 
 /// The versions said on every presence matching `keys` (a key expression
@@ -137,5 +220,52 @@ mod tests {
         assert_eq!((s, v), (Some(stamp), None));
         let (s, v) = split(Some(&ZBytes::from(b"anything".to_vec())));
         assert_eq!((s, v), (None, None));
+    }
+
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn presences_side_by_side_answer_on_their_own_keys_until_dropped() {
+        let mut config = zenoh::Config::default();
+        config
+            .insert_json5("scouting/multicast/enabled", "false")
+            .unwrap();
+        config.insert_json5("listen/endpoints", "[]").unwrap();
+        let session = zenoh::open(config).await.expect("session");
+        let a = declare(&session, "t/alive/client/nav/a").await.expect("a");
+        let b = declare(&session, "t/alive/client/nav/b").await.expect("b");
+        let c = declare(&session, "t/alive/server/data/c").await.expect("c");
+        let said = |keys: &'static str| {
+            let session = session.clone();
+            async move {
+                versions(&session, keys, Duration::from_secs(5))
+                    .await
+                    .expect("asked")
+                    .into_iter()
+                    .map(|(k, v)| {
+                        assert_eq!(v, Speaks::this());
+                        k
+                    })
+                    .collect::<Vec<_>>()
+            }
+        };
+        assert_eq!(
+            said("t/alive/**").await,
+            [
+                "t/alive/client/nav/a",
+                "t/alive/client/nav/b",
+                "t/alive/server/data/c"
+            ]
+        );
+        // One program asked for on its own key: only it answers.
+        assert_eq!(said("t/alive/client/nav/b").await, ["t/alive/client/nav/b"]);
+        drop(a);
+        assert_eq!(
+            said("t/alive/**").await,
+            ["t/alive/client/nav/b", "t/alive/server/data/c"]
+        );
+        drop((b, c));
+        assert!(said("t/alive/**").await.is_empty());
+        // A presence after all were gone declares the queryable again.
+        let _d = declare(&session, "t/alive/client/nav/d").await.expect("d");
+        assert_eq!(said("t/alive/**").await, ["t/alive/client/nav/d"]);
     }
 }
