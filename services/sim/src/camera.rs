@@ -63,12 +63,19 @@ impl PixelNoise {
     /// Adds the table's offsets to `pixels`, read on from a random place
     /// (contiguous runs of the table, so the loop vectorises).
     fn apply(&self, pixels: &mut [u8], rng: &mut Rng) {
-        let start = rng.next_u64() as usize;
+        let start = rng.next_u64();
+        self.apply_at(start, 0, pixels);
+    }
+
+    /// Adds the offsets [`apply`](Self::apply) would add, from the place
+    /// `start`, to the image's pixels from index `first` on: a row of an
+    /// image gets the same noise drawn alone as drawn with the rest.
+    pub(crate) fn apply_at(&self, start: u64, first: usize, pixels: &mut [u8]) {
         if self.table.is_empty() {
             return;
         }
         let n = self.table.len();
-        let mut k = start % n;
+        let mut k = ((start as usize) % n + first % n) % n;
         for run in pixels.chunks_mut(n) {
             let mut done = 0;
             while done < run.len() {
@@ -107,28 +114,59 @@ pub fn up_image(
     pixel_noise: &PixelNoise,
     rng: &mut Rng,
 ) -> GrayImage {
+    let view = Up::new(scene, at, heading, size);
     let (w, h) = size;
-    let f = direction(heading);
-    let r = direction(heading - 90.0);
-    let reach = (UP_VIEW_MM.0.hypot(UP_VIEW_MM.1) + LIGHT_SIZE_MM.1) / 2.0 + 100.0;
-    let near: Vec<usize> = scene
-        .lamps
-        .iter()
-        .enumerate()
-        .filter(|(_, l)| nalgebra::distance(&l.at, &at) <= reach)
-        .map(|(i, _)| i)
-        .collect();
     let mut pixels = vec![0u8; w as usize * h as usize];
-    let lat_of = |col: f64| ((col + 0.5) / f64::from(w) - 0.5) * UP_VIEW_MM.0;
     for (row, line) in pixels.chunks_exact_mut(w as usize).enumerate() {
+        view.row(scene, row, line);
+    }
+    pixel_noise.apply(&mut pixels, rng);
+    GrayImage::from_raw(w, h, pixels).unwrap_or_else(|| GrayImage::new(w, h))
+}
+
+/// The upward camera at one pose, drawn a row at a time (without noise).
+#[derive(Debug, Clone)]
+pub(crate) struct Up {
+    at: Point,
+    /// Ahead, and to the right.
+    f: Vector,
+    r: Vector,
+    /// The lights that could be in view.
+    near: Vec<usize>,
+    size: (u32, u32),
+}
+
+impl Up {
+    pub(crate) fn new(scene: &Scene, at: Point, heading: f64, size: (u32, u32)) -> Up {
+        let reach = (UP_VIEW_MM.0.hypot(UP_VIEW_MM.1) + LIGHT_SIZE_MM.1) / 2.0 + 100.0;
+        let near = scene
+            .lamps
+            .iter()
+            .enumerate()
+            .filter(|(_, l)| nalgebra::distance(&l.at, &at) <= reach)
+            .map(|(i, _)| i)
+            .collect();
+        Up {
+            at,
+            f: direction(heading),
+            r: direction(heading - 90.0),
+            near,
+            size,
+        }
+    }
+
+    /// Row `row`'s pixels into `line` (one row's length).
+    pub(crate) fn row(&self, scene: &Scene, row: usize, line: &mut [u8]) {
+        let (w, h) = self.size;
+        let lat_of = |col: f64| ((col + 0.5) / f64::from(w) - 0.5) * UP_VIEW_MM.0;
         let fwd = (0.5 - (row as f64 + 0.5) / f64::from(h)) * UP_VIEW_MM.1;
-        let centre = at + f * fwd;
+        let centre = self.at + self.f * fwd;
         // Columns that may be under a light: along this row a light's
         // rectangle is one span of columns; one more either side is tried
         // pixel by pixel, so rounding cannot change a pixel.
         let (mut first, mut last) = (w as usize, 0usize);
-        for &li in &near {
-            if let Some((lo, hi)) = lit_span(&scene.lamps[li], centre, r) {
+        for &li in &self.near {
+            if let Some((lo, hi)) = lit_span(&scene.lamps[li], centre, self.r) {
                 let to_col = |lat: f64| (lat / UP_VIEW_MM.0 + 0.5) * f64::from(w) - 0.5;
                 let c0 = (to_col(lo).floor() - 1.0).max(0.0) as usize;
                 let c1 = (to_col(hi).ceil() + 1.0).min(f64::from(w) - 1.0);
@@ -140,13 +178,11 @@ pub fn up_image(
         }
         line.fill(CEILING_GREY);
         for col in first..=last.min(line.len().saturating_sub(1)) {
-            if lit(scene, &near, centre + r * lat_of(col as f64)) {
+            if lit(scene, &self.near, centre + self.r * lat_of(col as f64)) {
                 line[col] = LIGHT_GREY;
             }
         }
     }
-    pixel_noise.apply(&mut pixels, rng);
-    GrayImage::from_raw(w, h, pixels).unwrap_or_else(|| GrayImage::new(w, h))
 }
 
 /// Where along the line `centre + across · lat` a light's rectangle lies:
@@ -190,19 +226,58 @@ pub fn side_image(
     pixel_noise: &PixelNoise,
     rng: &mut Rng,
 ) -> GrayImage {
+    let view = Side::new(at, heading, people.to_vec(), size);
+    let columns = view.columns(scene, open);
     let (w, h) = size;
-    let axis = heading + sonar_bearing_deg(18);
-    let ad = direction(axis);
-    let eye = at + ad * ROBOT_RADIUS_MM;
-    let focal = f64::from(w) / 2.0 / (SIDE_FOV_DEG / 2.0).to_radians().tan();
-    let (wu, hu) = (w as usize, h as usize);
-    let z_at = |row: usize, per_row: f64| {
-        PLATE_HEIGHT_MM + (f64::from(h) / 2.0 - (row as f64 + 0.5)) * per_row
-    };
-    // The first row at or after `from` whose height is not above `limit`
-    // (heights fall row by row).
-    let first_below = |limit: f64, per_row: f64, strict: bool| {
-        let guess = f64::from(h) / 2.0 - 0.5 - (limit - PLATE_HEIGHT_MM) / per_row;
+    let mut pixels = vec![0u8; w as usize * h as usize];
+    for (row, line) in pixels.chunks_exact_mut(w as usize).enumerate() {
+        view.row(scene, &columns, row, line);
+    }
+    pixel_noise.apply(&mut pixels, rng);
+    GrayImage::from_raw(w, h, pixels).unwrap_or_else(|| GrayImage::new(w, h))
+}
+
+/// The sideways camera at one pose, drawn a row at a time (without noise)
+/// once its columns are worked out.
+#[derive(Debug, Clone)]
+pub(crate) struct Side {
+    eye: Point,
+    axis: f64,
+    focal: f64,
+    people: Vec<Point>,
+    size: (u32, u32),
+}
+
+/// What each column of a sideways image looks at: the wall, and the
+/// rows a person nearer than the wall covers.
+#[derive(Debug)]
+pub(crate) struct Columns {
+    walls: Vec<Option<Column>>,
+    figures: Vec<Option<(usize, usize)>>,
+}
+
+impl Side {
+    pub(crate) fn new(at: Point, heading: f64, people: Vec<Point>, size: (u32, u32)) -> Side {
+        let axis = heading + sonar_bearing_deg(18);
+        Side {
+            eye: at + direction(axis) * ROBOT_RADIUS_MM,
+            axis,
+            focal: f64::from(size.0) / 2.0 / (SIDE_FOV_DEG / 2.0).to_radians().tan(),
+            people,
+            size,
+        }
+    }
+
+    /// The height a row shows at `per_row` millimetres a row.
+    fn z_at(&self, row: usize, per_row: f64) -> f64 {
+        PLATE_HEIGHT_MM + (f64::from(self.size.1) / 2.0 - (row as f64 + 0.5)) * per_row
+    }
+
+    /// The first row whose height is not above `limit` (heights fall row
+    /// by row).
+    fn first_below(&self, limit: f64, per_row: f64, strict: bool) -> usize {
+        let (h, hu) = (f64::from(self.size.1), self.size.1 as usize);
+        let guess = h / 2.0 - 0.5 - (limit - PLATE_HEIGHT_MM) / per_row;
         let mut row = if guess > 2.0 {
             ((guess as usize) - 2).min(hu)
         } else {
@@ -210,115 +285,130 @@ pub fn side_image(
         };
         while row < hu
             && (if strict {
-                z_at(row, per_row) >= limit
+                self.z_at(row, per_row) >= limit
             } else {
-                z_at(row, per_row) > limit
+                self.z_at(row, per_row) > limit
             })
         {
             row += 1;
         }
         row
-    };
-    // One ray per column: what it meets, millimetres of height per row
-    // there, and the rows where the wall starts (above it the ceiling) and
-    // the floor starts.
-    let columns: Vec<Option<Column>> = (0..wu)
-        .map(|col| {
-            let x = col as f64 + 0.5 - f64::from(w) / 2.0;
-            let off = (x / focal).atan();
-            let ray = axis - off.to_degrees();
-            let (t, wi, u) = scene.ray(eye, ray, SIDE_RANGE_MM, Sense::Sight, open, None)?;
-            let wall = &scene.walls[wi];
-            let per_row = t * off.cos() / focal;
-            let top = first_below(WALL_HEIGHT_MM, per_row, false);
-            let floor = first_below(0.0, per_row, true).max(top);
-            // A wall without plates, posters or glass bricks changes its
-            // look only at the door frame's heights: three runs of rows.
-            let plain = wall.plates.is_empty()
-                && wall.posters.is_empty()
-                && wall.marker.is_none()
-                && !(wall.kind == EdgeKind::Window && wall.bricks);
-            let mut runs = None;
-            if plain {
-                let frame_top = first_below(FRAME_MM.1, per_row, false).clamp(top, floor);
-                let frame_bottom = first_below(FRAME_MM.0, per_row, true).clamp(frame_top, floor);
-                // Each run's grey, read at one of its rows; a row exactly
-                // at a frame edge is left to the pixel-by-pixel path.
-                let grey = |from: usize, to: usize| {
-                    (from < to).then(|| surface(scene, wi, u, z_at(from, per_row)))
-                };
-                let exact = [frame_top, frame_bottom]
-                    .iter()
-                    .any(|&r| r < hu && FRAME_MM_EDGES.contains(&z_at(r, per_row)));
-                if !exact {
-                    runs = Some((
-                        [frame_top, frame_bottom],
-                        [
-                            grey(top, frame_top).unwrap_or(0),
-                            grey(frame_top, frame_bottom).unwrap_or(0),
-                            grey(frame_bottom, floor).unwrap_or(0),
-                        ],
-                    ));
-                }
-            }
-            Some(Column {
-                t,
-                per_row,
-                wi,
-                u,
-                top,
-                floor,
-                runs,
-            })
-        })
-        .collect();
-    // The rows a person nearer than the wall covers, column by column.
-    let figures: Vec<Option<(usize, usize)>> = if people.is_empty() {
-        Vec::new()
-    } else {
-        (0..wu)
+    }
+
+    /// The angle of column `col` off the axis, radians.
+    fn off(&self, col: usize) -> f64 {
+        let x = col as f64 + 0.5 - f64::from(self.size.0) / 2.0;
+        (x / self.focal).atan()
+    }
+
+    /// One ray per column: what it meets, millimetres of height per row
+    /// there, and the rows where the wall starts (above it the ceiling)
+    /// and the floor starts; and the people in front.
+    pub(crate) fn columns(&self, scene: &Scene, open: &[bool]) -> Columns {
+        let (wu, hu) = (self.size.0 as usize, self.size.1 as usize);
+        let walls: Vec<Option<Column>> = (0..wu)
             .map(|col| {
-                let x = col as f64 + 0.5 - f64::from(w) / 2.0;
-                let off = (x / focal).atan();
-                let d = direction(axis - off.to_degrees());
-                let wall_t = columns[col].as_ref().map_or(SIDE_RANGE_MM, |c| c.t);
-                let t = people
-                    .iter()
-                    .filter_map(|&c| ray_disc(eye, d, c, ROBOT_RADIUS_MM))
-                    .filter(|&t| t < wall_t)
-                    .min_by(f64::total_cmp)?;
-                let per_row = t * off.cos() / focal;
-                let top = first_below(PERSON_HEIGHT_MM, per_row, false);
-                Some((top, first_below(0.0, per_row, true).max(top)))
+                let off = self.off(col);
+                let ray = self.axis - off.to_degrees();
+                let (t, wi, u) =
+                    scene.ray(self.eye, ray, SIDE_RANGE_MM, Sense::Sight, open, None)?;
+                let wall = &scene.walls[wi];
+                let per_row = t * off.cos() / self.focal;
+                let top = self.first_below(WALL_HEIGHT_MM, per_row, false);
+                let floor = self.first_below(0.0, per_row, true).max(top);
+                // A wall without plates, posters or glass bricks changes its
+                // look only at the door frame's heights: three runs of rows.
+                let plain = wall.plates.is_empty()
+                    && wall.posters.is_empty()
+                    && wall.marker.is_none()
+                    && !(wall.kind == EdgeKind::Window && wall.bricks);
+                let mut runs = None;
+                if plain {
+                    let frame_top = self
+                        .first_below(FRAME_MM.1, per_row, false)
+                        .clamp(top, floor);
+                    let frame_bottom = self
+                        .first_below(FRAME_MM.0, per_row, true)
+                        .clamp(frame_top, floor);
+                    // Each run's grey, read at one of its rows; a row exactly
+                    // at a frame edge is left to the pixel-by-pixel path.
+                    let grey = |from: usize, to: usize| {
+                        (from < to).then(|| surface(scene, wi, u, self.z_at(from, per_row)))
+                    };
+                    let exact = [frame_top, frame_bottom]
+                        .iter()
+                        .any(|&r| r < hu && FRAME_MM_EDGES.contains(&self.z_at(r, per_row)));
+                    if !exact {
+                        runs = Some((
+                            [frame_top, frame_bottom],
+                            [
+                                grey(top, frame_top).unwrap_or(0),
+                                grey(frame_top, frame_bottom).unwrap_or(0),
+                                grey(frame_bottom, floor).unwrap_or(0),
+                            ],
+                        ));
+                    }
+                }
+                Some(Column {
+                    t,
+                    per_row,
+                    wi,
+                    u,
+                    top,
+                    floor,
+                    runs,
+                })
             })
-            .collect()
-    };
-    let mut pixels = vec![FAR_GREY; wu * hu];
-    for (row, line) in pixels.chunks_exact_mut(wu).enumerate() {
-        for (px, column) in line.iter_mut().zip(&columns) {
-            let Some(c) = column else {
-                continue;
-            };
-            *px = if row < c.top {
-                UPPER_CEILING_GREY
-            } else if row >= c.floor {
-                FLOOR_GREY
-            } else if let Some(([a, b], greys)) = c.runs {
-                greys[usize::from(row >= a) + usize::from(row >= b)]
+            .collect();
+        let figures = if self.people.is_empty() {
+            Vec::new()
+        } else {
+            (0..wu)
+                .map(|col| {
+                    let off = self.off(col);
+                    let d = direction(self.axis - off.to_degrees());
+                    let wall_t = walls[col].as_ref().map_or(SIDE_RANGE_MM, |c| c.t);
+                    let t = self
+                        .people
+                        .iter()
+                        .filter_map(|&c| ray_disc(self.eye, d, c, ROBOT_RADIUS_MM))
+                        .filter(|&t| t < wall_t)
+                        .min_by(f64::total_cmp)?;
+                    let per_row = t * off.cos() / self.focal;
+                    let top = self.first_below(PERSON_HEIGHT_MM, per_row, false);
+                    Some((top, self.first_below(0.0, per_row, true).max(top)))
+                })
+                .collect()
+        };
+        Columns { walls, figures }
+    }
+
+    /// Row `row`'s pixels into `line` (one row's length).
+    pub(crate) fn row(&self, scene: &Scene, columns: &Columns, row: usize, line: &mut [u8]) {
+        for (col, (px, column)) in line.iter_mut().zip(&columns.walls).enumerate() {
+            let hidden = columns
+                .figures
+                .get(col)
+                .copied()
+                .flatten()
+                .is_some_and(|(top, floor)| (top..floor).contains(&row));
+            *px = if hidden {
+                PERSON_GREY
             } else {
-                surface(scene, c.wi, c.u, z_at(row, c.per_row))
+                match column {
+                    None => FAR_GREY,
+                    Some(c) if row < c.top => UPPER_CEILING_GREY,
+                    Some(c) if row >= c.floor => FLOOR_GREY,
+                    Some(c) => match c.runs {
+                        Some(([a, b], greys)) => {
+                            greys[usize::from(row >= a) + usize::from(row >= b)]
+                        }
+                        None => surface(scene, c.wi, c.u, self.z_at(row, c.per_row)),
+                    },
+                }
             };
         }
     }
-    for (col, figure) in figures.iter().enumerate() {
-        if let Some((top, floor)) = *figure {
-            for row in top..floor {
-                pixels[row * wu + col] = PERSON_GREY;
-            }
-        }
-    }
-    pixel_noise.apply(&mut pixels, rng);
-    GrayImage::from_raw(w, h, pixels).unwrap_or_else(|| GrayImage::new(w, h))
 }
 
 /// How far along the ray from `eye` in the unit direction `d` it first
@@ -335,6 +425,7 @@ fn ray_disc(eye: Point, d: Vector, c: Point, r: f64) -> Option<f64> {
 }
 
 /// What one column of the sideways image looks at.
+#[derive(Debug)]
 struct Column {
     /// How far along the ray the wall is, mm.
     t: f64,
@@ -419,6 +510,25 @@ mod tests {
     #![allow(clippy::unwrap_used)]
 
     use super::*;
+
+    #[test]
+    fn noise_added_a_row_at_a_time_is_the_noise_added_to_the_whole_image() {
+        let mut rng = Rng::new(7);
+        let noise = PixelNoise::new(6.0, &mut rng);
+        // Rows that straddle the table's end, and one longer than it.
+        for (w, h) in [(512usize, 482usize), (1000, 3), (70_000, 2)] {
+            let image: Vec<u8> = (0..w * h).map(|i| (i * 37 % 251) as u8).collect();
+            let mut whole = image.clone();
+            noise.apply(&mut whole, &mut Rng::new(99));
+            let start = Rng::new(99).next_u64();
+            let mut rows = image.clone();
+            for (row, line) in rows.chunks_exact_mut(w).enumerate().rev() {
+                noise.apply_at(start, row * w, line);
+            }
+            assert_eq!(rows, whole, "{w} × {h}");
+            assert_ne!(rows, image, "noise was added");
+        }
+    }
 
     #[test]
     fn the_upward_image_is_every_pixel_tested_against_every_light() {

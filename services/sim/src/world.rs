@@ -9,6 +9,7 @@ use crate::spec::{SimConfig, ROBOT_RADIUS_MM, SONARS, SONAR_MAX_MM};
 use image::GrayImage;
 use rome_maps::geometry::{pt, Heading, Point, Vector};
 use rome_maps::Map;
+use std::sync::Arc;
 
 /// Why a world request was refused.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -46,6 +47,8 @@ pub enum SimError {
 pub use rome_maps::geometry::Pose;
 mod cars;
 mod sense;
+
+pub use sense::CameraView;
 
 /// The bumpers.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -201,7 +204,8 @@ impl Camera {
 /// A world: building, robots, time.
 #[derive(Debug)]
 pub struct Sim {
-    scene: Scene,
+    /// Shared with the camera views handed out ([`Sim::camera_view`]).
+    scene: Arc<Scene>,
     config: SimConfig,
     robots: Vec<Robot>,
     time_ms: u64,
@@ -225,7 +229,7 @@ pub struct Sim {
     /// one through [`Sim::robot_mut`]).
     cells_fresh: bool,
     near: Vec<Body>,
-    pixel_noise: camera::PixelNoise,
+    pixel_noise: Arc<camera::PixelNoise>,
     /// Elevator cars of a building ([`Sim::add_car`]).
     cars: Vec<cars::WorldCar>,
     /// From how many robots on, a step senses them on several threads.
@@ -265,11 +269,11 @@ impl Sim {
         let scene = Scene::new(map);
         let n = scene.elevators.len();
         let mut rng = Rng::new(config.seed);
-        let pixel_noise = camera::PixelNoise::new(config.noise.pixel, &mut rng);
+        let pixel_noise = Arc::new(camera::PixelNoise::new(config.noise.pixel, &mut rng));
         Sim {
             rng,
             pixel_noise,
-            scene,
+            scene: Arc::new(scene),
             config,
             robots: Vec::new(),
             time_ms: 0,
