@@ -153,9 +153,8 @@ fn rows_body(shot: &Shot, rows: Vec<u32>) -> Result<Body, ErrorReply> {
     let w = frame.width as usize;
     let mut out = Vec::with_capacity(w * rows.len());
     for r in &rows {
-        let start = *r as usize * w;
         // The device's frame may be smaller than the size it declared.
-        let row = frame.pixels.get(start..start + w).ok_or_else(|| {
+        let row = frame.row(*r).ok_or_else(|| {
             ErrorReply::new(
                 ErrorCode::Device,
                 format!(
@@ -186,7 +185,7 @@ fn png(frame: &Frame) -> Result<Vec<u8>, ErrorReply> {
     let mut out = Vec::new();
     image::codecs::png::PngEncoder::new(&mut out)
         .write_image(
-            &frame.pixels,
+            &frame.bytes(),
             frame.width,
             frame.height,
             image::ExtendedColorType::L8,
@@ -245,7 +244,7 @@ impl<D: CameraDevice> Service for Camera<D> {
                     Ok(Body::Binary(png(&shot.frame)?, Encoding::IMAGE_PNG))
                 } else {
                     Ok(Body::Binary(
-                        shot.frame.pixels.clone(),
+                        shot.frame.bytes(),
                         encoding(&shot.frame, shot.n, None),
                     ))
                 }

@@ -128,7 +128,7 @@ pub trait ProximityDevice: Send + Sync + 'static {
 }
 
 /// One grabbed image, 8-bit gray, row-major.
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug)]
 pub struct Frame {
     /// When it was grabbed, device ms.
     pub time_ms: u64,
@@ -136,8 +136,77 @@ pub struct Frame {
     pub width: u32,
     /// Rows.
     pub height: u32,
-    /// width × height bytes.
-    pub pixels: Vec<u8>,
+    /// The rows.
+    pub pixels: Pixels,
+}
+
+impl Frame {
+    /// Row `r`, if the frame has it.
+    pub fn row(&self, r: u32) -> Option<&[u8]> {
+        let w = self.width as usize;
+        match &self.pixels {
+            Pixels::Bytes(b) => b.get(r as usize * w..(r as usize + 1) * w),
+            Pixels::Drawn { rows, draw } => {
+                let row = rows.get(r as usize)?;
+                Some(row.get_or_init(|| {
+                    let mut line = vec![0u8; w];
+                    draw(r, &mut line);
+                    line.into_boxed_slice()
+                }))
+            }
+        }
+    }
+
+    /// Every row, in order (as many as the frame has).
+    pub fn bytes(&self) -> Vec<u8> {
+        match &self.pixels {
+            Pixels::Bytes(b) => b.clone(),
+            Pixels::Drawn { .. } => (0..self.height)
+                .filter_map(|r| self.row(r))
+                .flatten()
+                .copied()
+                .collect(),
+        }
+    }
+}
+
+/// A frame's pixels.
+pub enum Pixels {
+    /// width × height bytes, as a grabber hands them over.
+    Bytes(Vec<u8>),
+    /// Drawn a row at a time when first read (a simulated camera): its
+    /// clients read a few rows of most frames and never the rest.
+    Drawn {
+        /// Each row, once drawn.
+        rows: Vec<std::sync::OnceLock<Box<[u8]>>>,
+        /// Draws a row into a buffer one row long.
+        draw: DrawRow,
+    },
+}
+
+/// Draws row `r` of a frame into a buffer one row long.
+pub type DrawRow = Box<dyn Fn(u32, &mut [u8]) + Send + Sync>;
+
+impl Pixels {
+    /// Rows drawn by `draw` when read, of a frame `height` rows high.
+    pub fn drawn(height: u32, draw: impl Fn(u32, &mut [u8]) + Send + Sync + 'static) -> Pixels {
+        Pixels::Drawn {
+            rows: (0..height).map(|_| std::sync::OnceLock::new()).collect(),
+            draw: Box::new(draw),
+        }
+    }
+}
+
+impl std::fmt::Debug for Pixels {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Pixels::Bytes(b) => write!(f, "Bytes({} bytes)", b.len()),
+            Pixels::Drawn { rows, .. } => {
+                let drawn = rows.iter().filter(|r| r.get().is_some()).count();
+                write!(f, "Drawn({drawn} of {} rows)", rows.len())
+            }
+        }
+    }
 }
 
 /// A camera and its frame grabber (§4.6.4).

@@ -4,8 +4,8 @@
 
 use crate::trace::Trace;
 use rome_hardware::device::{
-    BaseDevice, BaseOp, BaseStatus, CameraDevice, DeviceError, Frame, Peek, ProximityDevice,
-    RawScan,
+    BaseDevice, BaseOp, BaseStatus, CameraDevice, DeviceError, Frame, Peek, Pixels,
+    ProximityDevice, RawScan,
 };
 use rome_hardware::vxy::VirtualPose;
 use rome_schema::robot::{BaseState, SONARS};
@@ -460,17 +460,20 @@ impl CameraDevice for SimCamera {
     async fn grab(&mut self) -> Result<Frame, DeviceError> {
         let world = self.world.clone();
         let (i, which) = (self.i, self.which);
-        // Rendering takes milliseconds: off the async workers (and, in a
-        // lock-step run, holding the clock until the frame is there).
+        // The world's lock may be held for a whole step: off the async
+        // workers (and, in a lock-step run, holding the clock until the
+        // frame is taken). Only what the camera sees is taken now; its
+        // rows are drawn when they are read.
         rome_clock::compute(tokio::task::spawn_blocking(move || {
             let mut sim = world.lock();
             let time_ms = sim.time_ms();
-            let img = sim.grab_camera(i, which);
+            let view = sim.camera_view(i, which);
+            let (width, height) = view.size();
             Frame {
                 time_ms,
-                width: img.width(),
-                height: img.height(),
-                pixels: img.into_raw(),
+                width,
+                height,
+                pixels: Pixels::drawn(height, move |r, line| view.row(r, line)),
             }
         }))
         .await
