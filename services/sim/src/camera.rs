@@ -115,10 +115,25 @@ pub fn up_image(
     rng: &mut Rng,
 ) -> GrayImage {
     let view = Up::new(scene, at, heading, size);
+    drawn(size, pixel_noise, rng, |row, line| {
+        view.row(scene, row, line)
+    })
+}
+
+/// An image of `size` drawn row by row by `draw`, then the frame's noise
+/// added to the whole of it.
+fn drawn(
+    size: (u32, u32),
+    pixel_noise: &PixelNoise,
+    rng: &mut Rng,
+    draw: impl Fn(usize, &mut [u8]),
+) -> GrayImage {
     let (w, h) = size;
     let mut pixels = vec![0u8; w as usize * h as usize];
-    for (row, line) in pixels.chunks_exact_mut(w as usize).enumerate() {
-        view.row(scene, row, line);
+    if w > 0 {
+        for (row, line) in pixels.chunks_exact_mut(w as usize).enumerate() {
+            draw(row, line);
+        }
     }
     pixel_noise.apply(&mut pixels, rng);
     GrayImage::from_raw(w, h, pixels).unwrap_or_else(|| GrayImage::new(w, h))
@@ -228,13 +243,9 @@ pub fn side_image(
 ) -> GrayImage {
     let view = Side::new(at, heading, people.to_vec(), size);
     let columns = view.columns(scene, open);
-    let (w, h) = size;
-    let mut pixels = vec![0u8; w as usize * h as usize];
-    for (row, line) in pixels.chunks_exact_mut(w as usize).enumerate() {
-        view.row(scene, &columns, row, line);
-    }
-    pixel_noise.apply(&mut pixels, rng);
-    GrayImage::from_raw(w, h, pixels).unwrap_or_else(|| GrayImage::new(w, h))
+    drawn(size, pixel_noise, rng, |row, line| {
+        view.row(scene, &columns, row, line)
+    })
 }
 
 /// The sideways camera at one pose, drawn a row at a time (without noise)
