@@ -81,6 +81,13 @@ fn all_done(r: &TaskReport, ids: &[&str]) {
     }
 }
 
+/// No robot touched a wall or another robot, by ground truth.
+fn untouched(r: &TaskReport) {
+    for (robot, c) in &r.contacts {
+        assert_eq!((c.wall, c.robot), (0, 0), "{robot} touched: {c:?}");
+    }
+}
+
 fn status<'a>(r: &'a TaskReport, id: &str) -> &'a TaskStatus {
     r.statuses
         .iter()
@@ -187,9 +194,7 @@ async fn a_robot_between_tasks_steps_aside_and_another_passes_it_in_a_narrow_cor
         "r1 stands at x = {:.2} m, the corridor's middle is 60 m",
         x / 1000.0
     );
-    for (robot, c) in &r.contacts {
-        assert_eq!((c.wall, c.robot), (0, 0), "{robot} touched: {c:?}");
-    }
+    untouched(&r);
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -224,9 +229,7 @@ async fn a_robot_that_ended_its_task_in_a_junction_drives_out_of_it_and_steps_as
         x / 1000.0,
         y / 1000.0
     );
-    for (robot, c) in &r.contacts {
-        assert_eq!((c.wall, c.robot), (0, 0), "{robot} touched: {c:?}");
-    }
+    untouched(&r);
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -247,9 +250,7 @@ async fn a_robot_waiting_for_its_first_task_steps_aside_and_another_passes_it() 
         "r1 stands at x = {:.2} m, the corridor's middle is 60 m",
         x / 1000.0
     );
-    for (robot, c) in &r.contacts {
-        assert_eq!((c.wall, c.robot), (0, 0), "{robot} touched: {c:?}");
-    }
+    untouched(&r);
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
