@@ -10,10 +10,17 @@
 //! route is the shortest chain of such lines (Dijkstra). Links between rings
 //! (§7.2) thus add their waypoints, and a corridor shared by two rings (one
 //! ring on each side) is one corridor.
+//!
+//! A leg that starts or ends at a door keeps to the line of the door's
+//! corridor ([`ALONG_MM`]) or runs square across it ([`SLANT_DEG`]): a door
+//! just round a corner is reached through the turning space's middle, with
+//! a corner, not on a slant across it.
+//! The Navigator follows hallways (§5.4); on a slant its walls pull it
+//! off the line, and the distance runs out short of the door.
 
 use crate::geometry::{direction, distance, heading_to as heading, normalize_deg, Point};
 use crate::model::{EdgeKind, Map};
-use crate::world::{intersect, World};
+use crate::world::{intersect, Position, World};
 
 /// A route between two positions.
 #[derive(Debug, Clone, PartialEq)]
@@ -251,9 +258,18 @@ impl Network {
         !self.walls.iter().any(|&(a, b)| crosses(p, q, a, b))
     }
 
-    /// The shortest path between two points in corridors.
-    fn path(&self, from: Point, to: Point) -> Option<(Vec<Point>, f64)> {
-        if self.open(from, to) {
+    /// The shortest path between two ends in corridors: keeping to the
+    /// doors' corridor lines, or where that finds none, any way.
+    fn path(&self, from: End, to: End) -> Option<(Vec<Point>, f64)> {
+        self.path_keeping(from, to)
+            .or_else(|| self.path_keeping(from.anyway(), to.anyway()))
+    }
+
+    /// The shortest path whose first and last legs the ends admit.
+    fn path_keeping(&self, from: End, to: End) -> Option<(Vec<Point>, f64)> {
+        let (from_end, to_end) = (from, to);
+        let (from, to) = (from.at, to.at);
+        if self.open(from, to) && from_end.admits(to) && to_end.admits(from) {
             return Some((vec![from, to], distance(from, to)));
         }
         let n = self.waypoints.len();
@@ -268,12 +284,12 @@ impl Network {
             if i < n {
                 let p = self.waypoints[i];
                 out.extend(self.edges[i].iter().copied());
-                if self.open(p, to) {
+                if self.open(p, to) && to_end.admits(p) {
                     out.push((goal, distance(p, to)));
                 }
             } else if i == start {
                 for (k, w) in self.waypoints.iter().enumerate() {
-                    if self.open(from, *w) {
+                    if self.open(from, *w) && from_end.admits(*w) {
                         out.push((k, distance(from, *w)));
                     }
                 }
@@ -341,15 +357,19 @@ impl World {
         let mut stops: Vec<&str> = vec![start.0];
         stops.extend_from_slice(via);
         stops.push(to);
-        let mut at = vec![start.1];
+        // A start that stands where its name puts it is that door's end.
+        let mut at = vec![match self.position(start.0) {
+            Some(p) if distance(p.in_corridor(), start.1) < 1.0 => End::of(p),
+            _ => End::point(start.1),
+        }];
         for name in &stops[1..] {
             let p = self.position(name).ok_or_else(|| RouteError::Unknown {
                 name: (*name).to_string(),
                 similar: self.similar(name),
             })?;
-            at.push(p.in_corridor());
+            at.push(End::of(p));
         }
-        let mut points = vec![at[0]];
+        let mut points = vec![at[0].at];
         let mut length_mm = 0.0;
         for (k, w) in at.windows(2).enumerate() {
             let (leg, len) = network
@@ -408,6 +428,57 @@ fn edit_distance(a: &str, b: &str) -> usize {
         }
     }
     row[b.len()]
+}
+
+/// How far from a door's corridor line (the line of its lights) the first
+/// or last leg of a path may end, mm. Well over the few hundred mm that
+/// corridors' centre lines differ by where their lateral distances
+/// differ; well under a corridor's width.
+pub const ALONG_MM: f64 = 600.0;
+
+/// How far from a door's corridor line or its square a leg from the door
+/// may slant, degrees: the few degrees a door set in a turning space is off
+/// the crossing corridor's line, not a cut across the turning space.
+pub const SLANT_DEG: f64 = 15.0;
+
+/// One end of a path: a point, and at a door the heading of its corridor.
+#[derive(Debug, Clone, Copy)]
+struct End {
+    at: Point,
+    axis: Option<f64>,
+}
+
+impl End {
+    /// A named position: the point abeam it, and at a door its wall's
+    /// heading.
+    fn of(p: &Position) -> End {
+        End {
+            at: p.in_corridor(),
+            axis: p.door.then_some(p.wall_heading_deg),
+        }
+    }
+
+    /// A point a leg may leave or reach any way.
+    fn point(at: Point) -> End {
+        End { at, axis: None }
+    }
+
+    /// The same point, admitting any leg.
+    fn anyway(self) -> End {
+        End::point(self.at)
+    }
+
+    /// Whether a leg between this end and `q` keeps to its corridor line,
+    /// or runs square across it: a door in a junction lies on the line of
+    /// the corridor crossing its own.
+    fn admits(&self, q: Point) -> bool {
+        self.axis.is_none_or(|h| {
+            let off = (q - self.at).perp(&direction(h)).abs();
+            let slant = normalize_deg(heading(self.at, q) - h).abs();
+            let slant = slant.min(180.0 - slant);
+            off <= ALONG_MM || slant <= SLANT_DEG || slant >= 90.0 - SLANT_DEG
+        })
+    }
 }
 
 fn offset(p: Point, heading_deg: f64, lateral: f64) -> Point {

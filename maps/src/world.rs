@@ -97,6 +97,9 @@ pub struct Position {
     pub edge: usize,
     /// How far the corridor's centre line (its lights) is from this wall, mm.
     pub lateral_mm: f64,
+    /// A door jamb (`350R`), not a node (`outer.NE`), whose point may
+    /// stand in a turning space.
+    pub door: bool,
 }
 
 impl Position {
@@ -209,26 +212,27 @@ impl World {
                         wall_heading_deg: normalize_deg(h),
                     });
                 }
-                let position = |at: Point| Position {
+                let position = |at: Point, door: bool| Position {
                     at,
                     wall_heading_deg: normalize_deg(h),
                     ring: ri,
                     edge: ei,
                     lateral_mm: lateral,
+                    door,
                 };
                 if let Some(number) = &edge.number {
                     // Facing the door from the corridor, the edge's start
                     // is on the left (the wall is traced on the left).
                     world
                         .positions
-                        .insert(format!("{number}L"), position(start));
+                        .insert(format!("{number}L"), position(start, true));
                     world
                         .positions
-                        .insert(format!("{number}R"), position(end_of(ei)));
+                        .insert(format!("{number}R"), position(end_of(ei), true));
                 }
                 world.positions.insert(
                     format!("{}.{}", ring.name, ring.nodes[ei].name),
-                    position(start),
+                    position(start, false),
                 );
             }
         }

@@ -59,3 +59,42 @@ fn figure_5_3_loads_with_the_thesis_structure() {
     assert_eq!(world.lights.len(), 2 + 5 + 6 + 2 + 3);
     assert_eq!(world.plates.len(), 3);
 }
+
+/// The heading of each leg, folded onto 0–90° from the nearest of a
+/// corridor's two axes on these square maps (0 along, 90 across).
+fn slants(route: &rome_maps::Route) -> Vec<f64> {
+    route
+        .legs()
+        .iter()
+        .map(|l| {
+            let h = l.3.rem_euclid(90.0);
+            h.min(90.0 - h)
+        })
+        .collect()
+}
+
+#[test]
+fn a_door_round_a_corner_is_reached_through_the_turning_space_not_across_it() {
+    let map = load(&data("campus.stk")).unwrap();
+    let world = World::from_map(&map);
+    let net = rome_maps::Network::new(&map, &world);
+    // 3019L is in the east corridor, 2.6 m south of its T with the
+    // corridor of 2410R, 3 m to the west. The two see each other across
+    // the turning space: the straight line is 3.97 m at 49°.
+    for (from, to) in [("3019L", "2410R"), ("2410R", "3019L")] {
+        let r = world.route(&net, from, &[], to).unwrap();
+        assert_eq!(r.points.len(), 3, "{from} -> {to}: {:?}", r.points);
+        assert!(near(r.points[1], (100_500.0, 37_000.0)), "{:?}", r.points);
+        assert!((r.length_mm - 5600.0).abs() < 1.0, "{}", r.length_mm);
+        assert_eq!(r.turns, 1);
+        assert!(slants(&r).iter().all(|s| *s < 1.0), "{:?}", slants(&r));
+    }
+    // A door set in a turning space, a few degrees off the line of the
+    // corridor crossing its own, still leaves straight down that corridor.
+    let map = load(&data("annex.stk")).unwrap();
+    let world = World::from_map(&map);
+    let net = rome_maps::Network::new(&map, &world);
+    let r = world.route(&net, "299L", &[], "203L").unwrap();
+    assert_eq!(r.turns, 1, "{:?}", r.points);
+    assert!((r.length_mm - 25_208.0).abs() < 1.0, "{}", r.length_mm);
+}
