@@ -412,6 +412,30 @@ fn demo_names_a_room_it_does_not_know() {
     assert!(err.contains("no position '999X'"), "{err}");
 }
 
+/// `--leave-junctions` says where a robot waits between tasks: a command
+/// that drives routes, not tasks, refuses it rather than ignore it.
+#[test]
+fn leave_junctions_without_tasks_is_refused_by_name() {
+    for args in [
+        &["demo", "--leave-junctions"][..],
+        &[
+            "planner",
+            "--from",
+            "350R",
+            "--to",
+            "376L",
+            "--dry-run",
+            "--leave-junctions",
+        ],
+    ] {
+        let err = offline_err(args);
+        assert!(
+            err.contains("--leave-junctions") && err.contains("--tasks"),
+            "{args:?}: {err}"
+        );
+    }
+}
+
 /// `--one-way` sends a route that would run north up corridor N (narrow,
 /// on the new wing's loop, one way south) round the loop instead, and the
 /// dry run says so; a building has no one-way corridors to ask for.

@@ -246,6 +246,10 @@ pub async fn planner(common: &CommonArgs, args: PlannerArgs) -> anyhow::Result<u
         };
         return super::fleet::take_tasks(common, duty).await;
     };
+    anyhow::ensure!(
+        !args.rules.leave_junctions,
+        super::traffic::LEAVE_WITHOUT_TASKS
+    );
     let plan = Plan::through(&world, &network, &args.from, &args.via, &to)?
         .keeping(args.rules.traffic, args.rules.lanes);
     let via = if args.via.is_empty() {

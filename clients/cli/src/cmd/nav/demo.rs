@@ -232,6 +232,10 @@ fn routes(args: &Args, map: &rome_maps::Map) -> anyhow::Result<Vec<RouteSpec>> {
 
 /// Runs the demo.
 pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
+    anyhow::ensure!(
+        !args.rules.leave_junctions,
+        super::traffic::LEAVE_WITHOUT_TASKS
+    );
     let map = rome_maps::load_named(&args.map)?;
     let limit = rome_common::minutes("--limit-min", args.limit_min)?;
     let mut routes = routes(&args, &map)?;

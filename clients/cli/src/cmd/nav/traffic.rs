@@ -26,3 +26,9 @@ pub struct TrafficArgs {
     #[arg(long)]
     pub leave_junctions: bool,
 }
+
+/// Why `--leave-junctions` is refused where no robot takes tasks: it
+/// says where a robot stands between tasks, and a route has none.
+pub const LEAVE_WITHOUT_TASKS: &str = "--leave-junctions says where a robot waits between tasks, \
+     so it goes with tasks (rome planner --tasks, rome fleet); a route from --from to --to \
+     has no wait between tasks";
