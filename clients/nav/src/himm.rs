@@ -418,23 +418,51 @@ pub fn orient(alpha_deg: f64, goal_deg: f64) -> f64 {
 }
 
 /// The odometry's heading drift as learnt from the corrections, degrees
-/// per millimetre driven (positive: the odometry heading must grow).
+/// per millimetre driven (positive: the odometry heading must grow), and
+/// how far the robot has driven since its heading was last found.
 #[derive(Debug, Clone, Default)]
-struct Drift(std::sync::Arc<std::sync::Mutex<f64>>);
+struct Drift(std::sync::Arc<std::sync::Mutex<DriftState>>);
+
+#[derive(Debug, Clone, Copy, Default)]
+struct DriftState {
+    rate: f64,
+    since_mm: f64,
+}
 
 impl Drift {
-    fn get(&self) -> f64 {
-        *self.0.lock().unwrap_or_else(|p| p.into_inner())
+    fn lock(&self) -> std::sync::MutexGuard<'_, DriftState> {
+        self.0.lock().unwrap_or_else(|p| p.into_inner())
     }
 
-    /// Learns from a correction of `fix_deg` after `driven_mm`.
-    fn learn(&self, fix_deg: f64, driven_mm: f64, cfg: &HimmConfig) {
+    fn get(&self) -> f64 {
+        self.lock().rate
+    }
+
+    /// Counts `mm` more driven.
+    fn drove(&self, mm: f64) {
+        self.lock().since_mm += mm;
+    }
+
+    /// The heading was just found good, or set right: what drifts from
+    /// here on is counted from here.
+    fn found(&self) {
+        self.lock().since_mm = 0.0;
+    }
+
+    /// Learns from a correction of `fix_deg`: the drift that gathered over
+    /// everything driven since the heading was last found, not over the
+    /// local map alone. A robot corrected over a 6 m map after driving far
+    /// on legs too short to map had drifted over all of that; taken over
+    /// the 6 m alone, a 12° correction is learnt as 1.6°/m, which then
+    /// turns the heading the other way as fast.
+    fn learn(&self, fix_deg: f64, cfg: &HimmConfig) {
+        let mut d = self.lock();
+        let driven_mm = std::mem::take(&mut d.since_mm);
         if driven_mm < 3_000.0 {
             return;
         }
-        let mut rate = self.0.lock().unwrap_or_else(|p| p.into_inner());
         let max = cfg.max_drift_deg_m / 1_000.0;
-        *rate = (*rate + cfg.drift_gain * fix_deg / driven_mm).clamp(-max, max);
+        d.rate = (d.rate + cfg.drift_gain * fix_deg / driven_mm).clamp(-max, max);
     }
 }
 
@@ -478,6 +506,7 @@ impl Himm {
                 // A jump is a correction or a set-pose, not driving.
                 if step < 500.0 {
                     driven += step;
+                    self.drift.drove(step);
                 }
             }
             last = Some(at);
@@ -698,7 +727,9 @@ impl Himm {
             fix = 0.0;
         }
         if self.cfg.learn_drift && fix != 0.0 {
-            self.drift.learn(fix, distance(grid.origin, now), &self.cfg);
+            self.drift.learn(fix, &self.cfg);
+        } else if fix == 0.0 && normalize_deg(goal - gamma).abs() < self.cfg.min_fix_deg {
+            self.drift.found();
         }
         let shift = corridor
             .filter(|_| self.cfg.sideways)

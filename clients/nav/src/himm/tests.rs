@@ -133,3 +133,29 @@ fn walls_are_checked_against_the_robots_track() {
         None
     );
 }
+
+#[test]
+fn drift_is_learnt_over_everything_driven_since_the_heading_was_found() {
+    let cfg = HimmConfig::default();
+    let d = Drift::default();
+    // 100 m of legs too short to map, then a 12° correction over a 6 m
+    // map: 0.8 × 12° / 100 m is learnt, not 0.8 × 12° / 6 m.
+    for _ in 0..200 {
+        d.drove(500.0);
+    }
+    d.learn(12.0, &cfg);
+    let rate = d.get() * 1_000.0;
+    assert!((rate - 0.8 * 12.0 / 100.0).abs() < 1e-9, "{rate} °/m");
+    // The count starts again at a correction: 2 m after it is too little
+    // to learn from.
+    d.drove(2_000.0);
+    d.learn(5.0, &cfg);
+    assert!((d.get() * 1_000.0 - rate).abs() < 1e-12);
+    // And where the heading was found good.
+    d.drove(10_000.0);
+    d.found();
+    d.drove(4_000.0);
+    d.learn(1.0, &cfg);
+    let now = d.get() * 1_000.0;
+    assert!((now - (rate + 0.8 * 1.0 / 4.0)).abs() < 1e-9, "{now} °/m");
+}
