@@ -260,7 +260,7 @@ async fn a_light_seen_late_after_a_push_puts_the_tracker_back_on_the_lights() {
     // found.
     let mut s = among_people(900, None);
     s.nav.stop_on_contact = false;
-    let out = experiment::run_all(&s, vec![trial(23, "NE.men.R", "302R", 23)], |_| {}).await;
+    let out = experiment::run_all(&s, vec![trial(23, "NE.men.R", "302R", 14)], |_| {}).await;
     let r = out[0].report.as_ref().unwrap();
     assert!(
         r.contacts.robot > 0,
@@ -347,7 +347,7 @@ async fn a_base_that_stops_on_a_touch_keeps_its_odometry_among_people() {
     let (stops, pushes) = with_and_without(
         among_people(1_200, None),
         |nav| nav.stop_on_contact = false,
-        trial(21, "303.second.L", "350L", 21),
+        trial(21, "303.second.L", "350L", 1),
     )
     .await;
     assert!(stops.contacts.robot > 0, "no touch: {}", stops.table());
@@ -372,15 +372,15 @@ async fn a_base_that_stops_on_a_touch_keeps_its_odometry_among_people() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_robot_left_aside_by_people_steps_onto_its_goals_line() {
     // 6.1 #18's route among thirty people at 0.7 m/s, people placed with
-    // seed 44: steering for people near the end, the robot finishes its D
-    // goal 0.85 m off the goal's line, its odometry good. Measuring itself
+    // seed 2: steering for people near the end, the robot finishes its D
+    // goal more than 0.5 m off the goal's line, its odometry good. Measuring itself
     // against the walls the map puts beside the goal, it steps sideways
     // onto the line. (Any change in how the robot drives moves the people
     // it meets: the seed is one where it is left aside.)
     let (steps, stays) = with_and_without(
         among_people(900, Some(700.0)),
         |nav| nav.onto_line = false,
-        trial(18, "341L", "311L", 44),
+        trial(18, "341L", "311L", 2),
     )
     .await;
     assert!(steps.arrived() && steps.miss_cm < 30.0, "{}", steps.table());
