@@ -261,14 +261,14 @@ impl Network {
     /// The shortest path between two ends in corridors: keeping to the
     /// doors' corridor lines, or where that finds none, any way.
     fn path(&self, from: End, to: End) -> Option<(Vec<Point>, f64)> {
+        let kept = from.axis.is_some() || to.axis.is_some();
         self.path_keeping(from, to)
-            .or_else(|| self.path_keeping(from.anyway(), to.anyway()))
+            .or_else(|| kept.then(|| self.path_keeping(from.anyway(), to.anyway()))?)
     }
 
     /// The shortest path whose first and last legs the ends admit.
-    fn path_keeping(&self, from: End, to: End) -> Option<(Vec<Point>, f64)> {
-        let (from_end, to_end) = (from, to);
-        let (from, to) = (from.at, to.at);
+    fn path_keeping(&self, from_end: End, to_end: End) -> Option<(Vec<Point>, f64)> {
+        let (from, to) = (from_end.at, to_end.at);
         if self.open(from, to) && from_end.admits(to) && to_end.admits(from) {
             return Some((vec![from, to], distance(from, to)));
         }

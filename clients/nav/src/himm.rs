@@ -721,14 +721,15 @@ impl Himm {
             }
         }
         let gamma = orient(alpha, goal);
-        let mut fix = normalize_deg(goal - gamma);
+        let found = normalize_deg(goal - gamma);
+        let mut fix = found;
         if fix.abs() > self.cfg.max_fix_deg || fix.abs() < self.cfg.min_fix_deg {
             tracing::info!(light, fix, "himm: heading correction not applied");
             fix = 0.0;
         }
         if self.cfg.learn_drift && fix != 0.0 {
             self.drift.learn(fix, &self.cfg);
-        } else if fix == 0.0 && normalize_deg(goal - gamma).abs() < self.cfg.min_fix_deg {
+        } else if found.abs() < self.cfg.min_fix_deg {
             self.drift.found();
         }
         let shift = corridor
