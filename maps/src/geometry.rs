@@ -142,6 +142,18 @@ pub fn distance(p: Point, q: Point) -> f64 {
     nalgebra::distance(&p, &q)
 }
 
+/// How far `p` is from the segment `a`–`b`, mm.
+pub fn distance_to_segment(p: Point, a: Point, b: Point) -> f64 {
+    let (dx, dy) = (b.x - a.x, b.y - a.y);
+    let len2 = dx * dx + dy * dy;
+    let t = if len2 == 0.0 {
+        0.0
+    } else {
+        (((p.x - a.x) * dx + (p.y - a.y) * dy) / len2).clamp(0.0, 1.0)
+    };
+    distance(p, Point::new(a.x + t * dx, a.y + t * dy))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -233,6 +233,42 @@ async fn a_robot_that_ended_its_task_in_a_junction_drives_out_of_it_and_steps_as
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_second_robot_out_of_a_junction_keeps_clear_of_the_first() {
+    // Both ends of A392 lie in the T-junction at N's foot. r1 comes 8 m
+    // down N to A392R and drives out first; r2 comes 23 m down N to A392L
+    // soon after. The first way out from there ends where r1 now stands:
+    // taken again, r2 drives into r1. r3 comes the long way round to
+    // A342R, so the run lasts until both have stepped aside.
+    let r = run_with(
+        &[("r1", "A342R"), ("r2", "A336L"), ("r3", "309R")],
+        pinned(&[
+            ("T1", "A392R", "r1"),
+            ("T2", "A392L", "r2"),
+            ("T3", "A342R", "r3"),
+        ]),
+        None,
+        |t| {
+            t.run.one_way = true;
+            t.run.leave_open = true;
+        },
+    )
+    .await;
+    all_done(&r, &["T1", "T2", "T3"]);
+    untouched(&r);
+    let ((x1, y1), (x2, y2)) = (r.at_end["r1"], r.at_end["r2"]);
+    for (name, x) in [("r1", x1), ("r2", x2)] {
+        assert!(
+            (x - 60_000.0).abs() > 1_220.0 + 380.0,
+            "{name} stands at x = {:.2} m, in the junction",
+            x / 1000.0
+        );
+    }
+    // By ground truth, apart by more than two bodies and a passing lane.
+    let apart = (x1 - x2).hypot(y1 - y2);
+    assert!(apart > 1_200.0, "r1 and r2 stand {apart:.0} mm apart");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_robot_waiting_for_its_first_task_steps_aside_and_another_passes_it() {
     // r1 starts at A336L in corridor N and is given nothing; r2 comes the
     // long way round and passes it on its way to A342R. Left on the

@@ -38,7 +38,7 @@
 pub mod lanes;
 pub mod oneway;
 
-use rome_maps::geometry::{distance, Point};
+use rome_maps::geometry::{distance, distance_to_segment, Point};
 use rome_maps::Network;
 use serde::{Deserialize, Serialize};
 
@@ -124,21 +124,9 @@ impl Junctions {
     /// [`JUNCTION_REACH_MM`] of.
     pub fn on_line(&self, a: Point, b: Point) -> Vec<usize> {
         (0..self.centres.len())
-            .filter(|&k| to_segment(self.centres[k], a, b) <= JUNCTION_REACH_MM)
+            .filter(|&k| distance_to_segment(self.centres[k], a, b) <= JUNCTION_REACH_MM)
             .collect()
     }
-}
-
-/// How far `p` is from the segment `a`–`b`, mm.
-fn to_segment(p: Point, a: Point, b: Point) -> f64 {
-    let (dx, dy) = (b.x - a.x, b.y - a.y);
-    let len2 = dx * dx + dy * dy;
-    let t = if len2 == 0.0 {
-        0.0
-    } else {
-        (((p.x - a.x) * dx + (p.y - a.y) * dy) / len2).clamp(0.0, 1.0)
-    };
-    distance(p, Point::new(a.x + t * dx, a.y + t * dy))
 }
 
 /// A part of the building a robot holds from before step `first` until

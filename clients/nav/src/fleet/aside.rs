@@ -100,19 +100,32 @@ pub const OUT_BODY_MM: f64 = crate::drive::ROBOT_RADIUS_MM + 300.0;
 /// across the building, and the robot stays where it is.
 pub const OUT_MAX_MM: f64 = 6_000.0;
 
+/// How near a way out may pass a robot that stands waiting, centre to
+/// centre, mm: two bodies and 0.3 m. The drive out runs on the
+/// corridor's middle, and a robot aside stands some 0.6 m off it.
+pub const OUT_PASS_MM: f64 = 2.0 * crate::drive::ROBOT_RADIUS_MM + 300.0;
+
+/// How near the end of a way out may lie to a robot that stands waiting,
+/// mm: the robot steps aside there, up to 0.6 m across, and two robots
+/// aside by one wall leave the corridor to those that pass.
+pub const OUT_APART_MM: f64 = 2.0 * crate::drive::ROBOT_RADIUS_MM + 600.0;
+
 /// The way out of the open for a robot at `p`, in a corridor along
 /// `axis_deg` (either way), facing `facing_deg` ([`WayOut`]). A robot that
 /// ended its task in a junction stands where every robot turning there
 /// drives, with no wall to step aside to: it drives on into a corridor
 /// first. The ways tried are along the axis and across it, the least
-/// turning first. `None`: walls stand beside it already, or none within
-/// [`OUT_MAX_MM`] along a way free of walls.
+/// turning first. A way that passes within [`OUT_PASS_MM`] of a robot
+/// standing at one of `waiting`, or ends within [`OUT_APART_MM`] of one,
+/// is not taken: the first robot out of a junction would otherwise stand
+/// where the next one's way out ends, and be driven into. `None`: walls
+/// stand beside it already, or none within [`OUT_MAX_MM`] along a way
+/// free of walls and robots.
 pub fn way_out(
     world: &World,
     network: &Network,
-    p: Point,
-    axis_deg: f64,
-    facing_deg: f64,
+    (p, axis_deg, facing_deg): (Point, f64, f64),
+    waiting: &[Point],
 ) -> Option<WayOut> {
     use rome_maps::geometry::normalize_deg;
     if leg_at(world, network, p, axis_deg, facing_deg).is_some() {
@@ -136,6 +149,13 @@ pub fn way_out(
             .find_map(|distance_mm| {
                 let q = p + along * distance_mm;
                 if network.against(p, q) {
+                    return None;
+                }
+                let in_the_way = |o: &Point| {
+                    rome_maps::geometry::distance_to_segment(*o, p, q) < OUT_PASS_MM
+                        || rome_maps::geometry::distance(*o, q) < OUT_APART_MM
+                };
+                if waiting.iter().any(in_the_way) {
                     return None;
                 }
                 // Walls beside the whole body, with room to spare: a robot
@@ -240,10 +260,14 @@ mod tests {
             let p = position.in_corridor();
             for facing in [way, way + 180.0] {
                 if start_leg(&world, &network, name, facing).is_some() {
-                    assert_eq!(way_out(&world, &network, p, way, facing), None, "{name}");
+                    assert_eq!(
+                        way_out(&world, &network, (p, way, facing), &[]),
+                        None,
+                        "{name}"
+                    );
                     continue;
                 }
-                let Some(w) = way_out(&world, &network, p, way, facing) else {
+                let Some(w) = way_out(&world, &network, (p, way, facing), &[]) else {
                     continue;
                 };
                 let d = w.direction_deg;
@@ -263,7 +287,7 @@ mod tests {
         // and N is behind it: it turns into P.
         let a392r = world.position("A392R").expect("A392R");
         let (p, way) = (a392r.in_corridor(), a392r.wall_heading_deg);
-        let w = way_out(&world, &network, p, way, 180.0).expect("a way out");
+        let w = way_out(&world, &network, (p, way, 180.0), &[]).expect("a way out");
         assert_eq!(w.direction_deg.abs().round(), 90.0, "{w:?}");
         assert!(w.distance_mm <= 2_000.0, "{w:?}");
         assert!((w.walls.0 + w.walls.1 - 2_440.0).abs() < 50.0, "{w:?}");
@@ -275,5 +299,41 @@ mod tests {
         };
         assert_eq!(axis(58_360.0, 6_560.0), 90.0);
         assert_eq!(axis(60_100.0, 30_000.0) % 180.0, 0.0);
+    }
+
+    #[test]
+    fn a_way_out_of_a_junction_neither_passes_nor_ends_at_a_robot_waiting_there() {
+        let (world, network) = eb3();
+        let network = crate::traffic::oneway::with_one_way(&world, network);
+        let a392r = world.position("A392R").expect("A392R");
+        let (p, way) = (a392r.in_corridor(), a392r.wall_heading_deg);
+        let first = way_out(&world, &network, (p, way, 180.0), &[]).expect("a way out");
+        let along = |w: &WayOut| rome_maps::geometry::direction(w.direction_deg);
+        let end = p + along(&first) * first.distance_mm;
+        // The first robot out stepped aside there, 0.6 m towards a wall.
+        let side = rome_maps::geometry::direction(first.direction_deg - 90.0);
+        let aside = end + side * 600.0;
+        let next = way_out(&world, &network, (p, way, 180.0), &[aside]).expect("another way");
+        let next_end = p + along(&next) * next.distance_mm;
+        assert!(
+            rome_maps::geometry::distance_to_segment(aside, p, next_end) >= OUT_PASS_MM,
+            "{first:?} then {next:?}"
+        );
+        assert!(rome_maps::geometry::distance(aside, next_end) >= OUT_APART_MM);
+        assert_ne!(first, next);
+        assert!(leg_at(
+            &world,
+            &network,
+            next_end,
+            next.direction_deg,
+            next.direction_deg
+        )
+        .is_some());
+        // A robot far away changes nothing.
+        let far = Point::new(10_000.0, 60_000.0);
+        assert_eq!(
+            way_out(&world, &network, (p, way, 180.0), &[far]),
+            Some(first)
+        );
     }
 }

@@ -538,7 +538,13 @@ impl OnDuty<'_> {
     ) -> Result<Option<LastLeg>, String> {
         let p = self.robot.pose().await.map_err(|e| e.to_string())?;
         let axis = if axis.is_nan() { p.heading_deg } else { axis };
-        let Some(out) = way_out(self.world, self.network, at, axis, p.heading_deg) else {
+        let waiting = self.waiting().await.map_err(|e| e.to_string())?;
+        let Some(out) = way_out(
+            self.world,
+            self.network,
+            (at, axis, p.heading_deg),
+            &waiting,
+        ) else {
             return Ok(None);
         };
         let said = planner::step_out(self.board, out.direction_deg, out.distance_mm, out.walls)
@@ -557,6 +563,24 @@ impl OnDuty<'_> {
                 out.direction_deg,
             )),
         }
+    }
+
+    /// Where the fleet's other robots stand while they wait (idle, or out
+    /// of service), as their duties say: where each stopped, or the
+    /// position it stands aside from. A duty that does not decode says
+    /// nothing of where its robot is and is passed over; one on its way
+    /// to a task is not standing anywhere.
+    async fn waiting(&self) -> Result<Vec<Point>, NavError> {
+        let duties = super::tasks::robots(self.board.client()).await?;
+        Ok((duties.into_iter())
+            .filter(|(name, _)| name != self.name)
+            .filter_map(|(_, duty)| duty.ok())
+            .filter(|d| d.state != DutyState::Busy)
+            .filter_map(|d| match d.at_mm {
+                Some([x, y]) => Some(Point::new(x, y)),
+                None => self.world.position(&d.at).map(|q| q.in_corridor()),
+            })
+            .collect())
     }
 
     async fn report(&self, duty: &Duty) -> Result<(), NavError> {
