@@ -18,7 +18,9 @@
 //! The Navigator follows hallways (§5.4); on a slant its walls pull it
 //! off the line, and the distance runs out short of the door.
 
-use crate::geometry::{direction, distance, heading_to as heading, normalize_deg, Point};
+use crate::geometry::{
+    direction, distance, distance_to_segment, heading_to as heading, normalize_deg, Point,
+};
 use crate::model::{EdgeKind, Map};
 use crate::world::{intersect, Position, World};
 
@@ -258,10 +260,32 @@ impl Network {
         !self.walls.iter().any(|&(a, b)| crosses(p, q, a, b))
     }
 
+    /// Whether the straight line from `p` to `q` keeps `margin_mm` from
+    /// every wall, or as far as `p` itself stands from the nearest: a
+    /// robot by a wall may leave along it, not cut a corner closer.
+    fn keeps_off(&self, p: Point, q: Point, margin_mm: f64) -> bool {
+        if margin_mm <= 0.0 {
+            return true;
+        }
+        let here = (self.walls.iter())
+            .map(|&(a, b)| distance_to_segment(p, a, b))
+            .fold(f64::INFINITY, f64::min);
+        let margin = margin_mm.min(here - 1.0);
+        self.walls.iter().all(|&(a, b)| {
+            let apart = [
+                distance_to_segment(p, a, b),
+                distance_to_segment(q, a, b),
+                distance_to_segment(a, p, q),
+                distance_to_segment(b, p, q),
+            ];
+            !crosses(p, q, a, b) && apart.into_iter().all(|d| d >= margin)
+        })
+    }
+
     /// The shortest path between two ends in corridors: keeping to the
     /// doors' corridor lines, or where that finds none, any way.
     fn path(&self, from: End, to: End) -> Option<(Vec<Point>, f64)> {
-        let kept = from.axis.is_some() || to.axis.is_some();
+        let kept = from.axis.is_some() || to.axis.is_some() || from.clear_mm > 0.0;
         self.path_keeping(from, to)
             .or_else(|| kept.then(|| self.path_keeping(from.anyway(), to.anyway()))?)
     }
@@ -269,7 +293,8 @@ impl Network {
     /// The shortest path whose first and last legs the ends admit.
     fn path_keeping(&self, from_end: End, to_end: End) -> Option<(Vec<Point>, f64)> {
         let (from, to) = (from_end.at, to_end.at);
-        if self.open(from, to) && from_end.admits(to) && to_end.admits(from) {
+        let leaves = |q: Point| self.open(from, q) && self.keeps_off(from, q, from_end.clear_mm);
+        if leaves(to) && from_end.admits(to) && to_end.admits(from) {
             return Some((vec![from, to], distance(from, to)));
         }
         let n = self.waypoints.len();
@@ -289,7 +314,7 @@ impl Network {
                 }
             } else if i == start {
                 for (k, w) in self.waypoints.iter().enumerate() {
-                    if self.open(from, *w) && from_end.admits(*w) {
+                    if leaves(*w) && from_end.admits(*w) {
                         out.push((k, distance(from, *w)));
                     }
                 }
@@ -360,7 +385,7 @@ impl World {
         // A start that stands where its name puts it is that door's end.
         let mut at = vec![match self.position(start.0) {
             Some(p) if distance(p.in_corridor(), start.1) < 1.0 => End::of(p),
-            _ => End::point(start.1),
+            _ => End::standing(start.1),
         }];
         for name in &stops[1..] {
             let p = self.position(name).ok_or_else(|| RouteError::Unknown {
@@ -441,11 +466,20 @@ pub const ALONG_MM: f64 = 600.0;
 /// the crossing corridor's line, not a cut across the turning space.
 pub const SLANT_DEG: f64 = 15.0;
 
-/// One end of a path: a point, and at a door the heading of its corridor.
+/// How far the first leg from where a robot stands (a point no position
+/// names) keeps its middle from every wall, mm: its radius and 0.12 m.
+/// Such a point may lie anywhere across a corridor, off its centre line;
+/// a straight line from there that grazes a wall's end is clear for a
+/// point, not for the robot, which the Navigator then turns off the line.
+pub const BODY_CLEAR_MM: f64 = rome_schema::robot::body::ROBOT_RADIUS_MM + 120.0;
+
+/// One end of a path: a point, at a door the heading of its corridor, and
+/// how far from the walls a leg from it keeps ([`BODY_CLEAR_MM`]).
 #[derive(Debug, Clone, Copy)]
 struct End {
     at: Point,
     axis: Option<f64>,
+    clear_mm: f64,
 }
 
 impl End {
@@ -455,12 +489,27 @@ impl End {
         End {
             at: p.in_corridor(),
             axis: p.door.then_some(p.wall_heading_deg),
+            clear_mm: 0.0,
         }
     }
 
     /// A point a leg may leave or reach any way.
     fn point(at: Point) -> End {
-        End { at, axis: None }
+        End {
+            at,
+            axis: None,
+            clear_mm: 0.0,
+        }
+    }
+
+    /// Where a robot stands that no position names: a leg leaves it with
+    /// room for its body.
+    fn standing(at: Point) -> End {
+        End {
+            at,
+            axis: None,
+            clear_mm: BODY_CLEAR_MM,
+        }
     }
 
     /// The same point, admitting any leg.

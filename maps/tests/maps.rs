@@ -73,6 +73,51 @@ fn slants(route: &rome_maps::Route) -> Vec<f64> {
         .collect()
 }
 
+/// How near the straight line `p`–`q` comes to a wall of `world`, mm.
+fn nearest_wall(world: &World, p: Point, q: Point) -> f64 {
+    use rome_maps::geometry::distance_to_segment as to;
+    (world.segments.iter())
+        .filter(|s| s.kind != rome_maps::model::EdgeKind::Opening)
+        .map(|s| {
+            to(p, s.a, s.b)
+                .min(to(q, s.a, s.b))
+                .min(to(s.a, p, q))
+                .min(to(s.b, p, q))
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
+#[test]
+fn a_robot_standing_off_the_middle_leaves_with_room_for_its_body() {
+    let map = load(&data("eb3.stk")).unwrap();
+    let world = World::from_map(&map);
+    let net = rome_maps::Network::new(&map, &world);
+    // Stood aside in M, 0.53 m from its south wall and 0.03 m west of the
+    // line of N's west wall, which ends there. Down N, the straight line
+    // to a door clears that wall's end by a few centimetres: clear for a
+    // point, not for a robot 0.76 m wide.
+    let at = pt(58_750.0, 54_200.0);
+    let here = nearest_wall(&world, at, at);
+    let mut down_n = 0;
+    for (name, position) in &world.positions {
+        let q = position.in_corridor();
+        if !(58_780.0..61_220.0).contains(&q.x) || q.y > 50_000.0 {
+            continue;
+        }
+        down_n += 1;
+        let r = world
+            .route_from(&net, ("@58.75,54.20", at), &[], name)
+            .unwrap();
+        let first = nearest_wall(&world, r.points[0], r.points[1]);
+        assert!(
+            first >= rome_maps::route::BODY_CLEAR_MM.min(here) - 1.0,
+            "{name}: the first leg {:?} comes {first:.0} mm from a wall",
+            &r.points[..2]
+        );
+    }
+    assert!(down_n > 10, "{down_n} positions down N");
+}
+
 #[test]
 fn a_door_round_a_corner_is_reached_through_the_turning_space_not_across_it() {
     let map = load(&data("campus.stk")).unwrap();
