@@ -269,6 +269,24 @@ async fn a_second_robot_out_of_a_junction_keeps_clear_of_the_first() {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_robot_that_stood_aside_sets_off_from_where_it_stands() {
+    // r1 waits at 302L in the 3.66 m hall M, just west of N's mouth, and
+    // steps 1.3 m over to the hall's south wall. Its task then takes it
+    // down N. Planned from 302L's point on the hall's middle, the first
+    // leg runs straight down N; driven from 1.3 m south of that point, it
+    // runs on a slant into the end of N's west wall.
+    let r = run_with(
+        &[("r1", "302L"), ("r2", "309R")],
+        pinned(&[("T1", "A342R", "r2"), ("T2", "A326L", "r1")]),
+        None,
+        |t| t.every = Some(Duration::from_secs(20)),
+    )
+    .await;
+    all_done(&r, &["T1", "T2"]);
+    untouched(&r);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_robot_waiting_for_its_first_task_steps_aside_and_another_passes_it() {
     // r1 starts at A336L in corridor N and is given nothing; r2 comes the
     // long way round and passes it on its way to A342R. Left on the

@@ -9,9 +9,11 @@
 //! - [`dispatcher`]: the one dispatcher's rounds (`rome dispatcher`).
 //! - [`duty`]: a robot taking tasks (`rome planner --tasks`).
 //! - [`aside`]: where a robot without a task waits.
+//! - [`clear`]: where a robot out of service drives to get clear.
 
 pub mod aside;
 pub mod assign;
+pub mod clear;
 pub mod dispatcher;
 pub mod duty;
 pub mod schema;

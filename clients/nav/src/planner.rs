@@ -267,7 +267,7 @@ pub async fn stop_navigator(board: &Board, robot: &RobotClient) -> Result<bool, 
 
 /// How far from the right wall a robot between tasks stands, mm, from its
 /// middle: its radius and 0.15 m.
-const ASIDE_FROM_WALL_MM: f64 = crate::drive::ROBOT_RADIUS_MM + 150.0;
+pub const ASIDE_FROM_WALL_MM: f64 = crate::drive::ROBOT_RADIUS_MM + 150.0;
 
 /// Moves a robot that stands where its last D goal ended (heading
 /// `direction_deg`, the walls `walls` = (left, right) mm from its line, as

@@ -59,6 +59,16 @@ pub fn leg_at(
     Some((direction, walls))
 }
 
+/// Where a robot that stood at `p` stands once it stepped aside from a leg
+/// along `direction_deg` with the walls `(left, right)` beside its line
+/// ([`crate::planner::step_aside`]): over to the right wall, as far as the
+/// map's walls say, not as its odometry does, which may be turned by many
+/// degrees where no light or wall has corrected it.
+pub fn stood_aside(p: Point, direction_deg: f64, (_, right): (f64, f64)) -> Point {
+    let over = (right - crate::planner::ASIDE_FROM_WALL_MM).max(0.0);
+    p + rome_maps::geometry::direction(direction_deg - 90.0) * over
+}
+
 /// The axis of the corridor at `p`, degrees (either way): the wall of the
 /// nearest position of the map within 3 m. A robot's odometry heading is no
 /// measure of it where it stopped in a turn or swerved round someone.
@@ -299,6 +309,26 @@ mod tests {
         };
         assert_eq!(axis(58_360.0, 6_560.0), 90.0);
         assert_eq!(axis(60_100.0, 30_000.0) % 180.0, 0.0);
+    }
+
+    #[test]
+    fn a_robot_aside_stands_by_the_right_wall_as_the_map_has_it() {
+        // Heading south down N, right is west: 1.22 m to the wall, less
+        // its radius and 0.15 m.
+        let q = stood_aside(Point::new(60_000.0, 30_000.0), 180.0, (1_220.0, 1_220.0));
+        assert!(
+            (q.x - 59_310.0).abs() < 1e-6 && (q.y - 30_000.0).abs() < 1e-6,
+            "{q:?}"
+        );
+        // Heading east (-90°) in a 3.66 m hall, right is south.
+        let q = stood_aside(Point::new(58_500.0, 55_500.0), -90.0, (1_830.0, 1_830.0));
+        assert!(
+            (q.x - 58_500.0).abs() < 1e-6 && (q.y - 54_200.0).abs() < 1e-6,
+            "{q:?}"
+        );
+        // Already by the wall: it stays.
+        let p = Point::new(1.0, 2.0);
+        assert_eq!(stood_aside(p, 0.0, (2_000.0, 400.0)), p);
     }
 
     #[test]

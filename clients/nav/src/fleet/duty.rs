@@ -21,13 +21,14 @@
 //! running, is `lost`, taking no more tasks until it is started again with
 //! `--from`. A robot blocked twice in one place is `lost` too, but only for
 //! a rest: then it drives itself clear to a position of the map
-//! ([`clear_to`]) and takes tasks again, or rests twice as long and tries
+//! ([`super::clear::clear_to`]) and takes tasks again, or rests twice as long and tries
 //! another position. Left standing for good, such robots become the very
 //! knots that block the next ones. A value on the
 //! blackboard that does not decode is reported and skipped; it never ends
 //! the Planner.
 
-use super::aside::{corridor_axis, leg_at, start_leg, way_out, LastLeg};
+use super::aside::{corridor_axis, leg_at, start_leg, stood_aside, way_out, LastLeg};
+use super::clear::{clear_to, CLEAR_NEAR_MM};
 use super::schema::{
     decode, duty_var, task_sem, task_var, Assignment, Duty, DutyState, Outcome, WAKE,
 };
@@ -66,49 +67,6 @@ pub const REST_FIRST: Duration = Duration::from_secs(120);
 /// The longest rest between two tries at getting clear.
 pub const REST_MAX: Duration = Duration::from_secs(960);
 
-/// How far along its route a position must be for a robot to drive to it
-/// to get clear, mm: a nearer one lies in the knot the robot stood in.
-pub const CLEAR_MIN_MM: f64 = 3_000.0;
-
-/// How far from the robot, in a straight line, positions are looked at to
-/// get clear, mm.
-const CLEAR_NEAR_MM: f64 = 30_000.0;
-
-/// The position a robot out of service at `at`, facing `heading_deg`,
-/// drives to, to get clear of where it was blocked: one at least
-/// [`CLEAR_MIN_MM`] along its route, behind the robot if any is (the way
-/// it came, which it drove through; ahead is what blocked it), the
-/// nearest by route of those (ties by name, so every run picks the
-/// same), leaving out those it `tried` already. `None`: none within 30 m.
-pub fn clear_to(
-    world: &World,
-    network: &Network,
-    at: Point,
-    heading_deg: f64,
-    tried: &[String],
-) -> Option<(String, f64)> {
-    let ahead = rome_maps::geometry::direction(heading_deg);
-    world
-        .positions
-        .iter()
-        .filter(|(name, _)| !tried.contains(name))
-        .filter_map(|(name, p)| {
-            let off = p.in_corridor() - at;
-            if off.norm() > CLEAR_NEAR_MM {
-                return None;
-            }
-            let route = world.route_from(network, ("here", at), &[], name).ok()?;
-            let in_front = off.dot(&ahead) > 0.0;
-            (route.length_mm >= CLEAR_MIN_MM).then(|| (in_front, name.clone(), route.length_mm))
-        })
-        .min_by(|a, b| {
-            (a.0.cmp(&b.0))
-                .then_with(|| a.2.total_cmp(&b.2))
-                .then_with(|| a.1.cmp(&b.1))
-        })
-        .map(|(_, name, length)| (name, length))
-}
-
 /// What went wrong lately, which decides whether the robot goes out of
 /// service; forgotten once it arrives somewhere.
 #[derive(Debug, Default)]
@@ -121,6 +79,23 @@ struct Trouble {
     /// next try, and the positions it tried to get to.
     out: Option<(Duration, Vec<String>)>,
 }
+
+/// Where a robot stands after stepping aside, and the axis of the
+/// corridor it stepped aside in, degrees.
+type Aside = (Point, f64);
+
+/// Whether `plan`'s first leg runs along a corridor whose axis is
+/// `axis_deg` (either way), within [`ALONG_AXIS_DEG`].
+fn leaves_along(plan: &Plan, axis_deg: f64) -> bool {
+    plan.route.legs().first().is_none_or(|&(_, _, _, h)| {
+        let off = rome_maps::geometry::normalize_deg(h - axis_deg).abs();
+        off.min(180.0 - off) <= ALONG_AXIS_DEG
+    })
+}
+
+/// How far a first leg may turn from the corridor a robot stood aside in
+/// and still be driven from the point its position names, degrees.
+const ALONG_AXIS_DEG: f64 = 20.0;
 
 /// The robot stands at the position `at`, ready for a task.
 fn idle_at(duty: &mut Duty, at: String) {
@@ -303,8 +278,13 @@ impl OnDuty<'_> {
                 last_leg = Some(leg);
             }
         }
+        // Where the robot stands after stepping aside, as the step was
+        // meant to end (the map's walls, not its odometry); `None` once it
+        // drives on.
+        let mut aside_at: Option<Aside> = None;
         loop {
             if let Some((rest, tried)) = trouble.out.as_mut() {
+                aside_at = None;
                 rome_clock::sleep(*rest).await;
                 let cleared = self
                     .get_clear(
@@ -339,6 +319,7 @@ impl OnDuty<'_> {
                     let open = in_open.take().expect("checked");
                     let given = ds.wait_timeout(&task_sem(self.name), after).await?;
                     if !given {
+                        aside_at = None;
                         let out = self.step_out(&mut duty, open).await;
                         self.report(&duty).await?;
                         match out {
@@ -355,7 +336,12 @@ impl OnDuty<'_> {
                     let given = ds.wait_timeout(&task_sem(self.name), after).await?;
                     if !given {
                         match planner::step_aside(self.board, direction, walls).await {
-                            Ok(None) => {}
+                            Ok(None) => {
+                                let base = (duty.at_mm.map(|[x, y]| Point::new(x, y)))
+                                    .or_else(|| Some(self.world.position(&duty.at)?.in_corridor()));
+                                aside_at =
+                                    base.map(|p| (stood_aside(p, direction, walls), direction));
+                            }
                             Ok(Some(why)) => {
                                 note(DutyNote::NotAside(format!("the Navigator: {why}")))
                             }
@@ -389,7 +375,7 @@ impl OnDuty<'_> {
             let (outcome, at) = self
                 .carry_out(
                     cfg,
-                    &from,
+                    (&from, aside_at.take()),
                     &a,
                     true,
                     (&mut registered, &mut facing, &mut last_leg),
@@ -522,7 +508,7 @@ impl OnDuty<'_> {
             }
         };
         let (outcome, at) = self
-            .carry_out(cfg, &from, &a, false, state, &mut planner_only)
+            .carry_out(cfg, (&from, None), &a, false, state, &mut planner_only)
             .await;
         at.ok_or_else(|| outcome.why.unwrap_or_else(|| "no reason given".to_string()))
     }
@@ -596,7 +582,7 @@ impl OnDuty<'_> {
     async fn carry_out(
         &self,
         cfg: &DutyConfig,
-        from: &(String, Option<Point>),
+        (from, aside): (&(String, Option<Point>), Option<Aside>),
         a: &Assignment,
         cancellable: bool,
         (registered, facing, last_leg): (&mut bool, &mut Option<f64>, &mut Option<LastLeg>),
@@ -611,9 +597,24 @@ impl OnDuty<'_> {
         if point.is_none() && *label == a.to && a.via.is_empty() {
             return (outcome(true, None), Some(label.clone()));
         }
-        let planned = match point {
-            Some(p) => Plan::from_point(self.world, self.network, (label, *p), &a.via, &a.to),
-            None => Plan::through(self.world, self.network, label, &a.via, &a.to),
+        let planned = match (point, aside) {
+            (Some(p), _) => Plan::from_point(self.world, self.network, (label, *p), &a.via, &a.to),
+            // Stood aside, up to half a corridor's width off the point its
+            // position names. A route that leaves along the corridor is
+            // driven as planned: the Navigator centres the robot on the
+            // way. One that turns off at once, planned from that point and
+            // driven from where the robot stands, would run on a slant
+            // across the corridor into the end of a wall: it is planned
+            // from where the robot stands.
+            (None, Some((q, axis))) => {
+                let named = Plan::through(self.world, self.network, label, &a.via, &a.to);
+                match named {
+                    Ok(p) if leaves_along(&p, axis) => Ok(p),
+                    _ => Plan::from_point(self.world, self.network, (label, q), &a.via, &a.to)
+                        .or(named),
+                }
+            }
+            (None, None) => Plan::through(self.world, self.network, label, &a.via, &a.to),
         };
         let plan = match planned {
             Ok(p) => p.keeping(cfg.traffic, cfg.lanes),
@@ -770,53 +771,5 @@ impl OnDuty<'_> {
                 );
             }
         }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    use crate::plan::tests::eb3;
-
-    #[test]
-    fn a_robot_gets_clear_behind_it_first_then_ahead_never_twice_to_one_place() {
-        let (world, network) = eb3();
-        // On A336L in corridor N, facing south (180°): that position, and
-        // any under 3 m of route, is in the knot it stands in.
-        let at = world.position("A336L").expect("A336L").in_corridor();
-        let behind = |to: &str| {
-            let p = world.position(to).expect("named").in_corridor();
-            (p - at).dot(&rome_maps::geometry::direction(180.0)) <= 0.0
-        };
-        let mut tried = Vec::new();
-        let mut seen_ahead = false;
-        for _ in 0..12 {
-            let (to, length) = clear_to(&world, &network, at, 180.0, &tried).expect("a position");
-            assert!(length >= CLEAR_MIN_MM, "{to} is {length:.0} mm away");
-            let far = (world.position(&to).expect("named").in_corridor() - at).norm();
-            assert!(far <= CLEAR_NEAR_MM, "{to} is {far:.0} mm away");
-            assert!(!tried.contains(&to), "{to} was tried already");
-            // Every position behind before any ahead.
-            assert!(
-                !(seen_ahead && behind(&to)),
-                "{to} behind after one ahead: {tried:?}"
-            );
-            seen_ahead |= !behind(&to);
-            tried.push(to);
-        }
-        assert!(behind(&tried[0]), "{tried:?}");
-        assert!(!tried.iter().any(|t| t == "A336L"), "{tried:?}");
-    }
-
-    #[test]
-    fn a_robot_with_every_position_near_tried_has_nowhere_to_get_clear_to() {
-        let (world, network) = eb3();
-        let at = world.position("A336L").expect("A336L").in_corridor();
-        let all: Vec<String> = world.positions.keys().cloned().collect();
-        assert_eq!(clear_to(&world, &network, at, 0.0, &all), None);
-        // Far from everything: nothing within reach either.
-        let nowhere = Point::new(-1.0e6, -1.0e6);
-        assert_eq!(clear_to(&world, &network, nowhere, 0.0, &[]), None);
     }
 }
