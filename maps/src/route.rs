@@ -260,26 +260,32 @@ impl Network {
         !self.walls.iter().any(|&(a, b)| crosses(p, q, a, b))
     }
 
-    /// Whether the straight line from `p` to `q` keeps `margin_mm` from
-    /// every wall, or as far as `p` itself stands from the nearest: a
-    /// robot by a wall may leave along it, not cut a corner closer.
-    fn keeps_off(&self, p: Point, q: Point, margin_mm: f64) -> bool {
-        if margin_mm <= 0.0 {
-            return true;
+    /// How far a leg from `p` is to keep from every wall: `want_mm`, or as
+    /// far as `p` itself stands from the nearest (a robot by a wall may
+    /// leave along it, not cut a corner closer). 0: no margin wanted.
+    fn margin_at(&self, p: Point, want_mm: f64) -> f64 {
+        if want_mm <= 0.0 {
+            return 0.0;
         }
         let here = (self.walls.iter())
             .map(|&(a, b)| distance_to_segment(p, a, b))
             .fold(f64::INFINITY, f64::min);
-        let margin = margin_mm.min(here - 1.0);
-        self.walls.iter().all(|&(a, b)| {
-            let apart = [
-                distance_to_segment(p, a, b),
-                distance_to_segment(q, a, b),
-                distance_to_segment(a, p, q),
-                distance_to_segment(b, p, q),
-            ];
-            !crosses(p, q, a, b) && apart.into_iter().all(|d| d >= margin)
-        })
+        want_mm.min(here - 1.0)
+    }
+
+    /// Whether the straight line from `p` to `q` keeps `margin_mm` from
+    /// every wall ([`Network::margin_at`]).
+    fn keeps_off(&self, p: Point, q: Point, margin_mm: f64) -> bool {
+        margin_mm <= 0.0
+            || self.walls.iter().all(|&(a, b)| {
+                let apart = [
+                    distance_to_segment(p, a, b),
+                    distance_to_segment(q, a, b),
+                    distance_to_segment(a, p, q),
+                    distance_to_segment(b, p, q),
+                ];
+                !crosses(p, q, a, b) && apart.into_iter().all(|d| d >= margin_mm)
+            })
     }
 
     /// The shortest path between two ends in corridors: keeping to the
@@ -293,7 +299,9 @@ impl Network {
     /// The shortest path whose first and last legs the ends admit.
     fn path_keeping(&self, from_end: End, to_end: End) -> Option<(Vec<Point>, f64)> {
         let (from, to) = (from_end.at, to_end.at);
-        let leaves = |q: Point| self.open(from, q) && self.keeps_off(from, q, from_end.clear_mm);
+        // Once a search: the start's room to its nearest wall.
+        let margin = self.margin_at(from, from_end.clear_mm);
+        let leaves = |q: Point| self.open(from, q) && self.keeps_off(from, q, margin);
         if leaves(to) && from_end.admits(to) && to_end.admits(from) {
             return Some((vec![from, to], distance(from, to)));
         }

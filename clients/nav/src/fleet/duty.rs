@@ -97,6 +97,15 @@ fn leaves_along(plan: &Plan, axis_deg: f64) -> bool {
 /// and still be driven from the point its position names, degrees.
 const ALONG_AXIS_DEG: f64 = 20.0;
 
+/// Where a duty says its robot stands: where it stopped (`at_mm`), or the
+/// point its position names. `None`: neither (a name the map lacks).
+fn stands_at(world: &World, duty: &Duty) -> Option<Point> {
+    match duty.at_mm {
+        Some([x, y]) => Some(Point::new(x, y)),
+        None => Some(world.position(&duty.at)?.in_corridor()),
+    }
+}
+
 /// The robot stands at the position `at`, ready for a task.
 fn idle_at(duty: &mut Duty, at: String) {
     duty.at = at;
@@ -337,10 +346,8 @@ impl OnDuty<'_> {
                     if !given {
                         match planner::step_aside(self.board, direction, walls).await {
                             Ok(None) => {
-                                let base = (duty.at_mm.map(|[x, y]| Point::new(x, y)))
-                                    .or_else(|| Some(self.world.position(&duty.at)?.in_corridor()));
-                                aside_at =
-                                    base.map(|p| (stood_aside(p, direction, walls), direction));
+                                aside_at = stands_at(self.world, &duty)
+                                    .map(|p| (stood_aside(p, direction, walls), direction));
                             }
                             Ok(Some(why)) => {
                                 note(DutyNote::NotAside(format!("the Navigator: {why}")))
@@ -562,10 +569,7 @@ impl OnDuty<'_> {
             .filter(|(name, _)| name != self.name)
             .filter_map(|(_, duty)| duty.ok())
             .filter(|d| d.state != DutyState::Busy)
-            .filter_map(|d| match d.at_mm {
-                Some([x, y]) => Some(Point::new(x, y)),
-                None => self.world.position(&d.at).map(|q| q.in_corridor()),
-            })
+            .filter_map(|d| stands_at(self.world, &d))
             .collect())
     }
 
