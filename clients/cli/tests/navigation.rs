@@ -9,7 +9,8 @@
 //! run whose durable data server is killed mid-route still arrives; and a
 //! run in lock-step across processes (`rome sim --lockstep`, every other
 //! process on `--sim-time`) is the same run as in one process, to the last
-//! bit of every instant's ground truth, twice at once.
+//! bit of every instant's ground truth, twice at once, even when one of
+//! its processes starts later than a call may take.
 
 #![allow(clippy::unwrap_used)]
 
@@ -337,7 +338,12 @@ async fn run_with_data_server_down_for(down: Duration) {
 /// server, the simulator (tracing every instant to `trace`), four helpers
 /// and the planner, each on `--sim-time`, held at the start until all six
 /// followers are in. Returns the planner's output once it has arrived.
-async fn split_run(trace: &std::path::Path) -> String {
+/// One robot's run from 302L to A340R split into processes, tracing to
+/// `trace`. With `late`, the ctracker starts only once the planner has
+/// said that a request of its waits for its round: a party later than a
+/// call's timeout, which the world and every request held for it wait
+/// for, so the run is still the same.
+async fn split_run(trace: &std::path::Path, late: bool) -> String {
     let (robot, from, to) = ("r1", "302L", "A340R");
     let (_data, port) = server(
         "data-server",
@@ -358,8 +364,32 @@ async fn split_run(trace: &std::path::Path) -> String {
         &[from],
         &["--lockstep", "--parties", "6", "--trace", trace],
     );
-    let crew = helpers_with(port, robot, "eb3", &["--sim-time"]);
-    let planner = planner_with(port, "eb3", (robot, from, to), &["--sim-time"]);
+    let flags = ["--sim-time"];
+    let roles = ["navigator", "ctracker", "mapper", "plfinder"];
+    let first: Vec<&str> = roles
+        .into_iter()
+        .filter(|&r| !late || r != "ctracker")
+        .collect();
+    let mut crew = helpers_of(port, (robot, "eb3"), &flags, &first);
+    let planner = planner_with(port, "eb3", (robot, from, to), &flags);
+    if late {
+        let log = log_dir(port).join(format!("planner-{robot}.log"));
+        // Held past a call's timeout: waiting on, or (were it not to wait
+        // while the data server lives) given up.
+        let said = [
+            "a request waits for its round",
+            "no reply from the data server",
+        ];
+        rome_tests::eventually(Duration::from_secs(120), said[0], || {
+            let log = log.clone();
+            async move {
+                let log = std::fs::read_to_string(&log).unwrap_or_default();
+                said.iter().any(|s| log.contains(s))
+            }
+        })
+        .await;
+        crew.extend(helpers_of(port, (robot, "eb3"), &flags, &["ctracker"]));
+    }
     let out = arrived(port, robot, to, planner).await;
     for mut c in crew {
         c.kill();
@@ -385,7 +415,8 @@ async fn a_lockstep_run_split_into_processes_is_the_same_run_as_in_one_process()
     // and the same route in one process must be the same bytes.
     let dir = rome_tests::TestDir::new("lockstep-split");
     let (a, b) = (dir.path().join("a.trace"), dir.path().join("b.trace"));
-    let (out, _) = tokio::join!(split_run(&a), split_run(&b));
+    // The second has a party that starts late (see `split_run`).
+    let (out, _) = tokio::join!(split_run(&a, false), split_run(&b, true));
     let row = out
         .lines()
         .find(|l| l.contains("302L to A340R"))

@@ -52,7 +52,10 @@ pub struct DataOptions {
     pub root: Root,
     /// What this client is (`planner`, `cli` …): shown by `rome ls`.
     pub role: String,
-    /// How long one call may take, retries included (waits excepted).
+    /// How long one call may take, retries included (waits excepted, and
+    /// requests held for their round in a run split into processes, which
+    /// wait while the data server lives; this is then how often it is
+    /// looked for).
     pub request_timeout: Duration,
     /// How long the first attempt of a call may take before it is
     /// retried; each silent attempt doubles it, up to `max_attempt_timeout`.
@@ -228,7 +231,8 @@ impl DataClient {
     }
 
     /// A call, retried on silence until `request_timeout`; safe because
-    /// every state-changing call carries an id.
+    /// every state-changing call carries an id. In a run split into
+    /// processes an answer is awaited as long as the data server lives.
     async fn call<T: DeserializeOwned>(
         &self,
         op: DataOp,
@@ -252,19 +256,27 @@ impl DataClient {
                 });
             }
             let tried = Instant::now();
-            // In a run split into processes a change waits for its round
-            // to end, and a second attempt would be stamped for a later
-            // round than the first: one attempt, as long as the call.
-            let this_attempt = if rome_clock::in_rounds() {
-                left
+            let answer = if rome_clock::in_rounds() {
+                // In a run split into processes the server holds a request
+                // until its round, which may be long in coming: one
+                // attempt (a second would be stamped for a later round),
+                // as long as the server lives.
+                let presence = o.root.alive_server("data", "*");
+                let session = &self.inner.session;
+                tokio::select! {
+                    a = self.attempt(op, key, params, payload, call::HELD_PATIENCE) => a?,
+                    () = call::until_gone(session, &presence, o.request_timeout, key) => None,
+                }
             } else {
-                left.min(attempt_timeout)
+                let this_attempt = left.min(attempt_timeout);
+                // A loaded server or link answers late: give the next
+                // attempt longer instead of abandoning every one at the
+                // same point.
+                attempt_timeout =
+                    (attempt_timeout * 2).min(o.max_attempt_timeout.max(o.attempt_timeout));
+                self.attempt(op, key, params, payload, this_attempt).await?
             };
-            // A loaded server or link answers late: give the next attempt
-            // longer instead of abandoning every one at the same point.
-            attempt_timeout =
-                (attempt_timeout * 2).min(o.max_attempt_timeout.max(o.attempt_timeout));
-            match self.attempt(op, key, params, payload, this_attempt).await? {
+            match answer {
                 Some(Answer::Reply { body, .. }) => return Ok(decode(&body, what)?),
                 // Busy: the server took nothing in, so sending again is
                 // safe whatever the call; pause as for silence.

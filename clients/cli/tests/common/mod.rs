@@ -107,8 +107,20 @@ pub fn helpers(port: u16, robot: &str, map: &str) -> Vec<ChildGuard> {
 
 /// [`helpers`], each given the global flags `flags` (`--sim-time`).
 pub fn helpers_with(port: u16, robot: &str, map: &str, flags: &[&str]) -> Vec<ChildGuard> {
+    let all = ["navigator", "ctracker", "mapper", "plfinder"];
+    helpers_of(port, (robot, map), flags, &all)
+}
+
+/// Those of a robot's helper clients named in `roles`, each given the
+/// global flags `flags`.
+pub fn helpers_of(
+    port: u16,
+    (robot, map): (&str, &str),
+    flags: &[&str],
+    roles: &[&str],
+) -> Vec<ChildGuard> {
     let mut out = Vec::new();
-    for role in ["navigator", "ctracker", "mapper", "plfinder"] {
+    for &role in roles {
         let name = format!("{role}-{robot}");
         let mut args = flags.to_vec();
         args.extend([role, "--robot", robot]);
