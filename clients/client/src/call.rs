@@ -7,6 +7,7 @@
 
 use crate::ClientError;
 use rome_schema::{decode, ErrorReply};
+use std::future::Future;
 use std::time::Duration;
 use zenoh::bytes::Encoding;
 use zenoh::handlers::Callback;
@@ -165,52 +166,25 @@ pub(crate) fn lockstep_band(band: Priority) -> Priority {
 /// where a server holds a request until its round (see
 /// [`rome_clock::Hold`]). The world may be held meanwhile for a party
 /// still starting (`rome sim --parties`), for as long as that takes, so
-/// the wait is bounded by the server's life ([`until_gone`]), not by
-/// the call's own timeout.
+/// the call's own timeout does not bound it: a server that dies or whose
+/// link is lost ends the query at once, and the call fails then.
 pub(crate) const HELD_PATIENCE: Duration = Duration::from_secs(3600);
 
-/// How long a look for a server's liveliness token waits for replies.
-const LIVENESS_PATIENCE: Duration = Duration::from_secs(2);
-
-/// Returns once no live token matches `presence`, looking every `every`:
-/// a request held for its round has nothing to wait for any more. Says
-/// once, at the first look, that the request `key` is still waiting and
-/// why.
-pub(crate) async fn until_gone(session: &Session, presence: &str, every: Duration, key: &str) {
-    let mut said = false;
-    loop {
-        tokio::time::sleep(every).await;
-        if !alive(session, presence).await {
-            return;
-        }
-        if !said {
-            said = true;
+/// Awaits `answer`, a request held for its round, saying once, after
+/// `say_after`, that the request `key` is still waiting and why.
+pub(crate) async fn held<T>(answer: impl Future<Output = T>, say_after: Duration, key: &str) -> T {
+    tokio::pin!(answer);
+    match tokio::time::timeout(say_after, &mut answer).await {
+        Ok(a) => a,
+        Err(_) => {
             tracing::warn!(
                 %key,
-                waited = ?every,
+                waited = ?say_after,
                 "a request waits for its round: in a lock-step run split into processes its \
                  server holds it until every party follows the clock (`rome sim --parties`) and \
-                 its round comes; waiting on while the server is alive"
+                 its round comes; waiting on while the server is there"
             );
+            answer.await
         }
     }
-}
-
-/// Whether a live token matches `presence` (a failed look counts as none).
-async fn alive(session: &Session, presence: &str) -> bool {
-    let replies = match session
-        .liveliness()
-        .get(presence)
-        .timeout(LIVENESS_PATIENCE)
-        .with(replies())
-        .await
-    {
-        Ok(r) => r,
-        Err(_) => return false,
-    };
-    let mut any = false;
-    while let Ok(reply) = replies.recv_async().await {
-        any |= reply.result().is_ok();
-    }
-    any
 }

@@ -54,8 +54,8 @@ pub struct DataOptions {
     pub role: String,
     /// How long one call may take, retries included (waits excepted, and
     /// requests held for their round in a run split into processes, which
-    /// wait while the data server lives; this is then how often it is
-    /// looked for).
+    /// wait while the data server is there; this is then when the wait is
+    /// said).
     pub request_timeout: Duration,
     /// How long the first attempt of a call may take before it is
     /// retried; each silent attempt doubles it, up to `max_attempt_timeout`.
@@ -232,7 +232,7 @@ impl DataClient {
 
     /// A call, retried on silence until `request_timeout`; safe because
     /// every state-changing call carries an id. In a run split into
-    /// processes an answer is awaited as long as the data server lives.
+    /// processes an answer is awaited as long as the data server is there.
     async fn call<T: DeserializeOwned>(
         &self,
         op: DataOp,
@@ -260,13 +260,9 @@ impl DataClient {
                 // In a run split into processes the server holds a request
                 // until its round, which may be long in coming: one
                 // attempt (a second would be stamped for a later round),
-                // as long as the server lives.
-                let presence = o.root.alive_server("data", "*");
-                let session = &self.inner.session;
-                tokio::select! {
-                    a = self.attempt(op, key, params, payload, call::HELD_PATIENCE) => a?,
-                    () = call::until_gone(session, &presence, o.request_timeout, key) => None,
-                }
+                // as long as the server is there.
+                let answer = self.attempt(op, key, params, payload, call::HELD_PATIENCE);
+                call::held(answer, o.request_timeout, key).await?
             } else {
                 let this_attempt = left.min(attempt_timeout);
                 // A loaded server or link answers late: give the next
@@ -276,6 +272,10 @@ impl DataClient {
                     (attempt_timeout * 2).min(o.max_attempt_timeout.max(o.attempt_timeout));
                 self.attempt(op, key, params, payload, this_attempt).await?
             };
+            if !matches!(answer, Some(Answer::Reply { .. })) {
+                let refused = answer.is_some();
+                tracing::debug!(%key, refused, after = ?tried.elapsed(), "data call unanswered");
+            }
             match answer {
                 Some(Answer::Reply { body, .. }) => return Ok(decode(&body, what)?),
                 // Busy: the server took nothing in, so sending again is
