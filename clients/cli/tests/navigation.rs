@@ -338,11 +338,10 @@ async fn run_with_data_server_down_for(down: Duration) {
 /// server, the simulator (tracing every instant to `trace`), four helpers
 /// and the planner, each on `--sim-time`, held at the start until all six
 /// followers are in. Returns the planner's output once it has arrived.
-/// One robot's run from 302L to A340R split into processes, tracing to
-/// `trace`. With `late`, the ctracker starts only once the planner has
-/// said that a request of its waits for its round: a party later than a
-/// call's timeout, which the world and every request held for it wait
-/// for, so the run is still the same.
+/// With `late`, the ctracker starts only once the planner has said that a
+/// request of its waits for its round: a party later than a call's
+/// timeout, which the world and every request held for it wait for, so
+/// the run is still the same.
 async fn split_run(trace: &std::path::Path, late: bool) -> String {
     let (robot, from, to) = ("r1", "302L", "A340R");
     let (_data, port) = server(
@@ -365,8 +364,7 @@ async fn split_run(trace: &std::path::Path, late: bool) -> String {
         &["--lockstep", "--parties", "6", "--trace", trace],
     );
     let flags = ["--sim-time"];
-    let roles = ["navigator", "ctracker", "mapper", "plfinder"];
-    let first: Vec<&str> = roles
+    let first: Vec<&str> = HELPERS
         .into_iter()
         .filter(|&r| !late || r != "ctracker")
         .collect();
@@ -375,7 +373,7 @@ async fn split_run(trace: &std::path::Path, late: bool) -> String {
     if late {
         let log = log_dir(port).join(format!("planner-{robot}.log"));
         // Held past a call's timeout: waiting on, or (were it not to wait
-        // while the data server lives) given up.
+        // while the data server is there) given up.
         let said = [
             "a request waits for its round",
             "no reply from the data server",

@@ -105,10 +105,12 @@ pub fn helpers(port: u16, robot: &str, map: &str) -> Vec<ChildGuard> {
     helpers_with(port, robot, map, &[])
 }
 
+/// A robot's helper clients, by subcommand.
+pub const HELPERS: [&str; 4] = ["navigator", "ctracker", "mapper", "plfinder"];
+
 /// [`helpers`], each given the global flags `flags` (`--sim-time`).
 pub fn helpers_with(port: u16, robot: &str, map: &str, flags: &[&str]) -> Vec<ChildGuard> {
-    let all = ["navigator", "ctracker", "mapper", "plfinder"];
-    helpers_of(port, (robot, map), flags, &all)
+    helpers_of(port, (robot, map), flags, &HELPERS)
 }
 
 /// Those of a robot's helper clients named in `roles`, each given the
@@ -150,7 +152,7 @@ pub async fn await_up(session: &zenoh::Session, port: u16, robots: usize) {
         };
         // Each client process holds two tokens (its data-server and its
         // robot client).
-        let up = ["navigator", "ctracker", "mapper", "plfinder"]
+        let up = HELPERS
             .iter()
             .all(|role| count("client", role) == 2 * robots)
             && count("server", "robot") == 4 * robots
