@@ -80,7 +80,13 @@ pub async fn put_down(
 /// elsewhere (`facing`, in the map's frame): for a robot registered
 /// already, such as one that arrived at the start of its next task.
 pub async fn turn_onto(robot: &RobotClient, plan: &Plan, facing: f64) -> Result<(), NavError> {
-    let turn = rome_maps::geometry::normalize_deg(plan.start_heading_deg - facing);
+    turn_to(robot, plan.start_heading_deg, facing).await
+}
+
+/// Turns the robot in place to `heading_deg` if it faces elsewhere
+/// (`facing`, in the map's frame), and waits until the turn is done.
+pub async fn turn_to(robot: &RobotClient, heading_deg: f64, facing: f64) -> Result<(), NavError> {
+    let turn = rome_maps::geometry::normalize_deg(heading_deg - facing);
     if turn.abs() > 1.0 {
         // Positive turns are clockwise on the base.
         robot.turn(-turn, 45.0, -1.0).await?;

@@ -540,6 +540,11 @@ impl OnDuty<'_> {
         ) else {
             return Ok(None);
         };
+        // Turned in place first: a way out behind the robot, driven as a
+        // goal, turns on an arc into whatever corridor opens beside it.
+        planner::turn_to(self.robot, out.direction_deg, p.heading_deg)
+            .await
+            .map_err(|e| e.to_string())?;
         let said = planner::step_out(self.board, out.direction_deg, out.distance_mm, out.walls)
             .await
             .map_err(|e| e.to_string())?;
