@@ -10,7 +10,7 @@
 
 use crate::{connect, crew_span, members, monitored, Harness, RunConfig};
 use rome_client::sim::TruthClient;
-use rome_client::{DataClient, DataOptions};
+use rome_client::{DataClient, DataOptions, RobotClient, RobotOptions};
 use rome_maps::geometry::Point;
 use rome_maps::World;
 use rome_nav::crew::Reports;
@@ -58,6 +58,9 @@ pub struct TaskReport {
     pub contacts: BTreeMap<String, ContactCount>,
     /// Where each robot stands at the end, by ground truth: (x, y) mm.
     pub at_end: BTreeMap<String, (f64, f64)>,
+    /// How far each robot's odometry heading is off at the end, by ground
+    /// truth: true heading less odometry's, degrees in (−180, 180].
+    pub heading_off_end: BTreeMap<String, f64>,
     /// Each robot's longest time standing still (moved under half a metre)
     /// while it had a task, simulated s.
     pub longest_still_s: BTreeMap<String, f64>,
@@ -460,10 +463,18 @@ async fn run_all(
         while set.join_next().await.is_some() {}
     }
     let (mut contacts, mut at_end) = (BTreeMap::new(), BTreeMap::new());
+    let mut heading_off_end = BTreeMap::new();
     for (k, name) in names.iter().enumerate() {
         let t = rome_sim_hardware::truth::truth_of(&rig.world, rig.index[k]);
         contacts.insert(name.clone(), t.contacts);
         at_end.insert(name.clone(), (t.x_mm, t.y_mm));
+        // The odometry as the robot's clients see it: the base server's
+        // frame, which the mapper's corrections move.
+        let monitor =
+            RobotClient::connect(&rig.session, name, RobotOptions::new("monitor")).await?;
+        let odometry = monitor.pose().await?.heading_deg;
+        let off = rome_maps::geometry::normalize_deg(t.heading_deg - odometry);
+        heading_off_end.insert(name.clone(), off);
     }
     let longest_still_s = (names.iter().cloned().zip(&longest_at))
         .map(|(name, at)| (name, at.as_ref().map_or(0.0, |a| a.still_s)))
@@ -476,6 +487,7 @@ async fn run_all(
         statuses: statuses.into_values().collect(),
         contacts,
         at_end,
+        heading_off_end,
         longest_still_s,
         longest_still_at,
         traffic_wait_s,

@@ -14,7 +14,10 @@
 //! covers 8 m or more, and whenever a map reaches 12 m before its third
 //! light, so hallways with lights far apart or fewer than three lights are
 //! not left uncorrected (Chapter 6's trouble spots G, N and J), and the
-//! heading error stays small between corrections. A wall pair is believed
+//! heading error stays small between corrections. A robot that has
+//! driven 10 m without its heading found good (short errands between
+//! nearby doors, whose maps never reach those lengths) takes a correction
+//! from a map of 2 m, if it is 2° or more. A wall pair is believed
 //! only when the robot's own track over the map runs along it (the
 //! Navigator keeps the robot parallel to the walls): a Hough line that
 //! disagrees with the track by more than a few degrees is a door recess or
@@ -23,22 +26,22 @@
 use crate::board::{Board, Corridor, HeadingFix, Sem, Var};
 use crate::NavError;
 use rome_client::RobotClient;
-use rome_maps::geometry::{
-    direction, distance, heading_to, normalize_deg, pt, Point, Pose, Vector,
-};
+use rome_maps::geometry::{direction, distance, normalize_deg, Point, Pose};
 use tokio::sync::mpsc;
 
-/// Cell size, mm.
-pub const CELL_MM: f64 = 100.0;
-/// Radius of the sonar ring: readings start at the robot's skin, mm.
-pub const SONAR_RING_MM: f64 = 380.0;
+mod walls;
+pub use walls::*;
+
 /// A track this long is straight enough to check the walls against, mm.
 const MIN_TRACK_MM: f64 = 6_000.0;
+/// A track this long is checked against a short map's walls, mm.
+const SHORT_TRACK_MM: f64 = 1_500.0;
+/// A stale heading is tried on a short stretch map this much further on
+/// after a try that found it good enough, mm.
+const SHORT_RETRY_MM: f64 = 1_000.0;
 /// A stretch without lights is mapped until this far short of its end, mm:
 /// past it the robot is in the turning space, where the walls end.
 const STRETCH_END_MM: f64 = 2_000.0;
-/// Readings beyond this are not mapped (glancing and missing echoes), mm.
-pub const MAX_RANGE_MM: u32 = 5_000;
 
 /// How the mapper works.
 #[derive(Debug, Clone, PartialEq)]
@@ -85,6 +88,25 @@ pub struct HimmConfig {
     pub drift_gain: f64,
     /// Largest drift rate believed, degrees per metre.
     pub max_drift_deg_m: f64,
+    /// After this much driving without the heading found good, mm, a
+    /// shorter map serves for a correction (0: never). A robot on short
+    /// errands between nearby doors drives no 5.5 m map in one go, and
+    /// would otherwise drift as its wheels do for as long as it works.
+    pub stale_mm: f64,
+    /// The shortest map that serves then, mm.
+    pub short_map_mm: f64,
+    /// A correction from a short map is applied only when at least this
+    /// large, degrees: walls placed over 2 m are good to a degree or two,
+    /// and a smaller correction is as likely their error as the heading's.
+    pub short_min_fix_deg: f64,
+}
+
+impl HimmConfig {
+    /// Whether a map `mapped_mm` long serves for a correction because the
+    /// heading is stale: not found good over the last `since_mm` driven.
+    pub fn short_map_serves(&self, mapped_mm: f64, since_mm: f64) -> bool {
+        self.stale_mm > 0.0 && since_mm >= self.stale_mm && mapped_mm >= self.short_map_mm
+    }
 }
 
 impl Default for HimmConfig {
@@ -106,314 +128,10 @@ impl Default for HimmConfig {
             learn_drift: true,
             drift_gain: 0.8,
             max_drift_deg_m: 2.0,
+            stale_mm: 10_000.0,
+            short_map_mm: 2_000.0,
+            short_min_fix_deg: 2.0,
         }
-    }
-}
-
-/// A histogram grid (HIMM) around an origin, in the odometry frame.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Grid {
-    origin: Point,
-    n: usize,
-    cells: Vec<u8>,
-}
-
-impl Grid {
-    /// An empty grid of `half_side_mm` around `origin`.
-    pub fn new(origin: Point, half_side_mm: f64) -> Grid {
-        let n = (2.0 * half_side_mm / CELL_MM).ceil() as usize;
-        Grid {
-            origin,
-            n,
-            cells: vec![0; n * n],
-        }
-    }
-
-    fn cell(&self, p: Point) -> Option<usize> {
-        let half = self.n as f64 / 2.0;
-        let cx = ((p.x - self.origin.x) / CELL_MM + half).floor();
-        let cy = ((p.y - self.origin.y) / CELL_MM + half).floor();
-        (cx >= 0.0 && cy >= 0.0 && cx < self.n as f64 && cy < self.n as f64)
-            .then(|| cy as usize * self.n + cx as usize)
-    }
-
-    fn centre(&self, i: usize) -> Point {
-        let half = self.n as f64 / 2.0;
-        let (cx, cy) = ((i % self.n) as f64, (i / self.n) as f64);
-        self.origin + Vector::new(cx + 0.5 - half, cy + 0.5 - half) * CELL_MM
-    }
-
-    /// Adds one sonar reading taken at `at` along heading `axis_deg`.
-    pub fn add(&mut self, at: Point, axis_deg: f64, range_mm: u32) {
-        if range_mm >= MAX_RANGE_MM {
-            return;
-        }
-        let d = direction(axis_deg);
-        let total = SONAR_RING_MM + f64::from(range_mm);
-        let mut s = SONAR_RING_MM;
-        while s < total - CELL_MM {
-            if let Some(i) = self.cell(pt(at.x + d.x * s, at.y + d.y * s)) {
-                self.cells[i] = self.cells[i].saturating_sub(1);
-            }
-            s += CELL_MM;
-        }
-        if let Some(i) = self.cell(pt(at.x + d.x * total, at.y + d.y * total)) {
-            self.cells[i] = (self.cells[i] + 3).min(15);
-        }
-    }
-
-    /// Cells at least this certain, as points.
-    pub fn occupied(&self, min: u8) -> Vec<(Point, u8)> {
-        self.cells
-            .iter()
-            .enumerate()
-            .filter(|(_, c)| **c >= min)
-            .map(|(i, c)| (self.centre(i), *c))
-            .collect()
-    }
-}
-
-/// The two walls of a hallway found in a local map, in the odometry frame.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct HallwayWalls {
-    /// The walls' direction, degrees in [0, 180) (North 0, West 90):
-    /// directionless.
-    pub orientation_deg: f64,
-    /// The walls' common unit normal (x, y).
-    pub normal: Vector,
-    /// Each wall's distance from the frame's origin along the normal, mm:
-    /// wall `i` is the set of points `p` with `p · normal = rho[i]`.
-    pub rho: [f64; 2],
-}
-
-impl HallwayWalls {
-    /// Signed distances of each wall from `p` along the normal turned to
-    /// point left of `heading_deg`, mm: the left wall's is positive.
-    pub fn beside(&self, p: Point, heading_deg: f64) -> [f64; 2] {
-        let left = direction(heading_deg + 90.0);
-        let sign = if left.dot(&self.normal) >= 0.0 {
-            1.0
-        } else {
-            -1.0
-        };
-        let at = p.coords.dot(&self.normal);
-        self.rho.map(|r| sign * (r - at))
-    }
-}
-
-/// The hallway's orientation from the grid: the strongest Hough line and
-/// a parallel one at least `min_gap_mm` away. `None` when no such pair.
-/// The result is the lines' direction, degrees in [0, 180) (North 0, West
-/// 90): directionless.
-pub fn hallway_orientation(points: &[(Point, u8)], min_gap_mm: f64) -> Option<f64> {
-    hallway_walls(points, min_gap_mm, None).map(|w| w.orientation_deg)
-}
-
-/// Both walls from the grid (see [`hallway_orientation`]). Each wall's
-/// position is refined from the cells near its Hough line: those within
-/// `near` = (point, mm) when there are enough of them there (the walls
-/// beside the robot now, not where odometry had drifted less), else all.
-pub fn hallway_walls(
-    points: &[(Point, u8)],
-    min_gap_mm: f64,
-    near: Option<(Point, f64)>,
-) -> Option<HallwayWalls> {
-    if points.len() < 10 {
-        return None;
-    }
-    const STEPS: usize = 360; // half-degree steps over 180°
-    let rho_cell = CELL_MM;
-    // The centroid, so the accumulator's distances stay small.
-    let c0 = Point::from(
-        points
-            .iter()
-            .fold(Vector::zeros(), |a, (p, _)| a + p.coords)
-            / points.len() as f64,
-    );
-    let rmax = points
-        .iter()
-        .map(|(p, _)| distance(*p, c0))
-        .fold(0.0, f64::max);
-    let nr = (2.0 * rmax / rho_cell).ceil() as usize + 2;
-    let mut acc = vec![0u32; STEPS * nr];
-    // Unit normals at 0°, 0.5°, … from +x.
-    let trig: Vec<Vector> = (0..STEPS)
-        .map(|k| {
-            let t = (k as f64 * 0.5).to_radians();
-            Vector::new(t.cos(), t.sin())
-        })
-        .collect();
-    for (p, w) in points {
-        for (k, n) in trig.iter().enumerate() {
-            // The line's normal makes angle t with +x.
-            let rho = (p - c0).dot(n);
-            let r = ((rho + rmax) / rho_cell).round() as usize;
-            acc[k * nr + r] += u32::from(*w);
-        }
-    }
-    let (best, _) = acc.iter().enumerate().max_by_key(|(_, v)| **v)?;
-    let (k, r) = (best / nr, best % nr);
-    // Guided search: the other wall shares the normal (±1°), a gap away.
-    let gap = (min_gap_mm / rho_cell).ceil() as usize;
-    let mut second = (0u32, r);
-    for dk in -2i64..=2 {
-        let kk = (k as i64 + dk).rem_euclid(STEPS as i64) as usize;
-        for rr in 0..nr {
-            if rr.abs_diff(r) >= gap && acc[kk * nr + rr] > second.0 {
-                second = (acc[kk * nr + rr], rr);
-            }
-        }
-    }
-    if second.0 < acc[best] / 4 {
-        return None;
-    }
-    // Normal angle t from +x; the line runs at t + 90° from +x. A
-    // direction at angle φ from +x has heading φ − 90° (North 0, West 90).
-    let normal_from_x = k as f64 * 0.5;
-    let normal = trig[k];
-    let centre = c0.coords.dot(&normal);
-    let coarse = |rr: usize| centre + rr as f64 * rho_cell - rmax;
-    let refine = |guess: f64| {
-        let on_line = |p: &Point| (p.coords.dot(&normal) - guess).abs() < 250.0;
-        let mean = |pts: &mut dyn Iterator<Item = &(Point, u8)>| {
-            let (mut sum, mut weight, mut n) = (0.0, 0.0, 0usize);
-            for (p, w) in pts {
-                sum += f64::from(*w) * p.coords.dot(&normal);
-                weight += f64::from(*w);
-                n += 1;
-            }
-            (n >= 8).then(|| sum / weight)
-        };
-        near.and_then(|(at, within)| {
-            mean(
-                &mut points
-                    .iter()
-                    .filter(|(p, _)| on_line(p) && distance(*p, at) <= within),
-            )
-        })
-        .or_else(|| mean(&mut points.iter().filter(|(p, _)| on_line(p))))
-        .unwrap_or(guess)
-    };
-    let rough = HallwayWalls {
-        orientation_deg: normal_from_x.rem_euclid(180.0),
-        normal,
-        rho: [refine(coarse(r)), refine(coarse(second.1))],
-    };
-    Some(
-        near.and_then(|(at, within)| local_fit(points, &rough, at, within))
-            .unwrap_or(rough),
-    )
-}
-
-/// Both walls fitted again from the cells within `within` of `at` only,
-/// with one common slope: where odometry has drifted, the walls bend in
-/// its frame, and the stretch beside the robot tells its heading error now
-/// rather than the average over the map. `None` when that stretch is too
-/// short or too sparse to tell.
-fn local_fit(
-    points: &[(Point, u8)],
-    rough: &HallwayWalls,
-    at: Point,
-    within: f64,
-) -> Option<HallwayWalls> {
-    let n = rough.normal;
-    let u = Vector::new(-n.y, n.x);
-    let mut lines: [Vec<(f64, f64, f64)>; 2] = [Vec::new(), Vec::new()];
-    for (p, w) in points {
-        if distance(*p, at) > within {
-            continue;
-        }
-        let t = p.coords.dot(&n);
-        for (i, rho) in rough.rho.iter().enumerate() {
-            if (t - rho).abs() < 400.0 {
-                lines[i].push((p.coords.dot(&u), t, f64::from(*w)));
-            }
-        }
-    }
-    let mut means = [(0.0, 0.0); 2];
-    let (mut sxy, mut sxx) = (0.0, 0.0);
-    for (i, line) in lines.iter().enumerate() {
-        let weight: f64 = line.iter().map(|l| l.2).sum();
-        let (lo, hi) = line.iter().fold((f64::MAX, f64::MIN), |(lo, hi), l| {
-            (lo.min(l.0), hi.max(l.0))
-        });
-        if line.len() < 8 || hi - lo < 2_000.0 || weight <= 0.0 {
-            return None;
-        }
-        let ms = line.iter().map(|l| l.0 * l.2).sum::<f64>() / weight;
-        let mt = line.iter().map(|l| l.1 * l.2).sum::<f64>() / weight;
-        for l in line {
-            sxy += l.2 * (l.0 - ms) * (l.1 - mt);
-            sxx += l.2 * (l.0 - ms) * (l.0 - ms);
-        }
-        means[i] = (ms, mt);
-    }
-    let b = sxy / sxx;
-    if !b.is_finite() || b.abs() > 0.2 {
-        return None;
-    }
-    let len = (1.0 + b * b).sqrt();
-    let normal = (n - u * b) / len;
-    let s_at = at.coords.dot(&u);
-    let rho = means.map(|(ms, mt)| {
-        let t = mt + b * (s_at - ms);
-        (u * s_at + n * t).dot(&normal)
-    });
-    Some(HallwayWalls {
-        orientation_deg: (rough.orientation_deg - b.atan().to_degrees()).rem_euclid(180.0),
-        normal,
-        rho,
-    })
-}
-
-/// The sideways correction of odometry position `p`, mm along the left of
-/// the corridor's heading: where the walls found say the robot is across
-/// the corridor, against where odometry and the map put it. `None` when
-/// the walls found are not the corridor's (one on each side, as far apart
-/// as the map's, within `tolerance_mm`).
-pub fn sideways_fix(
-    walls: &HallwayWalls,
-    p: Point,
-    corridor: &crate::board::Corridor,
-    tolerance_mm: f64,
-) -> Option<f64> {
-    let (left, right) = (corridor.left_mm?, corridor.right_mm?);
-    let [a, b] = walls.beside(p, corridor.heading_deg);
-    let (seen_left, seen_right) = if a > b { (a, -b) } else { (b, -a) };
-    if seen_left <= 0.0 || seen_right <= 0.0 {
-        return None;
-    }
-    if (seen_left + seen_right - (left + right)).abs() > tolerance_mm {
-        return None;
-    }
-    // Offsets left of the line of lights: as the walls say, and as
-    // odometry says.
-    let seen = ((left - seen_left) + (seen_right - right)) / 2.0;
-    let n = direction(corridor.heading_deg + 90.0);
-    let odometry = (p - corridor.at()).dot(&n);
-    Some(seen - odometry)
-}
-
-/// The angle between a directionless orientation `alpha_deg` and the
-/// straight track from `from` to `to` (both in the odometry frame),
-/// degrees in [0, 90]; `None` when the track is shorter than `min_mm`.
-pub fn track_disagreement(alpha_deg: f64, from: Point, to: Point, min_mm: f64) -> Option<f64> {
-    if distance(from, to) < min_mm {
-        return None;
-    }
-    let d = (alpha_deg - heading_to(from, to)).rem_euclid(180.0);
-    Some(d.min(180.0 - d))
-}
-
-/// The directionless rule (§5.5): of α and α + 180°, the one nearer the
-/// goal direction Γ.
-pub fn orient(alpha_deg: f64, goal_deg: f64) -> f64 {
-    let a = normalize_deg(alpha_deg);
-    let b = normalize_deg(alpha_deg + 180.0);
-    if normalize_deg(goal_deg - a).abs() <= normalize_deg(goal_deg - b).abs() {
-        a
-    } else {
-        b
     }
 }
 
@@ -436,6 +154,11 @@ impl Drift {
 
     fn get(&self) -> f64 {
         self.lock().rate
+    }
+
+    /// How far the robot has driven since its heading was last found, mm.
+    fn since(&self) -> f64 {
+        self.lock().since_mm
     }
 
     /// Counts `mm` more driven.
@@ -582,7 +305,7 @@ impl Himm {
                             in_map += 1;
                             let p = crate::track::pose_waiting(&self.robot).await?;
                             let now = Pose::from(&p).at;
-                            let mapped = distance(grid.origin, now);
+                            let mapped = distance(grid.origin(), now);
                             // Every three lights as in the thesis, and also at
                             // the segment's last light once the map is long
                             // enough: a hallway with one or two lights (the
@@ -594,6 +317,14 @@ impl Himm {
                                 self.correct_anew(&mut grid, now, goal, corridor, seen)
                                     .await?;
                                 in_map = 0;
+                            } else if self.cfg.short_map_serves(mapped, self.drift.since())
+                                && self.correct(&grid, now, goal, corridor, seen, true).await?
+                            {
+                                // Found wanting and set right: a new map
+                                // from here. Found good enough: the map
+                                // grows on, to be tried again longer.
+                                self.renew(&mut grid).await?;
+                                in_map = 0;
                             }
                         }
                         scan = scans.next() => {
@@ -601,8 +332,8 @@ impl Himm {
                             // lights (lights far apart) is used as it is.
                             let p0 = crate::track::pose_waiting(&self.robot).await?;
                             let now = Pose::from(&p0).at;
-                            if distance(grid.origin, now) > self.cfg.max_map_mm {
-                                self.correct(&grid, now, goal, corridor, seen).await?;
+                            if distance(grid.origin(), now) > self.cfg.max_map_mm {
+                                self.correct(&grid, now, goal, corridor, seen, false).await?;
                                 grid = Grid::new(now, self.cfg.half_side_mm);
                                 in_map = 0;
                             }
@@ -646,7 +377,8 @@ impl Himm {
     /// Maps a stretch without lights `total_mm` long along `goal`,
     /// correcting whenever the map covers `light_map_mm`, as an L segment
     /// is corrected at a light: a long corridor with no lights would
-    /// otherwise leave the heading to drift all the way.
+    /// otherwise leave the heading to drift all the way. A stale heading
+    /// is tried on a shorter map, every metre until it is set right.
     async fn map_stretch(
         &self,
         mut grid: Grid,
@@ -656,18 +388,33 @@ impl Himm {
         scans: &rome_client::robot::Stream<rome_schema::robot::Scan>,
         track: &crate::track::PoseTrack,
     ) -> Result<(), NavError> {
-        let start = grid.origin;
+        let start = grid.origin();
         let axis = direction(goal);
         let mut fixes = 0i64;
+        let mut tried_mm = 0.0;
         while let Some(scan) = scans.next().await {
             let p = crate::track::pose_waiting(&self.robot).await?;
             let now = Pose::from(&p).at;
             let along = (now - start).dot(&axis);
             let end = along >= total_mm - STRETCH_END_MM;
-            if distance(grid.origin, now) >= self.cfg.light_map_mm {
+            let mapped = distance(grid.origin(), now);
+            if mapped >= self.cfg.light_map_mm {
                 fixes += 1;
                 self.correct_anew(&mut grid, now, goal, Some(corridor), fixes)
                     .await?;
+                tried_mm = 0.0;
+            } else if mapped >= tried_mm + SHORT_RETRY_MM
+                && self.cfg.short_map_serves(mapped, self.drift.since())
+            {
+                tried_mm = mapped;
+                if self
+                    .correct(&grid, now, goal, Some(corridor), fixes + 1, true)
+                    .await?
+                {
+                    fixes += 1;
+                    self.renew(&mut grid).await?;
+                    tried_mm = 0.0;
+                }
             }
             if end {
                 return Ok(());
@@ -687,14 +434,23 @@ impl Himm {
         corridor: Option<&Corridor>,
         light: i64,
     ) -> Result<(), NavError> {
-        self.correct(grid, now, goal, corridor, light).await?;
+        self.correct(grid, now, goal, corridor, light, false)
+            .await?;
+        self.renew(grid).await
+    }
+
+    /// A new map from where the odometry puts the robot now.
+    async fn renew(&self, grid: &mut Grid) -> Result<(), NavError> {
         let p = crate::track::pose_waiting(&self.robot).await?;
         *grid = Grid::new(Pose::from(&p).at, self.cfg.half_side_mm);
         Ok(())
     }
 
     /// Corrects the heading, and the sideways offset when the corridor is
-    /// known, from `grid`, mapped from its origin to `now`.
+    /// known, from `grid`, mapped from its origin to `now`; says whether
+    /// the odometry was adjusted. A `short` map (a stale heading's) is
+    /// checked against a shorter track, and corrects the heading only by
+    /// [`HimmConfig::short_min_fix_deg`] or more, or not at all.
     async fn correct(
         &self,
         grid: &Grid,
@@ -702,29 +458,38 @@ impl Himm {
         goal: f64,
         corridor: Option<&Corridor>,
         light: i64,
-    ) -> Result<(), NavError> {
+        short: bool,
+    ) -> Result<bool, NavError> {
         let Some(walls) = hallway_walls(&grid.occupied(6), 1_000.0, Some((now, self.cfg.near_mm)))
         else {
-            tracing::info!(light, "himm: no pair of walls in the local map");
-            return Ok(());
+            tracing::info!(light, short, "himm: no pair of walls in the local map");
+            return Ok(false);
         };
         let alpha = walls.orientation_deg;
-        if let Some(off) = track_disagreement(alpha, grid.origin, now, MIN_TRACK_MM) {
+        let min_track = if short { SHORT_TRACK_MM } else { MIN_TRACK_MM };
+        if let Some(off) = track_disagreement(alpha, grid.origin(), now, min_track) {
             if off > self.cfg.max_track_deg {
                 tracing::info!(
                     light,
+                    short,
                     alpha,
                     off,
                     "himm: walls found across the track; not a hallway"
                 );
-                return Ok(());
+                return Ok(false);
             }
         }
         let gamma = orient(alpha, goal);
         let found = normalize_deg(goal - gamma);
         let mut fix = found;
+        if short && fix.abs() < self.cfg.short_min_fix_deg {
+            return Ok(false);
+        }
         if fix.abs() > self.cfg.max_fix_deg || fix.abs() < self.cfg.min_fix_deg {
-            tracing::info!(light, fix, "himm: heading correction not applied");
+            tracing::info!(light, short, fix, "himm: heading correction not applied");
+            if short {
+                return Ok(false);
+            }
             fix = 0.0;
         }
         if self.cfg.learn_drift && fix != 0.0 {
@@ -738,7 +503,7 @@ impl Himm {
             .filter(|s| s.abs() <= self.cfg.max_shift_mm && s.abs() >= self.cfg.min_shift_mm)
             .unwrap_or(0.0);
         if fix == 0.0 && shift == 0.0 {
-            return Ok(());
+            return Ok(false);
         }
         let left = direction(goal + 90.0);
         self.robot
@@ -748,7 +513,7 @@ impl Himm {
                 fix,
             )
             .await?;
-        tracing::info!(light, alpha, fix, shift, "himm: odometry corrected");
+        tracing::info!(light, short, alpha, fix, shift, "himm: odometry corrected");
         self.board
             .set(
                 Var::HeadingFix,
@@ -760,7 +525,7 @@ impl Himm {
                 },
             )
             .await?;
-        Ok(())
+        Ok(true)
     }
 }
 

@@ -36,8 +36,9 @@ pub const LAST_LEG_MIN_MM: f64 = 1_000.0;
 /// along its own line, mm.
 pub const LANE_MIN_MM: f64 = 200.0;
 /// A stretch without lights at least this long is mapped by the local
-/// mapper as an L segment is, mm.
-pub const MAP_STRETCH_MM: i64 = 8_000;
+/// mapper as an L segment is, mm: 3 m of it before its turning space, a
+/// map long enough for a stale heading ([`crate::himm::HimmConfig::stale_mm`]).
+pub const MAP_STRETCH_MM: i64 = 5_000;
 /// How far ahead of a turning space's middle a wall counts as its end wall,
 /// mm: beyond this the robot would see the corridor go on.
 pub const END_WALL_REACH_MM: f64 = 4_000.0;

@@ -1,6 +1,7 @@
 //! Tests of `himm`.
 
 use super::*;
+use rome_maps::geometry::{pt, Point};
 
 fn corridor(heading_deg: f64, width_mm: f64) -> Grid {
     // A robot driving along a corridor, its side sonars hitting both
@@ -158,4 +159,21 @@ fn drift_is_learnt_over_everything_driven_since_the_heading_was_found() {
     d.learn(1.0, &cfg);
     let now = d.get() * 1_000.0;
     assert!((now - (rate + 0.8 * 1.0 / 4.0)).abs() < 1e-9, "{now} °/m");
+}
+
+#[test]
+fn a_short_map_serves_only_a_heading_stale_for_10_m() {
+    let cfg = HimmConfig::default();
+    // 2 m of map, 12 m driven since the heading was last found: enough.
+    assert!(cfg.short_map_serves(2_000.0, 12_000.0));
+    // Found 8 m ago: the map must grow to its usual length.
+    assert!(!cfg.short_map_serves(2_000.0, 8_000.0));
+    // Stale, but the map too short to place walls on.
+    assert!(!cfg.short_map_serves(1_500.0, 50_000.0));
+    // Turned off.
+    let off = HimmConfig {
+        stale_mm: 0.0,
+        ..cfg
+    };
+    assert!(!off.short_map_serves(5_000.0, 50_000.0));
 }
