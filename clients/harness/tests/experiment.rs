@@ -260,7 +260,7 @@ async fn a_light_seen_late_after_a_push_puts_the_tracker_back_on_the_lights() {
     // found.
     let mut s = among_people(900, None);
     s.nav.stop_on_contact = false;
-    let out = experiment::run_all(&s, vec![trial(23, "NE.men.R", "302R", 14)], |_| {}).await;
+    let out = experiment::run_all(&s, vec![trial(23, "NE.men.R", "302R", 22)], |_| {}).await;
     let r = out[0].report.as_ref().unwrap();
     assert!(
         r.contacts.robot > 0,
