@@ -314,16 +314,12 @@ impl Himm {
                             let last = seen >= total && mapped >= self.cfg.min_map_mm;
                             let long = self.cfg.light_map_mm > 0.0 && mapped >= self.cfg.light_map_mm;
                             if in_map >= self.cfg.lights_per_map || last || long {
-                                self.correct_anew(&mut grid, now, goal, corridor, seen)
+                                self.correct_anew(&mut grid, now, goal, corridor, seen, false)
                                     .await?;
                                 in_map = 0;
                             } else if self.cfg.short_map_serves(mapped, self.drift.since())
-                                && self.correct(&grid, now, goal, corridor, seen, true).await?
+                                && self.correct_anew(&mut grid, now, goal, corridor, seen, true).await?
                             {
-                                // Found wanting and set right: a new map
-                                // from here. Found good enough: the map
-                                // grows on, to be tried again longer.
-                                self.renew(&mut grid).await?;
                                 in_map = 0;
                             }
                         }
@@ -400,7 +396,7 @@ impl Himm {
             let mapped = distance(grid.origin(), now);
             if mapped >= self.cfg.light_map_mm {
                 fixes += 1;
-                self.correct_anew(&mut grid, now, goal, Some(corridor), fixes)
+                self.correct_anew(&mut grid, now, goal, Some(corridor), fixes, false)
                     .await?;
                 tried_mm = 0.0;
             } else if mapped >= tried_mm + SHORT_RETRY_MM
@@ -408,11 +404,10 @@ impl Himm {
             {
                 tried_mm = mapped;
                 if self
-                    .correct(&grid, now, goal, Some(corridor), fixes + 1, true)
+                    .correct_anew(&mut grid, now, goal, Some(corridor), fixes + 1, true)
                     .await?
                 {
                     fixes += 1;
-                    self.renew(&mut grid).await?;
                     tried_mm = 0.0;
                 }
             }
@@ -425,7 +420,8 @@ impl Himm {
     }
 
     /// [`Himm::correct`], then a new map from where the corrected odometry
-    /// puts the robot.
+    /// puts the robot (after a `short` map, only if it corrected); says
+    /// whether the odometry was adjusted.
     async fn correct_anew(
         &self,
         grid: &mut Grid,
@@ -433,17 +429,18 @@ impl Himm {
         goal: f64,
         corridor: Option<&Corridor>,
         light: i64,
-    ) -> Result<(), NavError> {
-        self.correct(grid, now, goal, corridor, light, false)
+        short: bool,
+    ) -> Result<bool, NavError> {
+        let adjusted = self
+            .correct(grid, now, goal, corridor, light, short)
             .await?;
-        self.renew(grid).await
-    }
-
-    /// A new map from where the odometry puts the robot now.
-    async fn renew(&self, grid: &mut Grid) -> Result<(), NavError> {
-        let p = crate::track::pose_waiting(&self.robot).await?;
-        *grid = Grid::new(Pose::from(&p).at, self.cfg.half_side_mm);
-        Ok(())
+        // A short map that found the heading good enough grows on, to be
+        // tried again longer.
+        if adjusted || !short {
+            let p = crate::track::pose_waiting(&self.robot).await?;
+            *grid = Grid::new(Pose::from(&p).at, self.cfg.half_side_mm);
+        }
+        Ok(adjusted)
     }
 
     /// Corrects the heading, and the sideways offset when the corridor is
@@ -482,10 +479,12 @@ impl Himm {
         let gamma = orient(alpha, goal);
         let found = normalize_deg(goal - gamma);
         let mut fix = found;
-        if short && fix.abs() < self.cfg.short_min_fix_deg {
-            return Ok(false);
-        }
-        if fix.abs() > self.cfg.max_fix_deg || fix.abs() < self.cfg.min_fix_deg {
+        let min_fix = if short {
+            self.cfg.short_min_fix_deg
+        } else {
+            self.cfg.min_fix_deg
+        };
+        if fix.abs() > self.cfg.max_fix_deg || fix.abs() < min_fix {
             tracing::info!(light, short, fix, "himm: heading correction not applied");
             if short {
                 return Ok(false);
