@@ -158,6 +158,7 @@ pub async fn sweep(
                 every: cfg.every,
                 kill: None,
                 closed: None,
+                stay: Vec::new(),
             },
             &mut |e| progress(ScaleEvent::Run(&e)),
         )

@@ -47,6 +47,10 @@ pub struct TaskRun {
     /// the building after this much simulated time: a corridor closed for
     /// a while (a fault to inject).
     pub closed: Option<(Vec<Point>, Duration)>,
+    /// Robots that never step aside between tasks but stand where they
+    /// stop, on the corridor's middle: a step aside cut short, as a fault
+    /// to inject.
+    pub stay: Vec<String>,
 }
 
 /// What happened.
@@ -140,6 +144,9 @@ pub enum Said {
     Back(String),
     /// A value it read was skipped, or one of its clients failed.
     Trouble(String),
+    /// Asked by this robot to make way, it drove on to a position (`Ok`),
+    /// or did not: why.
+    MadeWay(String, Result<String, String>),
 }
 
 impl std::fmt::Display for Said {
@@ -159,6 +166,8 @@ impl std::fmt::Display for Said {
             Said::Rests(s) => write!(f, "rests {s:.0} s, then drives itself clear"),
             Said::Back(at) => write!(f, "got clear to {at}; takes tasks again"),
             Said::Trouble(why) => write!(f, "{why}"),
+            Said::MadeWay(by, Ok(at)) => write!(f, "made way for {by}: drove on to {at}"),
+            Said::MadeWay(by, Err(why)) => write!(f, "did not make way for {by}: {why}"),
         }
     }
 }
@@ -250,6 +259,9 @@ async fn run_all(
         duty.leave_open = run.leave_open;
         duty.stuck = run.stuck;
         duty.slowest_mm_s = run.slowest_mm_s;
+        if cfg.stay.contains(&r.robot) {
+            duty.aside_after = None;
+        }
         let (name, etx) = (r.robot.clone(), etx.clone());
         set.spawn(rome_clock::wrap(
             &format!("{} planner", r.robot),
@@ -288,6 +300,10 @@ async fn run_all(
                         DutyNote::NotBack(why) => {
                             say(Said::Trouble(format!("did not get clear: {why}")))
                         }
+                        DutyNote::MadeWay(by, made) => say(Said::MadeWay(
+                            by.to_string(),
+                            made.map(str::to_string).map_err(str::to_string),
+                        )),
                     })
                     .await;
                 if let Err(e) = r {

@@ -5,7 +5,7 @@
 //! and says why; a robot between tasks steps aside for the others; tasks
 //! that come as a stream are added when they come.
 
-use rome_harness::tasks::{run_tasks, TaskEvent, TaskReport, TaskRun};
+use rome_harness::tasks::{run_tasks, Said, TaskEvent, TaskReport, TaskRun};
 use rome_harness::{RouteSpec, RunConfig};
 use rome_nav::fleet::schema::{TaskSpec, TaskState, TaskStatus};
 use std::time::Duration;
@@ -41,6 +41,17 @@ async fn run_with(
     kill: Option<&str>,
     adjust: impl FnOnce(&mut TaskRun),
 ) -> TaskReport {
+    run_said(robots, tasks, kill, adjust, &mut Vec::new()).await
+}
+
+/// [`run_with`], keeping what each robot said in `said`.
+async fn run_said(
+    robots: &[(&str, &str)],
+    tasks: Vec<(&str, TaskSpec)>,
+    kill: Option<&str>,
+    adjust: impl FnOnce(&mut TaskRun),
+    said: &mut Vec<(String, Said)>,
+) -> TaskReport {
     rome_tests::show_warnings_on_failure();
     let map = rome_maps::load_named("eb3").expect("eb3 loads");
     let routes = robots
@@ -59,11 +70,15 @@ async fn run_with(
         every: None,
         kill: kill.map(Into::into),
         closed: None,
+        stay: Vec::new(),
     };
     adjust(&mut run);
     let report = run_tasks(run, &mut |e| match e {
         TaskEvent::Task(s, what) => println!("{} ({}): {what}", s.id, s.to),
-        TaskEvent::Robot(r, said) => println!("{r}: {said}"),
+        TaskEvent::Robot(r, s) => {
+            println!("{r}: {s}");
+            said.push((r, s));
+        }
     })
     .await
     .expect("the run completes");
@@ -195,6 +210,42 @@ async fn a_robot_between_tasks_steps_aside_and_another_passes_it_in_a_narrow_cor
         x / 1000.0
     );
     untouched(&r);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_robot_held_up_by_one_standing_idle_asks_it_to_make_way() {
+    // As in the test above, r1 drives down corridor N to A336L and has no
+    // other task, and r2 comes the long way round to A342R, past that
+    // spot; but r1 does not step aside (a step aside cut short): it stands
+    // on the middle, 0.84 m either side of it for r2's 0.76 m.
+    let mut said = Vec::new();
+    let r = run_said(
+        &[("r1", "A326L"), ("r2", "309R")],
+        pinned(&[("T1", "A336L", "r1"), ("T2", "A342R", "r2")]),
+        None,
+        |t| t.stay = vec!["r1".into()],
+        &mut said,
+    )
+    .await;
+    all_done(&r, &["T1", "T2"]);
+    untouched(&r);
+    assert_eq!(status(&r, "T2").tried, vec!["r2".to_string()]);
+    let made: Vec<_> = (said.iter())
+        .filter(|(robot, s)| robot == "r1" && matches!(s, Said::MadeWay(by, Ok(_)) if by == "r2"))
+        .collect();
+    assert!(!made.is_empty(), "r1 never made way for r2: {said:?}");
+    // By ground truth r1 ends further south than A336L: it drove on the
+    // way r2 went, down N.
+    let map = rome_maps::load_named("eb3").expect("eb3 loads");
+    let world = rome_maps::World::from_map(&map);
+    let a336l = world.position("A336L").expect("A336L").in_corridor();
+    let (_, y) = r.at_end["r1"];
+    assert!(
+        y < a336l.y - 2_000.0,
+        "r1 ends at y = {:.2} m, A336L is at {:.2} m",
+        y / 1000.0,
+        a336l.y / 1000.0
+    );
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

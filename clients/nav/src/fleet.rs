@@ -8,6 +8,8 @@
 //! - [`assign`]: which free robot takes which task (shortest route).
 //! - [`dispatcher`]: the one dispatcher's rounds (`rome dispatcher`).
 //! - [`duty`]: a robot taking tasks (`rome planner --tasks`).
+//! - `watch`: what ends a task's run early (cancelled, blocked, overdue).
+//! - [`way`]: a robot held up asks idle robots in its way to make way.
 //! - [`aside`]: where a robot without a task waits.
 //! - [`clear`]: where a robot out of service drives to get clear.
 
@@ -18,3 +20,5 @@ pub mod dispatcher;
 pub mod duty;
 pub mod schema;
 pub mod tasks;
+mod watch;
+pub mod way;

@@ -23,16 +23,19 @@
 //! a rest: then it drives itself clear to a position of the map
 //! ([`super::clear::clear_to`]) and takes tasks again, or rests twice as long and tries
 //! another position. Left standing for good, such robots become the very
-//! knots that block the next ones. A value on the
+//! knots that block the next ones. A robot held up with a task asks the
+//! idle robots standing in its way to drive on, and an idle robot asked
+//! does ([`super::way`]). A value on the
 //! blackboard that does not decode is reported and skipped; it never ends
 //! the Planner.
 
 use super::aside::{corridor_axis, leg_at, start_leg, stood_aside, way_out, LastLeg};
 use super::clear::{clear_to, CLEAR_NEAR_MM};
 use super::schema::{
-    decode, duty_var, task_sem, task_var, Assignment, Duty, DutyState, Outcome, WAKE,
+    decode, duty_var, task_sem, task_var, way_var, Assignment, Duty, DutyState, Outcome, WayAsk,
+    WAKE,
 };
-use crate::board::{Board, GoalType, Status, Var};
+use crate::board::{Board, GoalType};
 use crate::plan::Plan;
 use crate::planner::{self, Progress};
 use crate::NavError;
@@ -40,7 +43,7 @@ use rome_client::sim::TruthClient;
 use rome_client::RobotClient;
 use rome_maps::geometry::Point;
 use rome_maps::{Network, World};
-use std::sync::atomic::{AtomicBool, Ordering::Relaxed};
+use std::sync::atomic::Ordering::Relaxed;
 use std::time::Duration;
 
 /// How a task given up because the robot stood still begins its reason.
@@ -48,15 +51,6 @@ pub const BLOCKED: &str = "blocked";
 
 /// How a task given up because it took far too long begins its reason.
 pub const OVERDUE: &str = "overdue";
-
-/// The time every task is allowed beyond its route at
-/// [`DutyConfig::slowest_mm_s`]: setting off, turning onto the route,
-/// stopping at the end.
-const OVERDUE_GRACE: Duration = Duration::from_secs(120);
-
-/// How far a robot must get from where it was, mm, within
-/// [`DutyConfig::stuck`], not to be blocked.
-const BLOCKED_RADIUS_MM: f64 = 2_000.0;
 
 /// How long a robot blocked twice in one place first stands out of
 /// service before it tries to drive itself clear. Whatever held it may
@@ -82,7 +76,7 @@ struct Trouble {
 
 /// Where a robot stands after stepping aside, and the axis of the
 /// corridor it stepped aside in, degrees.
-type Aside = (Point, f64);
+pub(super) type Aside = (Point, f64);
 
 /// Whether `plan`'s first leg runs along a corridor whose axis is
 /// `axis_deg` (either way), within [`ALONG_AXIS_DEG`].
@@ -99,7 +93,7 @@ const ALONG_AXIS_DEG: f64 = 20.0;
 
 /// Where a duty says its robot stands: where it stopped (`at_mm`), or the
 /// point its position names. `None`: neither (a name the map lacks).
-fn stands_at(world: &World, duty: &Duty) -> Option<Point> {
+pub(super) fn stands_at(world: &World, duty: &Duty) -> Option<Point> {
     match duty.at_mm {
         Some([x, y]) => Some(Point::new(x, y)),
         None => Some(world.position(&duty.at)?.in_corridor()),
@@ -205,6 +199,9 @@ pub enum DutyNote<'a> {
     Back(&'a str),
     /// It did not get clear: why. It rests again, twice as long.
     NotBack(String),
+    /// Asked by this robot to make way, it drove on to a position (`Ok`),
+    /// or did not: why.
+    MadeWay(&'a str, Result<&'a str, &'a str>),
 }
 
 /// A robot that takes tasks: its blackboard, base, the map, and where it
@@ -291,6 +288,8 @@ impl OnDuty<'_> {
         // meant to end (the map's walls, not its odometry); `None` once it
         // drives on.
         let mut aside_at: Option<Aside> = None;
+        // The last ask to make way answered, by asker.
+        let mut answered = std::collections::BTreeMap::new();
         loop {
             if let Some((rest, tried)) = trouble.out.as_mut() {
                 aside_at = None;
@@ -364,17 +363,55 @@ impl OnDuty<'_> {
             }
             let value = ds.get(&task_var(self.name)).await?;
             let a = match decode::<Option<Assignment>>(&task_var(self.name), &value) {
-                Ok(Some(a)) => a,
-                Ok(None) => continue,
+                Ok(a) => a,
                 Err(why) => {
                     note(DutyNote::Skipped(why));
                     continue;
                 }
             };
-            if duty.state == DutyState::Lost || duty.last.as_ref().is_some_and(|o| o.task == a.task)
-            {
+            let last = duty.last.as_ref().map(|o| o.task.as_str());
+            let new = a.filter(|a| duty.state != DutyState::Lost && last != Some(a.task.as_str()));
+            let Some(a) = new else {
+                // Woken with no new task: a robot held up may have asked
+                // it to make way.
+                if duty.state == DutyState::Idle {
+                    if let Some((by, ask)) = self.asked(&mut answered).await {
+                        let aside = aside_at.take();
+                        let from = (duty.at.clone(), duty.at_mm.map(|[x, y]| Point::new(x, y)));
+                        let state = (&mut registered, &mut facing, &mut last_leg);
+                        let ask = (by.as_str(), &ask);
+                        let made = self
+                            .make_way(cfg, ask, (&from, aside), state, &mut note)
+                            .await;
+                        let now = self.robot.pose().await.ok();
+                        let was = aside
+                            .map(|(q, _)| q)
+                            .or_else(|| stands_at(self.world, &duty));
+                        match (&made, now) {
+                            (Ok(at), _) => idle_at(&mut duty, at.clone()),
+                            // It drove, and stopped short: it stands where
+                            // its odometry puts it.
+                            (Err(_), Some(p))
+                                if was.is_none_or(|w| {
+                                    let now = Point::new(f64::from(p.x_mm), f64::from(p.y_mm));
+                                    rome_maps::geometry::distance(w, now) > 500.0
+                                }) =>
+                            {
+                                stands_off(&mut duty, f64::from(p.x_mm), f64::from(p.y_mm))
+                            }
+                            // It did not drive: it stands as it stood.
+                            (Err(_), _) => aside_at = aside,
+                        }
+                        in_open = None;
+                        note(DutyNote::MadeWay(
+                            &by,
+                            made.as_deref().map_err(String::as_str),
+                        ));
+                        self.report(&duty).await?;
+                    }
+                }
                 continue;
-            }
+            };
             duty.state = DutyState::Busy;
             duty.task = Some(a.task.clone());
             self.report(&duty).await?;
@@ -568,7 +605,7 @@ impl OnDuty<'_> {
     /// position it stands aside from. A duty that does not decode says
     /// nothing of where its robot is and is passed over; one on its way
     /// to a task is not standing anywhere.
-    async fn waiting(&self) -> Result<Vec<Point>, NavError> {
+    pub(super) async fn waiting(&self) -> Result<Vec<Point>, NavError> {
         let duties = super::tasks::robots(self.board.client()).await?;
         Ok((duties.into_iter())
             .filter(|(name, _)| name != self.name)
@@ -588,7 +625,7 @@ impl OnDuty<'_> {
     /// Drives one task: how it went, and where the robot stands after it
     /// (`None`: nowhere the map names). With `cancellable`, it stops when
     /// the robot's `Task` no longer names `a`.
-    async fn carry_out(
+    pub(super) async fn carry_out(
         &self,
         cfg: &DutyConfig,
         (from, aside): (&(String, Option<Point>), Option<Aside>),
@@ -637,6 +674,8 @@ impl OnDuty<'_> {
         // Set while the Planner waits its turn: standing still is not being
         // blocked then.
         let waiting = std::sync::atomic::AtomicBool::new(false);
+        // Set once it asked robots in its way to make way.
+        let asked = std::sync::atomic::AtomicBool::new(false);
         let drive = async {
             if *registered {
                 let heading = self.robot.pose().await?.heading_deg;
@@ -661,7 +700,13 @@ impl OnDuty<'_> {
             why = self.cancelled(a, cfg.check_every), if cancellable => Err(why),
             why = self.blocked(cfg, &waiting) => Err(why),
             why = self.overdue(cfg, &waiting, plan.route.length_mm) => Err(why),
+            never = self.ask_way(cfg, (&waiting, &asked), &plan.route) => match never {},
         };
+        if asked.load(Relaxed) {
+            let _ = (self.board.client())
+                .set(&way_var(self.name), &None::<WayAsk>)
+                .await;
+        }
         if let Err(why) = ended {
             // Stopped where it is, holding nothing of the building.
             let _ = self.robot.stop(false).await;
@@ -695,90 +740,6 @@ impl OnDuty<'_> {
                 Err(_) => (outcome(true, None), Some(a.to.clone())),
             },
             None => (outcome(true, None), Some(a.to.clone())),
-        }
-    }
-
-    /// Resolves once the robot's `Task` no longer names `a` (the task was
-    /// cancelled or taken back), with the reason.
-    async fn cancelled(&self, a: &Assignment, every: Duration) -> String {
-        loop {
-            rome_clock::sleep(every).await;
-            let value = self.board.client().get(&task_var(self.name)).await;
-            match value.map(serde_json::from_value::<Option<Assignment>>) {
-                Ok(Ok(Some(now))) if now == *a => {}
-                Ok(Ok(_)) => return format!("task {} was cancelled", a.task),
-                // The server away or a bad value: no word of a cancel.
-                _ => {}
-            }
-        }
-    }
-
-    /// Resolves once the robot has stayed within two metres of one place
-    /// (a robot bumping to and fro against an obstacle moves about, but
-    /// gets nowhere)
-    /// for `cfg.stuck` without waiting its turn, saying where (by its
-    /// odometry): something it cannot pass stands in its way.
-    async fn blocked(&self, cfg: &DutyConfig, waiting: &AtomicBool) -> String {
-        let mut anchor: Option<(f64, f64, rome_clock::Instant)> = None;
-        loop {
-            rome_clock::sleep(cfg.check_every).await;
-            let Ok(p) = self.robot.pose().await else {
-                continue;
-            };
-            let (x, y) = (f64::from(p.x_mm), f64::from(p.y_mm));
-            match anchor {
-                Some((ax, ay, since))
-                    if !waiting.load(Relaxed) && (x - ax).hypot(y - ay) < BLOCKED_RADIUS_MM =>
-                {
-                    if since.elapsed() >= cfg.stuck {
-                        let mut why = format!(
-                            "{BLOCKED} at ({:.1}, {:.1}) m: got no further than 2 m in {:.0} s",
-                            x / 1000.0,
-                            y / 1000.0,
-                            cfg.stuck.as_secs_f64()
-                        );
-                        // What the Navigator sees in the way, if it says;
-                        // a Status that does not decode only loses that.
-                        let seen = self.board.get::<Status>(Var::Status).await;
-                        if let Some(nav) = seen.ok().and_then(|s| s.blocked) {
-                            why.push_str(&format!(" (the Navigator: {nav})"));
-                        }
-                        return why;
-                    }
-                }
-                _ => anchor = Some((x, y, rome_clock::Instant::now())),
-            }
-        }
-    }
-
-    /// Resolves once the robot has driven longer than a route of
-    /// `length_mm` takes at [`DutyConfig::slowest_mm_s`], plus
-    /// [`OVERDUE_GRACE`], not counting the time it waited its turn; the
-    /// reason says where its odometry puts it.
-    async fn overdue(&self, cfg: &DutyConfig, waiting: &AtomicBool, length_mm: f64) -> String {
-        let allowed = OVERDUE_GRACE.as_secs_f64() + length_mm / cfg.slowest_mm_s.max(1.0);
-        let mut driven = Duration::ZERO;
-        loop {
-            rome_clock::sleep(cfg.check_every).await;
-            if !waiting.load(Relaxed) {
-                driven += cfg.check_every;
-            }
-            if driven.as_secs_f64() >= allowed {
-                let at = match self.robot.pose().await {
-                    Ok(p) => format!(
-                        " at ({:.1}, {:.1}) m",
-                        f64::from(p.x_mm) / 1000.0,
-                        f64::from(p.y_mm) / 1000.0
-                    ),
-                    Err(_) => String::new(),
-                };
-                return format!(
-                    "{OVERDUE}{at}: still driving after {:.0} s for a {:.0} m route (it is allowed {:.0} s)",
-                    driven.as_secs_f64(),
-                    length_mm / 1000.0,
-                    allowed
-                );
-            }
         }
     }
 }

@@ -6,7 +6,10 @@
 //! fleet/status/<id>    {"id":"T7","state":"assigned","robot":"r3",…}      the dispatcher
 //! nav/<robot>/Duty     {"at":"350R","state":"idle","task":null,…}         the robot's Planner
 //! nav/<robot>/Task     {"task":"T7","to":"376L","via":[]} or null         the dispatcher
-//! $nav/<robot>/Task    up() by the dispatcher after it writes Task
+//! $nav/<robot>/Task    up() by the dispatcher after it writes Task,
+//!                      or by a robot that asks it to make way
+//! nav/<robot>/Way      {"at_mm":[x,y],"heading_deg":90,"to_mm":[x,y],"of":["r15"],"n":2}
+//!                      or null                                            the robot's Planner
 //! $fleet/wake          up() by anyone who adds, cancels or ends a task
 //! $fleet/dispatcher    value 1: held (undo) by the one dispatcher running
 //! $fleet/task-ids      up() hands out task numbers
@@ -48,6 +51,30 @@ pub fn task_var(robot: &str) -> String {
 /// `$nav/<robot>/Task`.
 pub fn task_sem(robot: &str) -> String {
     format!("$nav/{robot}/Task")
+}
+
+/// `nav/<robot>/Way`.
+pub fn way_var(robot: &str) -> String {
+    format!("nav/{robot}/Way")
+}
+
+/// A robot held up with a task asks robots standing idle just ahead of it
+/// to make way, on its own `nav/<robot>/Way` (`null` when it asks
+/// nothing). Each robot it names is woken through its `$nav/<robot>/Task`,
+/// and answers each `n` once.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WayAsk {
+    /// Where the asker is held up, by its odometry, mm.
+    pub at_mm: [f64; 2],
+    /// The way it goes there: its route's heading, degrees.
+    pub heading_deg: f64,
+    /// Where its route ends, mm: nobody makes way to there.
+    pub to_mm: [f64; 2],
+    /// The robots asked.
+    pub of: Vec<String>,
+    /// Counts the asker's asks: a larger one is a new ask.
+    pub n: u64,
 }
 
 /// A task as whoever adds it writes it to `fleet/task/<id>`: go to a

@@ -361,6 +361,10 @@ pub async fn take_tasks(common: &CommonArgs, d: Duty) -> anyhow::Result<u8> {
         ),
         DutyNote::Back(at) => println!("got clear to {at}; takes tasks again"),
         DutyNote::NotBack(why) => eprintln!("rome planner: did not get clear: {why}"),
+        DutyNote::MadeWay(by, Ok(at)) => println!("made way for {by}: drove on to {at}"),
+        DutyNote::MadeWay(by, Err(why)) => {
+            eprintln!("rome planner: did not make way for {by}: {why}")
+        }
     })
     .await?;
     Ok(exit::OK)

@@ -1,0 +1,314 @@
+//! Making way (§4.7: several robots, one data server). A robot held up
+//! with a task asks the robots standing idle just ahead of it to drive on
+//! ([`WayAsk`] on its own `nav/<robot>/Way`, and an up() on each one's
+//! `$nav/<robot>/Task`); one asked drives ahead, the way the asker goes, to
+//! a position a few metres on ([`way_to`]), and steps aside there as after
+//! any task.
+//!
+//! Why: a robot between tasks whose step aside was cut short, or that
+//! stands where no walls are beside it, can leave a passing robot too
+//! little room, and the one held up behind it gives its task up. Only the
+//! robot in the way can change that, and the data server is all that
+//! connects the two.
+
+use super::aside::LastLeg;
+use super::duty::{stands_at, Aside, DutyConfig, DutyNote, OnDuty};
+use super::schema::{decode, task_sem, way_var, Assignment, DutyState, WayAsk};
+use crate::NavError;
+use rome_maps::geometry::{direction, distance, distance_to_segment, Point};
+use rome_maps::route::Route;
+use rome_maps::{Network, World};
+use std::collections::BTreeMap;
+use std::convert::Infallible;
+use std::sync::atomic::{AtomicBool, Ordering::Relaxed};
+use std::time::Duration;
+
+/// How long a robot with a task, not waiting its turn, gets no further
+/// than [`ASK_RADIUS_MM`] before it asks, and between two asks. Well
+/// within the time after which it would give its task up as blocked.
+pub const ASK_AFTER: Duration = Duration::from_secs(15);
+
+/// How far a robot must get within [`ASK_AFTER`] not to ask, mm.
+pub const ASK_RADIUS_MM: f64 = 1_000.0;
+
+/// How near the asker an idle robot must stand to be asked, mm: one body
+/// beside or ahead of it, with room to pass between.
+pub const ASK_NEAR_MM: f64 = 2_500.0;
+
+/// How far behind the asker, against the way it goes, a robot may stand
+/// and still be asked, mm: one beside it holds it up too.
+pub const ASK_BEHIND_MM: f64 = 500.0;
+
+/// How far ahead along the asker's way a robot making way drives at the
+/// least, mm.
+pub const WAY_ON_MM: f64 = 3_000.0;
+
+/// How near the asker the way there may come, mm (where the robot does
+/// not start nearer): two bodies' half widths and a gap.
+pub const WAY_CLEAR_MM: f64 = 1_200.0;
+
+/// How near another idle robot a robot making way may stop, mm.
+pub const WAY_APART_MM: f64 = 1_500.0;
+
+/// How far from where it stands a position is looked at, mm.
+const WAY_NEAR_MM: f64 = 30_000.0;
+
+/// The heading of `route`'s leg nearest `at`, degrees: the way a robot
+/// driving it goes there, whichever way its odometry says it faces.
+pub fn way_heading(route: &Route, at: Point) -> Option<f64> {
+    (route.legs().into_iter())
+        .filter(|l| l.2 > 1.0)
+        .min_by(|a, b| {
+            distance_to_segment(at, a.0, a.1).total_cmp(&distance_to_segment(at, b.0, b.1))
+        })
+        .map(|l| l.3)
+}
+
+/// The position a robot standing at `here` drives to, to make way for a
+/// robot held up at `asker` going `heading_deg` to `goal`: one at least
+/// [`WAY_ON_MM`] further on that way than `here`, whose route from `here`
+/// comes no nearer the asker than [`WAY_CLEAR_MM`] (or than `here` is),
+/// not beside the asker's goal or a robot `waiting` there; the nearest by
+/// route, ties by name.
+/// `None`: no such position within 30 m.
+pub fn way_to(
+    world: &World,
+    network: &Network,
+    here: Point,
+    (asker, heading_deg, goal): (Point, f64, Point),
+    waiting: &[Point],
+) -> Option<String> {
+    let on = direction(heading_deg);
+    let keep = distance(here, asker).min(WAY_CLEAR_MM) - 50.0;
+    world
+        .positions
+        .iter()
+        .filter_map(|(name, p)| {
+            let q = p.in_corridor();
+            let off = q - here;
+            if off.norm() > WAY_NEAR_MM || off.dot(&on) < WAY_ON_MM {
+                return None;
+            }
+            if (waiting.iter().chain([&goal])).any(|w| distance(*w, q) < WAY_APART_MM) {
+                return None;
+            }
+            let route = world.route_from(network, ("here", here), &[], name).ok()?;
+            let near = (route.legs().into_iter())
+                .map(|(a, b, _, _)| distance_to_segment(asker, a, b))
+                .fold(f64::INFINITY, f64::min);
+            (near >= keep).then(|| (route.length_mm, name.clone()))
+        })
+        .min_by(|a, b| a.0.total_cmp(&b.0).then_with(|| a.1.cmp(&b.1)))
+        .map(|(_, name)| name)
+}
+
+impl OnDuty<'_> {
+    /// Runs beside a task's drive and never ends: each time the robot has
+    /// got no further than [`ASK_RADIUS_MM`] in [`ASK_AFTER`] without
+    /// waiting its turn, it asks the idle robots standing near ahead of it
+    /// on `route` to make way, and sets `asked`.
+    pub(super) async fn ask_way(
+        &self,
+        cfg: &DutyConfig,
+        (waiting, asked): (&AtomicBool, &AtomicBool),
+        route: &Route,
+    ) -> Infallible {
+        let mut anchor: Option<(Point, rome_clock::Instant)> = None;
+        loop {
+            rome_clock::sleep(cfg.check_every).await;
+            let Ok(p) = self.robot.pose().await else {
+                continue;
+            };
+            let here = Point::new(f64::from(p.x_mm), f64::from(p.y_mm));
+            match anchor {
+                Some((a, since)) if !waiting.load(Relaxed) && distance(a, here) < ASK_RADIUS_MM => {
+                    if since.elapsed() >= ASK_AFTER {
+                        anchor = None;
+                        match self.ask(here, route).await {
+                            Ok(true) => asked.store(true, Relaxed),
+                            Ok(false) => {}
+                            Err(e) => {
+                                tracing::warn!(robot = self.name, "could not ask to make way: {e}")
+                            }
+                        }
+                    }
+                }
+                _ => anchor = Some((here, rome_clock::Instant::now())),
+            }
+        }
+    }
+
+    /// Asks the idle robots standing within [`ASK_NEAR_MM`] of `here`, and
+    /// not behind it on `route`, to make way: whether it asked any.
+    async fn ask(&self, here: Point, route: &Route) -> Result<bool, NavError> {
+        let Some(heading_deg) = way_heading(route, here) else {
+            return Ok(false);
+        };
+        let ds = self.board.client();
+        let on = direction(heading_deg);
+        let of: Vec<String> = (super::tasks::robots(ds).await?.into_iter())
+            .filter(|(name, _)| name != self.name)
+            .filter_map(|(name, duty)| Some((name, duty.ok()?)))
+            .filter(|(_, d)| d.state == DutyState::Idle && d.task.is_none())
+            .filter_map(|(name, d)| Some((name, stands_at(self.world, &d)?)))
+            .filter(|(_, p)| {
+                let off = *p - here;
+                off.norm() <= ASK_NEAR_MM && off.dot(&on) >= -ASK_BEHIND_MM
+            })
+            .map(|(name, _)| name)
+            .collect();
+        if of.is_empty() {
+            return Ok(false);
+        }
+        // Each ask's count is the time it is made: later is larger, in
+        // this task or the next, and the same in every lock-step run.
+        let n = rome_clock::now_ms().unwrap_or_else(|| {
+            std::time::SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .map_or(0, |d| d.as_millis() as u64)
+        });
+        let goal = route.points.last().copied().unwrap_or(here);
+        let ask = WayAsk {
+            at_mm: [here.x, here.y],
+            heading_deg,
+            to_mm: [goal.x, goal.y],
+            of,
+            n,
+        };
+        ds.set(&way_var(self.name), &Some(&ask)).await?;
+        for robot in &ask.of {
+            ds.signal(&task_sem(robot)).await?;
+        }
+        tracing::info!(robot = self.name, asked = ?ask.of, "held up: asks to make way");
+        Ok(true)
+    }
+
+    /// The first ask naming this robot that it has not `answered` yet, and
+    /// who made it. A value that does not decode is passed over: it asks
+    /// nothing.
+    pub(super) async fn asked(
+        &self,
+        answered: &mut BTreeMap<String, u64>,
+    ) -> Option<(String, WayAsk)> {
+        let values = self
+            .board
+            .client()
+            .values_matching("nav/*/Way")
+            .await
+            .ok()?;
+        let mut first = None;
+        for (name, value) in values {
+            let Some(by) = name
+                .strip_prefix("nav/")
+                .and_then(|r| r.strip_suffix("/Way"))
+            else {
+                continue;
+            };
+            if by == self.name || value.is_null() {
+                continue;
+            }
+            let Ok(ask) = decode::<WayAsk>(&name, &value) else {
+                continue;
+            };
+            let fresh = answered.get(by).is_none_or(|&n| n < ask.n);
+            let sound = (ask.at_mm.iter().chain(&ask.to_mm)).all(|v| v.is_finite())
+                && ask.heading_deg.is_finite();
+            if !fresh || !sound || !ask.of.iter().any(|r| r == self.name) {
+                continue;
+            }
+            answered.insert(by.to_string(), ask.n);
+            first.get_or_insert((by.to_string(), ask));
+        }
+        first
+    }
+
+    /// Drives from where the robot stands (`from`, stood aside at `aside`)
+    /// to the position [`way_to`] gives for `ask`, as a drive of its own
+    /// that nobody cancels: the position it arrived at, or why not.
+    pub(super) async fn make_way(
+        &self,
+        cfg: &DutyConfig,
+        (by, ask): (&str, &WayAsk),
+        (from, aside): (&(String, Option<Point>), Option<Aside>),
+        state: (&mut bool, &mut Option<f64>, &mut Option<LastLeg>),
+        note: &mut impl FnMut(DutyNote<'_>),
+    ) -> Result<String, String> {
+        let named = || self.world.position(&from.0).map(|p| p.in_corridor());
+        let here = (aside.map(|(q, _)| q).or(from.1).or_else(named))
+            .ok_or_else(|| format!("it stands nowhere the map names ({})", from.0))?;
+        let waiting = self.waiting().await.map_err(|e| e.to_string())?;
+        let asker = Point::new(ask.at_mm[0], ask.at_mm[1]);
+        let goal = Point::new(ask.to_mm[0], ask.to_mm[1]);
+        let toward = (asker, ask.heading_deg, goal);
+        let Some(to) = way_to(self.world, self.network, here, toward, &waiting) else {
+            return Err(format!(
+                "no position {:.0} m or more on the way {by} goes",
+                WAY_ON_MM / 1000.0
+            ));
+        };
+        let a = Assignment {
+            task: format!("make way for {by}"),
+            to,
+            via: Vec::new(),
+        };
+        let mut planner_only = |n: DutyNote<'_>| {
+            if let DutyNote::Planner(_) = n {
+                note(n)
+            }
+        };
+        let (outcome, at) = self
+            .carry_out(cfg, (from, aside), &a, false, state, &mut planner_only)
+            .await;
+        at.ok_or_else(|| outcome.why.unwrap_or_else(|| "no reason given".to_string()))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    use crate::plan::tests::eb3;
+
+    #[test]
+    fn a_robot_makes_way_ahead_on_the_askers_way_never_to_its_goal_or_back_past_it() {
+        let (world, network) = eb3();
+        let at = |name: &str| world.position(name).expect("named").in_corridor();
+        // r1 stands at A336L in corridor N; the asker is held up 1.5 m
+        // north of it, going south (180°) to A342R.
+        let here = at("A336L");
+        let asker = here + direction(0.0) * 1_500.0;
+        let goal = at("A342R");
+        let to = way_to(&world, &network, here, (asker, 180.0, goal), &[]).expect("a position");
+        let q = at(&to);
+        assert!(
+            (q - here).dot(&direction(180.0)) >= WAY_ON_MM,
+            "{to} is not 3 m on south"
+        );
+        assert!(
+            distance(q, goal) >= WAY_APART_MM,
+            "{to} is the asker's goal"
+        );
+        // Going north instead, it makes way north, never back past the
+        // asker south of it.
+        let asker = here + direction(180.0) * 1_500.0;
+        let to = way_to(&world, &network, here, (asker, 0.0, goal), &[]).expect("a position");
+        assert!((at(&to) - here).dot(&direction(0.0)) >= WAY_ON_MM, "{to}");
+        // With a robot standing at that place, it goes elsewhere.
+        let other = way_to(&world, &network, here, (asker, 0.0, goal), &[at(&to)]);
+        assert_ne!(other.as_deref(), Some(to.as_str()));
+    }
+
+    #[test]
+    fn the_way_an_asker_goes_is_its_nearest_legs_whatever_it_faces() {
+        let (world, network) = eb3();
+        let from = world.position("A326L").expect("named").in_corridor();
+        let route = world
+            .route_from(&network, ("here", from), &[], "A342R")
+            .expect("a route");
+        let h = way_heading(&route, from + direction(180.0) * 2_000.0).expect("a heading");
+        assert!(
+            rome_maps::geometry::normalize_deg(h - 180.0).abs() < 5.0,
+            "{h}"
+        );
+    }
+}
