@@ -124,6 +124,9 @@ pub struct RunConfig {
     /// before it steps aside (`rome_nav::fleet::duty::DutyConfig::leave_open`).
     /// Off by default, as there.
     pub leave_open: bool,
+    /// A robot held up with a task asks the idle robots in its way to
+    /// make way (`rome_nav::fleet::way`). Off by default, as there.
+    pub make_way: bool,
     /// The narrow corridors that lie on loops are driven one way only,
     /// and routes keep to their way (`rome_nav::traffic::oneway`).
     pub one_way: bool,
@@ -186,6 +189,7 @@ impl RunConfig {
             traffic: false,
             lanes: false,
             leave_open: false,
+            make_way: false,
             one_way: false,
             net: NetOptions::isolated(),
             trace: None,

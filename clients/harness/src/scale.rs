@@ -34,6 +34,8 @@ pub struct ScaleConfig {
     pub lanes: bool,
     /// Robots without a task drive out of junctions before they step aside.
     pub leave_open: bool,
+    /// Robots held up ask idle robots in their way to make way.
+    pub make_way: bool,
     /// Drive the narrow corridors of loops one way only.
     pub one_way: bool,
     /// Add the tasks one this much simulated time after another, as a
@@ -146,6 +148,7 @@ pub async fn sweep(
         run.traffic = cfg.traffic;
         run.lanes = cfg.lanes;
         run.leave_open = cfg.leave_open;
+        run.make_way = cfg.make_way;
         run.one_way = cfg.one_way;
         run.trace = cfg.traces.as_ref().map(|d| d.join(format!("{n}.trace")));
         // The plate finder reads camera images that no task needs.

@@ -257,6 +257,7 @@ async fn run_all(
         duty.traffic = run.traffic;
         duty.lanes = run.lanes;
         duty.leave_open = run.leave_open;
+        duty.make_way = run.make_way;
         duty.stuck = run.stuck;
         duty.slowest_mm_s = run.slowest_mm_s;
         if cfg.stay.contains(&r.robot) {

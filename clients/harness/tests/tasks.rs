@@ -223,7 +223,10 @@ async fn a_robot_held_up_by_one_standing_idle_asks_it_to_make_way() {
         &[("r1", "A326L"), ("r2", "309R")],
         pinned(&[("T1", "A336L", "r1"), ("T2", "A342R", "r2")]),
         None,
-        |t| t.stay = vec!["r1".into()],
+        |t| {
+            t.stay = vec!["r1".into()];
+            t.run.make_way = true;
+        },
         &mut said,
     )
     .await;

@@ -157,6 +157,11 @@ pub struct DutyConfig {
     /// heading. Off by default: forty robots on EB3 did better with it in
     /// one task set of four and worse in two (docs/tasks.md).
     pub leave_open: bool,
+    /// Held up with a task, it asks the idle robots in its way to make
+    /// way, and idle, it makes way when asked ([`super::way`]). Off by
+    /// default: of six task sets of forty robots on EB3 it did better in
+    /// two and worse in one (docs/tasks.md).
+    pub make_way: bool,
 }
 
 impl DutyConfig {
@@ -172,6 +177,7 @@ impl DutyConfig {
             slowest_mm_s: 100.0,
             aside_after: Some(Duration::from_secs(5)),
             leave_open: false,
+            make_way: false,
         }
     }
 }
@@ -374,7 +380,7 @@ impl OnDuty<'_> {
             let Some(a) = new else {
                 // Woken with no new task: a robot held up may have asked
                 // it to make way.
-                if duty.state == DutyState::Idle {
+                if cfg.make_way && duty.state == DutyState::Idle {
                     if let Some((by, ask)) = self.asked(&mut answered).await {
                         let aside = aside_at.take();
                         let from = (duty.at.clone(), duty.at_mm.map(|[x, y]| Point::new(x, y)));
@@ -700,7 +706,7 @@ impl OnDuty<'_> {
             why = self.cancelled(a, cfg.check_every), if cancellable => Err(why),
             why = self.blocked(cfg, &waiting) => Err(why),
             why = self.overdue(cfg, &waiting, plan.route.length_mm) => Err(why),
-            never = self.ask_way(cfg, (&waiting, &asked), &plan.route) => match never {},
+            never = self.ask_way(cfg, (&waiting, &asked), &plan.route), if cfg.make_way => match never {},
         };
         if asked.load(Relaxed) {
             let _ = (self.board.client())

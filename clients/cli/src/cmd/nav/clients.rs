@@ -47,7 +47,7 @@ pub struct PlannerArgs {
     /// between floors rides an elevator (§5.4.6), which the robot's
     /// Navigator operates through the elevator's server (`rome sim
     /// --building`).
-    #[arg(long, value_name = "BUILDING", conflicts_with_all = ["map", "tasks", "via", "traffic", "lanes", "one_way", "leave_junctions"])]
+    #[arg(long, value_name = "BUILDING", conflicts_with_all = ["map", "tasks", "via", "traffic", "lanes", "one_way", "leave_junctions", "make_way"])]
     building: Option<String>,
     /// Start: a door jamb like 350R; the robot is registered there.
     #[arg(long)]
@@ -243,6 +243,7 @@ pub async fn planner(common: &CommonArgs, args: PlannerArgs) -> anyhow::Result<u
             traffic: args.rules.traffic,
             lanes: args.rules.lanes,
             leave_open: args.rules.leave_junctions,
+            make_way: args.rules.make_way,
         };
         return super::fleet::take_tasks(common, duty).await;
     };
@@ -250,6 +251,7 @@ pub async fn planner(common: &CommonArgs, args: PlannerArgs) -> anyhow::Result<u
         !args.rules.leave_junctions,
         super::traffic::LEAVE_WITHOUT_TASKS
     );
+    anyhow::ensure!(!args.rules.make_way, super::traffic::MAKE_WAY_WITHOUT_TASKS);
     let plan = Plan::through(&world, &network, &args.from, &args.via, &to)?
         .keeping(args.rules.traffic, args.rules.lanes);
     let via = if args.via.is_empty() {

@@ -304,6 +304,8 @@ pub struct Duty {
     pub lanes: bool,
     /// Drive out of junctions before stepping aside.
     pub leave_open: bool,
+    /// Ask idle robots in the way to make way, and make way when asked.
+    pub make_way: bool,
 }
 
 /// `rome planner --tasks`: takes tasks until interrupted.
@@ -330,6 +332,7 @@ pub async fn take_tasks(common: &CommonArgs, d: Duty) -> anyhow::Result<u8> {
     cfg.traffic = d.traffic;
     cfg.lanes = d.lanes;
     cfg.leave_open = d.leave_open;
+    cfg.make_way = d.make_way;
     println!("{} takes tasks at {}", d.name, d.at);
     on.serve(&cfg, |n| match n {
         DutyNote::Took(a, plan) => println!(

@@ -84,6 +84,7 @@ pub async fn run(args: Args) -> anyhow::Result<u8> {
         traffic: args.rules.traffic,
         lanes: args.rules.lanes,
         leave_open: args.rules.leave_junctions,
+        make_way: args.rules.make_way,
         one_way: args.rules.one_way,
         every,
         limit,

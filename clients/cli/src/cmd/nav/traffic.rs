@@ -25,7 +25,16 @@ pub struct TrafficArgs {
     /// (not yet better in fleets).
     #[arg(long)]
     pub leave_junctions: bool,
+    /// With tasks: a robot held up asks the robots standing idle in its
+    /// way to make way, and one asked drives on (not yet better in
+    /// fleets everywhere: docs/tasks.md).
+    #[arg(long)]
+    pub make_way: bool,
 }
+
+/// Why `--make-way` is refused where no robot takes tasks.
+pub const MAKE_WAY_WITHOUT_TASKS: &str = "--make-way says what a robot does between tasks, \
+     so it goes with tasks (rome planner --tasks, rome fleet)";
 
 /// Why `--leave-junctions` is refused where no robot takes tasks: it
 /// says where a robot stands between tasks, and a route has none.
