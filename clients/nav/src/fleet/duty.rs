@@ -383,16 +383,16 @@ impl OnDuty<'_> {
                 if cfg.make_way && duty.state == DutyState::Idle {
                     if let Some((by, ask)) = self.asked(&mut answered).await {
                         let aside = aside_at.take();
+                        let was = aside
+                            .map(|(q, _)| q)
+                            .or_else(|| stands_at(self.world, &duty));
                         let from = (duty.at.clone(), duty.at_mm.map(|[x, y]| Point::new(x, y)));
                         let state = (&mut registered, &mut facing, &mut last_leg);
                         let ask = (by.as_str(), &ask);
                         let made = self
-                            .make_way(cfg, ask, (&from, aside), state, &mut note)
+                            .make_way(cfg, ask, (&from, aside, was), state, &mut note)
                             .await;
                         let now = self.robot.pose().await.ok();
-                        let was = aside
-                            .map(|(q, _)| q)
-                            .or_else(|| stands_at(self.world, &duty));
                         match (&made, now) {
                             (Ok(at), _) => idle_at(&mut duty, at.clone()),
                             // It drove, and stopped short: it stands where
@@ -612,12 +612,23 @@ impl OnDuty<'_> {
     /// nothing of where its robot is and is passed over; one on its way
     /// to a task is not standing anywhere.
     pub(super) async fn waiting(&self) -> Result<Vec<Point>, NavError> {
+        Ok((self.others().await?.into_iter())
+            .filter(|(_, d, _)| d.state != DutyState::Busy)
+            .map(|(_, _, p)| p)
+            .collect())
+    }
+
+    /// The fleet's other robots whose duties decode and say where they
+    /// stand ([`stands_at`]): name, duty, and that point.
+    pub(super) async fn others(&self) -> Result<Vec<(String, Duty, Point)>, NavError> {
         let duties = super::tasks::robots(self.board.client()).await?;
         Ok((duties.into_iter())
             .filter(|(name, _)| name != self.name)
-            .filter_map(|(_, duty)| duty.ok())
-            .filter(|d| d.state != DutyState::Busy)
-            .filter_map(|d| stands_at(self.world, &d))
+            .filter_map(|(name, duty)| {
+                let d = duty.ok()?;
+                let p = stands_at(self.world, &d)?;
+                Some((name, d, p))
+            })
             .collect())
     }
 

@@ -12,7 +12,7 @@
 //! connects the two.
 
 use super::aside::LastLeg;
-use super::duty::{stands_at, Aside, DutyConfig, DutyNote, OnDuty};
+use super::duty::{Aside, DutyConfig, DutyNote, OnDuty};
 use super::schema::{decode, task_sem, way_var, Assignment, DutyState, WayAsk};
 use crate::NavError;
 use rome_maps::geometry::{direction, distance, distance_to_segment, Point};
@@ -144,18 +144,14 @@ impl OnDuty<'_> {
         let Some(heading_deg) = way_heading(route, here) else {
             return Ok(false);
         };
-        let ds = self.board.client();
         let on = direction(heading_deg);
-        let of: Vec<String> = (super::tasks::robots(ds).await?.into_iter())
-            .filter(|(name, _)| name != self.name)
-            .filter_map(|(name, duty)| Some((name, duty.ok()?)))
-            .filter(|(_, d)| d.state == DutyState::Idle && d.task.is_none())
-            .filter_map(|(name, d)| Some((name, stands_at(self.world, &d)?)))
-            .filter(|(_, p)| {
+        let of: Vec<String> = (self.others().await?.into_iter())
+            .filter(|(_, d, _)| d.state == DutyState::Idle && d.task.is_none())
+            .filter(|(_, _, p)| {
                 let off = *p - here;
                 off.norm() <= ASK_NEAR_MM && off.dot(&on) >= -ASK_BEHIND_MM
             })
-            .map(|(name, _)| name)
+            .map(|(name, _, _)| name)
             .collect();
         if of.is_empty() {
             return Ok(false);
@@ -175,6 +171,7 @@ impl OnDuty<'_> {
             of,
             n,
         };
+        let ds = self.board.client();
         ds.set(&way_var(self.name), &Some(&ask)).await?;
         for robot in &ask.of {
             ds.signal(&task_sem(robot)).await?;
@@ -222,20 +219,19 @@ impl OnDuty<'_> {
         first
     }
 
-    /// Drives from where the robot stands (`from`, stood aside at `aside`)
+    /// Drives from where the robot stands (`from`, stood aside at `aside`;
+    /// `here`, the point of either, `None` where the map names neither)
     /// to the position [`way_to`] gives for `ask`, as a drive of its own
     /// that nobody cancels: the position it arrived at, or why not.
     pub(super) async fn make_way(
         &self,
         cfg: &DutyConfig,
         (by, ask): (&str, &WayAsk),
-        (from, aside): (&(String, Option<Point>), Option<Aside>),
+        (from, aside, here): (&(String, Option<Point>), Option<Aside>, Option<Point>),
         state: (&mut bool, &mut Option<f64>, &mut Option<LastLeg>),
         note: &mut impl FnMut(DutyNote<'_>),
     ) -> Result<String, String> {
-        let named = || self.world.position(&from.0).map(|p| p.in_corridor());
-        let here = (aside.map(|(q, _)| q).or(from.1).or_else(named))
-            .ok_or_else(|| format!("it stands nowhere the map names ({})", from.0))?;
+        let here = here.ok_or_else(|| format!("it stands nowhere the map names ({})", from.0))?;
         let waiting = self.waiting().await.map_err(|e| e.to_string())?;
         let asker = Point::new(ask.at_mm[0], ask.at_mm[1]);
         let goal = Point::new(ask.to_mm[0], ask.to_mm[1]);
