@@ -124,7 +124,7 @@ pub struct RunConfig {
     /// before it steps aside (`rome_nav::fleet::duty::DutyConfig::leave_open`).
     /// Off by default, as there.
     pub leave_open: bool,
-    /// A robot held up with a task asks the idle robots in its way to
+    /// A robot held up with a task asks the nearest idle robot in its way to
     /// make way (`rome_nav::fleet::way`). Off by default, as there.
     pub make_way: bool,
     /// The narrow corridors that lie on loops are driven one way only,

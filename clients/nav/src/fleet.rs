@@ -9,7 +9,7 @@
 //! - [`dispatcher`]: the one dispatcher's rounds (`rome dispatcher`).
 //! - [`duty`]: a robot taking tasks (`rome planner --tasks`).
 //! - `watch`: what ends a task's run early (cancelled, blocked, overdue).
-//! - [`way`]: a robot held up asks idle robots in its way to make way.
+//! - [`way`]: a robot held up asks the nearest idle robot in its way to make way.
 //! - [`aside`]: where a robot without a task waits.
 //! - [`clear`]: where a robot out of service drives to get clear.
 

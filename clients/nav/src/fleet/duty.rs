@@ -24,10 +24,9 @@
 //! ([`super::clear::clear_to`]) and takes tasks again, or rests twice as long and tries
 //! another position. Left standing for good, such robots become the very
 //! knots that block the next ones. A robot held up with a task asks the
-//! idle robots standing in its way to drive on, and an idle robot asked
-//! does ([`super::way`]). A value on the
-//! blackboard that does not decode is reported and skipped; it never ends
-//! the Planner.
+//! nearest idle robot standing in its way to drive on, and an idle robot
+//! asked does ([`super::way`]). A value on the blackboard that does not
+//! decode is reported and skipped; it never ends the Planner.
 
 use super::aside::{corridor_axis, leg_at, start_leg, stood_aside, way_out, LastLeg};
 use super::clear::{clear_to, CLEAR_NEAR_MM};
@@ -157,10 +156,11 @@ pub struct DutyConfig {
     /// heading. Off by default: forty robots on EB3 did better with it in
     /// one task set of four and worse in two (docs/tasks.md).
     pub leave_open: bool,
-    /// Held up with a task, it asks the idle robots in its way to make
-    /// way, and idle, it makes way when asked ([`super::way`]). Off by
-    /// default: of six task sets of forty robots on EB3 it did better in
-    /// two and worse in one (docs/tasks.md).
+    /// Held up with a task, it asks the nearest idle robot in its way to
+    /// make way, and idle, it makes way when asked ([`super::way`]). Off
+    /// by default: of six task sets of forty robots on EB3 it did better
+    /// in two and no worse in four, but only with `one_way` and
+    /// `leave_open`, off by default too (docs/tasks.md).
     pub make_way: bool,
 }
 
@@ -389,9 +389,17 @@ impl OnDuty<'_> {
                         let from = (duty.at.clone(), duty.at_mm.map(|[x, y]| Point::new(x, y)));
                         let state = (&mut registered, &mut facing, &mut last_leg);
                         let ask = (by.as_str(), &ask);
+                        // Busy while it drives: no task is handed to it,
+                        // nobody asks it again, and nobody takes its old
+                        // place for where it stands.
+                        duty.state = DutyState::Busy;
+                        duty.task = Some(format!("make way for {by}"));
+                        self.report(&duty).await?;
                         let made = self
                             .make_way(cfg, ask, (&from, aside, was), state, &mut note)
                             .await;
+                        duty.state = DutyState::Idle;
+                        duty.task = None;
                         let now = self.robot.pose().await.ok();
                         match (&made, now) {
                             (Ok(at), _) => idle_at(&mut duty, at.clone()),
@@ -641,7 +649,10 @@ impl OnDuty<'_> {
 
     /// Drives one task: how it went, and where the robot stands after it
     /// (`None`: nowhere the map names). With `cancellable`, it stops when
-    /// the robot's `Task` no longer names `a`.
+    /// the robot's `Task` no longer names `a`, and (making way on) asks
+    /// robots in its way to make way; without, as when it makes way
+    /// itself, it asks nobody, so that asks do not pass on from robot to
+    /// robot making way into a knot.
     pub(super) async fn carry_out(
         &self,
         cfg: &DutyConfig,
@@ -717,7 +728,7 @@ impl OnDuty<'_> {
             why = self.cancelled(a, cfg.check_every), if cancellable => Err(why),
             why = self.blocked(cfg, &waiting) => Err(why),
             why = self.overdue(cfg, &waiting, plan.route.length_mm) => Err(why),
-            never = self.ask_way(cfg, (&waiting, &asked), &plan.route), if cfg.make_way => match never {},
+            never = self.ask_way(cfg, (&waiting, &asked), &plan.route), if cfg.make_way && cancellable => match never {},
         };
         if asked.load(Relaxed) {
             let _ = (self.board.client())

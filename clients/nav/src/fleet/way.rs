@@ -1,9 +1,11 @@
 //! Making way (§4.7: several robots, one data server). A robot held up
-//! with a task asks the robots standing idle just ahead of it to drive on
-//! ([`WayAsk`] on its own `nav/<robot>/Way`, and an up() on each one's
-//! `$nav/<robot>/Task`); one asked drives ahead, the way the asker goes, to
-//! a position a few metres on ([`way_to`]), and steps aside there as after
-//! any task.
+//! with a task asks the nearest robot standing idle just ahead of it to
+//! drive on ([`WayAsk`] on its own `nav/<robot>/Way`, and an up() on that
+//! one's `$nav/<robot>/Task`); the one asked, busy meanwhile, drives ahead
+//! the way the asker goes to a position a few metres on ([`way_to`]), and
+//! steps aside there as after any task. A robot making way asks nobody:
+//! asks passed on from robot to robot making way drove them into each
+//! other.
 //!
 //! Why: a robot between tasks whose step aside was cut short, or that
 //! stands where no walls are beside it, can leave a passing robot too
@@ -13,7 +15,7 @@
 
 use super::aside::LastLeg;
 use super::duty::{Aside, DutyConfig, DutyNote, OnDuty};
-use super::schema::{decode, task_sem, way_var, Assignment, DutyState, WayAsk};
+use super::schema::{decode, task_sem, way_var, Assignment, Duty, DutyState, WayAsk};
 use crate::NavError;
 use rome_maps::geometry::{direction, distance, distance_to_segment, Point};
 use rome_maps::route::Route;
@@ -102,11 +104,27 @@ pub fn way_to(
         .map(|(_, name)| name)
 }
 
+/// The robot a robot held up at `here`, going `heading_deg`, asks to make
+/// way, of `others` (name, duty, where it stands): the nearest idle one
+/// without a task within [`ASK_NEAR_MM`], not more than [`ASK_BEHIND_MM`]
+/// behind; ties by name. The nearest only: two asked at once drive off side
+/// by side into each other, and one still in the way is asked at the next
+/// ask.
+pub fn in_the_way(here: Point, heading_deg: f64, others: &[(String, Duty, Point)]) -> Option<&str> {
+    let on = direction(heading_deg);
+    (others.iter())
+        .filter(|(_, d, _)| d.state == DutyState::Idle && d.task.is_none())
+        .map(|(name, _, p)| (name.as_str(), *p - here))
+        .filter(|(_, off)| off.norm() <= ASK_NEAR_MM && off.dot(&on) >= -ASK_BEHIND_MM)
+        .min_by(|a, b| a.1.norm().total_cmp(&b.1.norm()).then_with(|| a.0.cmp(b.0)))
+        .map(|(name, _)| name)
+}
+
 impl OnDuty<'_> {
     /// Runs beside a task's drive and never ends: each time the robot has
     /// got no further than [`ASK_RADIUS_MM`] in [`ASK_AFTER`] without
-    /// waiting its turn, it asks the idle robots standing near ahead of it
-    /// on `route` to make way, and sets `asked`.
+    /// waiting its turn, it asks the nearest idle robot standing ahead of
+    /// it on `route` to make way, and sets `asked`.
     pub(super) async fn ask_way(
         &self,
         cfg: &DutyConfig,
@@ -138,24 +156,18 @@ impl OnDuty<'_> {
         }
     }
 
-    /// Asks the idle robots standing within [`ASK_NEAR_MM`] of `here`, and
-    /// not behind it on `route`, to make way: whether it asked any.
+    /// Asks the nearest idle robot standing within [`ASK_NEAR_MM`] of
+    /// `here`, and not behind it on `route`, to make way: whether it asked
+    /// one.
     async fn ask(&self, here: Point, route: &Route) -> Result<bool, NavError> {
         let Some(heading_deg) = way_heading(route, here) else {
             return Ok(false);
         };
-        let on = direction(heading_deg);
-        let of: Vec<String> = (self.others().await?.into_iter())
-            .filter(|(_, d, _)| d.state == DutyState::Idle && d.task.is_none())
-            .filter(|(_, _, p)| {
-                let off = *p - here;
-                off.norm() <= ASK_NEAR_MM && off.dot(&on) >= -ASK_BEHIND_MM
-            })
-            .map(|(name, _, _)| name)
-            .collect();
-        if of.is_empty() {
+        let others = self.others().await?;
+        let Some(name) = in_the_way(here, heading_deg, &others) else {
             return Ok(false);
-        }
+        };
+        let of = vec![name.to_string()];
         // Each ask's count is the time it is made: later is larger, in
         // this task or the next, and the same in every lock-step run.
         let n = rome_clock::now_ms().unwrap_or_else(|| {
@@ -292,6 +304,44 @@ mod tests {
         // With a robot standing at that place, it goes elsewhere.
         let other = way_to(&world, &network, here, (asker, 0.0, goal), &[at(&to)]);
         assert_ne!(other.as_deref(), Some(to.as_str()));
+    }
+
+    #[test]
+    fn only_the_nearest_idle_robot_ahead_or_beside_is_asked() {
+        let duty = |state, task: Option<&str>| Duty {
+            at: "@0,0".into(),
+            at_mm: None,
+            state,
+            task: task.map(str::to_string),
+            owner: "o".into(),
+            last: None,
+        };
+        let idle = || duty(DutyState::Idle, None);
+        let here = Point::new(0.0, 0.0);
+        // Going east (270°; north is 0°, west 90°): r3 1 m behind, r4 busy making way 0.5 m ahead,
+        // r5 idle 1.5 m ahead, r6 idle 2 m ahead, r7 3 m ahead (too far).
+        let mut others = vec![
+            ("r3".to_string(), idle(), Point::new(-1_000.0, 0.0)),
+            (
+                "r4".to_string(),
+                duty(DutyState::Busy, Some("make way for r9")),
+                Point::new(500.0, 0.0),
+            ),
+            ("r6".to_string(), idle(), Point::new(2_000.0, 0.0)),
+            ("r5".to_string(), idle(), Point::new(1_500.0, 0.0)),
+            ("r7".to_string(), idle(), Point::new(3_000.0, 0.0)),
+        ];
+        assert_eq!(in_the_way(here, 270.0, &others), Some("r5"));
+        // One beside it, 0.4 m behind, is nearer still.
+        others.push(("r8".to_string(), idle(), Point::new(-400.0, 800.0)));
+        assert_eq!(in_the_way(here, 270.0, &others), Some("r8"));
+        // Going west, r3 is ahead and nearest after r8.
+        assert_eq!(in_the_way(here, 90.0, &others), Some("r8"));
+        others.pop();
+        assert_eq!(in_the_way(here, 90.0, &others), Some("r3"));
+        // Only the busy one near ahead: nobody is asked.
+        others.retain(|(name, _, _)| name == "r4" || name == "r7");
+        assert_eq!(in_the_way(here, 270.0, &others), None);
     }
 
     #[test]

@@ -25,9 +25,9 @@ pub struct TrafficArgs {
     /// (not yet better in fleets).
     #[arg(long)]
     pub leave_junctions: bool,
-    /// With tasks: a robot held up asks the robots standing idle in its
-    /// way to make way, and one asked drives on (not yet better in
-    /// fleets everywhere: docs/tasks.md).
+    /// With tasks: a robot held up asks the nearest robot standing idle in
+    /// its way to make way, and one asked drives on (measured with
+    /// --one-way and --leave-junctions only: docs/tasks.md).
     #[arg(long)]
     pub make_way: bool,
 }
