@@ -158,9 +158,9 @@ pub struct DutyConfig {
     pub leave_open: bool,
     /// Held up with a task, it asks the nearest idle robot in its way to
     /// make way, and idle, it makes way when asked ([`super::way`]). Off
-    /// by default: of six task sets of forty robots on EB3 it did better
-    /// in two and no worse in four, but only with `one_way` and
-    /// `leave_open`, off by default too (docs/tasks.md).
+    /// by default: of six task sets of forty robots on EB3 (with `one_way`
+    /// and `leave_open`) it did better in two and no worse in four, but
+    /// a hundred robots on the Campus touched more with it (docs/tasks.md).
     pub make_way: bool,
 }
 

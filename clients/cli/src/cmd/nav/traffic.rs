@@ -26,8 +26,8 @@ pub struct TrafficArgs {
     #[arg(long)]
     pub leave_junctions: bool,
     /// With tasks: a robot held up asks the nearest robot standing idle in
-    /// its way to make way, and one asked drives on (measured with
-    /// --one-way and --leave-junctions only: docs/tasks.md).
+    /// its way to make way, and one asked drives on (better in EB3's
+    /// fleets, worse in the Campus's: docs/tasks.md).
     #[arg(long)]
     pub make_way: bool,
 }
