@@ -104,14 +104,28 @@ pub fn way_to(
         .map(|(_, name)| name)
 }
 
+/// What a robot making way for `by` says its task is, on its duty and as
+/// its drive's name.
+pub fn making_way_for(by: &str) -> String {
+    format!("make way for {by}")
+}
+
 /// The robot a robot held up at `here`, going `heading_deg`, asks to make
 /// way, of `others` (name, duty, where it stands): the nearest idle one
 /// without a task within [`ASK_NEAR_MM`], not more than [`ASK_BEHIND_MM`]
 /// behind; ties by name. The nearest only: two asked at once drive off side
 /// by side into each other, and one still in the way is asked at the next
-/// ask.
-pub fn in_the_way(here: Point, heading_deg: f64, others: &[(String, Duty, Point)]) -> Option<&str> {
+/// ask. Nobody while one is still making way for it (named `me`): a
+/// second one set off beside the first drives into it or the asker.
+pub fn in_the_way<'a>(
+    (me, here, heading_deg): (&str, Point, f64),
+    others: &'a [(String, Duty, Point)],
+) -> Option<&'a str> {
     let on = direction(heading_deg);
+    let mine = making_way_for(me);
+    if (others.iter()).any(|(_, d, _)| d.task.as_deref() == Some(mine.as_str())) {
+        return None;
+    }
     (others.iter())
         .filter(|(_, d, _)| d.state == DutyState::Idle && d.task.is_none())
         .map(|(name, _, p)| (name.as_str(), *p - here))
@@ -164,7 +178,7 @@ impl OnDuty<'_> {
             return Ok(false);
         };
         let others = self.others().await?;
-        let Some(name) = in_the_way(here, heading_deg, &others) else {
+        let Some(name) = in_the_way((self.name, here, heading_deg), &others) else {
             return Ok(false);
         };
         let of = vec![name.to_string()];
@@ -255,7 +269,7 @@ impl OnDuty<'_> {
             ));
         };
         let a = Assignment {
-            task: format!("make way for {by}"),
+            task: making_way_for(by),
             to,
             via: Vec::new(),
         };
@@ -331,17 +345,27 @@ mod tests {
             ("r5".to_string(), idle(), Point::new(1_500.0, 0.0)),
             ("r7".to_string(), idle(), Point::new(3_000.0, 0.0)),
         ];
-        assert_eq!(in_the_way(here, 270.0, &others), Some("r5"));
+        assert_eq!(in_the_way(("r1", here, 270.0), &others), Some("r5"));
         // One beside it, 0.4 m behind, is nearer still.
         others.push(("r8".to_string(), idle(), Point::new(-400.0, 800.0)));
-        assert_eq!(in_the_way(here, 270.0, &others), Some("r8"));
+        assert_eq!(in_the_way(("r1", here, 270.0), &others), Some("r8"));
         // Going west, r3 is ahead and nearest after r8.
-        assert_eq!(in_the_way(here, 90.0, &others), Some("r8"));
+        assert_eq!(in_the_way(("r1", here, 90.0), &others), Some("r8"));
         others.pop();
-        assert_eq!(in_the_way(here, 90.0, &others), Some("r3"));
+        assert_eq!(in_the_way(("r1", here, 90.0), &others), Some("r3"));
+        // While one makes way for r1, r1 asks nobody else; r10 may ask
+        // (r4 makes way for r9).
+        others.push((
+            "r2".to_string(),
+            duty(DutyState::Busy, Some(&making_way_for("r1"))),
+            Point::new(20_000.0, 0.0),
+        ));
+        assert_eq!(in_the_way(("r1", here, 90.0), &others), None);
+        assert_eq!(in_the_way(("r10", here, 90.0), &others), Some("r3"));
+        assert_eq!(in_the_way(("r9", here, 90.0), &others), None);
         // Only the busy one near ahead: nobody is asked.
         others.retain(|(name, _, _)| name == "r4" || name == "r7");
-        assert_eq!(in_the_way(here, 270.0, &others), None);
+        assert_eq!(in_the_way(("r1", here, 270.0), &others), None);
     }
 
     #[test]
