@@ -393,7 +393,7 @@ impl OnDuty<'_> {
                         // nobody asks it again, and nobody takes its old
                         // place for where it stands.
                         duty.state = DutyState::Busy;
-                        duty.task = Some(super::way::making_way_for(&by));
+                        duty.task = Some(super::schema::making_way_for(&by));
                         self.report(&duty).await?;
                         let made = self
                             .make_way(cfg, ask, (&from, aside, was), state, &mut note)

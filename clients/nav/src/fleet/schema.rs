@@ -194,6 +194,12 @@ pub struct Assignment {
     pub via: Vec<String>,
 }
 
+/// What a robot making way for `by` says its task is, on its
+/// `nav/<robot>/Duty` and as its drive's name.
+pub fn making_way_for(by: &str) -> String {
+    format!("make way for {by}")
+}
+
 /// A robot's state as its Planner reports it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]

@@ -15,7 +15,9 @@
 
 use super::aside::LastLeg;
 use super::duty::{Aside, DutyConfig, DutyNote, OnDuty};
-use super::schema::{decode, task_sem, way_var, Assignment, Duty, DutyState, WayAsk};
+use super::schema::{
+    decode, making_way_for, task_sem, way_var, Assignment, Duty, DutyState, WayAsk,
+};
 use crate::NavError;
 use rome_maps::geometry::{direction, distance, distance_to_segment, Point};
 use rome_maps::route::Route;
@@ -102,12 +104,6 @@ pub fn way_to(
         })
         .min_by(|a, b| a.0.total_cmp(&b.0).then_with(|| a.1.cmp(&b.1)))
         .map(|(_, name)| name)
-}
-
-/// What a robot making way for `by` says its task is, on its duty and as
-/// its drive's name.
-pub fn making_way_for(by: &str) -> String {
-    format!("make way for {by}")
 }
 
 /// The robot a robot held up at `here`, going `heading_deg`, asks to make
