@@ -20,8 +20,9 @@
 //! from a map of 2 m, if it is 2° or more. A wall pair is believed
 //! only when the robot's own track over the map runs along it (the
 //! Navigator keeps the robot parallel to the walls): a Hough line that
-//! disagrees with the track by more than a few degrees is a door recess or
-//! a side corridor, not the hallway.
+//! disagrees with the track by more than a few degrees, and more than
+//! half a metre of straying across the hallway over the track's length
+//! explains, is a door recess or a side corridor, not the hallway.
 
 use crate::board::{Board, Corridor, HeadingFix, Sem, Var};
 use crate::NavError;
@@ -53,8 +54,15 @@ pub struct HimmConfig {
     /// Largest correction believed, degrees.
     pub max_fix_deg: f64,
     /// Largest angle between the walls found and the robot's track over
-    /// the map, degrees.
+    /// the map, degrees, beside what [`HimmConfig::track_side_mm`] adds.
     pub max_track_deg: f64,
+    /// How far the robot's track over a map may stray across the hallway,
+    /// mm: a robot keeps right for others, steps aside and passes them, and
+    /// a drifting odometry bends its own track, so the straight line from
+    /// the map's start to the robot runs at a slant to the walls by up to
+    /// atan(this / its length) more. A side corridor or a door recess
+    /// still lies across the track.
+    pub track_side_mm: f64,
     /// Smallest correction worth sending, degrees.
     pub min_fix_deg: f64,
     /// A local map this long is enough for a correction at a segment's
@@ -102,6 +110,17 @@ pub struct HimmConfig {
 }
 
 impl HimmConfig {
+    /// The largest angle between the walls found and a track `track_mm`
+    /// long for the walls to be the hallway's, degrees.
+    pub fn track_tolerance_deg(&self, track_mm: f64) -> f64 {
+        let side = if track_mm > 0.0 {
+            (self.track_side_mm / track_mm).atan().to_degrees()
+        } else {
+            90.0
+        };
+        self.max_track_deg + side
+    }
+
     /// Whether a map `mapped_mm` long serves for a correction because the
     /// heading is stale: not found good over the last `since_mm` driven.
     pub fn short_map_serves(&self, mapped_mm: f64, since_mm: f64) -> bool {
@@ -116,6 +135,7 @@ impl Default for HimmConfig {
             half_side_mm: 22_000.0,
             max_fix_deg: 45.0,
             max_track_deg: 6.0,
+            track_side_mm: 500.0,
             min_fix_deg: 0.3,
             min_map_mm: 8_000.0,
             max_map_mm: 12_000.0,
@@ -465,7 +485,7 @@ impl Himm {
         let alpha = walls.orientation_deg;
         let min_track = if short { SHORT_TRACK_MM } else { MIN_TRACK_MM };
         if let Some(off) = track_disagreement(alpha, grid.origin(), now, min_track) {
-            if off > self.cfg.max_track_deg {
+            if off > self.cfg.track_tolerance_deg(distance(grid.origin(), now)) {
                 tracing::info!(
                     light,
                     short,
@@ -512,7 +532,16 @@ impl Himm {
                 fix,
             )
             .await?;
-        tracing::info!(light, short, alpha, fix, shift, "himm: odometry corrected");
+        let drift_deg_m = self.drift.get() * 1_000.0;
+        tracing::info!(
+            light,
+            short,
+            alpha,
+            fix,
+            shift,
+            drift_deg_m,
+            "himm: odometry corrected"
+        );
         self.board
             .set(
                 Var::HeadingFix,

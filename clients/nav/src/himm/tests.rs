@@ -136,6 +136,23 @@ fn walls_are_checked_against_the_robots_track() {
 }
 
 #[test]
+fn a_track_that_strays_across_the_hallway_still_runs_along_it() {
+    let cfg = HimmConfig::default();
+    // A robot that kept right 0.4 m over a 2 m map: its track runs 11.3°
+    // off the corridor's walls, which are the hallway all the same.
+    let off = track_disagreement(90.0, pt(0.0, 0.0), pt(-2_000.0, -400.0), 1_500.0).unwrap();
+    assert!(off > cfg.max_track_deg && off <= cfg.track_tolerance_deg(2_000.0));
+    // One whose odometry turns 1.4°/m: over 9.4 m its straight track runs
+    // 6.6° off the walls placed near it now.
+    assert!(6.6 <= cfg.track_tolerance_deg(9_400.0));
+    // Walls across the track are not the hallway's, however short it is.
+    let off = track_disagreement(0.0, pt(0.0, 0.0), pt(-2_000.0, 0.0), 1_500.0).unwrap();
+    assert!(off > cfg.track_tolerance_deg(2_000.0), "{off}");
+    // Nor are walls 20° off a long track.
+    assert!(20.0 > cfg.track_tolerance_deg(6_000.0));
+}
+
+#[test]
 fn drift_is_learnt_over_everything_driven_since_the_heading_was_found() {
     let cfg = HimmConfig::default();
     let d = Drift::default();
