@@ -143,6 +143,9 @@ pub async fn sweep(
         progress(ScaleEvent::Begin { robots: n });
         let routes = pick_routes(&cfg.map, Vec::new(), n, cfg.seed)?;
         let mut run = RunConfig::fleet(cfg.map.clone(), routes);
+        // Robots among robots keep right and step aside: their tracks
+        // stray across the corridors they map.
+        run.himm_cfg.track_side_mm = rome_nav::himm::FLEET_TRACK_SIDE_MM;
         run.seed = cfg.seed;
         run.limit = cfg.limit;
         run.traffic = cfg.traffic;

@@ -20,9 +20,9 @@
 //! from a map of 2 m, if it is 2° or more. A wall pair is believed
 //! only when the robot's own track over the map runs along it (the
 //! Navigator keeps the robot parallel to the walls): a Hough line that
-//! disagrees with the track by more than a few degrees, and more than
-//! half a metre of straying across the hallway over the track's length
-//! explains, is a door recess or a side corridor, not the hallway.
+//! disagrees with the track by more than a few degrees (in a fleet, and
+//! more than half a metre of straying across the hallway over the track's
+//! length explains) is a door recess or a side corridor, not the hallway.
 
 use crate::board::{Board, Corridor, HeadingFix, Sem, Var};
 use crate::NavError;
@@ -32,6 +32,11 @@ use tokio::sync::mpsc;
 
 mod walls;
 pub use walls::*;
+
+/// [`HimmConfig::track_side_mm`] for robots in a fleet, mm: half a metre,
+/// what keeping right and stepping aside move a robot across a corridor
+/// over a short map.
+pub const FLEET_TRACK_SIDE_MM: f64 = 500.0;
 
 /// A track this long is straight enough to check the walls against, mm.
 const MIN_TRACK_MM: f64 = 6_000.0;
@@ -57,11 +62,14 @@ pub struct HimmConfig {
     /// the map, degrees, beside what [`HimmConfig::track_side_mm`] adds.
     pub max_track_deg: f64,
     /// How far the robot's track over a map may stray across the hallway,
-    /// mm: a robot keeps right for others, steps aside and passes them, and
-    /// a drifting odometry bends its own track, so the straight line from
-    /// the map's start to the robot runs at a slant to the walls by up to
-    /// atan(this / its length) more. A side corridor or a door recess
-    /// still lies across the track.
+    /// mm: in a fleet a robot keeps right for others, steps aside and
+    /// passes them, and a drifting odometry bends its own track, so the
+    /// straight line from the map's start to the robot runs at a slant to
+    /// the walls by up to atan(this / its length) more. A side corridor or
+    /// a door recess still lies across the track. 0 by default: a robot
+    /// alone drives the corridor's middle, and one among people strays
+    /// round them, which bends the walls it maps as well
+    /// ([`FLEET_TRACK_SIDE_MM`] in a fleet).
     pub track_side_mm: f64,
     /// Smallest correction worth sending, degrees.
     pub min_fix_deg: f64,
@@ -135,7 +143,7 @@ impl Default for HimmConfig {
             half_side_mm: 22_000.0,
             max_fix_deg: 45.0,
             max_track_deg: 6.0,
-            track_side_mm: 500.0,
+            track_side_mm: 0.0,
             min_fix_deg: 0.3,
             min_map_mm: 8_000.0,
             max_map_mm: 12_000.0,
