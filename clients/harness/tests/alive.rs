@@ -2,7 +2,9 @@
 //! Status every second of robot time: a Planner that hears nothing for
 //! `NAVIGATOR_SILENCE` (30 s) gives the goal up as the Navigator's death,
 //! and a sideways step held up by someone crossing waits 20 s on top of
-//! its turns.
+//! its turns. And a step onto the goal's line that someone standing beside
+//! the robot keeps it from says so in the Status (`off_line`): a robot
+//! stepping aside for others has then not done so.
 
 mod common;
 
@@ -21,24 +23,31 @@ const STEP_MM: f64 = 800.0;
 /// stepping robot's middle, mm.
 const IN_THE_WAY_MM: f64 = 1_300.0;
 
+/// Drives r1 out of the doorway into the corridor, where the side sonars
+/// see both walls, and gives the walls (left, right) that the map, as the
+/// Planner writes it, would put beside a goal whose line lies [`STEP_MM`]
+/// to the robot's left: it will step over to it.
+async fn into_the_corridor(
+    rig: &rome_harness::Harness,
+    planner: &rome_nav::board::Board,
+    heading: f64,
+) -> (i64, i64) {
+    let eyes = common::robot_client(rig, "test").await;
+    common::drive_d(planner, heading, 1_500, Duration::from_secs(60)).await;
+    let sonar = eyes.sonar().await.expect("the sonar ring is read");
+    let left = f64::from(sonar.sonar_mm[18]) + ROBOT_RADIUS_MM;
+    let right = f64::from(sonar.sonar_mm[6]) + ROBOT_RADIUS_MM;
+    (
+        (left - STEP_MM).round() as i64,
+        (right + STEP_MM).round() as i64,
+    )
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_navigator_held_up_on_a_sideways_step_still_says_it_is_alive() {
     let (rig, _stepper, heading, planner) = common::one_robot(4.0).await;
     let navigating = common::navigator(&rig, DataOptions::new("navigator")).await;
-    let eyes = common::robot_client(&rig, "test").await;
-
-    // Out of the doorway into the corridor, where the side sonars see
-    // both walls.
-    common::drive_d(&planner, heading, 1_500, Duration::from_secs(60)).await;
-    let sonar = eyes.sonar().await.expect("the sonar ring is read");
-    let left = f64::from(sonar.sonar_mm[18]) + ROBOT_RADIUS_MM;
-    let right = f64::from(sonar.sonar_mm[6]) + ROBOT_RADIUS_MM;
-    // The map, as the Planner writes it, puts the next goal's line to the
-    // left of the robot: it will step over to it.
-    let walls = (
-        (left - STEP_MM).round() as i64,
-        (right + STEP_MM).round() as i64,
-    );
+    let walls = into_the_corridor(&rig, &planner, heading).await;
     planner
         .set(Var::GoalWalls, &Some(walls))
         .await
@@ -128,6 +137,59 @@ async fn a_navigator_held_up_on_a_sideways_step_still_says_it_is_alive() {
     assert!(
         longest < 3_000,
         "the Navigator was silent for {longest} ms of robot time"
+    );
+    navigating.abort();
+    rig.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_step_onto_the_line_kept_from_by_someone_beside_says_so() {
+    let (rig, _stepper, heading, planner) = common::one_robot(4.0).await;
+    let navigating = common::navigator(&rig, DataOptions::new("navigator")).await;
+    let walls = into_the_corridor(&rig, &planner, heading).await;
+    let k = rig.index[0];
+    let stood = rig.world.lock().robot(k).pose.at;
+    // Someone stands beside the robot on the side it would step to, a
+    // hand's width from its body.
+    let left_of = direction(heading + 90.0);
+    let beside = stood + left_of * (2.0 * ROBOT_RADIUS_MM + 100.0);
+    let other = (rig.world.lock())
+        .add_robot("someone", Pose::new(beside.x, beside.y, heading))
+        .expect("the other robot");
+    let step = |why: &'static str| {
+        let planner = &planner;
+        async move {
+            planner
+                .set(Var::GoalWalls, &Some(walls))
+                .await
+                .expect("GoalWalls");
+            common::drive_d(planner, heading, 1, Duration::from_secs(60)).await;
+            let status: Status = planner.get(Var::Status).await.expect("Status");
+            eprintln!("{why}: {:?}", status.off_line);
+            status.off_line
+        }
+    };
+    let kept = step("someone beside").await;
+    let moved = (rig.world.lock().robot(k).pose.at - stood).dot(&left_of);
+    assert!(
+        kept.as_deref()
+            .is_some_and(|w| w.contains("something beside")),
+        "the Status did not say the step was kept from: {kept:?} (moved {moved:.0} mm)"
+    );
+    assert!(
+        moved < STEP_MM / 2.0,
+        "the robot stepped {moved:.0} mm into someone"
+    );
+
+    // Someone leaves: the step is made, and the Status says nothing.
+    let away = stood - left_of * 20_000.0;
+    rig.world.lock().robot_mut(other).pose = Pose::new(away.x, away.y, heading);
+    let made = step("nobody beside").await;
+    let moved = (rig.world.lock().robot(k).pose.at - stood).dot(&left_of);
+    assert_eq!(made, None, "moved {moved:.0} mm");
+    assert!(
+        (moved - STEP_MM).abs() < 200.0,
+        "the robot stepped {moved:.0} mm, not {STEP_MM} mm"
     );
     navigating.abort();
     rig.stop().await;

@@ -292,6 +292,12 @@ pub struct Status {
     /// Cleared when the next goal is taken.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub failed: Option<String>,
+    /// Why the last goal, a D goal with the walls beside its end given
+    /// (`GoalWalls`), ended off its line: "something beside it: the side
+    /// sonars read 1.4 m across where the map has 2.2 m". A robot
+    /// stepping aside for others has then not done so.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub off_line: Option<String>,
 }
 
 /// A door plate the PlFinder reports.
@@ -396,6 +402,7 @@ impl Status {
             safe_mm: safe_mm.round() as i64,
             blocked: None,
             failed: None,
+            off_line: None,
         }
     }
 }

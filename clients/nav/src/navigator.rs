@@ -98,6 +98,8 @@ pub struct Navigator {
     rtt_s: f64,
     /// Why the robot gets nowhere on its goal, while it does.
     blocked: Option<String>,
+    /// Why the last D goal ended off its line, when it did.
+    off_line: Option<String>,
     /// A goal the Planner handed before the one at hand ended, which
     /// replaces it.
     handed: Option<Goal>,
@@ -123,6 +125,7 @@ impl Navigator {
             track: None,
             rtt_s: 0.0,
             blocked: None,
+            off_line: None,
             odometer_at: None,
             speed,
             handed: None,
@@ -187,6 +190,7 @@ impl Navigator {
                 },
             };
             self.goals += 1;
+            self.off_line = None;
             self.at_hand = status::AtHand::for_goal(&goal);
             tracing::info!(?goal, n = self.goals, "navigator: goal");
             let done = if goal.goal_type == GoalType::V {
@@ -731,8 +735,8 @@ impl Navigator {
                 let at_rest = self.settle(scans).await?;
                 let step = self.cfg.onto_line && goal.distance > 0;
                 if let Some((left, right)) = goal_walls.filter(|_| step) {
-                    self.onto_line(scans, at_rest, goal, left as f64, right as f64)
-                        .await?;
+                    self.off_line =
+                        (self.onto_line(scans, at_rest, goal, left as f64, right as f64)).await?;
                 }
                 self.hallway = None;
             }

@@ -210,7 +210,8 @@ impl Navigator {
     /// right or steers round them, and nothing else brings it back once
     /// the distance is driven. Side readings that do not add up to the
     /// map's width there (a person or an open door beside the robot) are
-    /// not believed.
+    /// not believed. `Some` says why the robot ends off its line: what it
+    /// could not measure or where the step stopped.
     pub(super) async fn onto_line(
         &mut self,
         scans: &rome_client::robot::Stream<Scan>,
@@ -218,7 +219,7 @@ impl Navigator {
         goal: &Goal,
         left_mm: f64,
         right_mm: f64,
-    ) -> Result<(), NavError> {
+    ) -> Result<Option<String>, NavError> {
         let mut squared = false;
         let mut scan = at_rest;
         let (left, right) = loop {
@@ -240,7 +241,11 @@ impl Navigator {
             // corridor once and looks again.
             let err = normalize_deg(goal.direction_deg - self.pose().await?.heading.deg());
             if squared || err.abs() < 5.0 {
-                return Ok(());
+                return Ok(Some(format!(
+                    "something beside it: the side sonars read {:.1} m across where the map has {:.1} m",
+                    (left + right) / 1_000.0,
+                    (left_mm + right_mm) / 1_000.0
+                )));
             }
             squared = true;
             self.send(Drive::Turn(err)).await?;
@@ -248,18 +253,24 @@ impl Navigator {
         };
         // Left of the goal's line is positive.
         let off = ((right - left) - (right_mm - left_mm)) / 2.0;
-        if off.abs() <= OFF_LINE_MM || off.abs() > MAX_STEP_MM {
-            return Ok(());
+        if off.abs() <= OFF_LINE_MM {
+            return Ok(None);
+        }
+        if off.abs() > MAX_STEP_MM {
+            return Ok(Some(format!(
+                "{:.2} m off its line, more than a sideways step",
+                off.abs() / 1_000.0
+            )));
         }
         tracing::info!(off, "navigator: stepping sideways onto the goal's line");
         let quarter = if off > 0.0 { -90.0 } else { 90.0 };
         self.send(Drive::Turn(quarter)).await?;
         let at_rest = self.settle(scans).await?;
-        self.step_watched(scans, at_rest, off.abs()).await?;
+        let short = self.step_watched(scans, at_rest, off.abs()).await?;
         self.send(Drive::Turn(-quarter)).await?;
         self.settle(scans).await?;
         self.last = None;
-        Ok(())
+        Ok(short)
     }
 
     /// The sideways step itself, `mm` straight on, watching the sonars
@@ -268,13 +279,14 @@ impl Navigator {
     /// in the way of what is left of the step, stops the robot; it goes on
     /// once the way is clear, or stays where it is (off its line) after
     /// [`STEP_WAIT_SCANS`]. With nothing coming it is the same move as an
-    /// unwatched one.
+    /// unwatched one. `Some` says why it stopped more than [`OFF_LINE_MM`]
+    /// short.
     async fn step_watched(
         &mut self,
         scans: &rome_client::robot::Stream<Scan>,
         at_rest: Scan,
         mm: f64,
-    ) -> Result<(), NavError> {
+    ) -> Result<Option<String>, NavError> {
         let ahead = |s: &Scan| f64::from((10..=14).map(|i| s.sonar_mm[i]).min().unwrap_or(0));
         let mut left = step_room(&at_rest.sonar_mm, mm);
         if left < mm {
@@ -284,6 +296,11 @@ impl Navigator {
                 "navigator: something beside the sideways step's way; stepping only as far as it leaves room"
             );
         }
+        let short = |left: f64, why: &str| {
+            (left > OFF_LINE_MM)
+                .then(|| format!("{why}: stopped {:.2} m short of its line", left / 1_000.0))
+        };
+        let room_short = short(mm - left, "something beside the step's way");
         let mut expected = ahead(&at_rest);
         let mut waited = 0;
         while left > OFF_LINE_MM / 3.0 {
@@ -310,7 +327,7 @@ impl Navigator {
                 }
             };
             if !stopped {
-                return Ok(());
+                return Ok(room_short);
             }
             left -= self.pose().await?.dist(&from);
             // Wait for the way to clear.
@@ -333,11 +350,11 @@ impl Navigator {
                     tracing::info!(
                         "navigator: the sideways step stays blocked; staying off the line"
                     );
-                    return Ok(());
+                    return Ok(short(left, "something in the step's way"));
                 }
             }
         }
-        Ok(())
+        Ok(room_short)
     }
 
     /// Check-Bumper: on contact, back off, turn away from the obstacle

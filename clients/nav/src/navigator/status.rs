@@ -51,6 +51,7 @@ impl Navigator {
             self.hallway.as_ref().map_or(0.0, |h| h.safe_mm),
         );
         status.blocked = self.blocked.clone();
+        status.off_line = self.off_line.clone();
         status
     }
 
