@@ -284,17 +284,39 @@ pub const ASIDE_FROM_WALL_MM: f64 = crate::drive::ROBOT_RADIUS_MM + 150.0;
 /// of 1 mm whose line lies 0.53 m (its radius and 0.15 m) from the right wall;
 /// the Navigator checks the walls against the map and watches for anyone
 /// in the way as it steps. `Some` says why the Navigator ended the goal
-/// instead.
+/// instead, or why it ended it off the line (`Status::off_line`: someone
+/// stood beside it, or in the way of the step).
+///
+/// The Navigator measures across the hallway from the way the robot faces
+/// (`facing_deg`, odometry): one that faces against the leg steps to the
+/// same wall, given as the wall on its left.
 pub async fn step_aside(
     board: &Board,
     direction_deg: f64,
     (left, right): (f64, f64),
+    facing_deg: f64,
 ) -> Result<Option<String>, NavError> {
     if right <= ASIDE_FROM_WALL_MM {
         return Ok(None);
     }
-    let walls = (left + right - ASIDE_FROM_WALL_MM, ASIDE_FROM_WALL_MM);
-    d_goal_on_line(board, direction_deg, 1.0, walls).await
+    let far = left + right - ASIDE_FROM_WALL_MM;
+    let (direction_deg, walls) =
+        if rome_maps::geometry::normalize_deg(direction_deg - facing_deg).abs() > 90.0 {
+            (
+                rome_maps::geometry::normalize_deg(direction_deg + 180.0),
+                (ASIDE_FROM_WALL_MM, far),
+            )
+        } else {
+            (direction_deg, (far, ASIDE_FROM_WALL_MM))
+        };
+    if let Some(why) = d_goal_on_line(board, direction_deg, 1.0, walls).await? {
+        return Ok(Some(why));
+    }
+    Ok(board
+        .get::<crate::board::Status>(Var::Status)
+        .await
+        .ok()
+        .and_then(|s| s.off_line))
 }
 
 /// Drives a robot that stands with no walls beside it (a junction, a

@@ -6,6 +6,8 @@
 //! where no walls are beside it (a junction) first drives on into a
 //! corridor ([`way_out`], [`crate::planner::step_out`]).
 
+use crate::board::Board;
+use rome_client::RobotClient;
 use rome_maps::geometry::Point;
 use rome_maps::{Network, World};
 
@@ -57,6 +59,28 @@ pub fn leg_at(
     let walls =
         crate::plan::walls_beside(world, p - along(direction), p + along(direction), direction)?;
     Some((direction, walls))
+}
+
+/// Steps a robot that stands on `leg`'s line over to the leg's right-hand
+/// wall ([`crate::planner::step_aside`]), measured from the way its
+/// odometry says it faces. `Some` says why it stands off that wall: the
+/// Navigator ended the step, or ended it short (someone stood beside it,
+/// or in the step's way).
+pub async fn step_aside(board: &Board, robot: &RobotClient, leg: LastLeg) -> Option<String> {
+    let (direction, walls) = leg;
+    let facing = robot.pose().await.map_or(direction, |p| p.heading_deg);
+    match crate::planner::step_aside(board, direction, walls, facing).await {
+        Ok(None) => None,
+        Ok(Some(why)) => Some(format!("the Navigator: {why}")),
+        Err(e) => Some(e.to_string()),
+    }
+}
+
+/// `leg` the other way along the corridor: its right-hand wall is the
+/// other wall.
+pub fn reversed((direction, (left, right)): LastLeg) -> LastLeg {
+    let back = rome_maps::geometry::normalize_deg(direction + 180.0);
+    (back, (right, left))
 }
 
 /// Where a robot that stood at `p` stands once it stepped aside from a leg

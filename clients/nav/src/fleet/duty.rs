@@ -28,7 +28,9 @@
 //! asked does ([`super::way`]). A value on the blackboard that does not
 //! decode is reported and skipped; it never ends the Planner.
 
-use super::aside::{corridor_axis, leg_at, start_leg, stood_aside, way_out, LastLeg};
+use super::aside::{
+    corridor_axis, leg_at, reversed, start_leg, step_aside, stood_aside, way_out, LastLeg,
+};
 use super::clear::{clear_to, CLEAR_NEAR_MM};
 use super::schema::{
     decode, duty_var, task_sem, task_var, way_var, Assignment, Duty, DutyState, Outcome, WayAsk,
@@ -59,6 +61,9 @@ pub const REST_FIRST: Duration = Duration::from_secs(120);
 
 /// The longest rest between two tries at getting clear.
 pub const REST_MAX: Duration = Duration::from_secs(960);
+/// The longest a robot left on a corridor's middle by a step aside that
+/// did not happen waits before it tries again, robot time.
+const ASIDE_AGAIN_MAX: Duration = Duration::from_secs(60);
 
 /// What went wrong lately, which decides whether the robot goes out of
 /// service; forgotten once it arrives somewhere.
@@ -294,6 +299,9 @@ impl OnDuty<'_> {
         // meant to end (the map's walls, not its odometry); `None` once it
         // drives on.
         let mut aside_at: Option<Aside> = None;
+        // How long it waits before it tries a step aside again, after one
+        // that left it off the wall.
+        let mut aside_again: Option<Duration> = None;
         // The last ask to make way answered, by asker.
         let mut answered = std::collections::BTreeMap::new();
         loop {
@@ -347,18 +355,27 @@ impl OnDuty<'_> {
                     given
                 }
                 (Some((direction, walls)), Some(after)) => {
-                    let given = ds.wait_timeout(&task_sem(self.name), after).await?;
+                    let wait = aside_again.unwrap_or(after);
+                    let given = ds.wait_timeout(&task_sem(self.name), wait).await?;
                     if !given {
-                        match planner::step_aside(self.board, direction, walls).await {
-                            Ok(None) => {
-                                aside_at = stands_at(self.world, &duty)
-                                    .map(|p| (stood_aside(p, direction, walls), direction));
-                            }
-                            Ok(Some(why)) => {
-                                note(DutyNote::NotAside(format!("the Navigator: {why}")))
-                            }
-                            Err(e) => note(DutyNote::NotAside(e.to_string())),
+                        let leg = (direction, walls);
+                        // Left on the corridor's middle, where someone
+                        // stood beside it or in the step's way (most often
+                        // one about to pass it there), it tries again
+                        // towards the other wall, soon once, then less
+                        // often each time.
+                        if let Some(why) = step_aside(self.board, self.robot, leg).await {
+                            note(DutyNote::NotAside(why));
+                            aside_again = Some(match aside_again {
+                                None => after,
+                                Some(_) => (wait * 2).min(ASIDE_AGAIN_MAX),
+                            });
+                            last_leg = Some(reversed(leg));
+                            continue;
                         }
+                        aside_at = stands_at(self.world, &duty)
+                            .map(|p| (stood_aside(p, direction, walls), direction));
+                        aside_again = None;
                     }
                     given
                 }
@@ -428,6 +445,7 @@ impl OnDuty<'_> {
             };
             duty.state = DutyState::Busy;
             duty.task = Some(a.task.clone());
+            aside_again = None;
             self.report(&duty).await?;
             let from = (duty.at.clone(), duty.at_mm.map(|[x, y]| Point::new(x, y)));
             let (outcome, at) = self
