@@ -200,9 +200,11 @@ pub enum DutyNote<'a> {
     /// A value it read was not what it should be; it was skipped.
     Skipped(String),
     /// Between tasks, it did not get over to the corridor's wall: why (the
-    /// Navigator's reason, or the data server's). It stands where the step
-    /// left it and takes tasks as before.
-    NotAside(String),
+    /// Navigator's reason, or the data server's), and the how-manieth try
+    /// failed (said on tries 1, 2, 4, 8…: one kept off the wall for long
+    /// says so without filling the log). It stands where the step left it
+    /// and takes tasks as before.
+    NotAside(String, u32),
     /// Out of service where it was blocked twice, it stands this long
     /// before it tries to drive itself clear to a position of the map.
     Resting(Duration),
@@ -300,8 +302,8 @@ impl OnDuty<'_> {
         // drives on.
         let mut aside_at: Option<Aside> = None;
         // How long it waits before it tries a step aside again, after one
-        // that left it off the wall.
-        let mut aside_again: Option<Duration> = None;
+        // that left it off the wall, and how many tries have failed.
+        let mut aside_again: Option<(Duration, u32)> = None;
         // The last ask to make way answered, by asker.
         let mut answered = std::collections::BTreeMap::new();
         loop {
@@ -349,13 +351,13 @@ impl OnDuty<'_> {
                                 last_leg = leg;
                                 continue;
                             }
-                            Err(why) => note(DutyNote::NotAside(why)),
+                            Err(why) => note(DutyNote::NotAside(why, 1)),
                         }
                     }
                     given
                 }
                 (Some((direction, walls)), Some(after)) => {
-                    let wait = aside_again.unwrap_or(after);
+                    let (wait, failed) = aside_again.unwrap_or((after, 0));
                     let given = ds.wait_timeout(&task_sem(self.name), wait).await?;
                     if !given {
                         let leg = (direction, walls);
@@ -365,11 +367,16 @@ impl OnDuty<'_> {
                         // towards the other wall, soon once, then less
                         // often each time.
                         if let Some(why) = step_aside(self.board, self.robot, leg).await {
-                            note(DutyNote::NotAside(why));
-                            aside_again = Some(match aside_again {
-                                None => after,
-                                Some(_) => (wait * 2).min(ASIDE_AGAIN_MAX),
-                            });
+                            let failed = failed + 1;
+                            if failed.is_power_of_two() {
+                                note(DutyNote::NotAside(why, failed));
+                            }
+                            let next = if failed == 1 {
+                                after
+                            } else {
+                                (wait * 2).min(ASIDE_AGAIN_MAX)
+                            };
+                            aside_again = Some((next, failed));
                             last_leg = Some(reversed(leg));
                             continue;
                         }
