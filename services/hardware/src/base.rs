@@ -251,8 +251,13 @@ impl<D: BaseDevice> Service for Base<D> {
         )
     }
 
-    async fn halt(&mut self) -> Result<(), ErrorReply> {
-        self.status(BaseOp::Stop(false)).await.map(|_| ())
+    async fn halt(&mut self) -> Result<bool, ErrorReply> {
+        // Stopped whatever the status says: a Go just set may not have
+        // turned the wheels yet.
+        let (before, _) = self.status(BaseOp::Status).await?;
+        self.status(BaseOp::Stop(false)).await?;
+        let s = &before.state;
+        Ok(s.wheel_speed_mm_s > 0.0 || !matches!(s.mode.as_str(), "joystick" | "go"))
     }
 
     async fn apply(&mut self, cmd: BaseCmd, _lock: Option<LockInfo>) -> Result<Body, ErrorReply> {
@@ -348,6 +353,53 @@ impl<D: BaseDevice> Service for Base<D> {
                 tracing::warn!(robot = %self.robot, error = %e, "base state not read");
                 None
             }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::device::DeviceError;
+
+    /// A base that reports a fixed mode and wheel speed and counts stops.
+    struct Still(&'static str, f64, Arc<Mutex<u32>>);
+
+    impl BaseDevice for Still {
+        async fn command(&mut self, op: BaseOp) -> Result<BaseStatus, DeviceError> {
+            if matches!(op, BaseOp::Stop(_)) {
+                *self.2.lock().unwrap() += 1;
+            }
+            Ok(BaseStatus {
+                raw_x: 0,
+                raw_y: 0,
+                state: BaseState {
+                    mode: self.0.into(),
+                    wheel_speed_mm_s: self.1,
+                    ..BaseState::default()
+                },
+            })
+        }
+    }
+
+    #[tokio::test]
+    async fn a_halt_stops_the_base_and_says_whether_it_was_in_motion() {
+        for (mode, wheels, moving) in [
+            ("go", 120.0, true),
+            ("point_turn", 0.0, true),
+            ("jog", 0.0, true),
+            // A move that ended: Go at zero velocity.
+            ("go", 0.0, false),
+            ("joystick", 0.0, false),
+        ] {
+            let stops = Arc::default();
+            let mut base = Base::new("r1", Still(mode, wheels, Arc::clone(&stops)), None);
+            assert_eq!(
+                base.halt().await.unwrap(),
+                moving,
+                "{mode} at {wheels} mm/s"
+            );
+            assert_eq!(*stops.lock().unwrap(), 1, "{mode}: stopped all the same");
         }
     }
 }

@@ -136,9 +136,11 @@ pub trait Service: Send + Sync + 'static {
         false
     }
 
-    /// Stops the device because the client that set it moving is gone.
-    fn halt(&mut self) -> impl Future<Output = Result<(), ErrorReply>> + Send {
-        async { Ok(()) }
+    /// Stops the device because the client that set it moving is gone;
+    /// says whether it was still in motion (a move may have ended on its
+    /// own long before).
+    fn halt(&mut self) -> impl Future<Output = Result<bool, ErrorReply>> + Send {
+        async { Ok(false) }
     }
 
     /// How often [`Service::tick`] runs; `None` for never.

@@ -35,8 +35,11 @@ impl<S: Service> Server<S> {
             // (its process died, or its host dropped off the network).
             self.mover = None;
             match self.service.halt().await {
-                Ok(()) => {
+                Ok(true) => {
                     tracing::warn!(server = %self.config.label(), client = %alive.id, "the client that set the device moving is gone; stopped it")
+                }
+                Ok(false) => {
+                    tracing::debug!(server = %self.config.label(), client = %alive.id, "the client that last moved the device is gone; it stood still")
                 }
                 Err(e) => {
                     tracing::error!(server = %self.config.label(), client = %alive.id, error = %e, "the client that set the device moving is gone and stopping it failed")
