@@ -30,10 +30,11 @@ fn setup(limit_s: u64, jobs: usize) -> Setup {
 /// Thirty people in every run, two runs at a time, cruising at `cruise`
 /// mm/s (`None`: the Navigator's own). The robot steers out of people's
 /// way at the thesis' gentle rate, heeds only what is within 15° of
-/// ahead while it does, drives on beside a person as beside a wall, and
-/// drives to a corner in the Corner state all the way: briskly, guarding
-/// its front quarter, bearing off a near side or keeping right on the
-/// way to a corner, it is pushed less often or elsewhere, and these runs
+/// ahead while it does, drives on beside a person as beside a wall,
+/// drives to a corner in the Corner state all the way, and steers back to
+/// the middle past people standing: briskly, guarding its front quarter,
+/// bearing off a near side, keeping right on the way to a corner or
+/// passing wide, it is pushed less often or elsewhere, and these runs
 /// are chosen for the pushes and the steering round people that the
 /// Navigator must recover from.
 fn among_people(limit_s: u64, cruise: Option<f64>) -> Setup {
@@ -44,6 +45,7 @@ fn among_people(limit_s: u64, cruise: Option<f64>) -> Setup {
     s.nav.front_quarter_guard = false;
     s.nav.bear_off_near_side = false;
     s.nav.corner_keep_right = false;
+    s.nav.pass_wide = false;
     s
 }
 

@@ -39,6 +39,8 @@ pub const KEEP_RIGHT_BEAR_DEG: f64 = 8.0;
 /// A robot's radius, mm (a Pioneer-sized disc): sonar ranges start this
 /// far out from its middle.
 pub const ROBOT_RADIUS_MM: f64 = 380.0;
+/// Room between two bodies when one passes the other standing aside, mm.
+pub const PASS_ROOM_MM: f64 = 150.0;
 /// A robot's radius with room to spare when keeping right, mm.
 pub const ROBOT_CLEARANCE_MM: f64 = ROBOT_RADIUS_MM + 300.0;
 /// A side sonar (5–7 right, 17–19 left) reading less than this has a wall
@@ -118,6 +120,12 @@ pub struct NavConfig {
     /// corner, and helps ten robots, but forty touched each other more
     /// (docs/traffic.md, "Keeping right out of a corner").
     pub leave_corner_keep_right: bool,
+    /// Whether something standing ahead off the corridor's middle (a
+    /// robot stood aside) is passed on its far side with
+    /// [`PASS_ROOM_MM`] between the two bodies
+    /// (`hallway::Passing`). Else, as before, the robot steers back to the
+    /// middle and passes as near as its safe threshold lets it.
+    pub pass_wide: bool,
 }
 
 impl Default for NavConfig {
@@ -143,6 +151,7 @@ impl Default for NavConfig {
             bear_off_near_side: true,
             corner_keep_right: true,
             leave_corner_keep_right: false,
+            pass_wide: true,
         }
     }
 }

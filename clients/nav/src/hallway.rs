@@ -5,8 +5,8 @@
 use crate::drive::{
     Drive, NavConfig, FORWARD, JOG_RATE_DEG_S, KEEP_RIGHT_AHEAD_MM, KEEP_RIGHT_BEAR_DEG,
     KEEP_RIGHT_FOR_MM, KEEP_RIGHT_JOG_DEG_S, ONCOMING_CLOSING, OPEN_ENOUGH_MM, PASSING_GUARD_MM,
-    ROBOT_CLEARANCE_MM, ROBOT_RADIUS_MM, SAFE_START_MM, SIDE_TOUCH_JOG_DEG_S, SIDE_TOUCH_MM,
-    SIDE_TOUCH_ROOM_MM, SONARS, SPACING,
+    PASS_ROOM_MM, ROBOT_CLEARANCE_MM, ROBOT_RADIUS_MM, SAFE_START_MM, SIDE_TOUCH_JOG_DEG_S,
+    SIDE_TOUCH_MM, SIDE_TOUCH_ROOM_MM, SONARS, SPACING,
 };
 use rome_maps::geometry::normalize_deg;
 use rome_schema::robot::Scan;
@@ -96,6 +96,8 @@ pub struct Hallway {
     slow_until: u64,
     /// Whether another robot comes head-on, and how long to keep right.
     pub oncoming: Oncoming,
+    /// Something standing ahead off the middle, being passed wide.
+    pub passing: Passing,
     /// Where across the hallway to keep, mm left of its middle: a goal
     /// that lies off the middle (a door on a corridor's end wall) is
     /// approached along its own line, as far as the walls leave room.
@@ -113,6 +115,7 @@ impl Hallway {
             calm_since: now_ms,
             slow_until: 0,
             oncoming: Oncoming::default(),
+            passing: Passing::default(),
             lane_mm: 0.0,
         }
     }
@@ -135,9 +138,16 @@ impl Hallway {
             cfg.cruise_mm_s
         };
         let keep_right = self.oncoming.watch(sonar, along_mm, self.room_mm);
+        let pass = if cfg.pass_wide && !keep_right {
+            let rel = normalize_deg(heading_deg - goal_deg);
+            self.passing
+                .watch(sonar, &self.walls, rel, along_mm, self.room_mm)
+        } else {
+            None
+        };
         // Keeping off the middle, for another robot or for the goal, the
         // near wall lies within 60° of ahead: only what is ahead counts.
-        let off_middle = keep_right || self.lane_mm != 0.0;
+        let off_middle = keep_right || pass.is_some() || self.lane_mm != 0.0;
         // Safety: a reading below the threshold within 60° of ahead. The
         // thesis excepts sonars 6 and 18; their neighbours 5, 7, 17 and 19
         // see the same side walls at nearly the same range, so they are
@@ -182,12 +192,12 @@ impl Hallway {
             return Drive::Jog(away * SIDE_TOUCH_JOG_DEG_S);
         }
         let room = self.walls.keep_right_mm();
-        let brisk = keep_right && cfg.brisk_keep_right;
+        let brisk = (keep_right || pass.is_some()) && cfg.brisk_keep_right;
         self.walls.brisk = brisk;
-        self.walls.lane_mm = if keep_right {
-            -room
-        } else {
-            self.lane_mm.clamp(-room, room)
+        self.walls.lane_mm = match pass {
+            _ if keep_right => -room,
+            Some(lane) => lane,
+            None => self.lane_mm.clamp(-room, room),
         };
         // Safe: steer the open direction onto sonar 12.
         let open = open_sonar(sonar, heading_deg, goal_deg, 2);
@@ -287,6 +297,121 @@ impl Oncoming {
             self.ahead.clear();
         }
         along_mm < self.until
+    }
+}
+
+/// Beyond the thesis: something that stands ahead off the middle of a
+/// corridor whose walls are known (a robot stood aside to let others by)
+/// is passed on the side with more room, [`PASS_ROOM_MM`] clear of it.
+/// Steering back to the middle, the thesis' robot passes it as near as the
+/// safe threshold lets it: among forty robots in a 2.2 m corridor, 0.6 m
+/// between the two middles, where under 0.76 m they touch. Each echo
+/// ahead is taken for the
+/// near side of a robot-sized disc; once the nearest such disc has drawn
+/// nearer no faster than the robot drives, over 0.3 m driven (it stands
+/// still: one that comes towards the robot is met by keeping right,
+/// [`Oncoming`]), the lane is kept until the robot has driven past the
+/// farthest.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Passing {
+    /// (lane, mm left of the middle; keep it until this far driven, mm).
+    lane: Option<(f64, f64)>,
+    /// (distance driven, how far ahead the nearest such disc stood) over
+    /// the last metre and a half while one is seen, mm: one that comes
+    /// towards the robot is met by keeping right, not passed.
+    seen: std::collections::VecDeque<(f64, f64)>,
+}
+
+/// How far ahead something standing is passed wide, mm.
+const PASS_AHEAD_MM: f64 = 3_000.0;
+
+/// Something drawing nearer than this many times what the robot drives
+/// does not stand still (1: it does; a sonar's few centimetres of noise
+/// over the 0.3 m judged stay well under it).
+const STILL_CLOSING: f64 = 1.2;
+
+impl Passing {
+    /// Adds a scan taken `along_mm` into the drive, heading `rel_deg`
+    /// counter-clockwise of the corridor's axis, the goal `room_mm` ahead:
+    /// the lane to keep, mm left of the middle, if something is to be
+    /// passed wide and the walls leave room for it.
+    pub fn watch(
+        &mut self,
+        sonar: &[u32],
+        walls: &Walls,
+        rel_deg: f64,
+        along_mm: f64,
+        room_mm: f64,
+    ) -> Option<f64> {
+        let (Some(width), Some(&(_, offset, _))) = (walls.width(), walls.samples.back()) else {
+            self.lane = None;
+            return None;
+        };
+        // From the middle to either wall, mm.
+        let half = width / 2.0 + ROBOT_RADIUS_MM;
+        // Where the robot's middle may go: as far over as it keeps right.
+        let reach = half - ROBOT_CLEARANCE_MM;
+        let (mut lo, mut hi, mut past, mut nearest) = (-reach, reach, None::<f64>, f64::MAX);
+        for (i, r) in sonar.iter().enumerate().take(16).skip(9) {
+            let r = f64::from(*r);
+            let b = (bearing(i) + rel_deg).to_radians();
+            // The disc's middle, one radius behind the echo along the beam.
+            let d = ROBOT_RADIUS_MM + r + ROBOT_RADIUS_MM;
+            let (ahead, across) = (d * b.cos(), offset + d * b.sin());
+            let echo_across = offset + (ROBOT_RADIUS_MM + r) * b.sin();
+            if ahead <= 0.0 || ahead > PASS_AHEAD_MM || ahead + 500.0 > room_mm {
+                continue;
+            }
+            // A wall, a door's jamb or a corner: not something standing
+            // (nor is a disc whose middle would lie nearer a wall than a
+            // robot's middle can).
+            if echo_across.abs() > half - 150.0 || across.abs() > half - ROBOT_RADIUS_MM + 100.0 {
+                continue;
+            }
+            let clear = 2.0 * ROBOT_RADIUS_MM + PASS_ROOM_MM;
+            if across >= 0.0 {
+                hi = hi.min(across - clear);
+            } else {
+                lo = lo.max(across + clear);
+            }
+            tracing::debug!(
+                sonar = i,
+                r,
+                ahead,
+                across,
+                half,
+                offset,
+                "passing: something standing"
+            );
+            past = Some(past.map_or(ahead, |p: f64| p.max(ahead)));
+            nearest = nearest.min(ahead);
+        }
+        if past.is_none() {
+            self.seen.clear();
+        } else {
+            self.seen
+                .retain(|(a, _)| along_mm - a <= 1_500.0 && *a <= along_mm);
+            self.seen.push_back((along_mm, nearest));
+        }
+        let still = match (self.seen.front(), self.seen.back()) {
+            (Some(first), Some(last)) if last.0 - first.0 >= 300.0 => {
+                (first.1 - last.1) / (last.0 - first.0) <= STILL_CLOSING
+            }
+            _ => false,
+        };
+        if let Some(ahead) = past.filter(|_| still) {
+            // Nothing fits between: left to the safe threshold, as before.
+            self.lane = (lo <= hi).then(|| {
+                // No farther off the middle than the pass needs.
+                let lane = 0.0_f64.clamp(lo, hi);
+                (lane, along_mm + ahead + ROBOT_RADIUS_MM + 300.0)
+            });
+        }
+        match self.lane {
+            Some((_, until)) if along_mm >= until => self.lane = None,
+            _ => {}
+        }
+        self.lane.map(|(lane, _)| lane)
     }
 }
 

@@ -1,6 +1,6 @@
-//! What the single-robot rig tests share: robot r1 at 350R on EB3, facing
-//! its route to 372L, the world stepping, a planner's blackboard, and a
-//! Navigator and CTracker for it.
+//! What the single-robot rig tests share: robot r1 at 350R on EB3 (or at
+//! another start on another map), facing its route to 372L, the world
+//! stepping, a planner's blackboard, and a Navigator and CTracker for it.
 
 use rome_client::net::NetOptions;
 use rome_client::{DataClient, DataOptions, RobotClient, RobotOptions};
@@ -12,13 +12,26 @@ use rome_nav::plan::Plan;
 
 /// The rig, its stepping world, the heading of the route, and the
 /// planner's blackboard with its semaphores declared.
+// Each test binary compiles this module; not every one starts on EB3.
+#[allow(dead_code)]
 pub async fn one_robot(speed: f64) -> (Harness, rome_sim_hardware::world::Stepper, f64, Board) {
-    let map = rome_maps::load_named("eb3").expect("eb3 loads");
+    one_robot_on("eb3", "350R", "372L", speed).await
+}
+
+/// As [`one_robot`], r1 at `from` on the built-in map `map`, facing its
+/// route to `to`.
+pub async fn one_robot_on(
+    map: &str,
+    from: &str,
+    to: &str,
+    speed: f64,
+) -> (Harness, rome_sim_hardware::world::Stepper, f64, Board) {
+    let map = rome_maps::load_named(map).expect("the map loads");
     let world_map = World::from_map(&map);
     let network = Network::new(&map, &world_map);
-    let plan = Plan::new(&world_map, &network, "350R", "372L").expect("a plan");
+    let plan = Plan::new(&world_map, &network, from, to).expect("a plan");
     let heading = plan.start_heading_deg;
-    let mut cfg = RunConfig::new(map, "350R", "372L");
+    let mut cfg = RunConfig::new(map, from, to);
     // These tests step the world themselves, against the wall clock.
     cfg.lockstep = false;
     cfg.speed = Some(speed);

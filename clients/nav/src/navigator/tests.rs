@@ -376,3 +376,67 @@ fn a_robot_setting_out_beside_a_wall_with_its_heading_off_bears_away_before_the_
     );
     assert_eq!(side_touch(&beside_a_wall_on_the_right(400.0, 0.0)), None);
 }
+
+/// A scan from the middle of a 2.2 m corridor with a robot-sized disc
+/// standing `ahead_mm` ahead and `across_mm` left of the middle, each
+/// beam read along its axis.
+fn with_disc(ahead_mm: f64, across_mm: f64) -> Vec<u32> {
+    let mut s = slanted_scan(2_200.0, 0.0, 0.0);
+    let far = ahead_mm * ahead_mm + across_mm * across_mm - ROBOT_RADIUS_MM * ROBOT_RADIUS_MM;
+    for (i, r) in s.iter_mut().enumerate() {
+        let b = bearing(i).to_radians();
+        let towards = b.cos() * ahead_mm + b.sin() * across_mm;
+        let hit = towards * towards - far;
+        if towards > 0.0 && hit >= 0.0 {
+            let range = (towards - hit.sqrt() - ROBOT_RADIUS_MM).max(150.0);
+            *r = (*r).min(range.round() as u32);
+        }
+    }
+    s
+}
+
+#[test]
+fn a_robot_standing_aside_ahead_is_passed_on_its_far_side() {
+    // One stood aside 150 mm from the right wall of a 2.2 m corridor:
+    // 0.57 m right of the middle, where a robot driving on the middle
+    // would pass 0.19 m short of the 0.76 m two need.
+    let across = -(1_100.0 - 150.0 - ROBOT_RADIUS_MM);
+    let aside = with_disc(2_400.0, across);
+    assert!(aside[11] < 2_000 && aside[12] == 10_000, "{aside:?}");
+    // Seen from 2.8 m off, drawing `nearer_mm` nearer each 0.1 m the
+    // robot drives (as near as it drives: it stands still); what the
+    // robot does when it is 2.4 m off, and on the next scan, where it has
+    // left the front sonars' view.
+    let run = |pass_wide: bool, nearer_mm: f64| {
+        let cfg = NavConfig {
+            pass_wide,
+            ..NavConfig::default()
+        };
+        let mut h = Hallway::new(0);
+        let clear = slanted_scan(2_200.0, 0.0, 0.0);
+        for k in 0..8 {
+            driven_at(&mut h, &cfg, &clear, k);
+        }
+        for k in 8..12 {
+            let ahead = 2_800.0 - nearer_mm * f64::from(k - 8);
+            driven_at(&mut h, &cfg, &with_disc(ahead, across), k);
+        }
+        let seen = driven_at(
+            &mut h,
+            &cfg,
+            &with_disc(2_800.0 - 4.0 * nearer_mm, across),
+            12,
+        );
+        let abeam = driven_at(&mut h, &cfg, &clear, 13);
+        (seen, abeam)
+    };
+    // Over to the left, briskly, and kept there.
+    let left = Drive::Jog(crate::drive::KEEP_RIGHT_JOG_DEG_S);
+    assert_eq!(run(true, 100.0), (left, left));
+    // The thesis' Navigator drives on along the middle.
+    let thesis = run(false, 100.0);
+    assert!(matches!(thesis, (Drive::Go(_), Drive::Go(_))), "{thesis:?}");
+    // One that comes towards the robot is not passed so.
+    let (met, _) = run(true, 200.0);
+    assert_ne!(met, left);
+}
