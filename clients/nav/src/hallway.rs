@@ -306,12 +306,11 @@ impl Oncoming {
 /// Steering back to the middle, the thesis' robot passes it as near as the
 /// safe threshold lets it: among forty robots in a 2.2 m corridor, 0.6 m
 /// between the two middles, where under 0.76 m they touch. Each echo
-/// ahead is taken for the
-/// near side of a robot-sized disc; once the nearest such disc has drawn
-/// nearer no faster than the robot drives, over 0.3 m driven (it stands
-/// still: one that comes towards the robot is met by keeping right,
-/// [`Oncoming`]), the lane is kept until the robot has driven past the
-/// farthest.
+/// ahead is taken for the near side of a robot-sized disc; once the
+/// nearest such disc has drawn nearer no faster than the robot drives,
+/// over 0.3 m driven (it stands still: one that comes towards the robot
+/// is met by keeping right, [`Oncoming`]), the lane is kept until the
+/// robot has driven past the farthest.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Passing {
     /// (lane, mm left of the middle; keep it until this far driven, mm).
