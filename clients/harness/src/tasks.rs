@@ -288,11 +288,8 @@ async fn run_all(
                             at.is_none(),
                         )),
                         DutyNote::Skipped(why) => say(Said::Trouble(format!("skipped {why}"))),
-                        DutyNote::NotAside(why, 1) => {
-                            say(Said::Trouble(format!("did not step aside: {why}")))
-                        }
                         DutyNote::NotAside(why, n) => {
-                            say(Said::Trouble(format!("did not step aside, try {n}: {why}")))
+                            say(Said::Trouble(rome_nav::fleet::aside::not_aside(&why, n)))
                         }
                         DutyNote::Planner(Progress::Waiting(part)) => {
                             say(Said::Waits(Some(part.to_string())))

@@ -222,6 +222,16 @@ pub fn way_out(
     })
 }
 
+/// How a step aside that did not happen is said, on its `tries`-th try
+/// ([`super::duty::DutyNote::NotAside`]): "did not step aside: WHY", with
+/// ", try N" from the second try on.
+pub fn not_aside(why: &str, tries: u32) -> String {
+    match tries {
+        1 => format!("did not step aside: {why}"),
+        n => format!("did not step aside, try {n}: {why}"),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -357,9 +357,11 @@ pub async fn take_tasks(common: &CommonArgs, d: Duty) -> anyhow::Result<u8> {
             }
         ),
         DutyNote::Skipped(why) => eprintln!("rome planner: skipped {why}"),
-        DutyNote::NotAside(why, 1) => eprintln!("rome planner: did not step aside: {why}"),
         DutyNote::NotAside(why, n) => {
-            eprintln!("rome planner: did not step aside, try {n}: {why}")
+            eprintln!(
+                "rome planner: {}",
+                rome_nav::fleet::aside::not_aside(&why, n)
+            )
         }
         DutyNote::Resting(rest) => println!(
             "blocked twice in one place: out of service for {:.0} s, then drives itself clear",
