@@ -265,7 +265,8 @@ fn demo_refuses_a_broken_routes_file_by_line() {
 }
 
 /// `rome fleet --no-baseline` runs only the sizes asked for, and
-/// `--trace` leaves each run's ground truth, a line a robot an instant.
+/// `--trace` leaves each run's ground truth, a line a robot an instant;
+/// tasks.csv says when each task came, went to a robot and ended.
 #[test]
 fn fleet_without_its_baseline_runs_only_the_sizes_asked_and_traces_them() {
     let dir = std::env::temp_dir().join(format!("rome-fleet-{}", std::process::id()));
@@ -298,6 +299,26 @@ fn fleet_without_its_baseline_runs_only_the_sizes_asked_and_traces_them() {
         Some("robots,robot,since_s,still_s,x_m,y_m,task"),
         "{stuck}"
     );
+    // Each task: when it came, went to a robot and ended, and which.
+    let tasks = std::fs::read_to_string(dir.join("tasks.csv")).unwrap();
+    let lines: Vec<&str> = tasks.lines().collect();
+    assert_eq!(
+        lines[0],
+        "robots,task,to,state,added_s,handed_s,ended_s,wait_s,traffic_wait_s,robot,tried,why",
+        "{tasks}"
+    );
+    assert_eq!(lines.len(), 3, "{tasks}");
+    for line in &lines[1..] {
+        let f: Vec<&str> = line.split(',').collect();
+        assert_eq!((f[0], f[3]), ("2", "done"), "{tasks}");
+        let (added, handed, ended): (f64, f64, f64) = (
+            f[4].parse().unwrap(),
+            f[5].parse().unwrap(),
+            f[6].parse().unwrap(),
+        );
+        assert!(added <= handed && handed < ended, "{tasks}");
+        assert!(f[9] == "r1" || f[9] == "r2", "{tasks}");
+    }
     assert!(!dir.join("1.trace").exists());
     let trace = std::fs::read_to_string(dir.join("2.trace")).unwrap();
     let mut last = std::collections::BTreeMap::new();

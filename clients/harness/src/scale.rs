@@ -8,12 +8,14 @@
 //! (N × throughput(1)): 1 when N robots do N times the work of one, less
 //! as they get in each other's way or wait for work.
 
+use crate::experiment::csv_field;
 use crate::routes::{pick_doors, pick_routes};
 use crate::tasks::{run_tasks, ContactAt, StillAt, TaskEvent, TaskRun};
 use crate::RunConfig;
 use rome_maps::Map;
-use rome_nav::fleet::schema::{TaskSpec, TaskState};
+use rome_nav::fleet::schema::{TaskSpec, TaskState, TaskStatus};
 use rome_nav::NavError;
+use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::time::Duration;
 
@@ -99,6 +101,10 @@ pub struct ScaleRow {
     /// The robots counted in [`ScaleRow::stuck`], each where it stood
     /// longest, by name.
     pub stuck_places: Vec<(String, StillAt)>,
+    /// Every task's status at the end.
+    pub statuses: Vec<TaskStatus>,
+    /// Each task's time spent waiting its turn on the way, s, by task id.
+    pub traffic_wait_s: BTreeMap<String, f64>,
 }
 
 /// What a sweep tells whoever watches.
@@ -229,6 +235,8 @@ pub async fn sweep(
             data_p99_ms: ms(0.99),
             contact_places: r.contact_places,
             stuck_places,
+            statuses: r.statuses,
+            traffic_wait_s: r.traffic_wait_s,
         };
         progress(ScaleEvent::End(&row));
         rows.push(row);
@@ -391,6 +399,49 @@ pub fn contact_lines(row: &ScaleRow) -> String {
             c.y_mm / 1000.0,
             if c.with_robot { "robot" } else { "wall" },
             c.task.as_deref().unwrap_or("")
+        );
+    }
+    out
+}
+
+/// The header of tasks.csv.
+pub const TASKS_HEADER: &str =
+    "robots,task,to,state,added_s,handed_s,ended_s,wait_s,traffic_wait_s,robot,tried,why";
+
+/// Every task of a run as lines of tasks.csv: when it was added, last
+/// handed to a robot and ended (simulated s from the first task's
+/// adding), its wait for a robot as `rome fleet` counts it (adding to
+/// last handing out, so a task handed out again counts its first robot's
+/// drive), the robots it was handed to and why it was taken from them.
+pub fn task_lines(row: &ScaleRow) -> String {
+    let t0 = row.statuses.iter().map(|s| s.added_ms).min().unwrap_or(0);
+    let s_of = |ms: Option<u64>| {
+        ms.map_or(String::new(), |ms| {
+            format!("{:.1}", ms.saturating_sub(t0) as f64 / 1000.0)
+        })
+    };
+    let mut statuses: Vec<&TaskStatus> = row.statuses.iter().collect();
+    statuses.sort_by_key(|s| (s.added_ms, s.seq));
+    let mut out = String::new();
+    for s in statuses {
+        let wait = s
+            .assigned_ms
+            .map(|a| a.saturating_sub(s.added_ms) as f64 / 1000.0);
+        let _ = writeln!(
+            out,
+            "{},{},{},{},{},{},{},{},{:.1},{},{},{}",
+            row.robots,
+            csv_field(&s.id),
+            csv_field(&s.to),
+            csv_field(&format!("{:?}", s.state).to_lowercase()),
+            s_of(Some(s.added_ms)),
+            s_of(s.assigned_ms),
+            s_of(s.ended_ms),
+            wait.map_or(String::new(), |w| format!("{w:.1}")),
+            row.traffic_wait_s.get(&s.id).copied().unwrap_or(0.0),
+            csv_field(s.robot.as_deref().unwrap_or("")),
+            csv_field(&s.tried.join(" ")),
+            csv_field(&s.why.join("; ")),
         );
     }
     out

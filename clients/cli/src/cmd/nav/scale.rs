@@ -43,9 +43,10 @@ pub struct Args {
     /// Give a run up after this many simulated minutes.
     #[arg(long, default_value_t = 1440.0)]
     limit_min: f64,
-    /// Directory for fleet.csv, fleet.svg, contacts.csv (where and when
-    /// each contact began) and stuck.csv (where each robot counted as
-    /// stuck stood longest).
+    /// Directory for fleet.csv, fleet.svg, tasks.csv (each task's times,
+    /// robots and reasons), contacts.csv (where and when each contact
+    /// began) and stuck.csv (where each robot counted as stuck stood
+    /// longest).
     #[arg(long, short = 'o', default_value = "fleet")]
     out: PathBuf,
     /// Also write each run's ground truth at every instant to OUT/N.trace
@@ -152,6 +153,7 @@ pub async fn run(args: Args) -> anyhow::Result<u8> {
         table(scale::CONTACTS_HEADER, &scale::contact_lines),
     )?;
     write("stuck.csv", table(scale::STUCK_HEADER, &scale::stuck_lines))?;
+    write("tasks.csv", table(scale::TASKS_HEADER, &scale::task_lines))?;
     let csv_path = write(
         "fleet.csv",
         table(scale::HEADER, &|r| format!("{}\n", scale::csv_line(r))),
