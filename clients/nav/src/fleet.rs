@@ -8,6 +8,7 @@
 //! - [`assign`]: which free robot takes which task (shortest route).
 //! - [`dispatcher`]: the one dispatcher's rounds (`rome dispatcher`).
 //! - [`duty`]: a robot taking tasks (`rome planner --tasks`).
+//! - `carry`: one task planned, driven and judged.
 //! - `watch`: what ends a task's run early (cancelled, blocked, overdue).
 //! - [`way`]: a robot held up asks the nearest idle robot in its way to make way.
 //! - [`aside`]: where a robot without a task waits.
@@ -15,6 +16,7 @@
 
 pub mod aside;
 pub mod assign;
+mod carry;
 pub mod clear;
 pub mod dispatcher;
 pub mod duty;
