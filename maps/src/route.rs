@@ -302,7 +302,13 @@ impl Network {
         // Once a search: the start's room to its nearest wall.
         let margin = self.margin_at(from, from_end.clear_mm);
         let leaves = |q: Point| self.open(from, q) && self.keeps_off(from, q, margin);
-        if leaves(to) && from_end.admits(to) && to_end.admits(from) {
+        // A robot standing a step past its goal on a one-way stretch backs
+        // up to it: the way round may be the building's whole loop.
+        let backs = from_end.clear_mm > 0.0
+            && distance(from, to) <= BACK_UP_MM
+            && self.clear(from, to)
+            && self.keeps_off(from, to, margin);
+        if (leaves(to) || backs) && from_end.admits(to) && to_end.admits(from) {
             return Some((vec![from, to], distance(from, to)));
         }
         let n = self.waypoints.len();
@@ -480,6 +486,11 @@ pub const SLANT_DEG: f64 = 15.0;
 /// a straight line from there that grazes a wall's end is clear for a
 /// point, not for the robot, which the Navigator then turns off the line.
 pub const BODY_CLEAR_MM: f64 = rome_schema::robot::body::ROBOT_RADIUS_MM + 120.0;
+
+/// How far a robot standing where no position is named may drive straight
+/// back to its goal against a one-way stretch, mm: as far as a step out
+/// of a junction or aside takes it past a position.
+pub const BACK_UP_MM: f64 = 3_000.0;
 
 /// One end of a path: a point, at a door the heading of its corridor, and
 /// how far from the walls a leg from it keeps ([`BODY_CLEAR_MM`]).

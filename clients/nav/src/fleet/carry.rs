@@ -77,6 +77,16 @@ impl OnDuty<'_> {
                 return (outcome(false, Some(e.to_string())), still);
             }
         };
+        if let (Some(&(p, q, _, _)), true) = (plan.route.legs().first(), point.is_some()) {
+            if self.network.against(p, q) {
+                tracing::info!(
+                    robot = self.name,
+                    to = a.to,
+                    mm = rome_maps::geometry::distance(p, q),
+                    "backs up to its goal against a one-way stretch"
+                );
+            }
+        }
         note(DutyNote::Took(a, &plan));
         // Set while the Planner waits its turn: standing still is not being
         // blocked then.

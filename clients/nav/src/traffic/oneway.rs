@@ -224,6 +224,25 @@ mod tests {
         assert!(longer > 0, "some routes go round");
     }
 
+    #[test]
+    fn a_robot_a_step_past_its_goal_on_a_one_way_stretch_backs_up_to_it() {
+        // A392R lies at N's foot, where P is driven west. A robot that
+        // drove on 1.3 m west of it out of the junction, given a task
+        // there, backs up to it rather than going round the building;
+        // one 4 m past it goes round.
+        let (world, network) = load("eb3");
+        let directed = network.clone().with_one_way(one_way(&world, &network));
+        let goal = world.position("A392R").expect("named").in_corridor();
+        let from = |back_mm: f64| {
+            let p = rome_maps::geometry::pt(goal.x - back_mm, goal.y);
+            world.route_from(&directed, ("@past", p), &[], "A392R")
+        };
+        let near = from(1_300.0).expect("a route");
+        assert!((near.length_mm - 1_300.0).abs() < 1.0, "{near:?}");
+        let far = from(4_000.0).expect("a route");
+        assert!(far.length_mm > 100_000.0, "{far:?}");
+    }
+
     /// Whether the leg from `p` to `q`, walked in steps of 100 mm, moves
     /// back toward `w.a` for more than a metre while within 1 m of the
     /// stretch's line and more than its reach from either end: checked
