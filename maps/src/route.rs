@@ -304,11 +304,11 @@ impl Network {
         let leaves = |q: Point| self.open(from, q) && self.keeps_off(from, q, margin);
         // A robot standing a step past its goal on a one-way stretch backs
         // up to it: the way round may be the building's whole loop.
-        let backs = from_end.clear_mm > 0.0
-            && distance(from, to) <= BACK_UP_MM
+        let backs_up = from_end.clear_mm > 0.0 && distance(from, to) <= BACK_UP_MM;
+        let straight = (backs_up || !self.against(from, to))
             && self.clear(from, to)
             && self.keeps_off(from, to, margin);
-        if (leaves(to) || backs) && from_end.admits(to) && to_end.admits(from) {
+        if straight && from_end.admits(to) && to_end.admits(from) {
             return Some((vec![from, to], distance(from, to)));
         }
         let n = self.waypoints.len();

@@ -180,14 +180,7 @@ pub async fn sweep(
             .iter()
             .filter(|s| s.state == TaskState::Done)
             .collect();
-        let waits: Vec<f64> = r
-            .statuses
-            .iter()
-            .filter_map(|s| {
-                s.assigned_ms
-                    .map(|a| a.saturating_sub(s.added_ms) as f64 / 1000.0)
-            })
-            .collect();
+        let waits: Vec<f64> = r.statuses.iter().filter_map(wait_s).collect();
         let t0 = r.statuses.iter().map(|s| s.added_ms).min().unwrap_or(0);
         let last = done.iter().filter_map(|s| s.ended_ms).max().unwrap_or(t0);
         let sim_h = (last.saturating_sub(t0)) as f64 / 3.6e6;
@@ -196,10 +189,8 @@ pub async fn sweep(
         } else {
             0.0
         };
-        let traffic: Vec<f64> = r
-            .statuses
-            .iter()
-            .map(|s| r.traffic_wait_s.get(&s.id).copied().unwrap_or(0.0))
+        let traffic: Vec<f64> = (r.statuses.iter())
+            .map(|s| traffic_s(&r.traffic_wait_s, s))
             .collect();
         let one = rows.iter().find(|r| r.robots == 1).map(|r| r.throughput_h);
         let load = rome_client::load::DATA.snapshot().since(&load);
@@ -404,15 +395,26 @@ pub fn contact_lines(row: &ScaleRow) -> String {
     out
 }
 
+/// A task's wait for a robot, s: from its adding to its last handing out
+/// (so a task handed out again counts its first robot's drive); `None`
+/// while it was never handed out.
+fn wait_s(s: &TaskStatus) -> Option<f64> {
+    (s.assigned_ms).map(|a| a.saturating_sub(s.added_ms) as f64 / 1000.0)
+}
+
+/// A task's time waiting its turn on the way, s.
+fn traffic_s(traffic_wait_s: &BTreeMap<String, f64>, s: &TaskStatus) -> f64 {
+    traffic_wait_s.get(&s.id).copied().unwrap_or(0.0)
+}
+
 /// The header of tasks.csv.
 pub const TASKS_HEADER: &str =
     "robots,task,to,state,added_s,handed_s,ended_s,wait_s,traffic_wait_s,robot,tried,why";
 
 /// Every task of a run as lines of tasks.csv: when it was added, last
 /// handed to a robot and ended (simulated s from the first task's
-/// adding), its wait for a robot as `rome fleet` counts it (adding to
-/// last handing out, so a task handed out again counts its first robot's
-/// drive), the robots it was handed to and why it was taken from them.
+/// adding), its wait for a robot as the table counts it (`wait_s`),
+/// the robots it was handed to and why it was taken from them.
 pub fn task_lines(row: &ScaleRow) -> String {
     let t0 = row.statuses.iter().map(|s| s.added_ms).min().unwrap_or(0);
     let s_of = |ms: Option<u64>| {
@@ -424,9 +426,6 @@ pub fn task_lines(row: &ScaleRow) -> String {
     statuses.sort_by_key(|s| (s.added_ms, s.seq));
     let mut out = String::new();
     for s in statuses {
-        let wait = s
-            .assigned_ms
-            .map(|a| a.saturating_sub(s.added_ms) as f64 / 1000.0);
         let _ = writeln!(
             out,
             "{},{},{},{},{},{},{},{},{:.1},{},{},{}",
@@ -437,8 +436,8 @@ pub fn task_lines(row: &ScaleRow) -> String {
             s_of(Some(s.added_ms)),
             s_of(s.assigned_ms),
             s_of(s.ended_ms),
-            wait.map_or(String::new(), |w| format!("{w:.1}")),
-            row.traffic_wait_s.get(&s.id).copied().unwrap_or(0.0),
+            wait_s(s).map_or(String::new(), |w| format!("{w:.1}")),
+            traffic_s(&row.traffic_wait_s, s),
             csv_field(s.robot.as_deref().unwrap_or("")),
             csv_field(&s.tried.join(" ")),
             csv_field(&s.why.join("; ")),

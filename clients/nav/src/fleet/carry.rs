@@ -77,12 +77,13 @@ impl OnDuty<'_> {
                 return (outcome(false, Some(e.to_string())), still);
             }
         };
-        if let (Some(&(p, q, _, _)), true) = (plan.route.legs().first(), point.is_some()) {
-            if self.network.against(p, q) {
+        // Only a robot standing off every named position is let back up.
+        if let (Some(_), [p, q, ..]) = (point, plan.route.points.as_slice()) {
+            if self.network.against(*p, *q) {
                 tracing::info!(
                     robot = self.name,
                     to = a.to,
-                    mm = rome_maps::geometry::distance(p, q),
+                    mm = rome_maps::geometry::distance(*p, *q),
                     "backs up to its goal against a one-way stretch"
                 );
             }
