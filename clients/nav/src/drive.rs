@@ -126,6 +126,13 @@ pub struct NavConfig {
     /// (`hallway::Passing`). Else, as before, the robot steers back to the
     /// middle and passes as near as its safe threshold lets it.
     pub pass_wide: bool,
+    /// Whether a robot blocked (no headway for
+    /// [`crate::navigator::blocked::BLOCKED_AFTER_MS`]) stands while its way stays
+    /// closed, instead of making Center-Hallway's safety turn. Else, as
+    /// before, it turns to and fro before what closes the way, and the
+    /// base takes up after each turn the Go it turned out of: a few
+    /// millimetres a turn nearer, until the bodies touch.
+    pub stand_when_blocked: bool,
 }
 
 impl Default for NavConfig {
@@ -152,6 +159,7 @@ impl Default for NavConfig {
             corner_keep_right: true,
             leave_corner_keep_right: false,
             pass_wide: true,
+            stand_when_blocked: true,
         }
     }
 }

@@ -523,7 +523,12 @@ impl Navigator {
                     counted_low |= n < goal.distance;
                     counted_low && n >= goal.distance
                 }
-                GoalType::D => travelled + stopping >= goal.distance as f64,
+                GoalType::D => {
+                    let stand = self.cfg.stand_when_blocked && self.blocked.is_some();
+                    let short = goal.distance as f64 - travelled;
+                    travelled + stopping >= goal.distance as f64
+                        || (stand && blocked::ends_here(short))
+                }
                 // A robot that keeps right while it leaves a corner has
                 // left it once it heads down the corridor again, not while
                 // it swerves.
@@ -645,6 +650,12 @@ impl Navigator {
                     self.odometer,
                     scan.time_ms,
                 )
+            };
+            let drive = if self.cfg.stand_when_blocked && self.blocked.is_some() {
+                let rel = normalize_deg(goal.direction_deg - pose.heading.deg());
+                blocked::instead(drive, &scan.sonar_mm, rel)
+            } else {
+                drive
             };
             tracing::debug!(
                 t = scan.time_ms,

@@ -4,7 +4,11 @@
 //! place and bumping to and fro all count as no headway. The reason names
 //! what the sonars see nearest towards the goal (else nearest in front),
 //! so a person reading `nav/<robot>/Status` knows what stands in the way.
+//! And what a blocked robot does: it stands while its way stays closed
+//! ([`instead`]), and ends a D goal it is blocked just short of
+//! ([`ends_here`]).
 
+use crate::drive::{Drive, PASS_ROOM_MM, ROBOT_RADIUS_MM};
 use crate::hallway::bearing;
 use rome_maps::geometry::normalize_deg;
 
@@ -12,6 +16,12 @@ use rome_maps::geometry::normalize_deg;
 pub const HEADWAY_MM: f64 = 300.0;
 /// How long without headway before the robot is blocked, ms of robot time.
 pub const BLOCKED_AFTER_MS: u64 = 20_000;
+/// A robot blocked this near the end of a D goal ends the goal there, mm
+/// (with [`crate::drive::NavConfig::stand_when_blocked`]): half of how
+/// near its goal a D segment must stop ([`crate::report::ARRIVED_CM`]),
+/// so one standing on the goal's last metre, or beside it, is no reason
+/// to push on into it.
+pub const ENDS_BLOCKED_MM: f64 = 500.0;
 /// What stands within this angle of the goal direction, degrees, and
 /// nearer than [`IN_THE_WAY_MM`], is what the reason names.
 const TOWARDS_GOAL_DEG: f64 = 45.0;
@@ -85,6 +95,56 @@ fn reason(sonar: &[u32], goal_rel_deg: f64, stuck_ms: u64) -> String {
     )
 }
 
+/// What a blocked robot does instead of `drive`, the goal direction
+/// `goal_rel_deg` counter-clockwise of its heading: while its way towards
+/// the goal stays closed ([`way_closed`]) it stands rather than make a
+/// safety turn. Such turns only swing it to and fro before what stands
+/// there, and the base takes up the Go it turned out of after each one, so
+/// the robot creeps a few millimetres a turn nearer until the bodies
+/// touch. Standing, it drives on as soon as the way opens, or its Planner
+/// gives the goal up.
+pub fn instead(drive: Drive, sonar: &[u32], goal_rel_deg: f64) -> Drive {
+    match drive {
+        Drive::Turn(_) if way_closed(sonar, goal_rel_deg) => Drive::Halt,
+        d => d,
+    }
+}
+
+/// Whether a blocked robot `short_mm` before a D goal's end ends the goal
+/// there ([`ENDS_BLOCKED_MM`]).
+pub fn ends_here(short_mm: f64) -> bool {
+    let ends = short_mm <= ENDS_BLOCKED_MM;
+    if ends {
+        tracing::info!(
+            short_mm,
+            "navigator: blocked short of the goal; it ends here"
+        );
+    }
+    ends
+}
+
+/// Whether something stands in the way towards the goal, `goal_rel_deg`
+/// counter-clockwise of the heading: a reading that puts something in the
+/// strip the body would sweep driving straight at the goal (its radius and
+/// [`PASS_ROOM_MM`] either side) within [`WAY_CLOSED_MM`] of its front. A
+/// blocked robot stands only then; one whose goal direction is open (it
+/// swung off it, and what its safety turns shy from stands to one side)
+/// turns on as before. The walls of a corridor it drives along lie
+/// outside the strip.
+pub fn way_closed(sonar: &[u32], goal_rel_deg: f64) -> bool {
+    (0..sonar.len()).any(|i| {
+        let off = normalize_deg(bearing(i) - goal_rel_deg).to_radians();
+        let d = f64::from(sonar[i]) + ROBOT_RADIUS_MM;
+        let (along, across) = (d * off.cos(), (d * off.sin()).abs());
+        along > 0.0
+            && along < ROBOT_RADIUS_MM + WAY_CLOSED_MM
+            && across < ROBOT_RADIUS_MM + PASS_ROOM_MM
+    })
+}
+
+/// See [`way_closed`], mm.
+pub const WAY_CLOSED_MM: f64 = 1_000.0;
+
 /// The sonar with the shortest reading among those `keep` keeps, and the
 /// reading.
 fn nearest(sonar: &[u32], keep: impl Fn(usize) -> bool) -> Option<(usize, u32)> {
@@ -102,6 +162,22 @@ mod tests {
         let mut s = vec![5_000; 24];
         s[nearest] = range;
         s
+    }
+
+    #[test]
+    fn the_way_is_closed_by_what_stands_towards_the_goal_not_beside_it() {
+        // A robot 0.3 m ahead, the goal straight on: closed.
+        assert!(way_closed(&ring(12, 300), 0.0));
+        // The same robot while the goal lies 60° to the left: open.
+        assert!(!way_closed(&ring(12, 300), 60.0));
+        // A robot 0.1 m away 30° off the goal direction stands in the
+        // body's way; a wall 0.8 m away there leaves room.
+        assert!(way_closed(&ring(14, 100), 0.0));
+        assert!(!way_closed(&ring(10, 800), 0.0));
+        // A side wall beside the robot (sonar 6, right) never closes it.
+        assert!(!way_closed(&ring(6, 150), 0.0));
+        // Far enough ahead, the way is open.
+        assert!(!way_closed(&ring(12, 1_000), 0.0));
     }
 
     #[test]
