@@ -152,6 +152,9 @@ pub async fn sweep(
         // Robots among robots keep right and step aside: their tracks
         // stray across the corridors they map.
         run.himm_cfg.track_side_mm = rome_nav::himm::FLEET_TRACK_SIDE_MM;
+        // What a safety turn shies from may be a robot standing in a
+        // junction: stop at once rather than brake on into it.
+        run.nav.stop_short_to_turn = true;
         run.seed = cfg.seed;
         run.limit = cfg.limit;
         run.traffic = cfg.traffic;

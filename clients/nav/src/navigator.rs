@@ -15,6 +15,7 @@
 //! answers each with `$RobotStatus` (Table 5.4).
 
 use crate::board::{ActiveGoal, Board, Goal, GoalType, Sem, Status, Var};
+use crate::drive::{stops_short, Speedometer};
 pub use crate::drive::{
     Drive, NavConfig, FORWARD, JOG_RATE_DEG_S, KEEP_RIGHT_AHEAD_MM, KEEP_RIGHT_BEAR_DEG,
     KEEP_RIGHT_FOR_MM, ONCOMING_CLOSING, OPEN_ENOUGH_MM, ROBOT_CLEARANCE_MM, ROBOT_RADIUS_MM,
@@ -90,6 +91,7 @@ pub struct Navigator {
     odometer: f64,
     /// The last speed set with Go, mm/s.
     speed: f64,
+    speedo: Speedometer,
     odometer_at: Option<Pose>,
     /// Poses by device time, from the base's state stream.
     track: Option<crate::track::PoseTrack>,
@@ -128,6 +130,7 @@ impl Navigator {
             off_line: None,
             odometer_at: None,
             speed,
+            speedo: Speedometer::default(),
             handed: None,
             at_hand: None,
         }
@@ -304,29 +307,6 @@ impl Navigator {
 
     fn is_moving(&self) -> bool {
         !matches!(self.last, None | Some(Drive::Halt))
-    }
-
-    async fn pose(&mut self) -> Result<Pose, NavError> {
-        let pose = Pose::from(&self.robot.pose().await?);
-        Ok(self.odometer_to(pose))
-    }
-
-    /// The pose when `scan` was taken (from the state stream), so a step
-    /// steers by the scan and the pose of one moment.
-    async fn pose_of(&mut self, scan: &Scan) -> Result<Pose, NavError> {
-        let pose = match &self.track {
-            Some(track) => track.at(&self.robot, scan.time_ms).await?,
-            None => return self.pose().await,
-        };
-        Ok(self.odometer_to(pose))
-    }
-
-    fn odometer_to(&mut self, pose: Pose) -> Pose {
-        if let Some(before) = self.odometer_at {
-            self.odometer += pose.dist(&before);
-        }
-        self.odometer_at = Some(pose);
-        pose
     }
 
     async fn send(&mut self, d: Drive) -> Result<(), NavError> {
@@ -669,6 +649,14 @@ impl Navigator {
             );
             if let Drive::Turn(_) = drive {
                 self.log.turns += 1;
+                let (v, a) = (self.speedo.mm_s(), self.cfg.stop_accel_mm_s2);
+                if self.cfg.stop_short_to_turn && stops_short(&scan.sonar_mm, v, a, self.rtt_s) {
+                    // Stopped, then told to go again: the turn brakes from
+                    // nothing and takes the Go up after, as every safety
+                    // turn does, so a robot wedged by a corner still edges on.
+                    self.robot.stop(true).await?;
+                    self.robot.go(self.speed).await?;
+                }
                 self.send(drive).await?;
                 self.settle(scans).await?;
                 self.last = None;
@@ -785,6 +773,7 @@ impl Navigator {
 }
 
 pub mod blocked;
+mod odometer;
 mod recover;
 mod ride;
 mod status;

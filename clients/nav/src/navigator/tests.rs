@@ -440,3 +440,45 @@ fn a_robot_standing_aside_ahead_is_passed_on_its_far_side() {
     let (met, _) = run(true, 200.0);
     assert_ne!(met, left);
 }
+
+#[test]
+fn a_safety_turn_stops_at_once_only_when_braking_would_carry_the_robot_into_what_is_ahead() {
+    // Cruising at 400 mm/s and braking at 300 mm/s², a point turn carries
+    // the robot 267 mm on: a robot 300 mm off, 30° right of ahead (what
+    // was touched in a junction), is too near; the same 300 mm at a
+    // corner's 250 mm/s, or 600 mm off at cruising speed, is not.
+    let mut s = hallway_scan(1_200, 1_200);
+    s[10] = 300;
+    assert!(crate::drive::stops_short(&s, 400.0, 300.0, 0.0));
+    assert!(!crate::drive::stops_short(&s, 250.0, 300.0, 0.0));
+    // A slow link: what is sent arrives later, and the robot drives on.
+    assert!(crate::drive::stops_short(&s, 250.0, 300.0, 0.5));
+    s[10] = 600;
+    assert!(!crate::drive::stops_short(&s, 400.0, 300.0, 0.0));
+    // Only what the safety rule watches (60° either side) counts: a wall
+    // beside or a robot behind does not.
+    let mut s = hallway_scan(150, 150);
+    s[0] = 150;
+    assert!(!crate::drive::stops_short(&s, 400.0, 300.0, 0.0));
+}
+
+#[test]
+fn the_speedometer_reads_the_speed_driven_not_the_speed_set() {
+    let mut s = crate::drive::Speedometer::default();
+    assert_eq!(s.update(0, 0.0), 0.0);
+    // 40 mm every 100 ms is 400 mm/s; smoothed, it gets there in a few scans.
+    let mut v = 0.0;
+    for k in 1..=10u64 {
+        v = s.update(100 * k, 40.0 * k as f64);
+    }
+    assert!((v - 400.0).abs() < 1.0, "{v}");
+    // Standing (a turn in place): the speed falls away, however fast the
+    // robot was told to go.
+    for k in 11..=20u64 {
+        v = s.update(100 * k, 400.0);
+    }
+    assert!(v < 1.0, "{v}");
+    // The same instant twice, or time going back, reads nothing new.
+    assert_eq!(s.update(2_000, 400.0), v);
+    assert_eq!(s.update(1_000, 900.0), v);
+}

@@ -1,0 +1,32 @@
+//! Where the robot is by odometry, and how far and how fast it has
+//! driven: the bookkeeping behind every pose the Navigator steers by.
+
+use super::{NavError, Navigator, Pose};
+use rome_schema::robot::Scan;
+
+impl Navigator {
+    pub(super) async fn pose(&mut self) -> Result<Pose, NavError> {
+        let pose = Pose::from(&self.robot.pose().await?);
+        Ok(self.odometer_to(pose))
+    }
+
+    /// The pose when `scan` was taken (from the state stream), so a step
+    /// steers by the scan and the pose of one moment.
+    pub(super) async fn pose_of(&mut self, scan: &Scan) -> Result<Pose, NavError> {
+        let pose = match &self.track {
+            Some(track) => track.at(&self.robot, scan.time_ms).await?,
+            None => return self.pose().await,
+        };
+        let pose = self.odometer_to(pose);
+        self.speedo.update(scan.time_ms, self.odometer);
+        Ok(pose)
+    }
+
+    fn odometer_to(&mut self, pose: Pose) -> Pose {
+        if let Some(before) = self.odometer_at {
+            self.odometer += pose.dist(&before);
+        }
+        self.odometer_at = Some(pose);
+        pose
+    }
+}
