@@ -175,11 +175,13 @@ impl Default for NavConfig {
     }
 }
 
+/// The sonars Center-Hallway's safety rule watches: those within 60° of
+/// ahead (§5.4.1).
+pub const SAFETY_SONARS: std::ops::RangeInclusive<usize> = 8..=16;
 /// Room kept beyond the braking distance before a safety turn, mm.
 pub const TURN_ROOM_MM: f64 = 100.0;
 
-/// Whether something within 60° of ahead (sonars 8–16, those the safety
-/// rule watches) is nearer than a robot driving at `speed_mm_s` covers
+/// Whether something within 60° of ahead ([`SAFETY_SONARS`]) is nearer than a robot driving at `speed_mm_s` covers
 /// while it brakes at `accel_mm_s2`, after a scan period and a round trip
 /// of `rtt_s`, with [`TURN_ROOM_MM`] to spare. A point turn brakes as it
 /// turns: from cruising speed it carries the robot 267 mm on.
@@ -189,7 +191,7 @@ pub fn stops_short(sonar: &[u32], speed_mm_s: f64, accel_mm_s2: f64, rtt_s: f64)
     let late = v * (0.1 + rtt_s.clamp(0.0, 1.0));
     let need = braking + late + TURN_ROOM_MM;
     sonar
-        .get(8..=16)
+        .get(SAFETY_SONARS)
         .is_some_and(|front| front.iter().any(|&r| f64::from(r) < need))
 }
 

@@ -5,8 +5,8 @@
 use crate::drive::{
     Drive, NavConfig, FORWARD, JOG_RATE_DEG_S, KEEP_RIGHT_AHEAD_MM, KEEP_RIGHT_BEAR_DEG,
     KEEP_RIGHT_FOR_MM, KEEP_RIGHT_JOG_DEG_S, ONCOMING_CLOSING, OPEN_ENOUGH_MM, PASSING_GUARD_MM,
-    PASS_ROOM_MM, ROBOT_CLEARANCE_MM, ROBOT_RADIUS_MM, SAFE_START_MM, SIDE_TOUCH_JOG_DEG_S,
-    SIDE_TOUCH_MM, SIDE_TOUCH_ROOM_MM, SONARS, SPACING,
+    PASS_ROOM_MM, ROBOT_CLEARANCE_MM, ROBOT_RADIUS_MM, SAFETY_SONARS, SAFE_START_MM,
+    SIDE_TOUCH_JOG_DEG_S, SIDE_TOUCH_MM, SIDE_TOUCH_ROOM_MM, SONARS, SPACING,
 };
 use rome_maps::geometry::normalize_deg;
 use rome_schema::robot::Scan;
@@ -168,7 +168,7 @@ impl Hallway {
                 self.safe_mm
             }
         };
-        let closed = (8..=16)
+        let closed = SAFETY_SONARS
             .map(|i| (i, sonar[i]))
             .filter(|(i, r)| f64::from(*r) < limit(*i))
             .min_by_key(|(_, r)| *r);

@@ -14,10 +14,11 @@ impl Navigator {
     /// steers by the scan and the pose of one moment.
     pub(super) async fn pose_of(&mut self, scan: &Scan) -> Result<Pose, NavError> {
         let pose = match &self.track {
-            Some(track) => track.at(&self.robot, scan.time_ms).await?,
-            None => return self.pose().await,
+            Some(track) => self.odometer_to(track.at(&self.robot, scan.time_ms).await?),
+            None => self.pose().await?,
         };
-        let pose = self.odometer_to(pose);
+        // Timed by the scan either way, so a Navigator without the state
+        // stream still knows how fast it drives.
         self.speedo.update(scan.time_ms, self.odometer);
         Ok(pose)
     }
