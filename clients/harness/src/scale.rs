@@ -155,6 +155,8 @@ pub async fn sweep(
         // What a safety turn shies from may be a robot standing in a
         // junction: stop at once rather than brake on into it.
         run.nav.stop_short_to_turn = true;
+        // And one may stand idle beside a robot turning in a corner.
+        run.nav.corner_bears_off = true;
         run.seed = cfg.seed;
         run.limit = cfg.limit;
         run.traffic = cfg.traffic;

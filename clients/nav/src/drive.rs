@@ -54,6 +54,10 @@ pub const SIDE_TOUCH_MM: u32 = 200;
 /// reads, less than the far wall of the narrowest corridor (2 m) reads
 /// from a robot 150 mm off the near one.
 pub const SIDE_TOUCH_ROOM_MM: u32 = 1_000;
+/// In the Corner state, the side a robot bears away to from a near side
+/// must read at least this, mm: twice [`SIDE_TOUCH_MM`], so that bearing
+/// away does not make the other side the near one.
+pub const CORNER_SIDE_ROOM_MM: u32 = 2 * SIDE_TOUCH_MM;
 /// How fast the robot bears away from a side that near, degrees per
 /// second: at cruising speed a heading 10° into the wall is undone within
 /// half a metre, before the 150 mm to the wall are driven.
@@ -143,6 +147,15 @@ pub struct NavConfig {
     /// but ended one run in forty 1.04 m from its goal (docs/traffic.md,
     /// "Braking before a safety turn").
     pub stop_short_to_turn: bool,
+    /// Whether the Corner state, its detectors clear, bears away from a
+    /// side nearer than [`SIDE_TOUCH_MM`] while the other side has
+    /// [`CORNER_SIDE_ROOM_MM`] (`hallway::corner_side_touch`). Else, as
+    /// before, it steers by the walls and the goal direction, towards
+    /// what stands beside it as readily as away. Off by default, on in
+    /// `rome fleet`: a robot alone among people touched them less with
+    /// it, but judged one corner in forty failed (docs/traffic.md,
+    /// "Setting off beside a robot").
+    pub corner_bears_off: bool,
 }
 
 impl Default for NavConfig {
@@ -171,6 +184,7 @@ impl Default for NavConfig {
             pass_wide: true,
             stand_when_blocked: true,
             stop_short_to_turn: false,
+            corner_bears_off: false,
         }
     }
 }

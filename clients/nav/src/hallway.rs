@@ -3,10 +3,10 @@
 //! of oncoming robots) and the walls fitted to the side sonars (§5.4).
 
 use crate::drive::{
-    Drive, NavConfig, FORWARD, JOG_RATE_DEG_S, KEEP_RIGHT_AHEAD_MM, KEEP_RIGHT_BEAR_DEG,
-    KEEP_RIGHT_FOR_MM, KEEP_RIGHT_JOG_DEG_S, ONCOMING_CLOSING, OPEN_ENOUGH_MM, PASSING_GUARD_MM,
-    PASS_ROOM_MM, ROBOT_CLEARANCE_MM, ROBOT_RADIUS_MM, SAFETY_SONARS, SAFE_START_MM,
-    SIDE_TOUCH_JOG_DEG_S, SIDE_TOUCH_MM, SIDE_TOUCH_ROOM_MM, SONARS, SPACING,
+    Drive, NavConfig, CORNER_SIDE_ROOM_MM, FORWARD, JOG_RATE_DEG_S, KEEP_RIGHT_AHEAD_MM,
+    KEEP_RIGHT_BEAR_DEG, KEEP_RIGHT_FOR_MM, KEEP_RIGHT_JOG_DEG_S, ONCOMING_CLOSING, OPEN_ENOUGH_MM,
+    PASSING_GUARD_MM, PASS_ROOM_MM, ROBOT_CLEARANCE_MM, ROBOT_RADIUS_MM, SAFETY_SONARS,
+    SAFE_START_MM, SIDE_TOUCH_JOG_DEG_S, SIDE_TOUCH_MM, SIDE_TOUCH_ROOM_MM, SONARS, SPACING,
 };
 use rome_maps::geometry::normalize_deg;
 use rome_schema::robot::Scan;
@@ -72,6 +72,20 @@ pub fn side_touch(sonar: &[u32]) -> Option<f64> {
         Some(-1.0)
     } else {
         None
+    }
+}
+
+/// The Corner state's [`side_touch`]: in a corner the other side is a
+/// wall a robot's width off, not a corridor's, so it need only have room
+/// to bear into ([`CORNER_SIDE_ROOM_MM`]).
+pub fn corner_side_touch(sonar: &[u32]) -> Option<f64> {
+    let near = |side: [usize; 3]| side.iter().any(|&i| sonar[i] < SIDE_TOUCH_MM);
+    let clear = |side: [usize; 3]| side.iter().all(|&i| sonar[i] >= CORNER_SIDE_ROOM_MM);
+    let (right, left) = ([5, 6, 7], [17, 18, 19]);
+    match (near(right), near(left)) {
+        (true, false) if clear(left) => Some(1.0),
+        (false, true) if clear(right) => Some(-1.0),
+        _ => None,
     }
 }
 
@@ -586,6 +600,14 @@ pub fn corner_step(
         return Drive::Spin(*rate);
     }
     walls.spin = None;
+    // Beyond the thesis: clear of the detectors with a robot or a wall
+    // beside it nearer than the side sonars can follow, the robot bears
+    // away from it before the walls or the goal steer. A robot that had
+    // spun in place beside one standing idle set off turning towards it
+    // and touched it (docs/traffic.md, "Setting off beside a robot").
+    if let Some(away) = corner_side_touch(&scan.sonar_mm).filter(|_| cfg.corner_bears_off) {
+        return Drive::Jog(away * SIDE_TOUCH_JOG_DEG_S);
+    }
     let open = open_sonar(&scan.sonar_mm, heading_deg, goal_deg, 1);
     let delta = if open != sonar_towards(err) {
         bearing(open)

@@ -482,3 +482,75 @@ fn the_speedometer_reads_the_speed_driven_not_the_speed_set() {
     assert_eq!(s.update(2_000, 400.0), v);
     assert_eq!(s.update(1_000, 900.0), v);
 }
+
+/// The Corner state's ring with a robot-sized disc `ahead_mm` ahead and
+/// `across_mm` left of the robot's middle, and a wall parallel to the
+/// heading `left_skin_mm` off its left side.
+fn corner_beside_a_disc(ahead_mm: f64, across_mm: f64, left_skin_mm: f64) -> Vec<u32> {
+    use rome_schema::robot::body::{SONAR_MAX_INCIDENCE_DEG, SONAR_MIN_MM};
+    let far = ahead_mm * ahead_mm + across_mm * across_mm - ROBOT_RADIUS_MM * ROBOT_RADIUS_MM;
+    (0..24)
+        .map(|i| {
+            let b = bearing(i).to_radians();
+            let mut range = f64::from(10_000u32);
+            let off_square = normalize_deg(bearing(i) - 90.0);
+            if off_square.abs() <= SONAR_MAX_INCIDENCE_DEG {
+                let centre = left_skin_mm + ROBOT_RADIUS_MM;
+                range = centre / off_square.to_radians().cos() - ROBOT_RADIUS_MM;
+            }
+            let towards = b.cos() * ahead_mm + b.sin() * across_mm;
+            let hit = towards * towards - far;
+            if towards > 0.0 && hit >= 0.0 {
+                range = range.min(towards - hit.sqrt() - ROBOT_RADIUS_MM);
+            }
+            range.max(SONAR_MIN_MM).round() as u32
+        })
+        .collect()
+}
+
+#[test]
+fn a_robot_setting_off_from_a_corner_beside_one_standing_bears_away_from_it() {
+    // Its detectors clear, facing its goal, a robot sets off in a corner
+    // with one standing idle ahead on its right, 30 mm nearer its line
+    // than two bodies pass, and a wall 550 mm off its left. Driven
+    // straight on, the two touch; bearing away, they pass.
+    let closest = |bears_off: bool| {
+        let cfg = NavConfig {
+            corner_bears_off: bears_off,
+            ..NavConfig::default()
+        };
+        let mut walls = Walls::default();
+        let (mut x, mut y, mut heading) = (0.0_f64, 0.0_f64, 0.0_f64);
+        let (disc_x, disc_y, wall_skin) = (400.0, -(2.0 * ROBOT_RADIUS_MM - 30.0), 550.0);
+        let mut closest = f64::INFINITY;
+        for _ in 0..40 {
+            let h = heading.to_radians();
+            let (dx, dy) = (disc_x - x, disc_y - y);
+            let (ahead, across) = (dx * h.cos() + dy * h.sin(), -dx * h.sin() + dy * h.cos());
+            let scan = corner_scan(corner_beside_a_disc(ahead, across, wall_skin - y), &[]);
+            let (turn, speed) = match corner_step(&cfg, &scan, heading, 0.0, &mut walls, x) {
+                Drive::Go(v) => (0.0, v),
+                Drive::Jog(r) => (r * 0.1, cfg.corner_mm_s),
+                Drive::Spin(r) => (r * 0.1, 0.0),
+                other => panic!("unexpected {other:?}"),
+            };
+            heading += turn;
+            x += speed * 0.1 * heading.to_radians().cos();
+            y += speed * 0.1 * heading.to_radians().sin();
+            closest = closest.min((disc_x - x).hypot(disc_y - y));
+        }
+        closest
+    };
+    let touch = 2.0 * ROBOT_RADIUS_MM;
+    assert!(closest(false) < touch, "straight on, it cleared the disc");
+    assert!(
+        closest(true) > touch,
+        "bearing away, it came within {:.0} mm",
+        closest(true)
+    );
+    // Near on both sides, it bears neither way.
+    let mut s = corner_beside_a_disc(0.0, -780.0, 550.0);
+    assert_eq!(crate::hallway::corner_side_touch(&s), Some(1.0));
+    s[18] = 300;
+    assert_eq!(crate::hallway::corner_side_touch(&s), None);
+}
