@@ -599,6 +599,47 @@ fn a_turn_while_going_resumes_going_and_a_turn_from_standstill_stands() {
 }
 
 #[test]
+#[ignore = "a known fault, left open: the point turn ends in its first step (docs/traffic.md, \"Setting off beside a robot\")"]
+fn a_turn_begun_while_the_base_still_turns_the_other_way_turns_all_the_way() {
+    // Jogging anticlockwise, then told to turn 30° clockwise: the base
+    // turns the other way for a few steps while its rate reverses, and the
+    // turn still ends 30° clockwise of where it began, not at once.
+    let mut sim = room(quiet());
+    let r = sim.add_robot("r", at(5_000.0, 1_500.0, 0.0)).unwrap();
+    sim.robot_mut(r).drive.go(250.0).unwrap();
+    sim.robot_mut(r).drive.jog(-8.0).unwrap(); // anticlockwise
+    sim.run_for(1_000);
+    let from = sim.robot(r).pose.heading.deg();
+    sim.robot_mut(r).drive.turn(30.0, 30.0, 60.0).unwrap();
+    sim.run_for(100);
+    assert!(
+        matches!(sim.robot(r).drive.mode, Mode::PointTurn { .. }),
+        "the turn ended at once: {:?}",
+        sim.robot(r).drive.mode
+    );
+    sim.run_for(4_000);
+    let turned = rome_maps::geometry::normalize_deg(from - sim.robot(r).pose.heading.deg());
+    assert!((turned - 30.0).abs() < 0.5, "turned {turned}°");
+    // Going forwards, then told to move a metre back: it ends a metre
+    // behind where the base stood still, not where the command came.
+    let q = sim.add_robot("q", at(2_000.0, 1_500.0, 0.0)).unwrap();
+    sim.robot_mut(q).drive.go(300.0).unwrap();
+    sim.run_for(2_000);
+    sim.robot_mut(q)
+        .drive
+        .move_by(-1_000.0, 300.0, 300.0)
+        .unwrap();
+    sim.run_for(100);
+    assert!(
+        matches!(sim.robot(q).drive.mode, Mode::PointGo { .. }),
+        "the move ended at once: {:?}",
+        sim.robot(q).drive.mode
+    );
+    sim.run_for(8_000);
+    assert_eq!(sim.robot(q).drive.mode, Mode::Go { velocity: 0.0 });
+}
+
+#[test]
 fn a_continuous_turn_follows_its_arc_then_goes_on() {
     let mut sim = room(quiet());
     let r = sim.add_robot("r", at(3_000.0, 1_500.0, 0.0)).unwrap(); // North
