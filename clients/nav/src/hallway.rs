@@ -63,8 +63,21 @@ pub fn open_sonar(sonar: &[u32], heading_deg: f64, axis_deg: f64, half: i64) -> 
 /// goes unseen until the touch. Something on the other side too (a
 /// doorway, or a robot passing) leaves no side to bear to.
 pub fn side_touch(sonar: &[u32]) -> Option<f64> {
+    bear_off(sonar, SIDE_TOUCH_ROOM_MM)
+}
+
+/// The Corner state's [`side_touch`]: in a corner the other side is a
+/// wall a robot's width off, not a corridor's, so it need only have room
+/// to bear into ([`CORNER_SIDE_ROOM_MM`]).
+pub fn corner_side_touch(sonar: &[u32]) -> Option<f64> {
+    bear_off(sonar, CORNER_SIDE_ROOM_MM)
+}
+
+/// Away from a side whose sonars read under [`SIDE_TOUCH_MM`] when every
+/// sonar on the other side reads at least `room_mm`.
+fn bear_off(sonar: &[u32], room_mm: u32) -> Option<f64> {
     let near = |side: [usize; 3]| side.iter().any(|&i| sonar[i] < SIDE_TOUCH_MM);
-    let clear = |side: [usize; 3]| side.iter().all(|&i| sonar[i] >= SIDE_TOUCH_ROOM_MM);
+    let clear = |side: [usize; 3]| side.iter().all(|&i| sonar[i] >= room_mm);
     let (right, left) = ([5, 6, 7], [17, 18, 19]);
     if near(right) && clear(left) {
         Some(1.0)
@@ -72,20 +85,6 @@ pub fn side_touch(sonar: &[u32]) -> Option<f64> {
         Some(-1.0)
     } else {
         None
-    }
-}
-
-/// The Corner state's [`side_touch`]: in a corner the other side is a
-/// wall a robot's width off, not a corridor's, so it need only have room
-/// to bear into ([`CORNER_SIDE_ROOM_MM`]).
-pub fn corner_side_touch(sonar: &[u32]) -> Option<f64> {
-    let near = |side: [usize; 3]| side.iter().any(|&i| sonar[i] < SIDE_TOUCH_MM);
-    let clear = |side: [usize; 3]| side.iter().all(|&i| sonar[i] >= CORNER_SIDE_ROOM_MM);
-    let (right, left) = ([5, 6, 7], [17, 18, 19]);
-    match (near(right), near(left)) {
-        (true, false) if clear(left) => Some(1.0),
-        (false, true) if clear(right) => Some(-1.0),
-        _ => None,
     }
 }
 
