@@ -195,10 +195,11 @@ pub const SAFETY_SONARS: std::ops::RangeInclusive<usize> = 8..=16;
 /// Room kept beyond the braking distance before a safety turn, mm.
 pub const TURN_ROOM_MM: f64 = 100.0;
 
-/// Whether something within 60° of ahead ([`SAFETY_SONARS`]) is nearer than a robot driving at `speed_mm_s` covers
-/// while it brakes at `accel_mm_s2`, after a scan period and a round trip
-/// of `rtt_s`, with [`TURN_ROOM_MM`] to spare. A point turn brakes as it
-/// turns: from cruising speed it carries the robot 267 mm on.
+/// Whether something within 60° of ahead ([`SAFETY_SONARS`]) is nearer
+/// than a robot driving at `speed_mm_s` covers while it brakes at
+/// `accel_mm_s2`, after a scan period and a round trip of `rtt_s`, with
+/// [`TURN_ROOM_MM`] to spare. A point turn brakes as it turns: from
+/// cruising speed it carries the robot 267 mm on.
 pub fn stops_short(sonar: &[u32], speed_mm_s: f64, accel_mm_s2: f64, rtt_s: f64) -> bool {
     let v = speed_mm_s.abs();
     let braking = v * v / (2.0 * accel_mm_s2.max(1.0));

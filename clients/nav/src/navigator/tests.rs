@@ -382,17 +382,23 @@ fn a_robot_setting_out_beside_a_wall_with_its_heading_off_bears_away_before_the_
 /// beam read along its axis.
 fn with_disc(ahead_mm: f64, across_mm: f64) -> Vec<u32> {
     let mut s = slanted_scan(2_200.0, 0.0, 0.0);
-    let far = ahead_mm * ahead_mm + across_mm * across_mm - ROBOT_RADIUS_MM * ROBOT_RADIUS_MM;
     for (i, r) in s.iter_mut().enumerate() {
-        let b = bearing(i).to_radians();
-        let towards = b.cos() * ahead_mm + b.sin() * across_mm;
-        let hit = towards * towards - far;
-        if towards > 0.0 && hit >= 0.0 {
-            let range = (towards - hit.sqrt() - ROBOT_RADIUS_MM).max(150.0);
-            *r = (*r).min(range.round() as u32);
+        if let Some(range) = disc_echo(i, ahead_mm, across_mm) {
+            *r = (*r).min(range.max(150.0).round() as u32);
         }
     }
     s
+}
+
+/// Sonar `i`'s range, read along its axis, to a robot-sized disc
+/// `ahead_mm` ahead and `across_mm` left of the robot's middle, if the
+/// axis meets it.
+fn disc_echo(i: usize, ahead_mm: f64, across_mm: f64) -> Option<f64> {
+    let far = ahead_mm * ahead_mm + across_mm * across_mm - ROBOT_RADIUS_MM * ROBOT_RADIUS_MM;
+    let b = bearing(i).to_radians();
+    let towards = b.cos() * ahead_mm + b.sin() * across_mm;
+    let hit = towards * towards - far;
+    (towards > 0.0 && hit >= 0.0).then(|| towards - hit.sqrt() - ROBOT_RADIUS_MM)
 }
 
 #[test]
@@ -488,20 +494,16 @@ fn the_speedometer_reads_the_speed_driven_not_the_speed_set() {
 /// heading `left_skin_mm` off its left side.
 fn corner_beside_a_disc(ahead_mm: f64, across_mm: f64, left_skin_mm: f64) -> Vec<u32> {
     use rome_schema::robot::body::{SONAR_MAX_INCIDENCE_DEG, SONAR_MIN_MM};
-    let far = ahead_mm * ahead_mm + across_mm * across_mm - ROBOT_RADIUS_MM * ROBOT_RADIUS_MM;
     (0..24)
         .map(|i| {
-            let b = bearing(i).to_radians();
             let mut range = f64::from(10_000u32);
             let off_square = normalize_deg(bearing(i) - 90.0);
             if off_square.abs() <= SONAR_MAX_INCIDENCE_DEG {
                 let centre = left_skin_mm + ROBOT_RADIUS_MM;
                 range = centre / off_square.to_radians().cos() - ROBOT_RADIUS_MM;
             }
-            let towards = b.cos() * ahead_mm + b.sin() * across_mm;
-            let hit = towards * towards - far;
-            if towards > 0.0 && hit >= 0.0 {
-                range = range.min(towards - hit.sqrt() - ROBOT_RADIUS_MM);
+            if let Some(disc) = disc_echo(i, ahead_mm, across_mm) {
+                range = range.min(disc);
             }
             range.max(SONAR_MIN_MM).round() as u32
         })
@@ -548,7 +550,7 @@ fn a_robot_setting_off_from_a_corner_beside_one_standing_bears_away_from_it() {
         "bearing away, it came within {:.0} mm",
         closest(true)
     );
-    // Near on both sides, it bears neither way.
+    // With less than its room on the other side, it bears neither way.
     let mut s = corner_beside_a_disc(0.0, -780.0, 550.0);
     assert_eq!(crate::hallway::corner_side_touch(&s), Some(1.0));
     s[18] = 300;
