@@ -30,6 +30,7 @@
 
 use super::aside::{
     corridor_axis, leg_at, reversed, start_leg, step_aside, stood_aside, way_out, LastLeg,
+    OUT_STEP_MM,
 };
 use super::clear::{clear_to, CLEAR_NEAR_MM};
 use super::schema::{
@@ -606,7 +607,12 @@ impl OnDuty<'_> {
         planner::turn_to(self.robot, out.direction_deg, p.heading_deg)
             .await
             .map_err(|e| e.to_string())?;
-        let said = planner::step_out(self.board, out.direction_deg, out.distance_mm, out.walls)
+        // The way out ends `distance_mm` on from `at`; the robot may have
+        // ended its task short of `at` or past it, and is driven to that end.
+        let along = rome_maps::geometry::direction(out.direction_deg);
+        let behind = (at.x - f64::from(p.x_mm)) * along.x + (at.y - f64::from(p.y_mm)) * along.y;
+        let distance_mm = (out.distance_mm + behind).max(OUT_STEP_MM);
+        let said = planner::step_out(self.board, out.direction_deg, distance_mm, out.walls)
             .await
             .map_err(|e| e.to_string())?;
         let p = self.robot.pose().await.map_err(|e| e.to_string())?;
