@@ -252,18 +252,33 @@ async fn a_run_past_its_wall_limit_is_given_up_as_hung() {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn a_light_seen_late_after_a_push_puts_the_tracker_back_on_the_lights() {
-    // 6.1 #23 among thirty people, with a base that does not stop itself
-    // on a touch (the thesis' Navigator): the robot pushes against people,
-    // its wheels turning while its body stands, and its odometry runs
-    // metres ahead. Measured from where the missed light was counted,
-    // every later light would be missed too and the run would end short;
-    // measured from where the missed light was seen late, the rest are
-    // found.
-    let mut s = among_people(900, None);
-    s.nav.stop_on_contact = false;
-    let out = experiment::run_all(&s, vec![trial(23, "NE.men.R", "302R", 22)], |_| {}).await;
-    let r = out[0].report.as_ref().unwrap();
+async fn a_push_spoils_the_odometry_unless_the_base_stops_and_a_light_seen_late_recovers_it() {
+    // 6.1 #23 among thirty people at the Navigator's 0.4 m/s. With a base
+    // that does not stop itself on a touch (the thesis' Navigator), the
+    // robot pushes against people until Check-Bumper's next look, its
+    // wheels turning while its body stands, and its odometry runs metres
+    // ahead. Measured from where the missed light was counted, every later
+    // light would be missed too and the run would end short; measured from
+    // where the missed light was seen late, the rest are found. Stopping on
+    // the touch and backing off at once, the robot keeps its odometry.
+    let (stops, r) = with_and_without(
+        among_people(900, None),
+        |nav| nav.stop_on_contact = false,
+        trial(23, "NE.men.R", "302R", 11),
+    )
+    .await;
+    assert!(stops.contacts.robot > 0, "no touch: {}", stops.table());
+    assert!(
+        stops.arrived() && stops.to_goal_cm.abs() < 50.0,
+        "{}",
+        stops.table()
+    );
+    assert!(
+        stops.odometry_error_cm.unwrap() < 50.0,
+        "odometry off by {:?} cm: {}",
+        stops.odometry_error_cm,
+        stops.table()
+    );
     assert!(
         r.contacts.robot > 0,
         "no push to recover from: {}",
@@ -341,48 +356,17 @@ async fn the_annex_narrow_lightless_corridor_is_driven_and_the_plates_after_it_r
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn a_base_that_stops_on_a_touch_keeps_its_odometry_among_people() {
-    // 6.1 #21 among thirty people at the Navigator's 0.4 m/s. Pushing on
-    // until Check-Bumper's next look, the robot's odometry runs metres
-    // ahead and the run is lost; stopping on the touch and backing off at
-    // once, it keeps its odometry and arrives.
-    let (stops, pushes) = with_and_without(
-        among_people(1_200, None),
-        |nav| nav.stop_on_contact = false,
-        trial(21, "303.second.L", "350L", 1),
-    )
-    .await;
-    assert!(stops.contacts.robot > 0, "no touch: {}", stops.table());
-    assert!(
-        stops.arrived() && stops.to_goal_cm.abs() < 50.0,
-        "{}",
-        stops.table()
-    );
-    assert!(
-        stops.odometry_error_cm.unwrap() < 50.0,
-        "odometry off by {:?} cm: {}",
-        stops.odometry_error_cm,
-        stops.table()
-    );
-    assert!(
-        !pushes.arrived() && pushes.odometry_error_cm.unwrap() > 150.0,
-        "pushing on did no harm: {}",
-        pushes.table()
-    );
-}
-
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_robot_left_aside_by_people_steps_onto_its_goals_line() {
     // 6.1 #18's route among thirty people at 0.7 m/s, people placed with
-    // seed 2: steering for people near the end, the robot finishes its D
-    // goal more than 0.5 m off the goal's line, its odometry good. Measuring itself
-    // against the walls the map puts beside the goal, it steps sideways
-    // onto the line. (Any change in how the robot drives moves the people
+    // seed 8: steering for people near the end, the robot finishes its D
+    // goal more than 0.5 m off the goal's line, its odometry good.
+    // Measuring itself against the walls the map puts beside the goal, it
+    // steps sideways onto the line. (Any change in how the robot drives moves the people
     // it meets: the seed is one where it is left aside.)
     let (steps, stays) = with_and_without(
         among_people(900, Some(700.0)),
         |nav| nav.onto_line = false,
-        trial(18, "341L", "311L", 2),
+        trial(18, "341L", "311L", 8),
     )
     .await;
     assert!(steps.arrived() && steps.miss_cm < 30.0, "{}", steps.table());

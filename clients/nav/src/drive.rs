@@ -133,9 +133,8 @@ pub struct NavConfig {
     /// Whether a robot blocked (no headway for
     /// [`crate::navigator::blocked::BLOCKED_AFTER_MS`]) stands while its way stays
     /// closed, instead of making Center-Hallway's safety turn. Else, as
-    /// before, it turns to and fro before what closes the way, and the
-    /// base takes up after each turn the Go it turned out of: a few
-    /// millimetres a turn nearer, until the bodies touch.
+    /// before, it turns to and fro before what closes the way, taking up
+    /// after each turn the Go it turned out of.
     pub stand_when_blocked: bool,
     /// Whether a safety turn with something in front nearer than the
     /// robot brakes in from the speed it drives at ([`stops_short`],

@@ -301,20 +301,18 @@ impl Drive {
         let turned_cw = -self.w * dt;
         match &mut self.mode {
             Mode::PointGo { remaining_mm } => {
+                let before = *remaining_mm;
                 *remaining_mm -= travelled;
-                if remaining_mm.abs() < 0.01
-                    || (*remaining_mm * travelled.signum() < 0.0 && travelled != 0.0)
-                {
+                if remaining_mm.abs() < 0.01 || passed(before, *remaining_mm) {
                     self.v = 0.0;
                     self.mode = Mode::Go { velocity: 0.0 };
                     self.hold_heading = None;
                 }
             }
             Mode::PointTurn { remaining_deg, .. } | Mode::ContinuousTurn { remaining_deg, .. } => {
+                let before = *remaining_deg;
                 *remaining_deg -= turned_cw;
-                if remaining_deg.abs() < 0.001
-                    || (*remaining_deg * turned_cw.signum() < 0.0 && turned_cw != 0.0)
-                {
+                if remaining_deg.abs() < 0.001 || passed(before, *remaining_deg) {
                     let resume = if let Mode::PointTurn { resume_mm_s, .. } = self.mode {
                         self.w = 0.0;
                         resume_mm_s
@@ -383,6 +381,13 @@ impl Drive {
             }
         }
     }
+}
+
+/// Whether a step carried a point-to-point command past its target: what
+/// remained changed sign. A step that goes the wrong way (the base still
+/// moving the other way when the command came) only adds to what remains.
+fn passed(before: f64, after: f64) -> bool {
+    before != 0.0 && before.signum() != after.signum()
 }
 
 /// Odometry as the base keeps it: a pose integrated from the wheel

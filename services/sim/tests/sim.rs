@@ -599,7 +599,6 @@ fn a_turn_while_going_resumes_going_and_a_turn_from_standstill_stands() {
 }
 
 #[test]
-#[ignore = "a known fault, left open: the point turn ends in its first step (docs/traffic.md, \"Setting off beside a robot\")"]
 fn a_turn_begun_while_the_base_still_turns_the_other_way_turns_all_the_way() {
     // Jogging anticlockwise, then told to turn 30° clockwise: the base
     // turns the other way for a few steps while its rate reverses, and the
