@@ -138,8 +138,7 @@ pub struct NavConfig {
     pub stand_when_blocked: bool,
     /// Whether a safety turn with something in front nearer than the
     /// robot brakes in from the speed it drives at ([`stops_short`],
-    /// [`Speedometer`]), or towards a side with something so near
-    /// ([`turns_into_near_side`]), stops the base at once before it turns. Else, as
+    /// [`Speedometer`]) stops the base at once before it turns. Else, as
     /// before, the turn brakes at the acceleration setting while the
     /// robot turns, and drives on into what it turned from: a robot
     /// standing in a junction was touched so. Off by default, on in
@@ -201,39 +200,13 @@ pub const TURN_ROOM_MM: f64 = 100.0;
 /// [`TURN_ROOM_MM`] to spare. A point turn brakes as it turns: from
 /// cruising speed it carries the robot 267 mm on.
 pub fn stops_short(sonar: &[u32], speed_mm_s: f64, accel_mm_s2: f64, rtt_s: f64) -> bool {
-    let need = braking_room(speed_mm_s, accel_mm_s2, rtt_s);
-    sonar
-        .get(SAFETY_SONARS)
-        .is_some_and(|front| front.iter().any(|&r| f64::from(r) < need))
-}
-
-/// Whether a point turn of `turn_deg` (counter-clockwise) swings the
-/// robot towards a side whose sonars (17–19 left, 5–7 right) read nearer
-/// than it covers while it brakes ([`stops_short`]'s room). Braking as it
-/// turns, the robot is carried on along an arc that bends to that side,
-/// onto a robot standing beside it and a little ahead.
-pub fn turns_into_near_side(
-    sonar: &[u32],
-    turn_deg: f64,
-    speed_mm_s: f64,
-    accel_mm_s2: f64,
-    rtt_s: f64,
-) -> bool {
-    let side = if turn_deg > 0.0 { 17..=19 } else { 5..=7 };
-    let need = braking_room(speed_mm_s, accel_mm_s2, rtt_s);
-    sonar
-        .get(side)
-        .is_some_and(|beside| beside.iter().any(|&r| f64::from(r) < need))
-}
-
-/// What a robot at `speed_mm_s` covers braking at `accel_mm_s2` once a
-/// scan period and a round trip of `rtt_s` have passed, and
-/// [`TURN_ROOM_MM`], mm.
-fn braking_room(speed_mm_s: f64, accel_mm_s2: f64, rtt_s: f64) -> f64 {
     let v = speed_mm_s.abs();
     let braking = v * v / (2.0 * accel_mm_s2.max(1.0));
     let late = v * (0.1 + rtt_s.clamp(0.0, 1.0));
-    braking + late + TURN_ROOM_MM
+    let need = braking + late + TURN_ROOM_MM;
+    sonar
+        .get(SAFETY_SONARS)
+        .is_some_and(|front| front.iter().any(|&r| f64::from(r) < need))
 }
 
 /// The robot's speed along its track, from odometry at each scan: what a

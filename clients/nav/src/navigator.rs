@@ -15,7 +15,7 @@
 //! answers each with `$RobotStatus` (Table 5.4).
 
 use crate::board::{ActiveGoal, Board, Goal, GoalType, Sem, Status, Var};
-use crate::drive::{stops_short, turns_into_near_side, Speedometer};
+use crate::drive::{stops_short, Speedometer};
 pub use crate::drive::{
     Drive, NavConfig, FORWARD, JOG_RATE_DEG_S, KEEP_RIGHT_AHEAD_MM, KEEP_RIGHT_BEAR_DEG,
     KEEP_RIGHT_FOR_MM, ONCOMING_CLOSING, OPEN_ENOUGH_MM, ROBOT_CLEARANCE_MM, ROBOT_RADIUS_MM,
@@ -647,14 +647,10 @@ impl Navigator {
                 ?drive,
                 "navigator: step"
             );
-            if let Drive::Turn(turn) = drive {
+            if let Drive::Turn(_) = drive {
                 self.log.turns += 1;
                 let (v, a) = (self.speedo.mm_s(), self.cfg.stop_accel_mm_s2);
-                let sonar = &scan.sonar_mm;
-                if self.cfg.stop_short_to_turn
-                    && (stops_short(sonar, v, a, self.rtt_s)
-                        || turns_into_near_side(sonar, turn, v, a, self.rtt_s))
-                {
+                if self.cfg.stop_short_to_turn && stops_short(&scan.sonar_mm, v, a, self.rtt_s) {
                     // Stopped, then told to go again: the turn brakes from
                     // nothing and takes the Go up after, as every safety
                     // turn does, so a robot wedged by a corner still edges on.

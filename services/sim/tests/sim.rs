@@ -2,7 +2,6 @@
 
 #![allow(clippy::unwrap_used)]
 
-use rome_maps::geometry::Point;
 use rome_sim::camera::{DIGIT_GREY, LIGHT_GREY, PLATE_GREY};
 use rome_sim::spec::{ROBOT_RADIUS_MM, SONAR_HALF_BEAM_DEG};
 use rome_sim::{Mode, Noise, Pose, Sim, SimConfig};
@@ -637,43 +636,6 @@ fn a_turn_begun_while_the_base_still_turns_the_other_way_turns_all_the_way() {
     );
     sim.run_for(8_000);
     assert_eq!(sim.robot(q).drive.mode, Mode::Go { velocity: 0.0 });
-}
-
-#[test]
-fn a_point_turn_from_speed_carries_the_robot_on_towards_the_side_it_turns_to() {
-    // Driving north at 300 mm/s and told to turn 30° left, the base
-    // brakes as it turns: it comes within a body's width (760 mm) of a
-    // point 800 mm off, 60° left of ahead, where a robot could stand.
-    // Stopped at once first, it turns where it stood.
-    let nearest = |stop_first: bool| {
-        let mut sim = room(quiet());
-        let r = sim.add_robot("r", at(5_000.0, 1_000.0, 0.0)).unwrap();
-        sim.robot_mut(r).drive.go(300.0).unwrap();
-        sim.run_for(2_000);
-        let from = sim.robot(r).pose.at;
-        let b = (-60.0_f64).to_radians(); // clockwise from north
-        let other = Point::new(from.x + 800.0 * b.sin(), from.y + 800.0 * b.cos());
-        if stop_first {
-            sim.robot_mut(r).drive.stop(true);
-        }
-        sim.robot_mut(r).drive.turn(-30.0, -1.0, -1.0).unwrap();
-        let mut nearest = f64::INFINITY;
-        while matches!(sim.robot(r).drive.mode, Mode::PointTurn { .. }) {
-            sim.run_for(10);
-            nearest = nearest.min(rome_maps::geometry::distance(sim.robot(r).pose.at, other));
-        }
-        nearest
-    };
-    assert!(
-        nearest(false) < 760.0,
-        "braking on: {:.0} mm",
-        nearest(false)
-    );
-    assert!(
-        nearest(true) > 795.0,
-        "stopped first: {:.0} mm",
-        nearest(true)
-    );
 }
 
 #[test]

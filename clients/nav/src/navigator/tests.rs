@@ -448,27 +448,6 @@ fn a_robot_standing_aside_ahead_is_passed_on_its_far_side() {
 }
 
 #[test]
-fn a_safety_turn_towards_a_robot_beside_stops_at_once_and_one_away_from_it_does_not() {
-    // The Campus's touch: at 300 mm/s, a robot 206 mm off its left side
-    // (sonar 18) while a wall ahead-right turns it left. Braking from
-    // 300 mm/s at 300 mm/s² it covers 150 mm, and 30 mm more in a scan.
-    use crate::drive::turns_into_near_side;
-    let mut s = hallway_scan(1_200, 1_200);
-    s[18] = 206;
-    assert!(turns_into_near_side(&s, 30.0, 300.0, 300.0, 0.0));
-    // Turning right, away from it, or left from a crawl: no need.
-    assert!(!turns_into_near_side(&s, -30.0, 300.0, 300.0, 0.0));
-    assert!(!turns_into_near_side(&s, 30.0, 50.0, 300.0, 0.0));
-    // A wall 500 mm off the right, as a robot keeping right has it, does
-    // not stop a turn right at cruising speed, nor one left.
-    let mut s = hallway_scan(1_200, 500);
-    assert!(!turns_into_near_side(&s, -30.0, 300.0, 300.0, 0.0));
-    s[6] = 200;
-    assert!(turns_into_near_side(&s, -30.0, 300.0, 300.0, 0.0));
-    assert!(!turns_into_near_side(&s, 30.0, 300.0, 300.0, 0.0));
-}
-
-#[test]
 fn a_safety_turn_stops_at_once_only_when_braking_would_carry_the_robot_into_what_is_ahead() {
     // Cruising at 400 mm/s and braking at 300 mm/s², a point turn carries
     // the robot 267 mm on: a robot 300 mm off, 30° right of ahead (what
