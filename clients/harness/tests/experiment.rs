@@ -361,8 +361,8 @@ async fn a_robot_left_aside_by_people_steps_onto_its_goals_line() {
     // seed 8: steering for people near the end, the robot finishes its D
     // goal more than 0.5 m off the goal's line, its odometry good.
     // Measuring itself against the walls the map puts beside the goal, it
-    // steps sideways onto the line. (Any change in how the robot drives moves the people
-    // it meets: the seed is one where it is left aside.)
+    // steps sideways onto the line. (Any change in how the robot drives
+    // moves the people it meets: the seed is one where it is left aside.)
     let (steps, stays) = with_and_without(
         among_people(900, Some(700.0)),
         |nav| nav.onto_line = false,

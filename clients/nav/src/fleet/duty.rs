@@ -609,8 +609,8 @@ impl OnDuty<'_> {
             .map_err(|e| e.to_string())?;
         // The way out ends `distance_mm` on from `at`; the robot may have
         // ended its task short of `at` or past it, and is driven to that end.
-        let along = rome_maps::geometry::direction(out.direction_deg);
-        let behind = (at.x - f64::from(p.x_mm)) * along.x + (at.y - f64::from(p.y_mm)) * along.y;
+        let here = Point::new(f64::from(p.x_mm), f64::from(p.y_mm));
+        let behind = (at - here).dot(&rome_maps::geometry::direction(out.direction_deg));
         let distance_mm = (out.distance_mm + behind).max(OUT_STEP_MM);
         let said = planner::step_out(self.board, out.direction_deg, distance_mm, out.walls)
             .await
