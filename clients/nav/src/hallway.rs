@@ -2,6 +2,7 @@
 //! sonar ring's geometry, the hallway model (safe threshold, keeping right
 //! of oncoming robots) and the walls fitted to the side sonars (§5.4).
 
+use crate::bodies::bodies;
 use crate::drive::{
     Drive, NavConfig, CORNER_SIDE_ROOM_MM, FORWARD, JOG_RATE_DEG_S, KEEP_RIGHT_AHEAD_MM,
     KEEP_RIGHT_BEAR_DEG, KEEP_RIGHT_FOR_MM, KEEP_RIGHT_JOG_DEG_S, ONCOMING_CLOSING, OPEN_ENOUGH_MM,
@@ -111,6 +112,9 @@ pub struct Hallway {
     pub oncoming: Oncoming,
     /// Something standing ahead off the middle, being passed wide.
     pub passing: Passing,
+    /// Since when the robot has waited before something standing that
+    /// leaves no lane, ms; kept until the way opens, so it waits once.
+    hold_since: Option<u64>,
     /// Where across the hallway to keep, mm left of its middle: a goal
     /// that lies off the middle (a door on a corridor's end wall) is
     /// approached along its own line, as far as the walls leave room.
@@ -129,6 +133,7 @@ impl Hallway {
             slow_until: 0,
             oncoming: Oncoming::default(),
             passing: Passing::default(),
+            hold_since: None,
             lane_mm: 0.0,
         }
     }
@@ -158,6 +163,28 @@ impl Hallway {
         } else {
             None
         };
+        // Beyond the thesis: something standing ahead that no lane passes
+        // (a robot that has stopped on the middle at its goal) is waited
+        // for, stood still short of it, before the safe threshold's turns
+        // swing the robot into the gap beside it, towards the wall and
+        // towards where a robot at its goal steps aside to. Among a
+        // hundred robots such turns, braked with the other body a
+        // fifth of a metre off the side, ended in a touch
+        // (docs/traffic.md, "Waiting for one that stands in the way").
+        let no_way = self
+            .passing
+            .no_way()
+            .filter(|_| cfg.pass_wide && !keep_right);
+        match no_way {
+            Some(r) if r < HOLD_WITHIN_MM => {
+                let since = *self.hold_since.get_or_insert(now_ms);
+                if now_ms.saturating_sub(since) < HOLD_MS {
+                    return Drive::Halt;
+                }
+            }
+            Some(_) => {}
+            None => self.hold_since = None,
+        }
         // Keeping off the middle, for another robot or for the goal, the
         // near wall lies within 60° of ahead: only what is ahead counts.
         let off_middle = keep_right || pass.is_some() || self.lane_mm != 0.0;
@@ -319,7 +346,8 @@ impl Oncoming {
 /// Steering back to the middle, the thesis' robot passes it as near as the
 /// safe threshold lets it: among forty robots in a 2.2 m corridor, 0.6 m
 /// between the two middles, where under 0.76 m they touch. Each echo
-/// ahead is taken for the near side of a robot-sized disc; once the
+/// ahead is taken for the near side of a robot-sized disc, neighbouring
+/// echoes that one disc explains for that one ([`crate::bodies`]); once the
 /// nearest such disc has drawn nearer no faster than the robot drives,
 /// over 0.3 m driven (it stands still: one that comes towards the robot
 /// is met by keeping right, [`Oncoming`]), the lane is kept until the
@@ -332,10 +360,28 @@ pub struct Passing {
     /// the last metre and a half while one is seen, mm: one that comes
     /// towards the robot is met by keeping right, not passed.
     seen: std::collections::VecDeque<(f64, f64)>,
+    /// From the last scan: how near something standing still is, mm from
+    /// the skin, when no lane between the walls passes it.
+    no_way: Option<f64>,
 }
 
 /// How far ahead something standing is passed wide, mm.
 const PASS_AHEAD_MM: f64 = 3_000.0;
+
+/// How near something standing that leaves no lane is waited for, mm
+/// from the skin: braking from cruising speed stops the robot well short
+/// of it, and of the safe threshold's turns.
+const HOLD_WITHIN_MM: f64 = 1_000.0;
+
+/// How long something standing that leaves no lane is waited for, ms of
+/// robot time: a robot at its goal steps aside within a few seconds; one
+/// that stays is passed as before, well before the Navigator calls itself
+/// blocked.
+const HOLD_MS: u64 = 10_000;
+
+/// Something drawing nearer slower than this many times what the robot
+/// drives moves away ahead of it: it is not waited for.
+const STAND_CLOSING: f64 = 0.8;
 
 /// Something drawing nearer than this many times what the robot drives
 /// does not stand still (1: it does; a sonar's few centimetres of noise
@@ -355,6 +401,7 @@ impl Passing {
         along_mm: f64,
         room_mm: f64,
     ) -> Option<f64> {
+        self.no_way = None;
         let (Some(width), Some(&(_, offset, _))) = (walls.width(), walls.samples.back()) else {
             self.lane = None;
             return None;
@@ -364,13 +411,17 @@ impl Passing {
         // Where the robot's middle may go: as far over as it keeps right.
         let reach = half - ROBOT_CLEARANCE_MM;
         let (mut lo, mut hi, mut past, mut nearest) = (-reach, reach, None::<f64>, f64::MAX);
-        for (i, r) in sonar.iter().enumerate().take(16).skip(9) {
-            let r = f64::from(*r);
-            let b = (bearing(i) + rel_deg).to_radians();
-            // The disc's middle, one radius behind the echo along the beam.
-            let d = ROBOT_RADIUS_MM + r + ROBOT_RADIUS_MM;
+        // The nearest echo of each body that stands in the way, mm.
+        let mut echo_mm = f64::MAX;
+        for body in bodies(sonar, 9, 15, PASS_AHEAD_MM) {
+            let (i, r) = body.nearest;
+            let b = (body.bearing_deg + rel_deg).to_radians();
+            // The disc's middle: where one disc explains neighbouring
+            // echoes, else one radius behind the echo along the beam.
+            let d = body.distance_mm;
             let (ahead, across) = (d * b.cos(), offset + d * b.sin());
-            let echo_across = offset + (ROBOT_RADIUS_MM + r) * b.sin();
+            let echo_across =
+                offset + (ROBOT_RADIUS_MM + r) * (bearing(i) + rel_deg).to_radians().sin();
             if ahead <= 0.0 || ahead > PASS_AHEAD_MM || ahead + 500.0 > room_mm {
                 continue;
             }
@@ -397,6 +448,7 @@ impl Passing {
             );
             past = Some(past.map_or(ahead, |p: f64| p.max(ahead)));
             nearest = nearest.min(ahead);
+            echo_mm = echo_mm.min(r);
         }
         if past.is_none() {
             self.seen.clear();
@@ -411,8 +463,23 @@ impl Passing {
             }
             _ => false,
         };
+        // Waited for only while it stands: judged over the last 0.3 m
+        // driven, so one that has just stopped is, and one walking off
+        // (people at 1–1.4 m/s) is not.
+        let standing = self.seen.back().is_some_and(|last| {
+            self.seen
+                .iter()
+                .rev()
+                .find(|(a, _)| last.0 - a >= 300.0)
+                .is_some_and(|first| {
+                    let closing = (first.1 - last.1) / (last.0 - first.0);
+                    (STAND_CLOSING..=STILL_CLOSING).contains(&closing)
+                })
+        });
+        self.no_way = (standing && past.is_some() && lo > hi).then_some(echo_mm);
         if let Some(ahead) = past.filter(|_| still) {
-            // Nothing fits between: left to the safe threshold, as before.
+            // Nothing fits between: waited for a while (`Hallway::step`),
+            // then left to the safe threshold, as before.
             self.lane = (lo <= hi).then(|| {
                 // No farther off the middle than the pass needs.
                 let lane = 0.0_f64.clamp(lo, hi);
@@ -424,6 +491,12 @@ impl Passing {
             _ => {}
         }
         self.lane.map(|(lane, _)| lane)
+    }
+
+    /// From the last scan: how near something standing still is, mm from
+    /// the skin, when no lane between the walls passes it.
+    pub fn no_way(&self) -> Option<f64> {
+        self.no_way
     }
 }
 

@@ -11,7 +11,8 @@
 //!   bad value without ending the Navigator; [`navigator::blocked`] tells
 //!   a blocked robot from a slow one); [`hallway`] is
 //!   what its states steer by (sonar geometry, hallway model, wall fits),
-//!   [`drive`] its settings and motion commands.
+//!   [`drive`] its settings and motion commands; [`bodies`] tells which
+//!   echoes ahead are one robot, and where it stands.
 //! - [`crew`]: a robot's crew (Navigator, CTracker, mapper, plate finder),
 //!   started one way in one process or in many.
 //! - [`ctracker`]: ceiling-light tracking from three scan lines (§5.6).
@@ -31,6 +32,7 @@
 
 pub mod barcode;
 pub mod board;
+pub mod bodies;
 pub mod crew;
 pub mod ctracker;
 pub mod drive;

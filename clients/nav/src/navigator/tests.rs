@@ -556,3 +556,71 @@ fn a_robot_setting_off_from_a_corner_beside_one_standing_bears_away_from_it() {
     s[18] = 300;
     assert_eq!(crate::hallway::corner_side_touch(&s), None);
 }
+
+/// A robot `left_mm` left of the middle of a 3 m corridor drives at
+/// 300 mm/s towards another, `its_left_mm` left of the middle, which
+/// stands `from_mm` ahead and walks away at `its_mm_s`, each beam hearing
+/// the nearest point of its beam on it (`bodies::echo`). If the robot
+/// halts: how far ahead the other's middle was then, mm, and for how long
+/// it halted, ms of robot time.
+fn towards_one_ahead(
+    cfg: &NavConfig,
+    left_mm: f64,
+    its_left_mm: f64,
+    from_mm: f64,
+    its_mm_s: f64,
+) -> Option<(f64, u64)> {
+    let mut h = Hallway::new(0);
+    let mut along = 0.0;
+    let mut halted = None::<(f64, u64)>;
+    for k in 0..600u64 {
+        let t = 100 * k;
+        let ahead = from_mm + its_mm_s * k as f64 / 10.0 - along;
+        if ahead < 1_000.0 {
+            break;
+        }
+        let mut s = slanted_scan(3_000.0, left_mm, 0.0);
+        for (i, r) in s.iter_mut().enumerate() {
+            if let Some(e) = crate::bodies::echo(i, (ahead, its_left_mm - left_mm)) {
+                *r = (*r).min(e.max(150.0).round() as u32);
+            }
+        }
+        match (h.step(cfg, &s, 0.0, 0.0, along, t), halted) {
+            (Drive::Halt, None) => halted = Some((ahead, t)),
+            (Drive::Halt, Some(_)) => {}
+            (_, Some((ahead, since))) => return Some((ahead, t - since)),
+            (_, None) => along += 30.0,
+        }
+    }
+    halted.map(|(ahead, since)| (ahead, 60_000 - since))
+}
+
+#[test]
+fn one_standing_on_the_middle_that_no_lane_passes_is_waited_for_a_while() {
+    // Keeping 0.6 m right of the middle of a 3 m corridor, towards one
+    // standing on the middle: passing on either side would leave less
+    // than the 0.3 m a robot keeps from the wall.
+    let cfg = NavConfig::default();
+    let standing = |cfg: &NavConfig, left_mm, its_left_mm| {
+        towards_one_ahead(cfg, left_mm, its_left_mm, 3_500.0, 0.0)
+    };
+    let (ahead, waited) = standing(&cfg, -600.0, 0.0).expect("it halts");
+    // Short of it: some 0.9 m or more between the skins, braking left
+    // aside (it was heard within 1 m, off the edge of a beam).
+    let gap = ahead.hypot(600.0) - 2.0 * ROBOT_RADIUS_MM;
+    assert!(gap >= 900.0, "halted {gap:.0} mm off");
+    // For a while, then as before.
+    assert_eq!(waited, 10_000);
+    // One stood aside by the wall leaves a lane: passed, not waited for.
+    assert_eq!(standing(&cfg, 0.0, -950.0), None);
+    // One walking off ahead, within the metre, is not waited for; the same
+    // one standing is.
+    assert_eq!(towards_one_ahead(&cfg, -600.0, 0.0, 1_800.0, 150.0), None);
+    assert!(towards_one_ahead(&cfg, -600.0, 0.0, 1_800.0, 0.0).is_some());
+    // The thesis' Navigator does not wait.
+    let thesis = NavConfig {
+        pass_wide: false,
+        ..NavConfig::default()
+    };
+    assert_eq!(standing(&thesis, -600.0, 0.0), None);
+}
