@@ -143,29 +143,37 @@ pub fn bodies(sonar: &[u32], first: usize, last: usize, within_mm: f64) -> Vec<B
         nearest: (i, r),
     };
     let mut out = Vec::new();
+    // The echoes of the body being gathered, and the disc fitted to them
+    // when there are two or more (kept, so each run is fitted once).
     let mut run: Vec<(usize, f64)> = Vec::new();
-    let close = |run: &mut Vec<(usize, f64)>, out: &mut Vec<Body>| {
+    let mut fitted: Option<Body> = None;
+    let close = |run: &mut Vec<(usize, f64)>, fitted: &mut Option<Body>, out: &mut Vec<Body>| {
         match run.as_slice() {
             [] => {}
             [(i, r)] => out.push(alone(*i, *r)),
-            many => out.extend(fit(sonar, first, last, many)),
+            _ => out.extend(fitted.take()),
         }
         run.clear();
     };
     for i in first..=last {
         let r = f64::from(sonar[i]);
         if r >= within_mm {
-            close(&mut run, &mut out);
+            close(&mut run, &mut fitted, &mut out);
             continue;
         }
         run.push((i, r));
-        if run.len() > 1 && fit(sonar, first, last, &run).is_none() {
-            run.pop();
-            close(&mut run, &mut out);
-            run.push((i, r));
+        if run.len() > 1 {
+            match fit(sonar, first, last, &run) {
+                Some(body) => fitted = Some(body),
+                None => {
+                    run.pop();
+                    close(&mut run, &mut fitted, &mut out);
+                    run.push((i, r));
+                }
+            }
         }
     }
-    close(&mut run, &mut out);
+    close(&mut run, &mut fitted, &mut out);
     out
 }
 
