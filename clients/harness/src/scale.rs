@@ -270,12 +270,30 @@ pub fn csv_line(r: &ScaleRow) -> String {
     )
 }
 
-/// Throughput (left axis) and efficiency (right axis, 0–1) against the
+/// Throughput (left axis) and efficiency (right axis) against the
 /// fleet's size, as an SVG picture.
 pub fn svg(rows: &[ScaleRow], title: &str) -> String {
+    let points: Vec<_> = rows
+        .iter()
+        .map(|r| (r.robots, r.throughput_h, r.efficiency))
+        .collect();
+    plot(&points, title)
+}
+
+/// [`svg`] of (robots, tasks per hour, efficiency) points. The efficiency
+/// axis runs from 0 to 1, or higher when a fleet did more than its size
+/// times one robot's tasks (robots that share a route's slow parts can),
+/// so that every point stays inside the plot.
+fn plot(rows: &[(usize, f64, Option<f64>)], title: &str) -> String {
     let (w, h, pad) = (640.0, 400.0, 60.0);
-    let max_n = rows.iter().map(|r| r.robots).max().unwrap_or(1).max(1) as f64;
-    let max_t = rows.iter().map(|r| r.throughput_h).fold(1.0, f64::max) * 1.1;
+    let max_n = rows.iter().map(|r| r.0).max().unwrap_or(1).max(1) as f64;
+    let max_t = rows.iter().map(|r| r.1).fold(1.0, f64::max) * 1.1;
+    let max_e = rows.iter().filter_map(|r| r.2).fold(1.0, f64::max);
+    let max_e = if max_e > 1.0 {
+        (max_e * 11.0).ceil() / 10.0
+    } else {
+        1.0
+    };
     let x = |n: f64| pad + (w - 2.0 * pad) * n / max_n;
     let y = |f: f64| h - pad - (h - 2.0 * pad) * f;
     let mut s = String::new();
@@ -309,7 +327,7 @@ pub fn svg(rows: &[ScaleRow], title: &str) -> String {
     );
     let _ = writeln!(
         s,
-        r##"<text x="{}" y="{}" fill="#d62728" transform="rotate(90 {} {})" text-anchor="middle">efficiency (0 to 1)</text>"##,
+        r##"<text x="{}" y="{}" fill="#d62728" transform="rotate(90 {} {})" text-anchor="middle">efficiency (0 to {max_e})</text>"##,
         w - 14.0,
         h / 2.0,
         w - 14.0,
@@ -319,18 +337,18 @@ pub fn svg(rows: &[ScaleRow], title: &str) -> String {
         (
             "#1f77b4",
             rows.iter()
-                .map(|r| (r.robots, Some(r.throughput_h / max_t)))
+                .map(|r| (r.0, Some(r.1 / max_t)))
                 .collect::<Vec<_>>(),
         ),
         (
             "#d62728",
-            rows.iter().map(|r| (r.robots, r.efficiency)).collect(),
+            rows.iter().map(|r| (r.0, r.2.map(|e| e / max_e))).collect(),
         ),
     ];
     for (color, points) in series {
         let pts: Vec<String> = points
             .iter()
-            .filter_map(|(n, f)| f.map(|f| format!("{:.1},{:.1}", x(*n as f64), y(f.min(1.2)))))
+            .filter_map(|(n, f)| f.map(|f| format!("{:.1},{:.1}", x(*n as f64), y(f))))
             .collect();
         let _ = writeln!(
             s,
@@ -346,9 +364,9 @@ pub fn svg(rows: &[ScaleRow], title: &str) -> String {
         let _ = writeln!(
             s,
             r#"<text x="{:.1}" y="{}" text-anchor="middle">{}</text>"#,
-            x(r.robots as f64),
+            x(r.0 as f64),
             h - pad + 16.0,
-            r.robots
+            r.0
         );
     }
     s.push_str("</svg>\n");
@@ -449,4 +467,40 @@ pub fn task_lines(row: &ScaleRow) -> String {
         );
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::plot;
+
+    /// The plotted points' y, in the order drawn.
+    fn ys(svg: &str) -> Vec<f64> {
+        svg.lines()
+            .filter_map(|l| l.split_once(r#"cy=""#))
+            .filter_map(|(_, rest)| rest.split('"').next()?.parse().ok())
+            .collect()
+    }
+
+    #[test]
+    fn an_efficiency_above_one_stays_inside_the_plot() {
+        // Inside: from y = 60 (top) to 340 (the robots' axis).
+        let svg = plot(
+            &[
+                (1, 10.0, None),
+                (20, 230.0, Some(1.15)),
+                (40, 238.0, Some(0.59)),
+            ],
+            "fleet",
+        );
+        assert!(svg.contains("efficiency (0 to 1.3)"), "{svg}");
+        let y = ys(&svg);
+        assert_eq!(y.len(), 5, "{svg}");
+        assert!(y.iter().all(|y| (60.0..=340.0).contains(y)), "{y:?}");
+        // 1.15 of 1.3 is above 0.59 of 1.3, both where their share puts them.
+        assert!((y[3] - (340.0 - 280.0 * 1.15 / 1.3)).abs() < 0.1, "{y:?}");
+        assert!((y[4] - (340.0 - 280.0 * 0.59 / 1.3)).abs() < 0.1, "{y:?}");
+        let within = plot(&[(1, 10.0, None), (5, 40.0, Some(0.8))], "fleet");
+        assert!(within.contains("efficiency (0 to 1)"), "{within}");
+        assert!((ys(&within)[2] - (340.0 - 280.0 * 0.8)).abs() < 0.1);
+    }
 }
