@@ -40,6 +40,9 @@ pub struct ScaleConfig {
     pub make_way: bool,
     /// Drive the narrow corridors of loops one way only.
     pub one_way: bool,
+    /// Drive no faster than lets a robot stop for what is ahead
+    /// (`NavConfig::brake_for_ahead`).
+    pub brake_ahead: bool,
     /// Add the tasks one this much simulated time after another, as a
     /// stream of errands, instead of all at the start.
     pub every: Option<Duration>,
@@ -157,6 +160,7 @@ pub async fn sweep(
         run.nav.stop_short_to_turn = true;
         // And one may stand idle beside a robot turning in a corner.
         run.nav.corner_bears_off = true;
+        run.nav.brake_for_ahead = cfg.brake_ahead;
         run.seed = cfg.seed;
         run.limit = cfg.limit;
         run.traffic = cfg.traffic;

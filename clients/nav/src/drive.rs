@@ -155,6 +155,16 @@ pub struct NavConfig {
     /// it, but judged one corner in forty failed (docs/traffic.md,
     /// "Setting off beside a robot").
     pub corner_bears_off: bool,
+    /// Whether Center-Hallway drives no faster than lets it stop halfway
+    /// to the nearest echo within 15° of ahead ([`ahead_speed_cap`]), so
+    /// that two robots closing head on both stop short of each other.
+    /// Else, as before, the robot cruises until the safe threshold turns
+    /// it, which after many turns is 0.35 m: less than a robot at cruise
+    /// brakes in when the other comes too. Off by default, and in
+    /// `rome fleet` unless `--brake-ahead`: fewer touches among robots
+    /// given a backlog, but one task of 500 lost on the Campus
+    /// (docs/traffic.md, "Driving no faster than it can stop").
+    pub brake_for_ahead: bool,
 }
 
 impl Default for NavConfig {
@@ -184,7 +194,71 @@ impl Default for NavConfig {
             stand_when_blocked: true,
             stop_short_to_turn: false,
             corner_bears_off: false,
+            brake_for_ahead: false,
         }
+    }
+}
+
+/// Room left before the nearest echo ahead when braked to a stand by
+/// [`ahead_speed_cap`], mm: above the sonars' shortest reading.
+pub const BRAKE_ROOM_MM: f64 = 200.0;
+
+/// The fastest a robot may drive with the nearest echo within 15° of
+/// ahead (sonars 11–13) where it is, braking at `accel_mm_s2` and acting
+/// `late_s` after the echo was read: what it covers in that time and in
+/// braking, twice over (the echo may be a robot coming as fast and
+/// braking as late), fits in the room beyond [`BRAKE_ROOM_MM`]. That is
+/// v² / a + 2 v t ≤ room, solved for v.
+pub fn ahead_speed_cap(sonar: &[u32], accel_mm_s2: f64, late_s: f64) -> f64 {
+    let ahead = sonar
+        .get(11..=13)
+        .and_then(|s| s.iter().min())
+        .map_or(f64::INFINITY, |&r| f64::from(r));
+    if ahead >= rome_schema::robot::body::SONAR_MAX_MM {
+        return f64::INFINITY;
+    }
+    let a = accel_mm_s2.max(1.0);
+    let at = a * late_s.max(0.0);
+    let room = (ahead - BRAKE_ROOM_MM).max(0.0);
+    (at * at + a * room).sqrt() - at
+}
+
+/// How far the speed set may lie from what the throttle wants before a Go
+/// sets it again, mm/s: a cap that eases scan by scan is not sent each
+/// time.
+pub const THROTTLE_STEP_MM_S: f64 = 25.0;
+
+/// The speed the base was set to with Go, what the Navigator's states
+/// asked for, and what caps it ([`NavConfig::brake_for_ahead`]). A jog
+/// moves at the speed setting, so a cap applies while steering too.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Throttle {
+    /// The last speed set with Go, mm/s.
+    pub set: f64,
+    /// The last speed a state asked for with Go, mm/s.
+    pub wanted: f64,
+    /// The cap at the scan at hand, mm/s (infinite: none).
+    pub cap: f64,
+}
+
+impl Throttle {
+    /// Set to `mm_s`, with no cap.
+    pub fn new(mm_s: f64) -> Throttle {
+        Throttle {
+            set: mm_s,
+            wanted: mm_s,
+            cap: f64::INFINITY,
+        }
+    }
+
+    /// What a Go or a jog should move at now, mm/s.
+    pub fn target(&self) -> f64 {
+        self.wanted.min(self.cap)
+    }
+
+    /// Whether the speed set is far enough from the target to set again.
+    pub fn stale(&self) -> bool {
+        (self.target() - self.set).abs() > THROTTLE_STEP_MM_S
     }
 }
 

@@ -15,7 +15,7 @@
 //! answers each with `$RobotStatus` (Table 5.4).
 
 use crate::board::{ActiveGoal, Board, Goal, GoalType, Sem, Status, Var};
-use crate::drive::{stops_short, Speedometer};
+use crate::drive::{ahead_speed_cap, stops_short, Speedometer, Throttle};
 pub use crate::drive::{
     Drive, NavConfig, FORWARD, JOG_RATE_DEG_S, KEEP_RIGHT_AHEAD_MM, KEEP_RIGHT_BEAR_DEG,
     KEEP_RIGHT_FOR_MM, ONCOMING_CLOSING, OPEN_ENOUGH_MM, ROBOT_CLEARANCE_MM, ROBOT_RADIUS_MM,
@@ -89,8 +89,8 @@ pub struct Navigator {
     log: NavLog,
     /// Distance driven so far by odometry, mm.
     odometer: f64,
-    /// The last speed set with Go, mm/s.
-    speed: f64,
+    /// The speed set with Go, and what caps it.
+    speed: Throttle,
     speedo: Speedometer,
     odometer_at: Option<Pose>,
     /// Poses by device time, from the base's state stream.
@@ -113,7 +113,7 @@ pub struct Navigator {
 impl Navigator {
     /// A Navigator for a robot, talking to the Planner through `board`.
     pub fn new(robot: RobotClient, board: Board, cfg: NavConfig) -> Navigator {
-        let speed = cfg.cruise_mm_s;
+        let speed = Throttle::new(cfg.cruise_mm_s);
         Navigator {
             robot,
             board,
@@ -310,7 +310,8 @@ impl Navigator {
     }
 
     async fn send(&mut self, d: Drive) -> Result<(), NavError> {
-        if self.last == Some(d) && !matches!(d, Drive::Turn(_)) {
+        let stale = self.speed.stale() && matches!(d, Drive::Go(_) | Drive::Jog(_));
+        if self.last == Some(d) && !matches!(d, Drive::Turn(_)) && !stale {
             return Ok(());
         }
         // Simulated time in a lock-step run, where the link costs nothing.
@@ -318,16 +319,18 @@ impl Navigator {
         // Commands sent, one round trip each.
         let trips = match d {
             Drive::Go(v) => {
-                self.speed = v;
-                self.robot.go(v).await?;
+                self.speed.wanted = v;
+                self.speed.set = self.speed.target();
+                self.robot.go(self.speed.set).await?;
                 1
             }
             Drive::Jog(r) => {
                 // A jog moves at the speed setting, which a spin or a halt
                 // left at zero.
-                let again = matches!(self.last, None | Some(Drive::Spin(_) | Drive::Halt));
+                let again = stale || matches!(self.last, None | Some(Drive::Spin(_) | Drive::Halt));
                 if again {
-                    self.robot.go(self.speed).await?;
+                    self.speed.set = self.speed.target();
+                    self.robot.go(self.speed.set).await?;
                 }
                 self.robot.jog(-r).await?;
                 1 + u32::from(again)
@@ -435,6 +438,7 @@ impl Navigator {
                 d.abs() <= 10_000
             })
             .await;
+        self.speed.cap = f64::INFINITY;
         if goal.goal_type == GoalType::C {
             // Leave the corner: stop, face the outgoing corridor, go.
             self.send(Drive::Halt).await?;
@@ -647,6 +651,12 @@ impl Navigator {
                 ?drive,
                 "navigator: step"
             );
+            self.speed.cap = if self.cfg.brake_for_ahead && (passing || !corner) {
+                let late = 0.1 + self.rtt_s.clamp(0.0, 1.0);
+                ahead_speed_cap(&scan.sonar_mm, self.cfg.stop_accel_mm_s2, late)
+            } else {
+                f64::INFINITY
+            };
             if let Drive::Turn(_) = drive {
                 self.log.turns += 1;
                 let (v, a) = (self.speedo.mm_s(), self.cfg.stop_accel_mm_s2);
@@ -655,7 +665,7 @@ impl Navigator {
                     // nothing and takes the Go up after, as every safety
                     // turn does, so a robot wedged by a corner still edges on.
                     self.robot.stop(true).await?;
-                    self.robot.go(self.speed).await?;
+                    self.robot.go(self.speed.set).await?;
                 }
                 self.send(drive).await?;
                 self.settle(scans).await?;
@@ -720,6 +730,7 @@ impl Navigator {
             scan = self.next_scan(scans).await?;
             pose = self.pose_of(&scan).await?;
         }
+        self.speed.cap = f64::INFINITY;
         self.carry = None;
         self.blocked = None;
         match goal.goal_type {

@@ -489,6 +489,55 @@ fn the_speedometer_reads_the_speed_driven_not_the_speed_set() {
     assert_eq!(s.update(1_000, 900.0), v);
 }
 
+/// Two robots driving head on from 5 m apart, each setting its speed from
+/// the gap it read at the last scan (`speed_for`), the setting reaching
+/// the base a scan later and the base changing speed at 300 mm/s²; the
+/// smallest gap between their skins, mm.
+fn closest_head_on(speed_for: impl Fn(f64) -> f64) -> f64 {
+    let (dt, scan_every, accel) = (0.01, 10, 300.0);
+    let (mut gap, mut v, mut set, mut read) = (5_000.0_f64, 400.0_f64, 400.0, 5_000.0);
+    let mut closest = gap;
+    for k in 0..3_000 {
+        if k % scan_every == 0 {
+            // What was read a scan ago is acted on now.
+            set = speed_for(read);
+            read = gap;
+        }
+        v += (set - v).clamp(-accel * dt, accel * dt);
+        gap -= 2.0 * v * dt;
+        closest = closest.min(gap);
+    }
+    closest
+}
+
+#[test]
+fn two_robots_closing_head_on_at_the_ahead_cap_stop_apart_and_at_cruise_they_meet() {
+    let mut s = hallway_scan(1_200, 1_200);
+    assert_eq!(crate::drive::ahead_speed_cap(&s, 300.0, 0.1), f64::INFINITY);
+    // 1 m ahead, acting 0.1 s late: v² / 300 + 0.2 v = 800.
+    s[12] = 1_000;
+    let cap = crate::drive::ahead_speed_cap(&s, 300.0, 0.1);
+    assert!((cap - 460.8).abs() < 0.1, "{cap}");
+    // Only 15° either side of ahead counts: a robot passed abeam does not
+    // slow the robot.
+    s[12] = 10_000;
+    s[9] = 300;
+    assert_eq!(crate::drive::ahead_speed_cap(&s, 300.0, 0.1), f64::INFINITY);
+    // The model acts on what it read up to two scans before.
+    let capped = |gap: f64| {
+        let mut ring = hallway_scan(1_200, 1_200);
+        ring[12] = gap.clamp(150.0, 10_000.0) as u32;
+        400.0_f64.min(crate::drive::ahead_speed_cap(&ring, 300.0, 0.2))
+    };
+    let closest = closest_head_on(capped);
+    assert!(closest > 100.0, "capped, they came within {closest:.0} mm");
+    // Cruising until the shortest safe threshold (0.35 m) and braking
+    // then, as both did before, they meet.
+    let cruise = |gap: f64| if gap < 350.0 { 0.0 } else { 400.0 };
+    let closest = closest_head_on(cruise);
+    assert!(closest <= 0.0, "at cruise they kept {closest:.0} mm");
+}
+
 /// The Corner state's ring with a robot-sized disc `ahead_mm` ahead and
 /// `across_mm` left of the robot's middle, and a wall parallel to the
 /// heading `left_skin_mm` off its left side.

@@ -58,6 +58,12 @@ pub struct Args {
     /// efficiency is measured against (its column is then empty).
     #[arg(long)]
     no_baseline: bool,
+    /// Drive no faster than lets a robot stop, halfway, for the nearest
+    /// thing within 15° of ahead, as if it came as fast: fewer robots
+    /// touching in a backlog, but it changes every run's course
+    /// (docs/traffic.md, "Driving no faster than it can stop").
+    #[arg(long)]
+    brake_ahead: bool,
 }
 
 /// Runs the sweep; exit status 1 when a task was not done.
@@ -87,6 +93,7 @@ pub async fn run(args: Args) -> anyhow::Result<u8> {
         leave_open: args.rules.leave_junctions,
         make_way: args.rules.make_way,
         one_way: args.rules.one_way,
+        brake_ahead: args.brake_ahead,
         every,
         limit,
         stuck: Duration::from_secs(60),
