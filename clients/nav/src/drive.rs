@@ -268,6 +268,12 @@ pub const SAFETY_SONARS: std::ops::RangeInclusive<usize> = 8..=16;
 /// Room kept beyond the braking distance before a safety turn, mm.
 pub const TURN_ROOM_MM: f64 = 100.0;
 
+/// How long after a scan what the robot decides from it takes effect, s:
+/// a scan period, and a round trip of `rtt_s` (at most a second).
+pub fn reaction_s(rtt_s: f64) -> f64 {
+    0.1 + rtt_s.clamp(0.0, 1.0)
+}
+
 /// Whether something within 60° of ahead ([`SAFETY_SONARS`]) is nearer
 /// than a robot driving at `speed_mm_s` covers while it brakes at
 /// `accel_mm_s2`, after a scan period and a round trip of `rtt_s`, with
@@ -276,7 +282,7 @@ pub const TURN_ROOM_MM: f64 = 100.0;
 pub fn stops_short(sonar: &[u32], speed_mm_s: f64, accel_mm_s2: f64, rtt_s: f64) -> bool {
     let v = speed_mm_s.abs();
     let braking = v * v / (2.0 * accel_mm_s2.max(1.0));
-    let late = v * (0.1 + rtt_s.clamp(0.0, 1.0));
+    let late = v * reaction_s(rtt_s);
     let need = braking + late + TURN_ROOM_MM;
     sonar
         .get(SAFETY_SONARS)

@@ -15,7 +15,7 @@
 //! answers each with `$RobotStatus` (Table 5.4).
 
 use crate::board::{ActiveGoal, Board, Goal, GoalType, Sem, Status, Var};
-use crate::drive::{ahead_speed_cap, stops_short, Speedometer, Throttle};
+use crate::drive::{ahead_speed_cap, reaction_s, stops_short, Speedometer, Throttle};
 pub use crate::drive::{
     Drive, NavConfig, FORWARD, JOG_RATE_DEG_S, KEEP_RIGHT_AHEAD_MM, KEEP_RIGHT_BEAR_DEG,
     KEEP_RIGHT_FOR_MM, ONCOMING_CLOSING, OPEN_ENOUGH_MM, ROBOT_CLEARANCE_MM, ROBOT_RADIUS_MM,
@@ -652,7 +652,7 @@ impl Navigator {
                 "navigator: step"
             );
             self.speed.cap = if self.cfg.brake_for_ahead && (passing || !corner) {
-                let late = 0.1 + self.rtt_s.clamp(0.0, 1.0);
+                let late = reaction_s(self.rtt_s);
                 ahead_speed_cap(&scan.sonar_mm, self.cfg.stop_accel_mm_s2, late)
             } else {
                 f64::INFINITY
