@@ -179,34 +179,8 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
         (Some(p), _) => format!("on port {p}"),
         (None, _) => "off".to_string(),
     };
-    // A plugin declared without configuration fails to start: declare only
-    // those the configuration has.
-    let mut plugins = PluginsManager::static_plugins_only();
-    if config.get_json("plugins/rest").is_ok() {
-        plugins.declare_static_plugin::<zenoh_plugin_rest::RestPlugin, &str>("rest", true);
-    }
-    let storage = config.get_json("plugins/storage_manager").is_ok();
-    if storage {
-        plugins.declare_static_plugin::<zenoh_plugin_storage_manager::StoragesPlugin, &str>(
-            "storage_manager",
-            true,
-        );
-    }
-    #[allow(unused_mut)]
-    let mut ros2 = String::new();
-    #[cfg(feature = "ros2dds")]
-    if config.get_json("plugins/ros2dds").is_ok() {
-        ros2 = "; ROS 2 DDS plugin on".into();
-        if cyclone_on_loopback(&config) {
-            // Before the plugin makes its DDS participant, which reads it;
-            // nothing else in this process reads the environment meanwhile.
-            std::env::set_var("CYCLONEDDS_URI", CYCLONE_ON_LOOPBACK);
-            ros2 += " (discovery on this host: CycloneDDS on loopback)";
-        }
-        plugins.declare_static_plugin::<zenoh_plugin_ros2dds::ROS2Plugin, &str>("ros2dds", true);
-    }
-    let mut runtime = RuntimeBuilder::new(config)
-        .plugins_manager(plugins)
+    let mut runtime = RuntimeBuilder::new(config.clone())
+        .plugins_manager(PluginsManager::static_plugins_only())
         .build()
         .await
         .map_err(|e| anyhow::anyhow!("cannot build the router: {e}"))?;
@@ -214,6 +188,12 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
         .start()
         .await
         .map_err(|e| anyhow::anyhow!("cannot start the router: {e}"))?;
+    // The plugins start once the router listens, not while it is built as
+    // under zenohd: a REST port that answers then means port 7447 is the
+    // router's, so a server started after `curl` got its answer joins the
+    // router instead of taking the port first (docs/observing.md).
+    let ros2 = start_plugins(&runtime, &config)?;
+    let storage = config.get_json("plugins/storage_manager").is_ok();
     let session = zenoh::session::init(runtime.into())
         .await
         .map_err(|e| anyhow::anyhow!("cannot open the router's session: {e}"))?;
@@ -272,6 +252,46 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
 
 /// The read-only front of the REST plugin: reads pass through, writes
 /// are refused with a reason.
+/// Declares and starts the plugins the configuration has (a plugin
+/// declared without configuration fails to start); returns what the
+/// banner says of ROS 2.
+fn start_plugins(
+    runtime: &zenoh::internal::runtime::Runtime,
+    config: &zenoh::Config,
+) -> anyhow::Result<String> {
+    let mut plugins = runtime.plugins_manager();
+    if config.get_json("plugins/rest").is_ok() {
+        plugins.declare_static_plugin::<zenoh_plugin_rest::RestPlugin, &str>("rest", true);
+    }
+    if config.get_json("plugins/storage_manager").is_ok() {
+        plugins.declare_static_plugin::<zenoh_plugin_storage_manager::StoragesPlugin, &str>(
+            "storage_manager",
+            true,
+        );
+    }
+    #[allow(unused_mut)]
+    let mut ros2 = String::new();
+    #[cfg(feature = "ros2dds")]
+    if config.get_json("plugins/ros2dds").is_ok() {
+        ros2 = "; ROS 2 DDS plugin on".into();
+        if cyclone_on_loopback(config) {
+            // Before the plugin makes its DDS participant, which reads it;
+            // nothing else in this process reads the environment meanwhile.
+            std::env::set_var("CYCLONEDDS_URI", CYCLONE_ON_LOOPBACK);
+            ros2 += " (discovery on this host: CycloneDDS on loopback)";
+        }
+        plugins.declare_static_plugin::<zenoh_plugin_ros2dds::ROS2Plugin, &str>("ros2dds", true);
+    }
+    let args: zenoh::internal::runtime::DynamicRuntime = runtime.clone().into();
+    for plugin in plugins.loaded_plugins_iter_mut() {
+        let id = plugin.id().to_string();
+        plugin
+            .start(&args)
+            .map_err(|e| anyhow::anyhow!("the {id} plugin did not start: {e}"))?;
+    }
+    Ok(ros2)
+}
+
 mod read_only {
     use axum::body::Body;
     use axum::http::{header, Method, Request, Response, StatusCode};

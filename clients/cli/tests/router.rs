@@ -2,7 +2,8 @@
 //! only the router find each other through it, the REST plugin answers
 //! `curl`-style HTTP for a variable and a robot's pose, and the storage
 //! manager keeps `rome/store/**`; and a lock record kept by the router
-//! outlives a SIGKILL of the router and of the robot's servers at once.
+//! outlives a SIGKILL of the router and of the robot's servers at once;
+//! and the REST port answers only once the router listens.
 
 #![allow(clippy::unwrap_used)]
 
@@ -150,6 +151,40 @@ async fn servers_and_clients_meet_through_the_router_and_rest_answers() {
     .unwrap();
     assert!(status.contains("356R"), "{status}");
     let _ = session.close().await;
+}
+
+/// Scripts wait for the REST port and then start servers that take the
+/// Zenoh port if it is free (docs/observing.md). So the first moment REST
+/// answers, the router must already hold its port: were the plugins started
+/// before the listeners, a server started then could take the port and the
+/// router would exit.
+#[test]
+fn the_rest_port_answers_only_once_the_router_holds_its_own() {
+    let rest = free_loopback_port().unwrap();
+    let zenoh = free_loopback_port().unwrap();
+    let listen = format!("tcp/127.0.0.1:{zenoh}");
+    let rest_s = rest.to_string();
+    let _router = rome(&[
+        "--no-multicast",
+        "-l",
+        &listen,
+        "router",
+        "--rest-port",
+        &rest_s,
+        "--in-memory",
+    ]);
+    // Polled as fast as the port can be tried: the slower the polling, the
+    // more likely the listener is up by the time REST is first seen.
+    let deadline = Instant::now() + Duration::from_secs(60);
+    while std::net::TcpStream::connect(("127.0.0.1", rest)).is_err() {
+        assert!(Instant::now() < deadline, "REST never answered on {rest}");
+        std::thread::sleep(Duration::from_micros(200));
+    }
+    let taken = std::net::TcpListener::bind(("127.0.0.1", zenoh));
+    assert!(
+        taken.is_err(),
+        "port {zenoh} was still free when REST on {rest} first answered"
+    );
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
