@@ -43,6 +43,9 @@ pub struct ScaleConfig {
     /// Drive no faster than lets a robot stop for what is ahead
     /// (`NavConfig::brake_for_ahead`).
     pub brake_ahead: bool,
+    /// Hear the glass the map has, which the sensors do not
+    /// (`NavConfig::hear_glass`).
+    pub hear_glass: bool,
     /// Add the tasks one this much simulated time after another, as a
     /// stream of errands, instead of all at the start.
     pub every: Option<Duration>,
@@ -161,6 +164,8 @@ pub async fn sweep(
         // And one may stand idle beside a robot turning in a corner.
         run.nav.corner_bears_off = true;
         run.nav.brake_for_ahead = cfg.brake_ahead;
+        // Glass across a corridor's end is heard by none of its sensors.
+        run.nav.hear_glass = cfg.hear_glass;
         run.seed = cfg.seed;
         run.limit = cfg.limit;
         run.traffic = cfg.traffic;

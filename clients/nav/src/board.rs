@@ -156,6 +156,12 @@ pub enum Var {
     /// from the goal, mm, as the map has them (`null` when either is not
     /// in reach), written by the Planner before it hands the goal over.
     GoalWalls,
+    /// For an E, C or D goal: the glass the map has within reach of it,
+    /// which neither sonar nor infrared hears, as panes `[along₁, left₁,
+    /// along₂, left₂]` in mm from the goal's end, along its direction and
+    /// to its left (`[]` when there is none), written by the Planner
+    /// before it hands the goal over.
+    Glass,
     /// The junctions and narrow passages the robot holds and the one it
     /// waits for ([`crate::traffic::TrafficState`]), written by the
     /// Planner as they change, for people watching.
@@ -186,6 +192,7 @@ impl Var {
             Var::EndWall => "EndWall",
             Var::GoalLane => "GoalLane",
             Var::GoalWalls => "GoalWalls",
+            Var::Glass => "Glass",
             Var::Traffic => "Traffic",
             Var::Ride => "Ride",
         }

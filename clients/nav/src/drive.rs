@@ -165,6 +165,15 @@ pub struct NavConfig {
     /// given a backlog, but one task of 500 lost on the Campus
     /// (docs/traffic.md, "Driving no faster than it can stop").
     pub brake_for_ahead: bool,
+    /// Whether an Enter-Corner, Leave-Corner or Dead-Reckoning goal hears
+    /// the glass the map has near it (`Glass`, written by the Planner),
+    /// placed by odometry, as its sensors would hear a wall
+    /// (`navigator::glass`). Else, as the thesis' Navigator, it goes by
+    /// what the sensors hear, and glass is not heard. Off by default, on
+    /// in `rome fleet`: `rome experiment` keeps the thesis' runs, the one
+    /// into the glass door included (docs/traffic.md, "The glass the
+    /// sonars do not hear").
+    pub hear_glass: bool,
 }
 
 impl Default for NavConfig {
@@ -195,6 +204,7 @@ impl Default for NavConfig {
             stop_short_to_turn: false,
             corner_bears_off: false,
             brake_for_ahead: false,
+            hear_glass: false,
         }
     }
 }

@@ -438,6 +438,7 @@ impl Navigator {
                 d.abs() <= 10_000
             })
             .await;
+        let glass = self.glass(goal, &start).await;
         self.speed.cap = f64::INFINITY;
         if goal.goal_type == GoalType::C {
             // Leave the corner: stop, face the outgoing corridor, go.
@@ -453,6 +454,7 @@ impl Navigator {
             self.send(Drive::Go(self.cfg.corner_mm_s)).await?;
             scan = self.next_scan(scans).await?;
             pose = self.pose().await?;
+            glass::hear(&glass, &pose, &mut scan);
         } else if self.hallway.is_none() || self.last.is_none() {
             self.last = None;
             self.send(Drive::Go(self.cfg.cruise_mm_s)).await?;
@@ -729,6 +731,7 @@ impl Navigator {
             }
             scan = self.next_scan(scans).await?;
             pose = self.pose_of(&scan).await?;
+            glass::hear(&glass, &pose, &mut scan);
         }
         self.speed.cap = f64::INFINITY;
         self.carry = None;
@@ -773,17 +776,10 @@ impl Navigator {
         let value: Option<T> = self.board.get(var).await.ok().flatten();
         value.filter(|d| sane(d))
     }
-
-    fn robot_speed(&self) -> f64 {
-        match self.last {
-            Some(Drive::Go(v)) => v,
-            Some(Drive::Jog(_)) => self.cfg.cruise_mm_s,
-            _ => 0.0,
-        }
-    }
 }
 
 pub mod blocked;
+mod glass;
 mod odometer;
 mod recover;
 mod ride;

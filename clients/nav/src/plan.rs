@@ -76,6 +76,37 @@ pub struct Step {
 }
 
 impl Step {
+    /// The panes of `glass` within [`GLASS_REACH_MM`] of the step's leg, as
+    /// the `Glass` variable has them: `[along, left]` of each end, mm, from
+    /// the step's end along its direction and to its left.
+    pub fn glass_mm(&self, glass: &[(Point, Point)]) -> Vec<[i64; 4]> {
+        let (axis, left) = (
+            direction(self.goal.direction_deg),
+            direction(self.goal.direction_deg + 90.0),
+        );
+        let frame = |p: Point| {
+            let d = p - self.to;
+            [d.dot(&axis).round() as i64, d.dot(&left).round() as i64]
+        };
+        glass
+            .iter()
+            .filter(|&&(a, b)| {
+                // Two segments that do not cross: the nearest of their
+                // ends to the other.
+                let d = |p, q, r| rome_maps::geometry::distance_to_segment(p, q, r);
+                let (f, t) = (self.from, self.to);
+                [d(a, f, t), d(b, f, t), d(f, a, b), d(t, a, b)]
+                    .into_iter()
+                    .fold(f64::INFINITY, f64::min)
+                    <= GLASS_REACH_MM
+            })
+            .map(|&(a, b)| {
+                let (a, b) = (frame(a), frame(b));
+                [a[0], a[1], b[0], b[1]]
+            })
+            .collect()
+    }
+
     /// For the last D step: how far left of the corridor's middle the
     /// goal lies, mm, when it lies at least [`LANE_MIN_MM`] off it (a door
     /// on a corridor's end wall); `None` for a goal on or near the middle,
@@ -124,7 +155,14 @@ pub struct Plan {
     /// the narrow passages, and the junctions it turns in or crosses when
     /// the plan was made with the route network ([`Plan::through`]).
     pub holds: Vec<Hold>,
+    /// The map's glass (each pane's ends, world frame): what the sensors
+    /// do not hear, handed to the Navigator with the goals near it.
+    pub glass: Vec<(Point, Point)>,
 }
+
+/// How far from a goal's leg glass is handed over with the goal, mm: the
+/// sonars' useful reach in a turning space and beyond a corridor's walls.
+pub const GLASS_REACH_MM: f64 = 4_000.0;
 
 /// How often each mode occurs: the L / C / D columns of Tables 6.1–6.2.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -391,12 +429,19 @@ impl Plan {
                 last: p.last,
             })
             .collect();
+        let glass = world
+            .segments
+            .iter()
+            .filter(|s| s.kind == rome_maps::model::EdgeKind::Glass)
+            .map(|s| (s.a, s.b))
+            .collect();
         Plan {
             route,
             steps,
             start_heading_deg,
             passages,
             holds,
+            glass,
         }
     }
 

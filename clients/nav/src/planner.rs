@@ -116,6 +116,8 @@ pub async fn run(
         .await?;
     let mut out = Vec::with_capacity(plan.steps.len());
     let mut overshoot = 0i64;
+    // Whether `Glass` holds panes from an earlier goal.
+    let mut glass_left = true;
     let chains = chains(&plan.holds);
     let mut traffic = TrafficState::default();
     board.set(Var::Traffic, &traffic).await?;
@@ -155,6 +157,15 @@ pub async fn run(
             }
             GoalType::C => {}
             GoalType::V => board.set(Var::Ride, &step.ride).await?,
+        }
+        if matches!(step.goal.goal_type, GoalType::E | GoalType::C | GoalType::D) {
+            // Written only near glass, and once after to clear it: a map
+            // without glass costs no request.
+            let glass = step.glass_mm(&plan.glass);
+            if !glass.is_empty() || glass_left {
+                board.set(Var::Glass, &glass).await?;
+                glass_left = !glass.is_empty();
+            }
         }
         let stretch = matches!(step.goal.goal_type, GoalType::D | GoalType::E)
             && step.goal.distance >= crate::plan::MAP_STRETCH_MM;

@@ -1,7 +1,7 @@
 //! Where the robot is by odometry, and how far and how fast it has
 //! driven: the bookkeeping behind every pose the Navigator steers by.
 
-use super::{NavError, Navigator, Pose};
+use super::{Drive, NavError, Navigator, Pose};
 use rome_schema::robot::Scan;
 
 impl Navigator {
@@ -29,5 +29,14 @@ impl Navigator {
         }
         self.odometer_at = Some(pose);
         pose
+    }
+
+    /// The speed the last drive asked for, mm/s.
+    pub(super) fn robot_speed(&self) -> f64 {
+        match self.last {
+            Some(Drive::Go(v)) => v,
+            Some(Drive::Jog(_)) => self.cfg.cruise_mm_s,
+            _ => 0.0,
+        }
     }
 }

@@ -152,3 +152,38 @@ fn rooms_with_no_corridor_between_them_are_unreachable() {
         "{err}"
     );
 }
+
+#[test]
+fn the_glass_door_goes_with_the_goals_near_it_across_the_way_ahead() {
+    // Table 6.1's route into the glass door by the ACS laboratory: east
+    // along corridor A to its end, then south.
+    let (world, net) = eb3();
+    let plan = Plan::new(&world, &net, "345R", "311.doubleL").expect("plan");
+    assert_eq!(plan.glass.len(), 1, "EB3 has one glass door");
+    let handed: Vec<Vec<[i64; 4]>> = plan.steps.iter().map(|s| s.glass_mm(&plan.glass)).collect();
+    assert!(
+        handed[0].is_empty(),
+        "the first goal is far from it: {handed:?}"
+    );
+    let e = plan
+        .steps
+        .iter()
+        .position(|s| s.goal.goal_type == GoalType::E)
+        .expect("a corner");
+    let [a_along, a_left, b_along, b_left] = *handed[e].first().expect("the corner's glass");
+    // Straight ahead of the turning space's middle, where the map has the
+    // end wall, and across the whole 3.66 m corridor.
+    let end = plan.steps[e].end_wall_mm.expect("an end wall") as i64;
+    assert!(
+        (a_along - end).abs() <= 1 && (b_along - end).abs() <= 1,
+        "{handed:?}"
+    );
+    assert_eq!(
+        (a_left.min(b_left), a_left.max(b_left)),
+        (-1_830, 1_830),
+        "{handed:?}"
+    );
+    // The corner's C goal sets off beside it, so has it too.
+    assert_eq!(plan.steps[e + 1].goal.goal_type, GoalType::C);
+    assert_eq!(handed[e + 1].len(), 1);
+}

@@ -27,6 +27,7 @@ const READS: &[(Var, Option<Sem>)] = &[
     (Var::EndWall, None),
     (Var::GoalLane, None),
     (Var::GoalWalls, None),
+    (Var::Glass, None),
     (Var::Overshoot, None),
     (Var::CountedAt, None),
     (Var::TrackLog, None),
