@@ -250,8 +250,6 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
     Ok(0)
 }
 
-/// The read-only front of the REST plugin: reads pass through, writes
-/// are refused with a reason.
 /// Declares and starts the plugins the configuration has (a plugin
 /// declared without configuration fails to start); returns what the
 /// banner says of ROS 2.
@@ -292,6 +290,8 @@ fn start_plugins(
     Ok(ros2)
 }
 
+/// The read-only front of the REST plugin: reads pass through, writes
+/// are refused with a reason.
 mod read_only {
     use axum::body::Body;
     use axum::http::{header, Method, Request, Response, StatusCode};

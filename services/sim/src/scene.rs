@@ -584,19 +584,9 @@ pub fn nearest_of(
     best
 }
 
-/// Where the ray from + t·d meets the segment a + u·dir (0 ≤ u ≤ len):
-/// (t, u) with t > 0.
-pub fn hit(from: Point, d: Vector, a: Point, dir: Vector, len: f64) -> Option<(f64, f64)> {
-    // Solve from + t·d = a + u·dir with 2-D cross products.
-    let det = dir.perp(&d);
-    if det.abs() < 1e-12 {
-        return None;
-    }
-    let r = a - from;
-    let t = dir.perp(&r) / det;
-    let u = d.perp(&r) / det;
-    (t > 1e-6 && (-1e-6..=len + 1e-6).contains(&u)).then_some((t, u))
-}
+/// Where a ray meets a segment (shared with the Navigator, which hears
+/// the map's glass with it).
+pub use rome_maps::geometry::hit;
 
 fn inside(q: &[Point; 4], p: Point) -> bool {
     let mut sign = 0.0;

@@ -19,7 +19,7 @@
 //! A reading nearer than the glass (a robot, a person) is kept.
 
 use super::{Goal, GoalType, Navigator, Pose, Var};
-use rome_maps::geometry::{direction, Point, Vector};
+use rome_maps::geometry::{direction, hit, Point, Vector};
 use rome_schema::robot::body::{
     ir_bearing_deg, sonar_bearing_deg, IR_RANGE_MM, IR_SENSORS, ROBOT_RADIUS_MM,
     SONAR_HALF_BEAM_DEG, SONAR_MAX_INCIDENCE_DEG, SONAR_MIN_MM,
@@ -87,16 +87,9 @@ impl Pane {
         (0.0..=self.len).contains(&u).then_some(range)
     }
 
-    /// Where a ray from `s` along `r` meets the pane, if ahead.
+    /// How far along `r` a ray from `s` meets the pane, if ahead.
     fn hit(&self, s: Point, r: Vector) -> Option<f64> {
-        let det = r.perp(&self.dir);
-        if det.abs() < 1e-9 {
-            return None;
-        }
-        let d = self.a - s;
-        let t = d.perp(&self.dir) / det;
-        let u = d.perp(&r) / det;
-        (t > 0.0 && (0.0..=self.len).contains(&u)).then_some(t)
+        hit(s, r, self.a, self.dir, self.len).map(|(t, _)| t)
     }
 }
 
