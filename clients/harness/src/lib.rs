@@ -127,6 +127,10 @@ pub struct RunConfig {
     /// A robot held up with a task asks the nearest idle robot in its way to
     /// make way (`rome_nav::fleet::way`). Off by default, as there.
     pub make_way: bool,
+    /// A robot between tasks drives on to stand apart from another
+    /// waiting near it (`rome_nav::fleet::duty::DutyConfig::stand_apart`).
+    /// On by default, as there.
+    pub stand_apart: bool,
     /// The narrow corridors that lie on loops are driven one way only,
     /// and routes keep to their way (`rome_nav::traffic::oneway`).
     pub one_way: bool,
@@ -190,6 +194,7 @@ impl RunConfig {
             lanes: false,
             leave_open: false,
             make_way: false,
+            stand_apart: true,
             one_way: false,
             net: NetOptions::isolated(),
             trace: None,

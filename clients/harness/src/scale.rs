@@ -38,6 +38,8 @@ pub struct ScaleConfig {
     pub leave_open: bool,
     /// Robots held up ask idle robots in their way to make way.
     pub make_way: bool,
+    /// Robots between tasks drive on to stand apart from others waiting.
+    pub stand_apart: bool,
     /// Drive the narrow corridors of loops one way only.
     pub one_way: bool,
     /// Drive no faster than lets a robot stop for what is ahead
@@ -172,6 +174,7 @@ pub async fn sweep(
         run.lanes = cfg.lanes;
         run.leave_open = cfg.leave_open;
         run.make_way = cfg.make_way;
+        run.stand_apart = cfg.stand_apart;
         run.one_way = cfg.one_way;
         run.trace = cfg.traces.as_ref().map(|d| d.join(format!("{n}.trace")));
         // The plate finder reads camera images that no task needs.

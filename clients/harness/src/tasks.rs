@@ -147,6 +147,9 @@ pub enum Said {
     /// Asked by this robot to make way, it drove on to a position (`Ok`),
     /// or did not: why.
     MadeWay(String, Result<String, String>),
+    /// Its step aside failed beside a robot waiting there: it drove on
+    /// to this position to stand apart, or did not: why.
+    Apart(Result<String, String>),
 }
 
 impl std::fmt::Display for Said {
@@ -168,6 +171,8 @@ impl std::fmt::Display for Said {
             Said::Trouble(why) => write!(f, "{why}"),
             Said::MadeWay(by, Ok(at)) => write!(f, "made way for {by}: drove on to {at}"),
             Said::MadeWay(by, Err(why)) => write!(f, "did not make way for {by}: {why}"),
+            Said::Apart(Ok(at)) => write!(f, "waited beside another: drove on to {at}"),
+            Said::Apart(Err(why)) => write!(f, "did not drive on from beside another: {why}"),
         }
     }
 }
@@ -258,6 +263,7 @@ async fn run_all(
         duty.lanes = run.lanes;
         duty.leave_open = run.leave_open;
         duty.make_way = run.make_way;
+        duty.stand_apart = run.stand_apart;
         duty.stuck = run.stuck;
         duty.slowest_mm_s = run.slowest_mm_s;
         if cfg.stay.contains(&r.robot) {
@@ -304,6 +310,9 @@ async fn run_all(
                         DutyNote::MadeWay(by, made) => say(Said::MadeWay(
                             by.to_string(),
                             made.map(str::to_string).map_err(str::to_string),
+                        )),
+                        DutyNote::Apart(moved) => say(Said::Apart(
+                            moved.map(str::to_string).map_err(str::to_string),
                         )),
                     })
                     .await;

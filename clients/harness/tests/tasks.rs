@@ -213,6 +213,38 @@ async fn a_robot_between_tasks_steps_aside_and_another_passes_it_in_a_narrow_cor
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_robot_whose_task_ends_beside_one_waiting_drives_on_to_stand_apart() {
+    // r2 waits at A336L from the start, stepped aside in corridor N. r1
+    // comes down N to A336R, the other jamb of the same door, 0.9 m on:
+    // the two waiting there would leave no way between them. r3 comes the
+    // long way round to A342R, down N past that door, and keeps the run
+    // going until r1 has waited.
+    let mut said = Vec::new();
+    let r = run_said(
+        &[("r1", "A326L"), ("r2", "A336L"), ("r3", "309R")],
+        pinned(&[("T1", "A336R", "r1"), ("T3", "A342R", "r3")]),
+        None,
+        |_| {},
+        &mut said,
+    )
+    .await;
+    all_done(&r, &["T1", "T3"]);
+    untouched(&r);
+    let apart: Vec<_> = (said.iter())
+        .filter(|(robot, s)| robot == "r1" && matches!(s, Said::Apart(Ok(_))))
+        .collect();
+    assert!(!apart.is_empty(), "r1 never drove on: {said:?}");
+    // By ground truth the two stand apart at the end.
+    let ((x1, y1), (x2, y2)) = (r.at_end["r1"], r.at_end["r2"]);
+    let apart_mm = (x1 - x2).hypot(y1 - y2);
+    assert!(
+        apart_mm >= rome_nav::fleet::way::WAY_APART_MM,
+        "r1 and r2 end {:.2} m apart",
+        apart_mm / 1000.0
+    );
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_robot_held_up_by_one_standing_idle_asks_it_to_make_way() {
     // As in the test above, r1 drives down corridor N to A336L and has no
     // other task, and r2 comes the long way round to A342R, past that

@@ -153,6 +153,12 @@ pub struct DutyConfig {
     /// and `leave_open`) it did better in two and no worse in four, but
     /// a hundred robots on the Campus touched more with it (docs/tasks.md).
     pub make_way: bool,
+    /// A robot between tasks whose step aside failed, with another
+    /// waiting within [`super::way::WAY_APART_MM`], drives on along the
+    /// corridor to the nearest position clear of robots waiting and steps
+    /// aside there ([`super::way`]): two waiting side by side across a
+    /// corridor close it.
+    pub stand_apart: bool,
 }
 
 impl DutyConfig {
@@ -169,6 +175,7 @@ impl DutyConfig {
             aside_after: Some(Duration::from_secs(5)),
             leave_open: false,
             make_way: false,
+            stand_apart: true,
         }
     }
 }
@@ -201,6 +208,9 @@ pub enum DutyNote<'a> {
     /// Asked by this robot to make way, it drove on to a position (`Ok`),
     /// or did not: why.
     MadeWay(&'a str, Result<&'a str, &'a str>),
+    /// Its step aside failed beside a robot waiting there; it drove on to
+    /// this position to stand apart (`Ok`), or stopped short: why.
+    Apart(Result<&'a str, &'a str>),
 }
 
 /// A robot that takes tasks: its blackboard, base, the map, and where it
@@ -292,6 +302,9 @@ impl OnDuty<'_> {
         let mut aside_again: Option<(Duration, u32)> = None;
         // The last ask to make way answered, by asker.
         let mut answered = std::collections::BTreeMap::new();
+        // Whether it drove on to stand apart since its last task: once is
+        // enough, wherever that left it.
+        let mut apart_tried = false;
         loop {
             if let Some((rest, tried)) = trouble.out.as_mut() {
                 aside_at = None;
@@ -346,6 +359,44 @@ impl OnDuty<'_> {
                     let (wait, failed) = aside_again.unwrap_or((after, 0));
                     let given = ds.wait_timeout(&task_sem(self.name), wait).await?;
                     if !given {
+                        // Within reach of a robot waiting there, both
+                        // waiting would close the corridor between them,
+                        // whichever wall each stood by: it drives on to
+                        // stand apart first, and steps aside there.
+                        if cfg.stand_apart && !apart_tried && failed == 0 {
+                            let from = (duty.at.clone(), duty.at_mm.map(|[x, y]| Point::new(x, y)));
+                            let here = stands_at(self.world, &duty);
+                            let to = match here {
+                                Some(here) => self.apart_to(here, direction).await?,
+                                None => None,
+                            };
+                            if let Some(to) = to {
+                                duty.state = DutyState::Busy;
+                                duty.task = Some(super::way::STANDING_APART.to_string());
+                                self.report(&duty).await?;
+                                let state = (&mut registered, &mut facing, &mut last_leg);
+                                let moved =
+                                    self.stand_apart(cfg, (&from, to), state, &mut note).await;
+                                apart_tried = true;
+                                match (&moved, self.robot.pose().await) {
+                                    (Ok(at), _) => idle_at(&mut duty, at.clone()),
+                                    // Stopped short: it steps aside where
+                                    // it stands.
+                                    (Err(_), Ok(p)) => {
+                                        let (x, y) = (f64::from(p.x_mm), f64::from(p.y_mm));
+                                        stands_off(&mut duty, x, y);
+                                        let (here, h) = (Point::new(x, y), p.heading_deg);
+                                        last_leg = leg_at(self.world, self.network, here, h, h);
+                                    }
+                                    (Err(_), Err(_)) => {}
+                                }
+                                duty.state = DutyState::Idle;
+                                duty.task = None;
+                                note(DutyNote::Apart(moved.as_deref().map_err(String::as_str)));
+                                self.report(&duty).await?;
+                                continue;
+                            }
+                        }
                         let leg = (direction, walls);
                         // Left on the corridor's middle, where someone
                         // stood beside it or in the step's way (most often
@@ -439,6 +490,7 @@ impl OnDuty<'_> {
             duty.state = DutyState::Busy;
             duty.task = Some(a.task.clone());
             aside_again = None;
+            apart_tried = false;
             self.report(&duty).await?;
             let from = (duty.at.clone(), duty.at_mm.map(|[x, y]| Point::new(x, y)));
             let (outcome, at) = self

@@ -72,28 +72,31 @@ pub fn way_heading(route: &Route, at: Point) -> Option<f64> {
 /// robot held up at `asker` going `heading_deg` to `goal`: one at least
 /// [`WAY_ON_MM`] further on that way than `here`, whose route from `here`
 /// comes no nearer the asker than [`WAY_CLEAR_MM`] (or than `here` is),
-/// not beside the asker's goal or a robot `waiting` there; the nearest by
-/// route, ties by name.
+/// not within `apart_mm` of the asker's goal or a robot `waiting`; the
+/// nearest by route, ties by name. With `doors_only`, door jambs only: a
+/// ring's node may stand in a turning space, where no wall is beside it to
+/// wait by.
 /// `None`: no such position within 30 m.
 pub fn way_to(
     world: &World,
     network: &Network,
     here: Point,
     (asker, heading_deg, goal): (Point, f64, Point),
-    waiting: &[Point],
+    (waiting, apart_mm, doors_only): (&[Point], f64, bool),
 ) -> Option<String> {
     let on = direction(heading_deg);
     let keep = distance(here, asker).min(WAY_CLEAR_MM) - 50.0;
     world
         .positions
         .iter()
+        .filter(|(_, p)| p.door || !doors_only)
         .filter_map(|(name, p)| {
             let q = p.in_corridor();
             let off = q - here;
             if off.norm() > WAY_NEAR_MM || off.dot(&on) < WAY_ON_MM {
                 return None;
             }
-            if (waiting.iter().chain([&goal])).any(|w| distance(*w, q) < WAY_APART_MM) {
+            if (waiting.iter().chain([&goal])).any(|w| distance(*w, q) < apart_mm) {
                 return None;
             }
             let route = world.route_from(network, ("here", here), &[], name).ok()?;
@@ -258,14 +261,35 @@ impl OnDuty<'_> {
         let asker = Point::new(ask.at_mm[0], ask.at_mm[1]);
         let goal = Point::new(ask.to_mm[0], ask.to_mm[1]);
         let toward = (asker, ask.heading_deg, goal);
-        let Some(to) = way_to(self.world, self.network, here, toward, &waiting) else {
+        let Some(to) = way_to(
+            self.world,
+            self.network,
+            here,
+            toward,
+            (&waiting, WAY_APART_MM, false),
+        ) else {
             return Err(format!(
                 "no position {:.0} m or more on the way {by} goes",
                 WAY_ON_MM / 1000.0
             ));
         };
+        (self.drive_on(cfg, (making_way_for(by), to), (from, aside), state, note)).await
+    }
+
+    /// Drives from `from` (stood aside at `aside`) to the position `to`
+    /// under the name `task`, as a drive of its own that nobody cancels
+    /// and that asks nobody to make way: the position it arrived at, or
+    /// why not. Only the Planner's notes are passed on.
+    async fn drive_on(
+        &self,
+        cfg: &DutyConfig,
+        (task, to): (String, String),
+        (from, aside): (&(String, Option<Point>), Option<Aside>),
+        state: (&mut bool, &mut Option<f64>, &mut Option<LastLeg>),
+        note: &mut impl FnMut(DutyNote<'_>),
+    ) -> Result<String, String> {
         let a = Assignment {
-            task: making_way_for(by),
+            task,
             to,
             via: Vec::new(),
         };
@@ -278,6 +302,55 @@ impl OnDuty<'_> {
             .carry_out(cfg, (from, aside), &a, false, state, &mut planner_only)
             .await;
         at.ok_or_else(|| outcome.why.unwrap_or_else(|| "no reason given".to_string()))
+    }
+}
+
+/// How far from every robot waiting a robot that drives on to stand apart
+/// stops, mm: one passing between two waiting by opposite walls needs
+/// room to cross the corridor between them.
+pub const APART_MM: f64 = 5_000.0;
+
+/// What a robot driving on to stand apart says its task is, on its
+/// `nav/<robot>/Duty` and as its drive's name.
+pub const STANDING_APART: &str = "stand apart";
+
+impl OnDuty<'_> {
+    /// Where a robot between tasks that stands at `here`, within
+    /// [`WAY_APART_MM`] of another robot waiting, and whose step aside
+    /// along `direction_deg` failed, drives on to: the nearest position
+    /// at least [`WAY_ON_MM`] on that way and [`APART_MM`] from every
+    /// robot waiting ([`way_to`]). `None`: no robot waits near it, or no such
+    /// position is within reach; it stays and tries its step again.
+    pub(super) async fn apart_to(
+        &self,
+        here: Point,
+        direction_deg: f64,
+    ) -> Result<Option<String>, NavError> {
+        let waiting = self.waiting().await?;
+        if !waiting.iter().any(|w| distance(*w, here) < WAY_APART_MM) {
+            return Ok(None);
+        }
+        let ahead = (here, direction_deg, here);
+        Ok(way_to(
+            self.world,
+            self.network,
+            here,
+            ahead,
+            (&waiting, APART_MM, true),
+        ))
+    }
+
+    /// Drives from `from` to `to` ([`Self::apart_to`]) to stand apart:
+    /// the position it arrived at, or why not.
+    pub(super) async fn stand_apart(
+        &self,
+        cfg: &DutyConfig,
+        (from, to): (&(String, Option<Point>), String),
+        state: (&mut bool, &mut Option<f64>, &mut Option<LastLeg>),
+        note: &mut impl FnMut(DutyNote<'_>),
+    ) -> Result<String, String> {
+        let task = (STANDING_APART.to_string(), to);
+        self.drive_on(cfg, task, (from, None), state, note).await
     }
 }
 
@@ -296,7 +369,14 @@ mod tests {
         let here = at("A336L");
         let asker = here + direction(0.0) * 1_500.0;
         let goal = at("A342R");
-        let to = way_to(&world, &network, here, (asker, 180.0, goal), &[]).expect("a position");
+        let to = way_to(
+            &world,
+            &network,
+            here,
+            (asker, 180.0, goal),
+            (&[], WAY_APART_MM, false),
+        )
+        .expect("a position");
         let q = at(&to);
         assert!(
             (q - here).dot(&direction(180.0)) >= WAY_ON_MM,
@@ -309,11 +389,55 @@ mod tests {
         // Going north instead, it makes way north, never back past the
         // asker south of it.
         let asker = here + direction(180.0) * 1_500.0;
-        let to = way_to(&world, &network, here, (asker, 0.0, goal), &[]).expect("a position");
+        let to = way_to(
+            &world,
+            &network,
+            here,
+            (asker, 0.0, goal),
+            (&[], WAY_APART_MM, false),
+        )
+        .expect("a position");
         assert!((at(&to) - here).dot(&direction(0.0)) >= WAY_ON_MM, "{to}");
         // With a robot standing at that place, it goes elsewhere.
-        let other = way_to(&world, &network, here, (asker, 0.0, goal), &[at(&to)]);
+        let other = way_to(
+            &world,
+            &network,
+            here,
+            (asker, 0.0, goal),
+            (&[at(&to)], WAY_APART_MM, false),
+        );
         assert_ne!(other.as_deref(), Some(to.as_str()));
+    }
+
+    #[test]
+    fn a_robot_standing_apart_drives_to_a_door_well_clear_of_every_robot_waiting() {
+        let (world, network) = eb3();
+        let at = |name: &str| world.position(name).expect("named").in_corridor();
+        // r1 ended at A336R going south, beside r2 waiting at A336L; r3
+        // waits 4 m further south.
+        let here = at("A336R");
+        let waiting = [at("A336L"), here + direction(180.0) * 4_000.0];
+        let ahead = (here, 180.0, here);
+        let to =
+            way_to(&world, &network, here, ahead, (&waiting, APART_MM, true)).expect("a position");
+        let p = world.position(&to).expect("named");
+        assert!(p.door, "{to} is a ring's node, not a door");
+        let q = p.in_corridor();
+        assert!((q - here).dot(&direction(180.0)) >= WAY_ON_MM, "{to}");
+        for w in waiting {
+            assert!(distance(q, w) >= APART_MM, "{to} is near one waiting");
+        }
+        // With the reach of making way instead, the place beside the
+        // robot further south would do.
+        let near = way_to(
+            &world,
+            &network,
+            here,
+            ahead,
+            (&waiting, WAY_APART_MM, true),
+        )
+        .expect("a position");
+        assert!(distance(at(&near), waiting[1]) < APART_MM, "{near}");
     }
 
     #[test]

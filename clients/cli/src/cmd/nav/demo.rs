@@ -237,6 +237,10 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
         super::traffic::LEAVE_WITHOUT_TASKS
     );
     anyhow::ensure!(!args.rules.make_way, super::traffic::MAKE_WAY_WITHOUT_TASKS);
+    anyhow::ensure!(
+        !args.rules.wait_side_by_side,
+        super::traffic::SIDE_BY_SIDE_WITHOUT_TASKS
+    );
     let map = rome_maps::load_named(&args.map)?;
     let limit = rome_common::minutes("--limit-min", args.limit_min)?;
     let mut routes = routes(&args, &map)?;

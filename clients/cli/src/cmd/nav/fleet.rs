@@ -306,6 +306,8 @@ pub struct Duty {
     pub leave_open: bool,
     /// Ask idle robots in the way to make way, and make way when asked.
     pub make_way: bool,
+    /// Drive on to stand apart from robots waiting near where a task ended.
+    pub stand_apart: bool,
 }
 
 /// `rome planner --tasks`: takes tasks until interrupted.
@@ -333,6 +335,7 @@ pub async fn take_tasks(common: &CommonArgs, d: Duty) -> anyhow::Result<u8> {
     cfg.lanes = d.lanes;
     cfg.leave_open = d.leave_open;
     cfg.make_way = d.make_way;
+    cfg.stand_apart = d.stand_apart;
     println!("{} takes tasks at {}", d.name, d.at);
     on.serve(&cfg, |n| match n {
         DutyNote::Took(a, plan) => println!(
@@ -372,6 +375,10 @@ pub async fn take_tasks(common: &CommonArgs, d: Duty) -> anyhow::Result<u8> {
         DutyNote::MadeWay(by, Ok(at)) => println!("made way for {by}: drove on to {at}"),
         DutyNote::MadeWay(by, Err(why)) => {
             eprintln!("rome planner: did not make way for {by}: {why}")
+        }
+        DutyNote::Apart(Ok(at)) => println!("waited beside another: drove on to {at}"),
+        DutyNote::Apart(Err(why)) => {
+            eprintln!("rome planner: did not drive on from beside another: {why}")
         }
     })
     .await?;

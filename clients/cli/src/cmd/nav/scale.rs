@@ -98,6 +98,7 @@ pub async fn run(args: Args) -> anyhow::Result<u8> {
         lanes: args.rules.lanes,
         leave_open: args.rules.leave_junctions,
         make_way: args.rules.make_way,
+        stand_apart: !args.rules.wait_side_by_side,
         one_way: args.rules.one_way,
         brake_ahead: args.brake_ahead,
         hear_glass: !args.deaf_to_glass,
@@ -136,7 +137,11 @@ pub async fn run(args: Args) -> anyhow::Result<u8> {
         }
         ScaleEvent::Run(TaskEvent::Robot(
             robot,
-            said @ (Said::NotArrived(..) | Said::Trouble(_) | Said::Rests(_) | Said::Back(_)),
+            said @ (Said::NotArrived(..)
+            | Said::Trouble(_)
+            | Said::Rests(_)
+            | Said::Back(_)
+            | Said::Apart(_)),
         )) => {
             eprintln!("{robot}: {said}");
         }

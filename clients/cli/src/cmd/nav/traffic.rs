@@ -30,11 +30,21 @@ pub struct TrafficArgs {
     /// fleets, worse in the Campus's: docs/tasks.md).
     #[arg(long)]
     pub make_way: bool,
+    /// With tasks: a robot between tasks waits where its task ended even
+    /// within 1.5 m of another waiting robot, as it did before; without
+    /// it, it drives on to stand apart first (docs/tasks.md, "Waiting
+    /// apart").
+    #[arg(long)]
+    pub wait_side_by_side: bool,
 }
 
 /// Why `--make-way` is refused where no robot takes tasks.
 pub const MAKE_WAY_WITHOUT_TASKS: &str = "--make-way says what a robot does between tasks, \
      so it goes with tasks (rome planner --tasks, rome fleet)";
+
+/// Why `--wait-side-by-side` is refused where no robot takes tasks.
+pub const SIDE_BY_SIDE_WITHOUT_TASKS: &str = "--wait-side-by-side says where a robot waits \
+     between tasks, so it goes with tasks (rome planner --tasks, rome fleet)";
 
 /// Why `--leave-junctions` is refused where no robot takes tasks: it
 /// says where a robot stands between tasks, and a route has none.
