@@ -369,14 +369,11 @@ mod tests {
         let here = at("A336L");
         let asker = here + direction(0.0) * 1_500.0;
         let goal = at("A342R");
-        let to = way_to(
-            &world,
-            &network,
-            here,
-            (asker, 180.0, goal),
-            (&[], WAY_APART_MM, false),
-        )
-        .expect("a position");
+        let way = |asker: Point, heading: f64, waiting: &[Point]| {
+            let waiting = (waiting, WAY_APART_MM, false);
+            way_to(&world, &network, here, (asker, heading, goal), waiting)
+        };
+        let to = way(asker, 180.0, &[]).expect("a position");
         let q = at(&to);
         assert!(
             (q - here).dot(&direction(180.0)) >= WAY_ON_MM,
@@ -389,23 +386,10 @@ mod tests {
         // Going north instead, it makes way north, never back past the
         // asker south of it.
         let asker = here + direction(180.0) * 1_500.0;
-        let to = way_to(
-            &world,
-            &network,
-            here,
-            (asker, 0.0, goal),
-            (&[], WAY_APART_MM, false),
-        )
-        .expect("a position");
+        let to = way(asker, 0.0, &[]).expect("a position");
         assert!((at(&to) - here).dot(&direction(0.0)) >= WAY_ON_MM, "{to}");
         // With a robot standing at that place, it goes elsewhere.
-        let other = way_to(
-            &world,
-            &network,
-            here,
-            (asker, 0.0, goal),
-            (&[at(&to)], WAY_APART_MM, false),
-        );
+        let other = way(asker, 0.0, &[at(&to)]);
         assert_ne!(other.as_deref(), Some(to.as_str()));
     }
 
