@@ -68,42 +68,71 @@ pub fn way_heading(route: &Route, at: Point) -> Option<f64> {
         .map(|l| l.3)
 }
 
+/// What a position a robot drives on to ([`way_to`]) keeps clear of, and
+/// how far it may lie.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Reach {
+    /// How near a robot waiting, or the asker's goal, it may be, mm.
+    pub apart_mm: f64,
+    /// Door jambs only: a ring's node may stand in a turning space, where
+    /// no wall is beside it to wait by.
+    pub doors_only: bool,
+    /// The longest route to it, mm.
+    pub route_mm: f64,
+}
+
+/// Making way: clear of the asker's goal and of robots waiting by a
+/// body and more, anywhere within 30 m.
+pub const MAKING_WAY: Reach = Reach {
+    apart_mm: WAY_APART_MM,
+    doors_only: false,
+    route_mm: f64::INFINITY,
+};
+
+/// Standing apart: [`APART_MM`] from every robot waiting, at a door, no
+/// more than [`APART_ROUTE_MM`] away. A longer drive, through a fleet
+/// this dense, meets more robots than the wait would have held up.
+pub const APART: Reach = Reach {
+    apart_mm: APART_MM,
+    doors_only: true,
+    route_mm: APART_ROUTE_MM,
+};
+
 /// The position a robot standing at `here` drives to, to make way for a
 /// robot held up at `asker` going `heading_deg` to `goal`: one at least
 /// [`WAY_ON_MM`] further on that way than `here`, whose route from `here`
 /// comes no nearer the asker than [`WAY_CLEAR_MM`] (or than `here` is),
-/// not within `apart_mm` of the asker's goal or a robot `waiting`; the
-/// nearest by route, ties by name. With `doors_only`, door jambs only: a
-/// ring's node may stand in a turning space, where no wall is beside it to
-/// wait by.
-/// `None`: no such position within 30 m.
+/// as far as `reach` says from the asker's goal and every robot
+/// `waiting`; the nearest by route, ties by name.
+/// `None`: no such position within 30 m, or within `reach`'s route.
 pub fn way_to(
     world: &World,
     network: &Network,
     here: Point,
     (asker, heading_deg, goal): (Point, f64, Point),
-    (waiting, apart_mm, doors_only): (&[Point], f64, bool),
+    (waiting, reach): (&[Point], &Reach),
 ) -> Option<String> {
     let on = direction(heading_deg);
     let keep = distance(here, asker).min(WAY_CLEAR_MM) - 50.0;
     world
         .positions
         .iter()
-        .filter(|(_, p)| p.door || !doors_only)
+        .filter(|(_, p)| p.door || !reach.doors_only)
         .filter_map(|(name, p)| {
             let q = p.in_corridor();
             let off = q - here;
             if off.norm() > WAY_NEAR_MM || off.dot(&on) < WAY_ON_MM {
                 return None;
             }
-            if (waiting.iter().chain([&goal])).any(|w| distance(*w, q) < apart_mm) {
+            if (waiting.iter().chain([&goal])).any(|w| distance(*w, q) < reach.apart_mm) {
                 return None;
             }
             let route = world.route_from(network, ("here", here), &[], name).ok()?;
             let near = (route.legs().into_iter())
                 .map(|(a, b, _, _)| distance_to_segment(asker, a, b))
                 .fold(f64::INFINITY, f64::min);
-            (near >= keep).then(|| (route.length_mm, name.clone()))
+            let within = route.length_mm <= reach.route_mm;
+            (near >= keep && within).then(|| (route.length_mm, name.clone()))
         })
         .min_by(|a, b| a.0.total_cmp(&b.0).then_with(|| a.1.cmp(&b.1)))
         .map(|(_, name)| name)
@@ -266,7 +295,7 @@ impl OnDuty<'_> {
             self.network,
             here,
             toward,
-            (&waiting, WAY_APART_MM, false),
+            (&waiting, &MAKING_WAY),
         ) else {
             return Err(format!(
                 "no position {:.0} m or more on the way {by} goes",
@@ -310,16 +339,19 @@ impl OnDuty<'_> {
 /// room to cross the corridor between them.
 pub const APART_MM: f64 = 5_000.0;
 
+/// The longest drive to stand apart, mm.
+pub const APART_ROUTE_MM: f64 = 10_000.0;
+
 /// What a robot driving on to stand apart says its task is, on its
 /// `nav/<robot>/Duty` and as its drive's name.
-pub const STANDING_APART: &str = "stand apart";
+pub const STAND_APART_TASK: &str = "stand apart";
 
 impl OnDuty<'_> {
     /// Where a robot between tasks that stands at `here`, within
     /// [`WAY_APART_MM`] of another robot waiting, and whose step aside
     /// along `direction_deg` failed, drives on to: the nearest position
-    /// at least [`WAY_ON_MM`] on that way and [`APART_MM`] from every
-    /// robot waiting ([`way_to`]). `None`: no robot waits near it, or no such
+    /// at least [`WAY_ON_MM`] on that way, and as far as [`APART`] says
+    /// from every robot waiting ([`way_to`]). `None`: no robot waits near it, or no such
     /// position is within reach; it stays and tries its step again.
     pub(super) async fn apart_to(
         &self,
@@ -336,7 +368,7 @@ impl OnDuty<'_> {
             self.network,
             here,
             ahead,
-            (&waiting, APART_MM, true),
+            (&waiting, &APART),
         ))
     }
 
@@ -349,7 +381,7 @@ impl OnDuty<'_> {
         state: (&mut bool, &mut Option<f64>, &mut Option<LastLeg>),
         note: &mut impl FnMut(DutyNote<'_>),
     ) -> Result<String, String> {
-        let task = (STANDING_APART.to_string(), to);
+        let task = (STAND_APART_TASK.to_string(), to);
         self.drive_on(cfg, task, (from, None), state, note).await
     }
 }
@@ -370,7 +402,7 @@ mod tests {
         let asker = here + direction(0.0) * 1_500.0;
         let goal = at("A342R");
         let way = |asker: Point, heading: f64, waiting: &[Point]| {
-            let waiting = (waiting, WAY_APART_MM, false);
+            let waiting = (waiting, &MAKING_WAY);
             way_to(&world, &network, here, (asker, heading, goal), waiting)
         };
         let to = way(asker, 180.0, &[]).expect("a position");
@@ -402,8 +434,7 @@ mod tests {
         let here = at("A336R");
         let waiting = [at("A336L"), here + direction(180.0) * 4_000.0];
         let ahead = (here, 180.0, here);
-        let to =
-            way_to(&world, &network, here, ahead, (&waiting, APART_MM, true)).expect("a position");
+        let to = way_to(&world, &network, here, ahead, (&waiting, &APART)).expect("a position");
         let p = world.position(&to).expect("named");
         assert!(p.door, "{to} is a ring's node, not a door");
         let q = p.in_corridor();
@@ -411,17 +442,24 @@ mod tests {
         for w in waiting {
             assert!(distance(q, w) >= APART_MM, "{to} is near one waiting");
         }
-        // With the reach of making way instead, the place beside the
-        // robot further south would do.
-        let near = way_to(
-            &world,
-            &network,
-            here,
-            ahead,
-            (&waiting, WAY_APART_MM, true),
-        )
-        .expect("a position");
+        let route = world.route_from(&network, ("here", here), &[], &to);
+        let length = route.expect("a route").length_mm;
+        assert!(length <= APART_ROUTE_MM, "{to} is {length:.0} mm away");
+        // Kept only a body and more from robots waiting, the place beside
+        // the robot further south would do.
+        let body = Reach {
+            apart_mm: WAY_APART_MM,
+            ..APART
+        };
+        let near = way_to(&world, &network, here, ahead, (&waiting, &body));
+        let near = near.expect("a position");
         assert!(distance(at(&near), waiting[1]) < APART_MM, "{near}");
+        // With robots waiting every 2 m for 14 m on, no door within its
+        // reach will do: it stays.
+        let row: Vec<_> = (0..8)
+            .map(|k| here + direction(180.0) * (2_000.0 * f64::from(k)))
+            .collect();
+        assert_eq!(way_to(&world, &network, here, ahead, (&row, &APART)), None);
     }
 
     #[test]
