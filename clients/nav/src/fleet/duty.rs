@@ -372,7 +372,7 @@ impl OnDuty<'_> {
                             };
                             if let Some(to) = to {
                                 duty.state = DutyState::Busy;
-                                duty.task = Some(super::way::STAND_APART_TASK.to_string());
+                                duty.task = Some(super::schema::STAND_APART_TASK.to_string());
                                 self.report(&duty).await?;
                                 let state = (&mut registered, &mut facing, &mut last_leg);
                                 let moved =

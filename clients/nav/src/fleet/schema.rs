@@ -200,6 +200,11 @@ pub fn making_way_for(by: &str) -> String {
     format!("make way for {by}")
 }
 
+/// What a robot driving on to stand apart from robots waiting
+/// ([`super::way`]) says its task is, on its `nav/<robot>/Duty` and as its
+/// drive's name.
+pub const STAND_APART_TASK: &str = "stand apart";
+
 /// A robot's state as its Planner reports it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]

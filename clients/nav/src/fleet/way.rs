@@ -17,6 +17,7 @@ use super::aside::LastLeg;
 use super::duty::{Aside, DutyConfig, DutyNote, OnDuty};
 use super::schema::{
     decode, making_way_for, task_sem, way_var, Assignment, Duty, DutyState, WayAsk,
+    STAND_APART_TASK,
 };
 use crate::NavError;
 use rome_maps::geometry::{direction, distance, distance_to_segment, Point};
@@ -341,10 +342,6 @@ pub const APART_MM: f64 = 5_000.0;
 
 /// The longest drive to stand apart, mm.
 pub const APART_ROUTE_MM: f64 = 10_000.0;
-
-/// What a robot driving on to stand apart says its task is, on its
-/// `nav/<robot>/Duty` and as its drive's name.
-pub const STAND_APART_TASK: &str = "stand apart";
 
 impl OnDuty<'_> {
     /// Where a robot between tasks that stands at `here`, within
