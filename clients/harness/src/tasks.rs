@@ -147,8 +147,8 @@ pub enum Said {
     /// Asked by this robot to make way, it drove on to a position (`Ok`),
     /// or did not: why.
     MadeWay(String, Result<String, String>),
-    /// Its step aside failed beside a robot waiting there: it drove on
-    /// to this position to stand apart, or did not: why.
+    /// Between tasks beside a robot waiting there, it drove on to this
+    /// position to stand apart, or did not: why.
     Apart(Result<String, String>),
 }
 

@@ -153,11 +153,10 @@ pub struct DutyConfig {
     /// and `leave_open`) it did better in two and no worse in four, but
     /// a hundred robots on the Campus touched more with it (docs/tasks.md).
     pub make_way: bool,
-    /// A robot between tasks whose step aside failed, with another
-    /// waiting within [`super::way::WAY_APART_MM`], drives on along the
-    /// corridor to the nearest position clear of robots waiting and steps
-    /// aside there ([`super::way`]): two waiting side by side across a
-    /// corridor close it.
+    /// A robot between tasks, before it steps aside, with another waiting
+    /// within [`super::way::WAY_APART_MM`], drives on along the corridor to
+    /// a door clear of robots waiting ([`super::way::APART`]) and steps
+    /// aside there: two waiting side by side across a corridor close it.
     pub stand_apart: bool,
 }
 
@@ -208,8 +207,8 @@ pub enum DutyNote<'a> {
     /// Asked by this robot to make way, it drove on to a position (`Ok`),
     /// or did not: why.
     MadeWay(&'a str, Result<&'a str, &'a str>),
-    /// Its step aside failed beside a robot waiting there; it drove on to
-    /// this position to stand apart (`Ok`), or stopped short: why.
+    /// Between tasks beside a robot waiting there, it drove on to this
+    /// position to stand apart (`Ok`), or stopped short: why.
     Apart(Result<&'a str, &'a str>),
 }
 

@@ -345,8 +345,8 @@ pub const APART_ROUTE_MM: f64 = 10_000.0;
 
 impl OnDuty<'_> {
     /// Where a robot between tasks that stands at `here`, within
-    /// [`WAY_APART_MM`] of another robot waiting, and whose step aside
-    /// along `direction_deg` failed, drives on to: the nearest position
+    /// [`WAY_APART_MM`] of another robot waiting, and about to step aside
+    /// along `direction_deg`, drives on to: the nearest position
     /// at least [`WAY_ON_MM`] on that way, and as far as [`APART`] says
     /// from every robot waiting ([`way_to`]). `None`: no robot waits near it, or no such
     /// position is within reach; it stays and tries its step again.
