@@ -110,6 +110,12 @@ fn stands_off(duty: &mut Duty, x: f64, y: f64) {
     duty.at_mm = Some([x, y]);
 }
 
+/// Where a drive starts from: the position the robot stands at, and
+/// where its odometry put it when that is not a named position.
+fn start_of(duty: &Duty) -> (String, Option<Point>) {
+    (duty.at.clone(), duty.at_mm.map(|[x, y]| Point::new(x, y)))
+}
+
 /// How the robot takes tasks.
 #[derive(Debug, Clone)]
 pub struct DutyConfig {
@@ -363,7 +369,7 @@ impl OnDuty<'_> {
                         // whichever wall each stood by: it drives on to
                         // stand apart first, and steps aside there.
                         if cfg.stand_apart && !apart_tried && failed == 0 {
-                            let from = (duty.at.clone(), duty.at_mm.map(|[x, y]| Point::new(x, y)));
+                            let from = start_of(&duty);
                             let here = stands_at(self.world, &duty);
                             let to = match here {
                                 Some(here) => self.apart_to(here, direction).await?,
@@ -446,7 +452,7 @@ impl OnDuty<'_> {
                         let was = aside
                             .map(|(q, _)| q)
                             .or_else(|| stands_at(self.world, &duty));
-                        let from = (duty.at.clone(), duty.at_mm.map(|[x, y]| Point::new(x, y)));
+                        let from = start_of(&duty);
                         let state = (&mut registered, &mut facing, &mut last_leg);
                         let ask = (by.as_str(), &ask);
                         // Busy while it drives: no task is handed to it,
@@ -491,7 +497,7 @@ impl OnDuty<'_> {
             aside_again = None;
             apart_tried = false;
             self.report(&duty).await?;
-            let from = (duty.at.clone(), duty.at_mm.map(|[x, y]| Point::new(x, y)));
+            let from = start_of(&duty);
             let (outcome, at) = self
                 .carry_out(
                     cfg,
