@@ -42,9 +42,13 @@ use tokio::sync::mpsc;
 use tracing::Instrument;
 
 /// The span a robot's crew runs in: crews share one process, and their
-/// log lines carry the robot's name.
+/// log lines carry the robot's name. At the error level, so that a filter
+/// that lets through only the navigation clients' lines
+/// (`RUST_LOG=warn,rome_nav::navigator=debug`) still names the robot of
+/// each: a span below the filter's level is not entered, and its lines go
+/// out unnamed.
 pub(crate) fn crew_span(robot: &str) -> tracing::Span {
-    tracing::info_span!("crew", robot = %robot)
+    tracing::error_span!("crew", robot = %robot)
 }
 
 pub mod confidence;

@@ -27,3 +27,18 @@ fn a_routes_file_takes_speeds_and_the_long_way_round() {
         assert!(e.contains("t.routes:1"), "{bad}: {e}");
     }
 }
+
+#[test]
+fn a_crew_s_lines_name_its_robot_under_a_filter_for_the_navigation_clients_alone() {
+    // The filter a user sets to follow the Navigator's steps: warnings,
+    // and the navigation clients' debug lines.
+    let filter = tracing_subscriber::EnvFilter::new("warn,rome_nav::navigator=debug");
+    let subscriber = tracing_subscriber::fmt().with_env_filter(filter).finish();
+    tracing::subscriber::with_default(subscriber, || {
+        let span = crew_span("r2");
+        assert!(
+            !span.is_disabled(),
+            "the crew span is filtered out: the Navigator's lines would not say whose they are"
+        );
+    });
+}
