@@ -330,6 +330,17 @@ impl Oncoming {
             if let (Some(first), Some(last)) = (self.ahead.front(), self.ahead.back()) {
                 let driven = last.0 - first.0;
                 if driven >= 300.0 && (first.1 - last.1) / driven > ONCOMING_CLOSING {
+                    // What set it off, for a trace: a corridor's mouth
+                    // ahead can (docs/traffic.md, "A corridor's mouth
+                    // taken for a robot coming").
+                    if along_mm >= self.until {
+                        tracing::debug!(
+                            from = first.1,
+                            to = last.1,
+                            driven,
+                            "oncoming: something ahead comes towards the robot; keeping right"
+                        );
+                    }
                     self.until = along_mm + KEEP_RIGHT_FOR_MM;
                 }
             }
