@@ -33,6 +33,7 @@ use rome_nav::plan::Plan;
 use rome_nav::planner::{self, Handed, Progress};
 use rome_nav::plfinder::PlConfig;
 use rome_nav::report::{Ended, Report};
+use rome_nav::traffic::Rules;
 use rome_nav::NavError;
 use rome_schema::Root;
 use rome_sim::{Noise, Pose};
@@ -115,29 +116,9 @@ pub struct RunConfig {
     /// People walking to and fro along the corridors, placed with the seed
     /// (the thesis' robot met them in the hallways).
     pub people: usize,
-    /// Whether robots reserve the junctions they turn in as well as the
-    /// narrow passages (`rome_nav::traffic`). Off by default: robots that
-    /// wait for a junction stand on the corridor's centre line at its
-    /// mouth, where those leaving it cannot get past (docs/traffic.md).
-    pub traffic: bool,
-    /// Robots drive corridors too narrow to pass in one way at a time
-    /// (`rome_nav::traffic::lanes`). Off by default: ten robots on EB3
-    /// did fewer tasks and touched more with it (docs/traffic.md).
-    pub lanes: bool,
-    /// A robot without a task in a junction drives on into a corridor
-    /// before it steps aside (`rome_nav::fleet::duty::DutyConfig::leave_open`).
-    /// Off by default, as there.
-    pub leave_open: bool,
-    /// A robot held up with a task asks the nearest idle robot in its way to
-    /// make way (`rome_nav::fleet::way`). Off by default, as there.
-    pub make_way: bool,
-    /// A robot between tasks drives on to stand apart from another
-    /// waiting near it (`rome_nav::fleet::duty::DutyConfig::stand_apart`).
-    /// On by default, as there.
-    pub stand_apart: bool,
-    /// The narrow corridors that lie on loops are driven one way only,
-    /// and routes keep to their way (`rome_nav::traffic::oneway`).
-    pub one_way: bool,
+    /// The rules the robots drive by (`rome_nav::traffic::Rules`): all
+    /// off but standing apart, as there.
+    pub rules: Rules,
     /// The network of the run's session: by default it talks to nobody
     /// else; with endpoints, `rome view`, `rome echo` or `rome record` in
     /// other processes can watch.
@@ -149,9 +130,9 @@ pub struct RunConfig {
 
 impl RunConfig {
     /// The route network every robot of the run plans on: the map's, with
-    /// its narrow corridors on loops one way if [`RunConfig::one_way`].
+    /// its narrow corridors on loops one way if `one_way` of [`RunConfig::rules`].
     fn network(&self, world: &World) -> Network {
-        rome_nav::traffic::oneway::network(&self.map, world, self.one_way)
+        rome_nav::traffic::oneway::network(&self.map, world, self.rules.one_way)
     }
 
     /// The wall-clock pace of a run that is not lock-step.
@@ -194,12 +175,7 @@ impl RunConfig {
             plfinder: true,
             covered: Vec::new(),
             people: 0,
-            traffic: false,
-            lanes: false,
-            leave_open: false,
-            make_way: false,
-            stand_apart: true,
-            one_way: false,
+            rules: Rules::default(),
             net: NetOptions::isolated(),
             trace: None,
         }
@@ -332,7 +308,7 @@ async fn run_all(
             )));
         }
         let plan = Plan::through(&world_map, &network, &r.from, &r.via, &r.to)?
-            .keeping(cfg.traffic, cfg.lanes);
+            .keeping(cfg.rules.traffic, cfg.rules.lanes);
         progress(Event::Planned {
             robot: k,
             plan: plan.clone(),

@@ -14,6 +14,7 @@ use crate::tasks::{run_tasks, ContactAt, StillAt, TaskEvent, TaskRun};
 use crate::RunConfig;
 use rome_maps::Map;
 use rome_nav::fleet::schema::{TaskSpec, TaskState, TaskStatus};
+use rome_nav::traffic::Rules;
 use rome_nav::NavError;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -30,18 +31,8 @@ pub struct ScaleConfig {
     pub tasks: usize,
     /// Seed of the robots' starts, the tasks and the world.
     pub seed: u64,
-    /// Reserve junctions as well as narrow passages.
-    pub traffic: bool,
-    /// Drive narrow corridors one way at a time.
-    pub lanes: bool,
-    /// Robots without a task drive out of junctions before they step aside.
-    pub leave_open: bool,
-    /// Robots held up ask idle robots in their way to make way.
-    pub make_way: bool,
-    /// Robots between tasks drive on to stand apart from others waiting.
-    pub stand_apart: bool,
-    /// Drive the narrow corridors of loops one way only.
-    pub one_way: bool,
+    /// The rules the robots drive by.
+    pub rules: Rules,
     /// Drive no faster than lets a robot stop for what is ahead
     /// (`NavConfig::brake_for_ahead`).
     pub brake_ahead: bool,
@@ -170,12 +161,7 @@ pub async fn sweep(
         run.nav.hear_glass = cfg.hear_glass;
         run.seed = cfg.seed;
         run.limit = cfg.limit;
-        run.traffic = cfg.traffic;
-        run.lanes = cfg.lanes;
-        run.leave_open = cfg.leave_open;
-        run.make_way = cfg.make_way;
-        run.stand_apart = cfg.stand_apart;
-        run.one_way = cfg.one_way;
+        run.rules = cfg.rules;
         run.trace = cfg.traces.as_ref().map(|d| d.join(format!("{n}.trace")));
         // The plate finder reads camera images that no task needs.
         run.plfinder = false;

@@ -259,11 +259,7 @@ async fn run_all(
         let (world, network) = (world.clone(), network.clone());
         let mut duty = DutyConfig::at(&r.from);
         duty.facing = Some(0.0);
-        duty.traffic = run.traffic;
-        duty.lanes = run.lanes;
-        duty.leave_open = run.leave_open;
-        duty.make_way = run.make_way;
-        duty.stand_apart = run.stand_apart;
+        duty.rules = run.rules;
         duty.stuck = run.stuck;
         duty.slowest_mm_s = run.slowest_mm_s;
         if cfg.stay.contains(&r.robot) {

@@ -155,7 +155,7 @@ async fn with_lanes_robots_drive_a_narrow_corridor_one_way_at_a_time() {
     // as narrow as it is (2.44 m): with lanes one waits outside until the
     // other has left. Without them they meet inside (the test below).
     let mut cfg = two_on_eb3(("303R", "A352L"), ("A353R", "301L"));
-    cfg.lanes = true;
+    cfg.rules.lanes = true;
     let (mut both_inside, mut waited) = (0, Vec::new());
     let r = fleet(cfg, |e| match e {
         Event::Tick { robots, .. }
@@ -189,7 +189,7 @@ async fn with_one_way_corridors_nobody_drives_corridor_n_north_and_both_arrive()
     // the new wing's narrow corridors one way (N is south), it goes round
     // by another corridor, and they never meet head on.
     let mut cfg = two_on_eb3(("303R", "A352L"), ("A353R", "301L"));
-    cfg.one_way = true;
+    cfg.rules.one_way = true;
     let (mut north, mut last_y) = (0, [None::<f64>; 2]);
     let r = fleet(cfg, |e| {
         if let Event::Tick { robots, .. } = e {

@@ -257,7 +257,7 @@ async fn a_robot_held_up_by_one_standing_idle_asks_it_to_make_way() {
         None,
         |t| {
             t.stay = vec!["r1".into()];
-            t.run.make_way = true;
+            t.run.rules.make_way = true;
         },
         &mut said,
     )
@@ -320,8 +320,8 @@ async fn a_robot_that_ended_its_task_in_a_junction_drives_out_of_it_and_steps_as
         pinned(&[("T1", "A392R", "r1"), ("T2", "A342R", "r2")]),
         None,
         |t| {
-            t.run.one_way = true;
-            t.run.leave_open = true;
+            t.run.rules.one_way = true;
+            t.run.rules.leave_open = true;
         },
     )
     .await;
@@ -360,8 +360,8 @@ async fn a_second_robot_out_of_a_junction_keeps_clear_of_the_first() {
         ]),
         None,
         |t| {
-            t.run.one_way = true;
-            t.run.leave_open = true;
+            t.run.rules.one_way = true;
+            t.run.rules.leave_open = true;
         },
     )
     .await;

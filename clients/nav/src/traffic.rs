@@ -53,6 +53,59 @@ pub const JUNCTION_MERGE_MM: f64 = 2_500.0;
 /// segment's 1.8 m out of it.
 pub const JUNCTION_REACH_MM: f64 = 1_500.0;
 
+/// The rules a fleet's robots drive by, beyond the narrow passages they
+/// always reserve. Every command and harness that drives robots carries
+/// them as one value, so a flag added here reaches all of them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Rules {
+    /// Reserve the junctions a robot turns in, not only narrow passages.
+    /// Off by default: robots that wait for a junction stand on the
+    /// corridor's centre line at its mouth, where those leaving it cannot
+    /// get past (docs/traffic.md).
+    pub traffic: bool,
+    /// Drive corridors too narrow to pass in one way at a time
+    /// ([`lanes`]). Off by default: ten robots on EB3 did fewer tasks and
+    /// touched more with it (docs/traffic.md).
+    pub lanes: bool,
+    /// The narrow corridors that lie on loops are driven one way only, and
+    /// routes keep to their way ([`oneway`]). It shapes the route network
+    /// a robot is given, so every robot of a fleet and its dispatcher must
+    /// agree on it.
+    pub one_way: bool,
+    /// A robot without a task that stands where the map gives no walls
+    /// beside it (a junction) drives on into a corridor before it steps
+    /// aside, and one stopped short steps aside across the corridor the
+    /// nearest door lies in rather than across its heading. Off by
+    /// default: forty robots on EB3 did better with it in one task set of
+    /// four and worse in two (docs/tasks.md).
+    pub leave_open: bool,
+    /// Held up with a task, a robot asks the nearest idle robot in its way
+    /// to make way, and idle, it makes way when asked
+    /// ([`crate::fleet::way`]). Off by default: of six task sets of forty
+    /// robots on EB3 (with `one_way` and `leave_open`) it did better in two
+    /// and no worse in four, but a hundred robots on the Campus touched
+    /// more with it (docs/tasks.md).
+    pub make_way: bool,
+    /// A robot between tasks, before it steps aside, with another waiting
+    /// within [`crate::fleet::way::WAY_APART_MM`], drives on along the
+    /// corridor to a door clear of robots waiting and steps aside there:
+    /// two waiting side by side across a corridor close it. On by default.
+    pub stand_apart: bool,
+}
+
+impl Default for Rules {
+    fn default() -> Rules {
+        Rules {
+            traffic: false,
+            lanes: false,
+            one_way: false,
+            leave_open: false,
+            make_way: false,
+            stand_apart: true,
+        }
+    }
+}
+
 /// The junctions of a route network, numbered the same way by every robot
 /// that loads the same map.
 #[derive(Debug, Clone, PartialEq)]

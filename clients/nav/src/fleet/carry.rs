@@ -70,7 +70,7 @@ impl OnDuty<'_> {
             (None, None) => Plan::through(self.world, self.network, label, &a.via, &a.to),
         };
         let plan = match planned {
-            Ok(p) => p.keeping(cfg.traffic, cfg.lanes),
+            Ok(p) => p.keeping(cfg.rules.traffic, cfg.rules.lanes),
             // Not moved: it still stands where it stood.
             Err(e) => {
                 let still = point.is_none().then(|| label.clone());
@@ -118,7 +118,7 @@ impl OnDuty<'_> {
             why = self.cancelled(a, cfg.check_every), if cancellable => Err(why),
             why = self.blocked(cfg, &waiting) => Err(why),
             why = self.overdue(cfg, &waiting, plan.route.length_mm) => Err(why),
-            never = self.ask_way(cfg, (&waiting, &asked), &plan.route), if cfg.make_way && cancellable => match never {},
+            never = self.ask_way(cfg, (&waiting, &asked), &plan.route), if cfg.rules.make_way && cancellable => match never {},
         };
         if asked.load(Relaxed) {
             let _ = (self.board.client())

@@ -9,8 +9,8 @@
 //! [`DutyConfig::aside_after`] steps over to the corridor's right wall, out
 //! of the others' way ([`planner::step_aside`]; which wall: [`super::aside`]).
 //! Where the map gives no wall beside it (a task's goal in a junction), it
-//! can first drive on into a corridor ([`planner::step_out`];
-//! [`DutyConfig::leave_open`]), as it would otherwise stand where every
+//! can first drive on into a corridor ([`planner::step_out`]; `leave_open`
+//! of [`crate::traffic::Rules`]), as it would otherwise stand where every
 //! robot turning there drives.
 //!
 //! A task that cannot be planned fails and the robot stays where it is.
@@ -39,6 +39,7 @@ use super::schema::{
 use crate::board::Board;
 use crate::plan::Plan;
 use crate::planner::{self, Progress};
+use crate::traffic::Rules;
 use crate::NavError;
 use rome_client::sim::TruthClient;
 use rome_client::RobotClient;
@@ -124,12 +125,8 @@ pub struct DutyConfig {
     /// Which way it faces there, degrees; without it the base's odometry
     /// heading is taken.
     pub facing: Option<f64>,
-    /// Reserve the junctions it turns in, not only narrow passages.
-    pub traffic: bool,
-    /// Drive corridors too narrow to pass in one way at a time
-    /// ([`crate::traffic::lanes`]; not yet better in fleets: off by
-    /// default).
-    pub lanes: bool,
+    /// The rules it drives by (junctions, lanes, between tasks).
+    pub rules: Rules,
     /// How often a run looks whether its task was cancelled.
     pub check_every: Duration,
     /// A run that has not taken the robot two metres from where it was
@@ -146,24 +143,6 @@ pub struct DutyConfig {
     /// corridor's right wall ([`planner::step_aside`]); `None`: it stays on
     /// the middle, and is registered only at its first task.
     pub aside_after: Option<Duration>,
-    /// A robot without a task that stands where the map gives no walls
-    /// beside it (a junction) drives on into a corridor before it steps
-    /// aside ([`planner::step_out`]), and one stopped short steps aside
-    /// across the corridor the nearest door lies in rather than across its
-    /// heading. Off by default: forty robots on EB3 did better with it in
-    /// one task set of four and worse in two (docs/tasks.md).
-    pub leave_open: bool,
-    /// Held up with a task, it asks the nearest idle robot in its way to
-    /// make way, and idle, it makes way when asked ([`super::way`]). Off
-    /// by default: of six task sets of forty robots on EB3 (with `one_way`
-    /// and `leave_open`) it did better in two and no worse in four, but
-    /// a hundred robots on the Campus touched more with it (docs/tasks.md).
-    pub make_way: bool,
-    /// A robot between tasks, before it steps aside, with another waiting
-    /// within [`super::way::WAY_APART_MM`], drives on along the corridor to
-    /// a door clear of robots waiting ([`super::way::APART`]) and steps
-    /// aside there: two waiting side by side across a corridor close it.
-    pub stand_apart: bool,
 }
 
 impl DutyConfig {
@@ -172,15 +151,11 @@ impl DutyConfig {
         DutyConfig {
             at: at.to_string(),
             facing: None,
-            traffic: false,
-            lanes: false,
+            rules: Rules::default(),
             check_every: Duration::from_secs(1),
             stuck: Duration::from_secs(180),
             slowest_mm_s: 100.0,
             aside_after: Some(Duration::from_secs(5)),
-            leave_open: false,
-            make_way: false,
-            stand_apart: true,
         }
     }
 }
@@ -368,7 +343,7 @@ impl OnDuty<'_> {
                         // waiting would close the corridor between them,
                         // whichever wall each stood by: it drives on to
                         // stand apart first, and steps aside there.
-                        if cfg.stand_apart && !apart_tried && failed == 0 {
+                        if cfg.rules.stand_apart && !apart_tried && failed == 0 {
                             let from = start_of(&duty);
                             let here = stands_at(self.world, &duty);
                             let to = match here {
@@ -446,7 +421,7 @@ impl OnDuty<'_> {
             let Some(a) = new else {
                 // Woken with no new task: a robot held up may have asked
                 // it to make way.
-                if cfg.make_way && duty.state == DutyState::Idle {
+                if cfg.rules.make_way && duty.state == DutyState::Idle {
                     if let Some((by, ask)) = self.asked(&mut answered).await {
                         let aside = aside_at.take();
                         let was = aside
@@ -528,7 +503,7 @@ impl OnDuty<'_> {
                         // middle too: it steps aside across the corridor
                         // it stands in.
                         let (here, h) = (Point::new(x, y), p.heading_deg);
-                        let axis = (cfg.leave_open)
+                        let axis = (cfg.rules.leave_open)
                             .then(|| corridor_axis(self.world, here))
                             .flatten()
                             .unwrap_or(h);
@@ -568,7 +543,7 @@ impl OnDuty<'_> {
                 last_leg = None;
             }
             in_open = None;
-            if cfg.leave_open && registered && duty.state == DutyState::Idle {
+            if cfg.rules.leave_open && registered && duty.state == DutyState::Idle {
                 // Where no walls are beside the goal (a junction), the last
                 // leg's walls are those of the corridor it came from.
                 let named =

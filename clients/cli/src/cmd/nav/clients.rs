@@ -240,23 +240,11 @@ pub async fn planner(common: &CommonArgs, args: PlannerArgs) -> anyhow::Result<u
             name: args.robot.robot.clone(),
             at: args.from.clone(),
             heading: args.heading,
-            traffic: args.rules.traffic,
-            lanes: args.rules.lanes,
-            leave_open: args.rules.leave_junctions,
-            make_way: args.rules.make_way,
-            stand_apart: !args.rules.wait_side_by_side,
+            rules: args.rules.to_rules(),
         };
         return super::fleet::take_tasks(common, duty).await;
     };
-    anyhow::ensure!(
-        !args.rules.leave_junctions,
-        super::traffic::LEAVE_WITHOUT_TASKS
-    );
-    anyhow::ensure!(!args.rules.make_way, super::traffic::MAKE_WAY_WITHOUT_TASKS);
-    anyhow::ensure!(
-        !args.rules.wait_side_by_side,
-        super::traffic::SIDE_BY_SIDE_WITHOUT_TASKS
-    );
+    args.rules.without_tasks()?;
     let plan = Plan::through(&world, &network, &args.from, &args.via, &to)?
         .keeping(args.rules.traffic, args.rules.lanes);
     let via = if args.via.is_empty() {

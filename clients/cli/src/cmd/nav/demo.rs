@@ -232,15 +232,7 @@ fn routes(args: &Args, map: &rome_maps::Map) -> anyhow::Result<Vec<RouteSpec>> {
 
 /// Runs the demo.
 pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
-    anyhow::ensure!(
-        !args.rules.leave_junctions,
-        super::traffic::LEAVE_WITHOUT_TASKS
-    );
-    anyhow::ensure!(!args.rules.make_way, super::traffic::MAKE_WAY_WITHOUT_TASKS);
-    anyhow::ensure!(
-        !args.rules.wait_side_by_side,
-        super::traffic::SIDE_BY_SIDE_WITHOUT_TASKS
-    );
+    args.rules.without_tasks()?;
     let map = rome_maps::load_named(&args.map)?;
     let limit = rome_common::minutes("--limit-min", args.limit_min)?;
     let mut routes = routes(&args, &map)?;
@@ -269,9 +261,7 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
     cfg.plfinder = !args.no_plfinder;
     cfg.covered = args.cover_camera.clone();
     cfg.people = args.people as usize;
-    cfg.traffic = args.rules.traffic;
-    cfg.lanes = args.rules.lanes;
-    cfg.one_way = args.rules.one_way;
+    cfg.rules = args.rules.to_rules();
     cfg.trace = args.trace.clone();
     cfg.limit = limit;
     if args.no_noise {

@@ -298,16 +298,8 @@ pub struct Duty {
     pub at: String,
     /// Which way it faces.
     pub heading: Option<f64>,
-    /// Reserve junctions too.
-    pub traffic: bool,
-    /// Drive narrow corridors one way at a time.
-    pub lanes: bool,
-    /// Drive out of junctions before stepping aside.
-    pub leave_open: bool,
-    /// Ask idle robots in the way to make way, and make way when asked.
-    pub make_way: bool,
-    /// Drive on to stand apart from robots waiting near where a task ended.
-    pub stand_apart: bool,
+    /// The rules it drives by.
+    pub rules: rome_nav::traffic::Rules,
 }
 
 /// `rome planner --tasks`: takes tasks until interrupted.
@@ -331,11 +323,7 @@ pub async fn take_tasks(common: &CommonArgs, d: Duty) -> anyhow::Result<u8> {
     };
     let mut cfg = DutyConfig::at(&d.at);
     cfg.facing = d.heading;
-    cfg.traffic = d.traffic;
-    cfg.lanes = d.lanes;
-    cfg.leave_open = d.leave_open;
-    cfg.make_way = d.make_way;
-    cfg.stand_apart = d.stand_apart;
+    cfg.rules = d.rules;
     println!("{} takes tasks at {}", d.name, d.at);
     on.serve(&cfg, |n| match n {
         DutyNote::Took(a, plan) => println!(
