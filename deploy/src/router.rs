@@ -192,8 +192,7 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
     // under zenohd: a REST port that answers then means port 7447 is the
     // router's, so a server started after `curl` got its answer joins the
     // router instead of taking the port first (docs/observing.md).
-    let ros2 = start_plugins(&runtime, &config)?;
-    let storage = config.get_json("plugins/storage_manager").is_ok();
+    let (ros2, storage) = start_plugins(&runtime, &config)?;
     let session = zenoh::session::init(runtime.into())
         .await
         .map_err(|e| anyhow::anyhow!("cannot open the router's session: {e}"))?;
@@ -252,16 +251,17 @@ pub async fn run(common: &CommonArgs, args: Args) -> anyhow::Result<u8> {
 
 /// Declares and starts the plugins the configuration has (a plugin
 /// declared without configuration fails to start); returns what the
-/// banner says of ROS 2.
+/// banner says of ROS 2, and whether the storage manager started.
 fn start_plugins(
     runtime: &zenoh::internal::runtime::Runtime,
     config: &zenoh::Config,
-) -> anyhow::Result<String> {
+) -> anyhow::Result<(String, bool)> {
     let mut plugins = runtime.plugins_manager();
     if config.get_json("plugins/rest").is_ok() {
         plugins.declare_static_plugin::<zenoh_plugin_rest::RestPlugin, &str>("rest", true);
     }
-    if config.get_json("plugins/storage_manager").is_ok() {
+    let storage = config.get_json("plugins/storage_manager").is_ok();
+    if storage {
         plugins.declare_static_plugin::<zenoh_plugin_storage_manager::StoragesPlugin, &str>(
             "storage_manager",
             true,
@@ -287,7 +287,7 @@ fn start_plugins(
             .start(&args)
             .map_err(|e| anyhow::anyhow!("the {id} plugin did not start: {e}"))?;
     }
-    Ok(ros2)
+    Ok((ros2, storage))
 }
 
 /// The read-only front of the REST plugin: reads pass through, writes
