@@ -156,6 +156,8 @@ pub async fn sweep(
         run.nav.stop_short_to_turn = true;
         // And one may stand idle beside a robot turning in a corner.
         run.nav.corner_bears_off = true;
+        // And keeping right into a junction, where the walls fall away.
+        run.nav.coast_on_odometry = true;
         run.nav.brake_for_ahead = cfg.brake_ahead;
         // Glass across a corridor's end is heard by none of its sensors.
         run.nav.hear_glass = cfg.hear_glass;

@@ -165,6 +165,16 @@ pub struct NavConfig {
     /// given a backlog, but one task of 500 lost on the Campus
     /// (docs/traffic.md, "Driving no faster than it can stop").
     pub brake_for_ahead: bool,
+    /// Whether Center-Hallway, swerving briskly (keeping right for
+    /// something coming, or passing) with no new sample of both walls (a
+    /// side opened, or a recess), steers by where the walls last were,
+    /// carried on by the odometry's turn and travel since, for up to 3 m.
+    /// Else, as before, by the last samples as they are, for up to a
+    /// metre: the correction they give does not change as the robot turns,
+    /// and keeping right into a junction a robot swung 45° off the axis
+    /// (docs/traffic.md, "Walls carried on by odometry"). Off by default,
+    /// on in `rome fleet`.
+    pub coast_on_odometry: bool,
     /// Whether an Enter-Corner, Leave-Corner or Dead-Reckoning goal hears
     /// the glass the map has near it (`Glass`, written by the Planner),
     /// placed by odometry, as its sensors would hear a wall
@@ -204,6 +214,7 @@ impl Default for NavConfig {
             stop_short_to_turn: false,
             corner_bears_off: false,
             brake_for_ahead: false,
+            coast_on_odometry: false,
             hear_glass: false,
         }
     }

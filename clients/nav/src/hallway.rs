@@ -1,6 +1,7 @@
 //! What the Navigator's Center-Hallway and Corner states steer by: the
 //! sonar ring's geometry, the hallway model (safe threshold, keeping right
-//! of oncoming robots) and the walls fitted to the side sonars (§5.4).
+//! of oncoming robots) and the walls fitted to the side sonars (§5.4;
+//! [`walls`]).
 
 use crate::bodies::bodies;
 use crate::drive::{
@@ -11,6 +12,9 @@ use crate::drive::{
 };
 use rome_maps::geometry::normalize_deg;
 use rome_schema::robot::Scan;
+
+pub mod walls;
+pub use walls::Walls;
 
 /// The sonar index `k` steps from `i`, modulo 24.
 pub fn sonar_add(i: usize, k: i64) -> usize {
@@ -234,6 +238,7 @@ impl Hallway {
         let room = self.walls.keep_right_mm();
         let brisk = (keep_right || pass.is_some()) && cfg.brisk_keep_right;
         self.walls.brisk = brisk;
+        self.walls.coasting = cfg.coast_on_odometry;
         self.walls.lane_mm = match pass {
             _ if keep_right => -room,
             Some(lane) => lane,
@@ -254,6 +259,7 @@ impl Hallway {
                 0.0
             },
             along_mm,
+            heading_deg,
         ) {
             // The open direction is the axis itself, which odometry alone
             // cannot hold to a degree: the side walls say how the robot
@@ -413,7 +419,7 @@ impl Passing {
         room_mm: f64,
     ) -> Option<f64> {
         self.no_way = None;
-        let (Some(width), Some(&(_, offset, _))) = (walls.width(), walls.samples.back()) else {
+        let (Some(width), Some(&(_, offset, _, _))) = (walls.width(), walls.samples.back()) else {
             self.lane = None;
             return None;
         };
@@ -511,134 +517,6 @@ impl Passing {
     }
 }
 
-/// Where the robot is between two hallway walls, from the side sonars 6
-/// and 18: how far off the middle, and (over the last metre) at what angle
-/// it is moving relative to the walls.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct Walls {
-    /// (distance driven, offset left of the middle, hallway width), mm.
-    samples: std::collections::VecDeque<(f64, f64, f64)>,
-    /// Where to keep across the hallway: offset left of the middle, mm
-    /// (negative: right of it).
-    lane_mm: f64,
-    /// The Corner state's stop-and-go turn in progress, degrees per second.
-    spin: Option<f64>,
-    /// Steer to the lane briskly: making way for an oncoming robot, the
-    /// robot must be across before the two meet (a gentle 10° per metre
-    /// off the lane takes some 14 s to move half a metre).
-    brisk: bool,
-}
-
-/// Driving this far is enough to tell the angle to the walls, mm.
-const WALL_WINDOW_MM: f64 = 1_000.0;
-
-/// A side reading shorter than this is a wall in view, mm.
-const WALL_IN_VIEW_MM: f64 = 3_500.0;
-
-/// How far the sonar read for a side wall may turn from the side sonar
-/// (6 or 18), in sonar steps of 15°: enough for the steepest swerve the
-/// hallway steers (30°).
-const SQUARE_ON_STEPS: i64 = 2;
-
-/// How far the wall at `side_deg` of the axis (90: left, -90: right)
-/// stands from the robot's skin, mm, read by the sonar most nearly square
-/// to it. A wall returns an echo only within 20° of square (the specular
-/// model, as Polaroid sonar), so at a slant of 30° the side sonar hears
-/// nothing and the walls are lost just when the robot steers over to keep
-/// right; the sonar 30° round still hears the wall, from the foot of the
-/// perpendicular, so its range is its own distance from the wall. Sonars
-/// are 15° apart: the one chosen sits on the ring within 7.5° of square,
-/// `R·(1 − cos)` (at most 3 mm) farther from the wall than the skin at
-/// square. Driving along the axis (within 7.5°), or turned further than
-/// the swerve, it is sonar 6 or 18 itself, read as it is.
-fn square_on(sonar: &[u32], side_deg: f64, rel_deg: f64) -> f64 {
-    let normal = normalize_deg(side_deg - rel_deg);
-    let side = sonar_towards(side_deg);
-    let i = sonar_towards(normal);
-    let steps = (normalize_deg(bearing(i) - bearing(side)) / SPACING).round() as i64;
-    // A side sonar that hears its wall is read as before; the one square
-    // to the wall only stands in for it when it hears nothing.
-    let heard = f64::from(sonar[side]) < WALL_IN_VIEW_MM;
-    if heard || i == side || steps.abs() > SQUARE_ON_STEPS {
-        return f64::from(sonar[side]);
-    }
-    let off = normalize_deg(normal - bearing(i)).to_radians();
-    f64::from(sonar[i]) - ROBOT_RADIUS_MM * (1.0 - off.cos())
-}
-
-impl Walls {
-    /// Adds a scan; returns the steering correction (degrees
-    /// counter-clockwise) that brings the robot back to the middle, when
-    /// both walls have been in view long enough to tell. `rel_deg` is the
-    /// heading relative to the hallway's axis (counter-clockwise) when the
-    /// walls are to be read square on (see `square_on`); 0 reads sonars 6
-    /// and 18 as they are.
-    pub fn steer(&mut self, sonar: &[u32], rel_deg: f64, along_mm: f64) -> Option<f64> {
-        let (left, right) = (
-            square_on(sonar, 90.0, rel_deg),
-            square_on(sonar, -90.0, rel_deg),
-        );
-        let width = left + right;
-        while self
-            .samples
-            .front()
-            .is_some_and(|s| along_mm - s.0 > WALL_WINDOW_MM || s.0 > along_mm)
-        {
-            self.samples.pop_front();
-        }
-        // A door recess or a side corridor changes the width: not a wall.
-        let steady =
-            self.samples.is_empty() || self.samples.iter().all(|s| (s.2 - width).abs() < 250.0);
-        if left < WALL_IN_VIEW_MM && right < WALL_IN_VIEW_MM && steady {
-            self.samples
-                .push_back((along_mm, (right - left) / 2.0, width));
-        }
-        self.fit()
-    }
-
-    /// How far right of the middle a robot keeps to let another pass: up
-    /// to 0.6 m, leaving at least 0.3 m between its side and the wall.
-    pub fn keep_right_mm(&self) -> f64 {
-        // Side sonars read from the robot's skin: the half-width from the
-        // middle is half their sum plus the radius.
-        let half = self.width().map_or(1_500.0, |w| w / 2.0 + 380.0);
-        (half - ROBOT_CLEARANCE_MM).clamp(0.0, 600.0)
-    }
-
-    /// The hallway's width between the side sonars (the robot's own width
-    /// left out), mm, if the walls are in view.
-    pub fn width(&self) -> Option<f64> {
-        let n = self.samples.len();
-        (n >= 4).then(|| self.samples.iter().map(|s| s.2).sum::<f64>() / n as f64)
-    }
-
-    /// The steering correction from the samples so far, if there are
-    /// enough.
-    pub fn fit(&self) -> Option<f64> {
-        let n = self.samples.len() as f64;
-        let (s0, s1) = (self.samples.front()?.0, self.samples.back()?.0);
-        if self.samples.len() < 4 || s1 - s0 < WALL_WINDOW_MM / 2.0 {
-            return None;
-        }
-        let ms = self.samples.iter().map(|s| s.0).sum::<f64>() / n;
-        let me = self.samples.iter().map(|s| s.1).sum::<f64>() / n;
-        let (mut sxy, mut sxx) = (0.0, 0.0);
-        for s in &self.samples {
-            sxy += (s.0 - ms) * (s.1 - me);
-            sxx += (s.0 - ms) * (s.0 - ms);
-        }
-        // Moving left (counter-clockwise of the walls) raises the offset.
-        let angle = (sxy / sxx).atan().to_degrees();
-        let offset = self.samples.back()?.1 - self.lane_mm;
-        let wanted = if self.brisk {
-            (-offset / 1_000.0 * 50.0).clamp(-30.0, 30.0)
-        } else {
-            (-offset / 1_000.0 * 10.0).clamp(-12.0, 12.0)
-        };
-        Some(wanted - angle)
-    }
-}
-
 /// The Corner state's stop-and-go turn in place, degrees per second.
 const SPIN_DEG_S: f64 = 8.0;
 
@@ -658,7 +536,7 @@ pub fn corner_step(
     along_mm: f64,
 ) -> Drive {
     let err = normalize_deg(goal_deg - heading_deg);
-    let by_walls = walls.steer(&scan.sonar_mm, 0.0, along_mm);
+    let by_walls = walls.steer(&scan.sonar_mm, 0.0, along_mm, heading_deg);
     // Forward-looking infrared detectors are slots 0–3, looking 45° and 15°
     // right, then 15° and 45° left. On a detection: stop, and turn slowly
     // away from the side that sees something (toward the goal direction

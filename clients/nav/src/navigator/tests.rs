@@ -191,7 +191,7 @@ fn swerving_30_degrees_the_walls_stay_in_view() {
     for k in 0..12 {
         let along = 100.0 * f64::from(k);
         let s = slanted_scan(2_440.0, left_mm, -30.0);
-        walls.steer(&s, -30.0, along);
+        walls.steer(&s, -30.0, along, -30.0);
         left_mm -= 100.0 * 30f64.to_radians().tan();
     }
     // The walls are read as far apart as they are (the robot's width
@@ -206,7 +206,7 @@ fn swerving_30_degrees_the_walls_stay_in_view() {
     let s = slanted_scan(2_440.0, 300.0, 0.0);
     let mut walls = Walls::default();
     for k in 0..6 {
-        walls.steer(&s, 0.0, 100.0 * f64::from(k));
+        walls.steer(&s, 0.0, 100.0 * f64::from(k), 0.0);
     }
     assert_eq!(walls.width(), Some(f64::from(s[6] + s[18])));
 }
@@ -220,7 +220,7 @@ fn between_two_sonars_the_wall_is_read_by_the_nearer_one() {
     assert_eq!((s[6], s[18]), (10_000, 10_000), "{s:?}");
     let mut walls = Walls::default();
     for k in 0..6 {
-        walls.steer(&s, -25.0, 100.0 * f64::from(k));
+        walls.steer(&s, -25.0, 100.0 * f64::from(k), -25.0);
     }
     let read = walls.width().expect("both walls in view");
     assert!((read - (width - 760.0)).abs() < 1.0, "{read}");
@@ -672,4 +672,67 @@ fn one_standing_on_the_middle_that_no_lane_passes_is_waited_for_a_while() {
         ..NavConfig::default()
     };
     assert_eq!(standing(&thesis, -600.0, 0.0), None);
+}
+
+/// Drives a robot by Center-Hallway down the middle of EB3's corridor B
+/// (3.66 m) into a junction whose left side opens 1.2 m on, with
+/// something coming on the axis until then: how far right of the middle
+/// it goes over the next 3.6 m (mm), and how far right of the axis it
+/// turns (degrees).
+fn swing_into_a_junction(coast_on_odometry: bool) -> (f64, f64) {
+    let cfg = NavConfig {
+        coast_on_odometry,
+        ..NavConfig::default()
+    };
+    let mut h = Hallway::new(0);
+    // Left of the middle, mm; heading from the axis, degrees
+    // counter-clockwise; 100 ms and 40 mm a scan.
+    let (mut left_mm, mut rel_deg) = (0.0_f64, 0.0_f64);
+    let (mut most_right, mut most_turned) = (0.0_f64, 0.0_f64);
+    for k in 0..120_u32 {
+        let along = 40.0 * f64::from(k);
+        let mut s = slanted_scan(3_660.0, left_mm, rel_deg);
+        if along < 1_200.0 {
+            // Coming at the robot as fast as it drives.
+            s[12] = (4_400.0 - 2.0 * along) as u32;
+        } else {
+            // The junction: nothing on the left.
+            for r in &mut s[13..=23] {
+                *r = 10_000;
+            }
+        }
+        match h.step(&cfg, &s, rel_deg, 0.0, along, 100 * u64::from(k)) {
+            Drive::Jog(rate) => rel_deg += rate / 10.0,
+            Drive::Turn(by) => rel_deg += by,
+            _ => {}
+        }
+        left_mm += 40.0 * rel_deg.to_radians().sin();
+        most_right = most_right.min(left_mm);
+        most_turned = most_turned.min(rel_deg);
+    }
+    (-most_right, -most_turned)
+}
+
+#[test]
+fn keeping_right_into_a_junction_the_walls_left_behind_are_carried_on_by_odometry() {
+    // Beyond the junction the corridor goes on as G, 2.44 m: the outer
+    // wall steps 0.61 m in, and a robot whose middle is more than
+    // 1.22 - 0.38 m right of B's middle runs into the step. By the walls
+    // last heard, as they were, the robot is still where it was when the
+    // left side opened, short of its lane: it turns on right, past 40°,
+    // and ends past the step's edge. Carried on by odometry, the walls
+    // say how far it has come across and how far it has turned: it
+    // turns back from the brisk swerve's 30° (33° with the fit's lag,
+    // before the junction) and holds its lane, 0.6 m right.
+    let edge_mm = 1_220.0 - ROBOT_RADIUS_MM;
+    let (stale_mm, stale_deg) = swing_into_a_junction(false);
+    let (carried_mm, carried_deg) = swing_into_a_junction(true);
+    assert!(
+        stale_mm > edge_mm && stale_deg > 40.0,
+        "by the walls as last heard: {stale_mm:.0} mm, {stale_deg:.1}°"
+    );
+    assert!(
+        carried_mm < 700.0 && carried_deg < 35.0,
+        "carried on: {carried_mm:.0} mm, {carried_deg:.1}°"
+    );
 }
