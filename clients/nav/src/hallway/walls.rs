@@ -128,19 +128,14 @@ impl Walls {
             self.samples
                 .push_back((along_mm, (right - left) / 2.0, width, heading_deg));
             let fit = self.angle_and_offset();
-            // The fit's angle is the robot's over the samples, so the
-            // walls' axis lies that far from their mean heading.
-            let n = self.samples.len() as f64;
-            let mean_heading = (self.samples.iter())
-                .map(|s| heading_deg + normalize_deg(s.3 - heading_deg))
-                .sum::<f64>()
-                / n;
-            self.coast = fit.map(|(angle_deg, offset_mm)| Coast {
-                axis_deg: mean_heading - angle_deg,
-                fit_mm: along_mm,
-                along_mm,
-                offset_mm,
-            });
+            self.coast = fit
+                .filter(|_| self.coasting)
+                .map(|(angle_deg, offset_mm)| Coast {
+                    axis_deg: self.mean_heading(heading_deg) - angle_deg,
+                    fit_mm: along_mm,
+                    along_mm,
+                    offset_mm,
+                });
             return fit.map(|(angle, offset)| self.wanted(offset) - angle);
         }
         if !(self.coasting && self.brisk) {
@@ -153,8 +148,9 @@ impl Walls {
         // the axis and into the step at a narrower corridor's mouth. The
         // walls are carried on by the odometry's turn and travel instead,
         // across a junction and no further. Only while swerving briskly:
-        // carried on at every opening, on the way to a corner too, ten
-        // robots lost a task and one its way (docs/traffic.md).
+        // carried on at every opening, on the way to a corner too, robots
+        // stood still more often, and one lost its way and its task
+        // (docs/traffic.md, "Walls carried on by odometry").
         let c = self.coast.as_mut()?;
         if along_mm - c.fit_mm > COAST_MM || along_mm < c.fit_mm {
             self.coast = None;
@@ -214,6 +210,17 @@ impl Walls {
         // Moving left (counter-clockwise of the walls) raises the offset.
         let angle = (sxy / sxx).atan().to_degrees();
         Some((angle, self.samples.back()?.1))
+    }
+
+    /// The samples' mean heading, degrees counter-clockwise, unwrapped
+    /// around `heading_deg`. The fit's angle is the robot's over the
+    /// samples, so the walls' axis lies that far from it.
+    fn mean_heading(&self, heading_deg: f64) -> f64 {
+        let n = self.samples.len() as f64;
+        (self.samples.iter())
+            .map(|s| heading_deg + normalize_deg(s.3 - heading_deg))
+            .sum::<f64>()
+            / n
     }
 
     /// The angle to the walls to steer to from `offset_mm` left of the
