@@ -341,12 +341,12 @@ impl Himm {
                             // its heading corrected.
                             let last = seen >= total && mapped >= self.cfg.min_map_mm;
                             let long = self.cfg.light_map_mm > 0.0 && mapped >= self.cfg.light_map_mm;
+                            let full = Asked { now, goal, corridor, light: seen, short: false };
                             if in_map >= self.cfg.lights_per_map || last || long {
-                                self.correct_anew(&mut grid, now, goal, corridor, seen, false)
-                                    .await?;
+                                self.correct_anew(&mut grid, full).await?;
                                 in_map = 0;
                             } else if self.cfg.short_map_serves(mapped, self.drift.since())
-                                && self.correct_anew(&mut grid, now, goal, corridor, seen, true).await?
+                                && self.correct_anew(&mut grid, Asked { short: true, ..full }).await?
                             {
                                 in_map = 0;
                             }
@@ -357,7 +357,8 @@ impl Himm {
                             let p0 = crate::track::pose_waiting(&self.robot).await?;
                             let now = Pose::from(&p0).at;
                             if distance(grid.origin(), now) > self.cfg.max_map_mm {
-                                self.correct(&grid, now, goal, corridor, seen, false).await?;
+                                let full = Asked { now, goal, corridor, light: seen, short: false };
+                                self.correct(&grid, &full).await?;
                                 grid = Grid::new(now, self.cfg.half_side_mm);
                                 in_map = 0;
                             }
@@ -424,15 +425,30 @@ impl Himm {
             let mapped = distance(grid.origin(), now);
             if mapped >= self.cfg.light_map_mm {
                 fixes += 1;
-                self.correct_anew(&mut grid, now, goal, Some(corridor), fixes, false)
-                    .await?;
+                let full = Asked {
+                    now,
+                    goal,
+                    corridor: Some(corridor),
+                    light: fixes,
+                    short: false,
+                };
+                self.correct_anew(&mut grid, full).await?;
                 tried_mm = 0.0;
             } else if mapped >= tried_mm + SHORT_RETRY_MM
                 && self.cfg.short_map_serves(mapped, self.drift.since())
             {
                 tried_mm = mapped;
                 if self
-                    .correct_anew(&mut grid, now, goal, Some(corridor), fixes + 1, true)
+                    .correct_anew(
+                        &mut grid,
+                        Asked {
+                            now,
+                            goal,
+                            corridor: Some(corridor),
+                            light: fixes + 1,
+                            short: true,
+                        },
+                    )
                     .await?
                 {
                     fixes += 1;
@@ -448,23 +464,13 @@ impl Himm {
     }
 
     /// [`Himm::correct`], then a new map from where the corrected odometry
-    /// puts the robot (after a `short` map, only if it corrected); says
-    /// whether the odometry was adjusted.
-    async fn correct_anew(
-        &self,
-        grid: &mut Grid,
-        now: Point,
-        goal: f64,
-        corridor: Option<&Corridor>,
-        light: i64,
-        short: bool,
-    ) -> Result<bool, NavError> {
-        let adjusted = self
-            .correct(grid, now, goal, corridor, light, short)
-            .await?;
+    /// puts the robot (after a [`Asked::short`] map, only if it corrected);
+    /// says whether the odometry was adjusted.
+    async fn correct_anew(&self, grid: &mut Grid, at: Asked<'_>) -> Result<bool, NavError> {
+        let adjusted = self.correct(grid, &at).await?;
         // A short map that found the heading good enough grows on, to be
         // tried again longer.
-        if adjusted || !short {
+        if adjusted || !at.short {
             let p = crate::track::pose_waiting(&self.robot).await?;
             *grid = Grid::new(Pose::from(&p).at, self.cfg.half_side_mm);
         }
@@ -472,19 +478,18 @@ impl Himm {
     }
 
     /// Corrects the heading, and the sideways offset when the corridor is
-    /// known, from `grid`, mapped from its origin to `now`; says whether
-    /// the odometry was adjusted. A `short` map (a stale heading's) is
+    /// known, from `grid`, mapped from its origin to [`Asked::now`]; says
+    /// whether the odometry was adjusted. A short map (a stale heading's) is
     /// checked against a shorter track, and corrects the heading only by
     /// [`HimmConfig::short_min_fix_deg`] or more, or not at all.
-    async fn correct(
-        &self,
-        grid: &Grid,
-        now: Point,
-        goal: f64,
-        corridor: Option<&Corridor>,
-        light: i64,
-        short: bool,
-    ) -> Result<bool, NavError> {
+    async fn correct(&self, grid: &Grid, at: &Asked<'_>) -> Result<bool, NavError> {
+        let Asked {
+            now,
+            goal,
+            corridor,
+            light,
+            short,
+        } = *at;
         let Some(walls) = hallway_walls(&grid.occupied(6), 1_000.0, Some((now, self.cfg.near_mm)))
         else {
             tracing::info!(light, short, "himm: no pair of walls in the local map");
@@ -563,6 +568,18 @@ impl Himm {
             .await?;
         Ok(true)
     }
+}
+
+/// Where and for what a correction is asked: the robot at `now` on a
+/// segment along `goal` (degrees) in `corridor` when it is known, after
+/// `light` lights (or stretches mapped), from a `short` map or a full one.
+#[derive(Clone, Copy)]
+struct Asked<'a> {
+    now: Point,
+    goal: f64,
+    corridor: Option<&'a Corridor>,
+    light: i64,
+    short: bool,
 }
 
 #[cfg(test)]
