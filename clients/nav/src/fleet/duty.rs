@@ -351,29 +351,10 @@ impl OnDuty<'_> {
                                 None => None,
                             };
                             if let Some(to) = to {
-                                duty.state = DutyState::Busy;
-                                duty.task = Some(super::schema::STAND_APART_TASK.to_string());
-                                self.report(&duty).await?;
                                 let state = (&mut registered, &mut facing, &mut last_leg);
-                                let moved =
-                                    self.stand_apart(cfg, (&from, to), state, &mut note).await;
+                                self.go_apart(cfg, &mut duty, (&from, to), state, &mut note)
+                                    .await?;
                                 apart_tried = true;
-                                match (&moved, self.robot.pose().await) {
-                                    (Ok(at), _) => idle_at(&mut duty, at.clone()),
-                                    // Stopped short: it steps aside where
-                                    // it stands.
-                                    (Err(_), Ok(p)) => {
-                                        let (x, y) = (f64::from(p.x_mm), f64::from(p.y_mm));
-                                        stands_off(&mut duty, x, y);
-                                        let (here, h) = (Point::new(x, y), p.heading_deg);
-                                        last_leg = leg_at(self.world, self.network, here, h, h);
-                                    }
-                                    (Err(_), Err(_)) => {}
-                                }
-                                duty.state = DutyState::Idle;
-                                duty.task = None;
-                                note(DutyNote::Apart(moved.as_deref().map_err(String::as_str)));
-                                self.report(&duty).await?;
                                 continue;
                             }
                         }
@@ -575,6 +556,41 @@ impl OnDuty<'_> {
             duty.last = Some(outcome);
             self.report(&duty).await?;
         }
+    }
+
+    /// Drives on to `to`, to stand apart from robots waiting near, as a
+    /// task of its own that the blackboard shows; then stands idle where
+    /// it got to. Stopped short, it is left to step aside where it stands
+    /// (from the leg it was on there, put in `state`).
+    async fn go_apart(
+        &self,
+        cfg: &DutyConfig,
+        duty: &mut Duty,
+        (from, to): (&(String, Option<Point>), String),
+        state: (&mut bool, &mut Option<f64>, &mut Option<LastLeg>),
+        note: &mut impl FnMut(DutyNote<'_>),
+    ) -> Result<(), NavError> {
+        duty.state = DutyState::Busy;
+        duty.task = Some(super::schema::STAND_APART_TASK.to_string());
+        self.report(duty).await?;
+        let (registered, facing, last_leg) = state;
+        let moved = self
+            .stand_apart(cfg, (from, to), (registered, facing, &mut *last_leg), note)
+            .await;
+        match (&moved, self.robot.pose().await) {
+            (Ok(at), _) => idle_at(duty, at.clone()),
+            (Err(_), Ok(p)) => {
+                let (x, y) = (f64::from(p.x_mm), f64::from(p.y_mm));
+                stands_off(duty, x, y);
+                let (here, h) = (Point::new(x, y), p.heading_deg);
+                *last_leg = leg_at(self.world, self.network, here, h, h);
+            }
+            (Err(_), Err(_)) => {}
+        }
+        duty.state = DutyState::Idle;
+        duty.task = None;
+        note(DutyNote::Apart(moved.as_deref().map_err(String::as_str)));
+        self.report(duty).await
     }
 
     /// Drives from where the robot stands to the nearest position it has
