@@ -307,8 +307,7 @@ async fn run_all(
                 r.robot
             )));
         }
-        let plan = Plan::through(&world_map, &network, &r.from, &r.via, &r.to)?
-            .keeping(cfg.rules.traffic, cfg.rules.lanes);
+        let plan = Plan::through(&world_map, &network, &r.from, &r.via, &r.to)?.keeping(&cfg.rules);
         progress(Event::Planned {
             robot: k,
             plan: plan.clone(),

@@ -14,7 +14,7 @@
 
 use crate::board::{Corridor, Goal, GoalType, RouteInfo};
 use crate::traffic::lanes::{self, Leg, LANE_PREFIX};
-use crate::traffic::{Hold, Junctions, PASSAGE_PREFIX};
+use crate::traffic::{Hold, Junctions, Rules, PASSAGE_PREFIX};
 use rome_maps::geometry::{direction, distance, heading_to, normalize_deg, Point};
 use rome_maps::{Network, Route, RouteError, World};
 
@@ -291,16 +291,16 @@ impl Plan {
         self
     }
 
-    /// The holds a fleet's rules keep: without `traffic` only the narrow
-    /// passages and lanes ([`Plan::without_junctions`]), without `lanes`
-    /// no lanes ([`Plan::without_lanes`]).
-    pub fn keeping(self, traffic: bool, lanes: bool) -> Plan {
-        let plan = if traffic {
+    /// The holds a fleet's rules keep: without [`Rules::traffic`] only the
+    /// narrow passages and lanes ([`Plan::without_junctions`]), without
+    /// [`Rules::lanes`] no lanes ([`Plan::without_lanes`]).
+    pub fn keeping(self, rules: &Rules) -> Plan {
+        let plan = if rules.traffic {
             self
         } else {
             self.without_junctions()
         };
-        if lanes {
+        if rules.lanes {
             plan
         } else {
             plan.without_lanes()

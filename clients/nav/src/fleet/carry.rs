@@ -70,7 +70,7 @@ impl OnDuty<'_> {
             (None, None) => Plan::through(self.world, self.network, label, &a.via, &a.to),
         };
         let plan = match planned {
-            Ok(p) => p.keeping(cfg.rules.traffic, cfg.rules.lanes),
+            Ok(p) => p.keeping(&cfg.rules),
             // Not moved: it still stands where it stood.
             Err(e) => {
                 let still = point.is_none().then(|| label.clone());

@@ -246,7 +246,7 @@ pub async fn planner(common: &CommonArgs, args: PlannerArgs) -> anyhow::Result<u
     };
     args.rules.without_tasks()?;
     let plan = Plan::through(&world, &network, &args.from, &args.via, &to)?
-        .keeping(args.rules.traffic, args.rules.lanes);
+        .keeping(&args.rules.to_rules());
     let via = if args.via.is_empty() {
         String::new()
     } else {
