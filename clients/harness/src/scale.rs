@@ -39,6 +39,9 @@ pub struct ScaleConfig {
     /// Hear the glass the map has, which the sensors do not
     /// (`NavConfig::hear_glass`).
     pub hear_glass: bool,
+    /// Remember the near echoes ahead that a sonar loses
+    /// (`NavConfig::remember_echoes`).
+    pub remember_echoes: bool,
     /// Add the tasks one this much simulated time after another, as a
     /// stream of errands, instead of all at the start.
     pub every: Option<Duration>,
@@ -161,6 +164,7 @@ pub async fn sweep(
         run.nav.brake_for_ahead = cfg.brake_ahead;
         // Glass across a corridor's end is heard by none of its sensors.
         run.nav.hear_glass = cfg.hear_glass;
+        run.nav.remember_echoes = cfg.remember_echoes;
         run.seed = cfg.seed;
         run.limit = cfg.limit;
         run.rules = cfg.rules;

@@ -184,6 +184,16 @@ pub struct NavConfig {
     /// into the glass door included (docs/traffic.md, "The glass the
     /// sonars do not hear").
     pub hear_glass: bool,
+    /// Whether a near echo ahead that its sonar loses is kept for a metre
+    /// driven, placed by odometry, and fills in the sonars within 45° of
+    /// ahead that no longer hear it (`navigator::echoes`): the convex
+    /// corner of a corridor's mouth, heard ahead, slides into the gap
+    /// between two beams as the robot closes on it at a slant. Else, as
+    /// the thesis' Navigator, each scan is read alone. Off by default and
+    /// in `rome fleet` (`--remember-echoes`): it ends the Campus's corner
+    /// touches, but robots in EB3's backlogs block each other more
+    /// (docs/traffic.md, "The corner between two beams").
+    pub remember_echoes: bool,
 }
 
 impl Default for NavConfig {
@@ -216,6 +226,7 @@ impl Default for NavConfig {
             brake_for_ahead: false,
             coast_on_odometry: false,
             hear_glass: false,
+            remember_echoes: false,
         }
     }
 }

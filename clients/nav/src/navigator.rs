@@ -108,6 +108,8 @@ pub struct Navigator {
     /// The goal at hand, for the Status written while the Navigator waits
     /// outside its loop ([`Navigator::beat`]).
     at_hand: Option<status::AtHand>,
+    /// Near echoes of the last metre driven ([`NavConfig::remember_echoes`]).
+    echoes: echoes::Echoes,
 }
 
 impl Navigator {
@@ -133,6 +135,7 @@ impl Navigator {
             speedo: Speedometer::default(),
             handed: None,
             at_hand: None,
+            echoes: echoes::Echoes::default(),
         }
     }
 
@@ -408,6 +411,7 @@ impl Navigator {
     ) -> Result<(), NavError> {
         let mut scan = self.next_scan(scans).await?;
         let mut pose = self.pose_of(&scan).await?;
+        self.hear_again(&pose, &mut scan);
         let start = match (resumed, goal.goal_type, self.carry) {
             (Some(p), _, _) => p,
             (None, GoalType::D | GoalType::E, Some(p)) => p,
@@ -455,6 +459,7 @@ impl Navigator {
             scan = self.next_scan(scans).await?;
             pose = self.pose().await?;
             glass::hear(&glass, &pose, &mut scan);
+            self.hear_again(&pose, &mut scan);
         } else if self.hallway.is_none() || self.last.is_none() {
             self.last = None;
             self.send(Drive::Go(self.cfg.cruise_mm_s)).await?;
@@ -732,6 +737,7 @@ impl Navigator {
             scan = self.next_scan(scans).await?;
             pose = self.pose_of(&scan).await?;
             glass::hear(&glass, &pose, &mut scan);
+            self.hear_again(&pose, &mut scan);
         }
         self.speed.cap = f64::INFINITY;
         self.carry = None;
@@ -779,6 +785,7 @@ impl Navigator {
 }
 
 pub mod blocked;
+mod echoes;
 mod glass;
 mod odometer;
 mod recover;

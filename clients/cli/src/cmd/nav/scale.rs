@@ -70,6 +70,14 @@ pub struct Args {
     /// (docs/traffic.md, "The glass the sonars do not hear").
     #[arg(long)]
     deaf_to_glass: bool,
+    /// Remember, for a metre driven, a near echo ahead that a sonar
+    /// loses: the corner of a corridor's mouth slides between two beams as
+    /// a robot closes on it at a slant. It ends such touches on the
+    /// Campus, but in EB3's backlogs robots block each other more, so it
+    /// is off by default (docs/traffic.md, "The corner between two
+    /// beams").
+    #[arg(long)]
+    remember_echoes: bool,
 }
 
 /// Runs the sweep; exit status 1 when a task was not done.
@@ -97,6 +105,7 @@ pub async fn run(args: Args) -> anyhow::Result<u8> {
         rules: args.rules.to_rules(),
         brake_ahead: args.brake_ahead,
         hear_glass: !args.deaf_to_glass,
+        remember_echoes: args.remember_echoes,
         every,
         limit,
         stuck: Duration::from_secs(60),
