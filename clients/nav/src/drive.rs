@@ -190,9 +190,10 @@ pub struct NavConfig {
     /// corner of a corridor's mouth, heard ahead, slides into the gap
     /// between two beams as the robot closes on it at a slant. Else, as
     /// the thesis' Navigator, each scan is read alone. Off by default and
-    /// in `rome fleet` (`--remember-echoes`): it ends the Campus's corner
-    /// touches, but robots in EB3's backlogs block each other more
-    /// (docs/traffic.md, "The corner between two beams").
+    /// in `rome fleet` (`--remember-echoes`): among forty robots on the
+    /// Campus it took two corner touches of three away, but robots in
+    /// EB3's backlogs block each other more (docs/traffic.md, "The
+    /// corner between two beams").
     pub remember_echoes: bool,
 }
 

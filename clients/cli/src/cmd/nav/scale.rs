@@ -72,10 +72,10 @@ pub struct Args {
     deaf_to_glass: bool,
     /// Remember, for a metre driven, a near echo ahead that a sonar
     /// loses: the corner of a corridor's mouth slides between two beams as
-    /// a robot closes on it at a slant. It ends such touches on the
-    /// Campus, but in EB3's backlogs robots block each other more, so it
-    /// is off by default (docs/traffic.md, "The corner between two
-    /// beams").
+    /// a robot closes on it at a slant. Among forty robots on the Campus
+    /// it took two corner touches of three away, but in EB3's backlogs
+    /// robots block each other more, so it is off by default
+    /// (docs/traffic.md, "The corner between two beams").
     #[arg(long)]
     remember_echoes: bool,
 }
