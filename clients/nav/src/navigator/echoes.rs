@@ -21,6 +21,7 @@
 //! the reading says where it is.
 
 use super::{Navigator, Pose};
+use crate::hallway::sonar_towards;
 use rome_maps::geometry::{direction, heading_to, normalize_deg, Point};
 use rome_schema::robot::body::{sonar_bearing_deg, ROBOT_RADIUS_MM, SONAR_HALF_BEAM_DEG};
 use rome_schema::robot::{Scan, SONARS};
@@ -123,7 +124,7 @@ impl Echoes {
             if rel.abs() > AHEAD_DEG {
                 continue;
             }
-            let i = nearest_sonar(rel);
+            let i = sonar_towards(rel);
             let range = ((p - pose.at).norm() - ROBOT_RADIUS_MM).max(1.0);
             let slot = &mut scan.sonar_mm[i];
             *slot = (*slot).min(range as u32);
@@ -139,16 +140,6 @@ impl Navigator {
             self.echoes.hear(pose, self.odometer, scan);
         }
     }
-}
-
-/// The sonar whose axis lies nearest `rel_deg` off ahead.
-fn nearest_sonar(rel_deg: f64) -> usize {
-    (0..SONARS)
-        .min_by(|&a, &b| {
-            let d = |i: usize| normalize_deg(sonar_bearing_deg(i) - rel_deg).abs();
-            d(a).total_cmp(&d(b))
-        })
-        .unwrap_or(0)
 }
 
 /// Whether a beam that has the whole of the echo's arc within it reads
