@@ -42,6 +42,9 @@ pub struct ScaleConfig {
     /// Remember the near echoes ahead that a sonar loses
     /// (`NavConfig::remember_echoes`).
     pub remember_echoes: bool,
+    /// Turn away from what a forward infrared detector sees and the three
+    /// sonars ahead do not hear (`NavConfig::infrared_ahead`).
+    pub infrared_ahead: bool,
     /// Add the tasks one this much simulated time after another, as a
     /// stream of errands, instead of all at the start.
     pub every: Option<Duration>,
@@ -165,6 +168,7 @@ pub async fn sweep(
         // Glass across a corridor's end is heard by none of its sensors.
         run.nav.hear_glass = cfg.hear_glass;
         run.nav.remember_echoes = cfg.remember_echoes;
+        run.nav.infrared_ahead = cfg.infrared_ahead;
         run.seed = cfg.seed;
         run.limit = cfg.limit;
         run.rules = cfg.rules;

@@ -195,6 +195,17 @@ pub struct NavConfig {
     /// EB3's backlogs block each other more (docs/traffic.md, "The
     /// corner between two beams").
     pub remember_echoes: bool,
+    /// Whether, outside the Corner state, a forward infrared detector
+    /// (15° right or left of ahead) that sees something none of the three
+    /// sonars ahead hears as near turns the robot away from it
+    /// (`navigator::infrared`): the corner between two beams, within the
+    /// detectors' reach. Else, as the thesis' Center-Hallway state, the
+    /// sonars alone steer. Off by default and in `rome fleet`
+    /// (`--infrared-ahead`): in EB3's backlogs it took every contact away,
+    /// but among a hundred robots on the Campus robots touched each other
+    /// more (docs/traffic.md, "The forward infrared outside the Corner
+    /// state").
+    pub infrared_ahead: bool,
 }
 
 impl Default for NavConfig {
@@ -228,6 +239,7 @@ impl Default for NavConfig {
             coast_on_odometry: false,
             hear_glass: false,
             remember_echoes: false,
+            infrared_ahead: false,
         }
     }
 }

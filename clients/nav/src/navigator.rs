@@ -642,6 +642,7 @@ impl Navigator {
                     scan.time_ms,
                 )
             };
+            let drive = self.felt(drive, &scan, corner && !passing);
             let drive = if self.cfg.stand_when_blocked && self.blocked.is_some() {
                 let rel = normalize_deg(goal.direction_deg - pose.heading.deg());
                 blocked::instead(drive, &scan.sonar_mm, rel)
@@ -787,6 +788,7 @@ impl Navigator {
 pub mod blocked;
 mod echoes;
 mod glass;
+mod infrared;
 mod odometer;
 mod recover;
 mod ride;

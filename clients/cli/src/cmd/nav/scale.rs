@@ -78,6 +78,15 @@ pub struct Args {
     /// (docs/traffic.md, "The corner between two beams").
     #[arg(long)]
     remember_echoes: bool,
+    /// Outside the Corner state, turn away from what a forward infrared
+    /// detector (15° either side of ahead) sees and the three sonars ahead
+    /// do not hear: the corner of a corridor's mouth between two beams. In
+    /// EB3's backlogs it took every contact away; among a hundred robots
+    /// on the Campus robots touched each other more, so it is off by
+    /// default (docs/traffic.md, "The forward infrared outside the Corner
+    /// state").
+    #[arg(long)]
+    infrared_ahead: bool,
 }
 
 /// Runs the sweep; exit status 1 when a task was not done.
@@ -106,6 +115,7 @@ pub async fn run(args: Args) -> anyhow::Result<u8> {
         brake_ahead: args.brake_ahead,
         hear_glass: !args.deaf_to_glass,
         remember_echoes: args.remember_echoes,
+        infrared_ahead: args.infrared_ahead,
         every,
         limit,
         stuck: Duration::from_secs(60),
