@@ -201,10 +201,11 @@ pub struct NavConfig {
     /// (`navigator::infrared`): the corner between two beams, within the
     /// detectors' reach. Else, as the thesis' Center-Hallway state, the
     /// sonars alone steer. Off by default and in `rome fleet`
-    /// (`--infrared-ahead`): in EB3's backlogs it took every contact away,
-    /// but among a hundred robots on the Campus robots touched each other
-    /// more (docs/traffic.md, "The forward infrared outside the Corner
-    /// state").
+    /// (`--infrared-ahead`): in EB3's backlogs it took every contact away;
+    /// on the Campus, over five runs, walls were touched half as often and
+    /// robots as often, and in the run tasks.md shows, a hundred robots
+    /// touched each other ten times against two (docs/traffic.md, "The
+    /// forward infrared outside the Corner state").
     pub infrared_ahead: bool,
 }
 
