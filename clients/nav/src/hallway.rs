@@ -541,7 +541,7 @@ pub fn corner_step(
     // right, then 15° and 45° left. On a detection: stop, and turn slowly
     // away from the side that sees something (toward the goal direction
     // when both do), the same way until they are clear.
-    let ir = |i: usize| scan.ir.get(i).is_some_and(|b| *b != 0);
+    let ir = |i: usize| scan.ir_lit(i);
     let (right, left) = (ir(0) || ir(1), ir(2) || ir(3));
     if right || left {
         let rate = walls.spin.get_or_insert(match (right, left) {

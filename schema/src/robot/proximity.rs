@@ -90,3 +90,11 @@ pub struct Scan {
     #[serde(deserialize_with = "exactly_sonars")]
     pub ir: Vec<u8>,
 }
+
+impl Scan {
+    /// Whether infrared slot `i` sees something: a slot the scan does not
+    /// have sees nothing.
+    pub fn ir_lit(&self, i: usize) -> bool {
+        self.ir.get(i).is_some_and(|b| *b != 0)
+    }
+}

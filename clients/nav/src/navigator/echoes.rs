@@ -162,6 +162,7 @@ fn gone(arc: &[Point; ARC], pose: &Pose, heading: f64, heard: &[u32]) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::navigator::tests::campus_scan;
 
     fn scan(time_ms: u64, sonar: &[(usize, u32)]) -> Scan {
         let mut sonar_mm = vec![5_000; SONARS];
@@ -266,26 +267,8 @@ mod tests {
         // at 126.5 s and 127.5 s of the run, its true poses; b11's
         // south-east corner stands at (82 600, 14 800), 429 mm from the
         // ring at the second.
-        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../maps/data/campus.stk");
-        let map = rome_maps::load(std::path::Path::new(path)).expect("the Campus");
-        let scan_at = |time_ms, x, y, heading| {
-            let config = rome_sim::SimConfig {
-                noise: rome_sim::Noise::none(),
-                ..rome_sim::SimConfig::default()
-            };
-            let mut sim = rome_sim::Sim::new(&map, config);
-            let r = sim
-                .add_robot("r25", Pose::new(x, y, heading))
-                .expect("placed");
-            let readings = sim.robot(r).sonar.iter().map(|&v| u32::from(v));
-            Scan {
-                robot: "r25".into(),
-                seq: 0,
-                time_ms,
-                sonar_mm: readings.collect(),
-                ir: vec![0; SONARS],
-            }
-        };
+        let scan_at =
+            |time_ms, x, y, heading| campus_scan("r25", time_ms, Pose::new(x, y, heading));
         let (first, second) = (
             Pose::new(83_677.3, 14_541.6, 79.81),
             Pose::new(83_381.1, 14_586.6, 81.39),

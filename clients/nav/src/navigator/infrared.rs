@@ -38,7 +38,6 @@ pub const TURN_DEG: f64 = 10.0;
 /// Which way to turn, degrees counter-clockwise, if one forward detector
 /// sees what the three sonars ahead do not hear within its reach.
 pub fn unheard(scan: &Scan) -> Option<f64> {
-    let lit = |i: usize| scan.ir.get(i).is_some_and(|b| *b != 0);
     let heard = scan
         .sonar_mm
         .get(AHEAD)
@@ -46,7 +45,7 @@ pub fn unheard(scan: &Scan) -> Option<f64> {
     if heard {
         return None;
     }
-    match (lit(RIGHT), lit(LEFT)) {
+    match (scan.ir_lit(RIGHT), scan.ir_lit(LEFT)) {
         (true, false) => Some(TURN_DEG),
         (false, true) => Some(-TURN_DEG),
         _ => None,
@@ -126,25 +125,8 @@ mod tests {
         // the run, its true pose: b11's south-east corner, at (82 600,
         // 14 800), stands 429 mm from the ring, 6° right of ahead, and no
         // sonar within 45° of ahead hears it.
-        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../maps/data/campus.stk");
-        let map = rome_maps::load(std::path::Path::new(path)).expect("the Campus");
-        let config = rome_sim::SimConfig {
-            noise: rome_sim::Noise::none(),
-            ..rome_sim::SimConfig::default()
-        };
-        let mut sim = rome_sim::Sim::new(&map, config);
         let pose = rome_maps::geometry::Pose::new(83_381.1, 14_586.6, 81.39);
-        let r = sim.add_robot("r25", pose).expect("placed");
-        let robot = sim.robot(r);
-        let now = Scan {
-            robot: "r25".into(),
-            seq: 0,
-            time_ms: 127_500,
-            sonar_mm: robot.sonar.iter().map(|&v| u32::from(v)).collect(),
-            ir: (0..24)
-                .map(|i| u8::from(robot.infrared >> i & 1 == 1))
-                .collect(),
-        };
+        let now = crate::navigator::tests::campus_scan("r25", 127_500, pose);
         let nearest = (9..=15).map(|i| now.sonar_mm[i]).min().unwrap_or(0);
         assert!(nearest > 1_000, "the sonars hear it: {:?}", now.sonar_mm);
         assert_eq!(

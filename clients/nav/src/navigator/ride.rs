@@ -201,10 +201,7 @@ impl Navigator {
         loop {
             let scan = self.next_scan(scans).await?;
             let pose = self.pose_of(&scan).await?;
-            if IR_AHEAD
-                .iter()
-                .any(|&i| scan.ir.get(i).is_some_and(|b| *b != 0))
-            {
+            if IR_AHEAD.iter().any(|&i| scan.ir_lit(i)) {
                 break;
             }
             if pose.dist(&at_door) > gap + CABIN_MAX_MM {
