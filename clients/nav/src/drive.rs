@@ -202,10 +202,10 @@ pub struct NavConfig {
     /// detectors' reach. Else, as the thesis' Center-Hallway state, the
     /// sonars alone steer. Off by default and in `rome fleet`
     /// (`--infrared-ahead`): in EB3's backlogs it took every contact away;
-    /// on the Campus, over five runs, walls were touched half as often and
-    /// robots as often, and in the run tasks.md shows, a hundred robots
-    /// touched each other ten times against two (docs/traffic.md, "The
-    /// forward infrared outside the Corner state").
+    /// on the Campus, over eight runs, walls were touched half as often
+    /// and robots a little more often, and in the run tasks.md shows, a
+    /// hundred robots touched each other ten times against two
+    /// (docs/traffic.md, "The forward infrared outside the Corner state").
     pub infrared_ahead: bool,
 }
 

@@ -82,7 +82,7 @@ pub struct Args {
     /// detector (15° either side of ahead) sees and the three sonars ahead
     /// do not hear: the corner of a corridor's mouth between two beams. In
     /// EB3's backlogs it took every contact away; on the Campus walls were
-    /// touched half as often and robots as often, so it is off by default
+    /// touched half as often and robots more often, so it is off by default
     /// (docs/traffic.md, "The forward infrared outside the Corner state").
     #[arg(long)]
     infrared_ahead: bool,
