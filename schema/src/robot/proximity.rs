@@ -1,7 +1,7 @@
 //! Messages of the proximity server (PServer, §4.6.2): sonar and infrared
 //! replies, the sonar range setting, and the scan stream.
 
-use super::exactly_sonars;
+use super::{exactly_sonars, SONARS};
 use serde::{Deserialize, Serialize};
 
 /// `sonar`: the 24 ranges, mm (sonar 12 looks forward, 6 right, 18 left).
@@ -92,6 +92,12 @@ pub struct Scan {
 }
 
 impl Scan {
+    /// The infrared detectors' bits (bit `i` for slot `i`) as the thesis'
+    /// 24 slots of 0 or 1: what a device reads, as `ir` carries it.
+    pub fn ir_slots(bits: u32) -> Vec<u8> {
+        (0..SONARS).map(|i| ((bits >> i) & 1) as u8).collect()
+    }
+
     /// Whether infrared slot `i` sees something: a slot the scan does not
     /// have sees nothing.
     pub fn ir_lit(&self, i: usize) -> bool {

@@ -73,15 +73,10 @@ fn read_body(read: Read, s: RawScan) -> Body {
             time_ms: s.time_ms,
         }),
         Read::Ir => Body::json(&IrReply {
-            ir: ir_array(s.ir),
+            ir: Scan::ir_slots(s.ir),
             time_ms: s.time_ms,
         }),
     }
-}
-
-/// The IR bits as the thesis' 24-element array.
-pub fn ir_array(bits: u32) -> Vec<u8> {
-    (0..SONARS).map(|i| ((bits >> i) & 1) as u8).collect()
 }
 
 fn ranges(max: MaxRange) -> Result<[u32; SONARS], ErrorReply> {
@@ -199,7 +194,7 @@ impl<D: ProximityDevice> Service for Proximity<D> {
                 seq: self.seq,
                 time_ms: scan.time_ms,
                 sonar_mm: scan.sonar_mm.to_vec(),
-                ir: ir_array(scan.ir),
+                ir: Scan::ir_slots(scan.ir),
             }),
         ))
     }

@@ -20,9 +20,7 @@ pub(super) fn campus_scan(robot: &str, time_ms: u64, pose: Pose) -> Scan {
         seq: 0,
         time_ms,
         sonar_mm: seen.sonar.iter().map(|&v| u32::from(v)).collect(),
-        ir: (0..SONARS)
-            .map(|i| u8::from(seen.infrared >> i & 1 == 1))
-            .collect(),
+        ir: Scan::ir_slots(seen.infrared),
     }
 }
 
