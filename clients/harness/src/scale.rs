@@ -45,6 +45,9 @@ pub struct ScaleConfig {
     /// Turn away from what a forward infrared detector sees and the three
     /// sonars ahead do not hear (`NavConfig::infrared_ahead`).
     pub infrared_ahead: bool,
+    /// Turn back towards the middle before leaving where the walls were
+    /// (`NavConfig::keep_within_walls`).
+    pub keep_within_walls: bool,
     /// Add the tasks one this much simulated time after another, as a
     /// stream of errands, instead of all at the start.
     pub every: Option<Duration>,
@@ -169,6 +172,7 @@ pub async fn sweep(
         run.nav.hear_glass = cfg.hear_glass;
         run.nav.remember_echoes = cfg.remember_echoes;
         run.nav.infrared_ahead = cfg.infrared_ahead;
+        run.nav.keep_within_walls = cfg.keep_within_walls;
         run.seed = cfg.seed;
         run.limit = cfg.limit;
         run.rules = cfg.rules;

@@ -207,6 +207,13 @@ pub struct NavConfig {
     /// hundred robots touched each other ten times against two
     /// (docs/traffic.md, "The forward infrared outside the Corner state").
     pub infrared_ahead: bool,
+    /// Whether the Center-Hallway state carries where the walls were on
+    /// by odometry at every scan, and, where a side has opened (a
+    /// junction, a door's recess), turns back towards the middle before
+    /// the robot's side would cross the line of a wall half a metre on.
+    /// Off by default: it moved contacts rather than ended them
+    /// (docs/traffic.md, "Back within the walls after a crossroads").
+    pub keep_within_walls: bool,
 }
 
 impl Default for NavConfig {
@@ -241,6 +248,7 @@ impl Default for NavConfig {
             hear_glass: false,
             remember_echoes: false,
             infrared_ahead: false,
+            keep_within_walls: false,
         }
     }
 }

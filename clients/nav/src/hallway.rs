@@ -13,6 +13,8 @@ use crate::drive::{
 use rome_maps::geometry::normalize_deg;
 use rome_schema::robot::Scan;
 
+#[cfg(test)]
+mod tests;
 pub mod walls;
 pub use walls::Walls;
 
@@ -154,6 +156,12 @@ impl Hallway {
         now_ms: u64,
     ) -> Drive {
         self.adapt(cfg, now_ms);
+        self.walls.guarding = cfg.keep_within_walls;
+        if cfg.keep_within_walls {
+            // Every scan, whichever rule steers it: the turns of the open
+            // direction and of the safety rule move the robot across too.
+            self.walls.carry(along_mm, heading_deg);
+        }
         let speed = if now_ms < self.slow_until {
             cfg.cruise_mm_s * 0.75
         } else {
@@ -231,6 +239,14 @@ impl Hallway {
                 self.slow_until = now_ms + cfg.calm_ms;
                 return Drive::Turn(turn);
             }
+        }
+        if let Some(turn) = self
+            .walls
+            .back_within(sonar)
+            .filter(|_| cfg.keep_within_walls)
+        {
+            tracing::debug!(turn, "hallway: turning back within the walls");
+            return Drive::Turn(turn);
         }
         if let Some(away) = side_touch(sonar).filter(|_| cfg.bear_off_near_side) {
             return Drive::Jog(away * SIDE_TOUCH_JOG_DEG_S);

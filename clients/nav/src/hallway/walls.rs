@@ -2,8 +2,8 @@
 //! square on, fitted over the last metre driven to tell how far off the
 //! middle the robot is and at what angle it moves (§5.4.1).
 
-use super::{bearing, sonar_towards};
-use crate::drive::{ROBOT_CLEARANCE_MM, ROBOT_RADIUS_MM, SPACING};
+use super::{bearing, sonar_add, sonar_towards};
+use crate::drive::{FORWARD, ROBOT_CLEARANCE_MM, ROBOT_RADIUS_MM, SPACING};
 use rome_maps::geometry::normalize_deg;
 
 /// Where the robot is between two hallway walls, from the side sonars 6
@@ -26,6 +26,10 @@ pub struct Walls {
     /// Between wall sightings, while steering briskly, carry where the
     /// walls were on by odometry ([`NavConfig::coast_on_odometry`]).
     pub(super) coasting: bool,
+    /// Carry where the walls were on at every scan, and turn back before
+    /// the robot leaves the lane between them ([`Walls::back_within`];
+    /// [`NavConfig::keep_within_walls`](crate::drive::NavConfig)).
+    pub(super) guarding: bool,
     /// Where the walls were at the last fit of fresh samples, carried on
     /// by odometry while no new sample comes.
     coast: Option<Coast>,
@@ -44,6 +48,11 @@ struct Coast {
     along_mm: f64,
     /// The offset left of the middle, carried on, mm.
     offset_mm: f64,
+    /// Half the hallway's width, wall to wall, at the fit, mm.
+    half_mm: f64,
+    /// The angle to the axis when the offset was last carried on,
+    /// degrees counter-clockwise.
+    angle_deg: f64,
 }
 
 /// Driving this far is enough to tell the angle to the walls, mm.
@@ -58,6 +67,21 @@ const COAST_MM: f64 = 3_000.0;
 /// no longer carried on, degrees: further than the brisk swerve (30°), not
 /// as far as a corner.
 const COAST_TURNED_DEG: f64 = 45.0;
+
+/// How far ahead [`Walls::back_within`] looks along the heading, mm.
+const WITHIN_AHEAD_MM: f64 = 500.0;
+
+/// What [`Walls::back_within`] leaves between the robot's side and where
+/// a wall was, mm.
+const WITHIN_MARGIN_MM: f64 = 100.0;
+
+/// The angle to the axis [`Walls::back_within`] turns to, degrees: under
+/// Check-Goal's 20°, so it is not turned straight back.
+const WITHIN_BACK_DEG: f64 = 15.0;
+
+/// How far the sonars from ahead round to the side [`Walls::back_within`]
+/// turns to must read, mm from the skin.
+const WITHIN_CLEAR_MM: f64 = 1_000.0;
 
 /// A side reading shorter than this is a wall in view, mm.
 const WALL_IN_VIEW_MM: f64 = 3_500.0;
@@ -128,14 +152,17 @@ impl Walls {
             self.samples
                 .push_back((along_mm, (right - left) / 2.0, width, heading_deg));
             let fit = self.angle_and_offset();
-            self.coast = fit
-                .filter(|_| self.coasting)
-                .map(|(angle_deg, offset_mm)| Coast {
-                    axis_deg: self.mean_heading(heading_deg) - angle_deg,
-                    fit_mm: along_mm,
-                    along_mm,
-                    offset_mm,
-                });
+            let half_mm = width / 2.0 + ROBOT_RADIUS_MM;
+            self.coast =
+                fit.filter(|_| self.coasting || self.guarding)
+                    .map(|(angle_deg, offset_mm)| Coast {
+                        axis_deg: self.mean_heading(heading_deg) - angle_deg,
+                        fit_mm: along_mm,
+                        along_mm,
+                        offset_mm,
+                        half_mm,
+                        angle_deg,
+                    });
             return fit.map(|(angle, offset)| self.wanted(offset) - angle);
         }
         if !(self.coasting && self.brisk) {
@@ -151,6 +178,16 @@ impl Walls {
         // carried on at every opening, on the way to a corner too, robots
         // stood still more often, and one lost its way and its task
         // (docs/traffic.md, "Walls carried on by odometry").
+        let (offset, angle) = self.carry(along_mm, heading_deg)?;
+        Some(self.wanted(offset) - angle)
+    }
+
+    /// Carries where the walls were on by the odometry's travel and turn
+    /// since the last call: the offset left of the middle (mm) and the
+    /// angle to the axis (degrees counter-clockwise), while the last fit
+    /// is near enough behind and the robot has not turned into another
+    /// corridor.
+    pub(super) fn carry(&mut self, along_mm: f64, heading_deg: f64) -> Option<(f64, f64)> {
         let c = self.coast.as_mut()?;
         if along_mm - c.fit_mm > COAST_MM || along_mm < c.fit_mm {
             self.coast = None;
@@ -164,8 +201,39 @@ impl Walls {
         }
         c.offset_mm += (along_mm - c.along_mm) * angle.to_radians().sin();
         c.along_mm = along_mm;
-        let offset = c.offset_mm;
-        Some(self.wanted(offset) - angle)
+        c.angle_deg = angle;
+        Some((c.offset_mm, angle))
+    }
+
+    /// Beyond the thesis: the turn (degrees counter-clockwise) that keeps
+    /// the robot within where the walls were, when a side has opened (a
+    /// junction, a door's recess) and half a metre on along its heading
+    /// the robot would stand nearer than [`WITHIN_MARGIN_MM`] to the line
+    /// of a wall. A robot that swerved round one standing in a crossroads
+    /// came out of it with its side past the line of the corridor's wall,
+    /// heading on at the corner (docs/traffic.md, "Back within the walls
+    /// after a crossroads").
+    pub(super) fn back_within(&self, sonar: &[u32]) -> Option<f64> {
+        let c = self.coast.as_ref()?;
+        let both = [6, 18]
+            .iter()
+            .all(|&i| f64::from(sonar[i]) < WALL_IN_VIEW_MM);
+        if both {
+            return None;
+        }
+        let angle = c.angle_deg;
+        let ahead = c.offset_mm + WITHIN_AHEAD_MM * angle.to_radians().sin();
+        let limit = c.half_mm - ROBOT_RADIUS_MM - WITHIN_MARGIN_MM;
+        if ahead.abs() <= limit {
+            return None;
+        }
+        let turn = (-ahead.signum() * WITHIN_BACK_DEG - angle).clamp(-30.0, 30.0);
+        // Towards the middle stands what the robot swerved round, or a
+        // robot passing: turned onto it, a robot stood blocked beside it
+        // and was touched. Then the robot goes on as before.
+        let towards = |k: i64| sonar_add(FORWARD, k * turn.signum() as i64);
+        let clear = (0..=6).all(|k| f64::from(sonar[towards(k)]) >= WITHIN_CLEAR_MM);
+        (turn.abs() >= 5.0 && clear).then_some(turn)
     }
 
     /// How far right of the middle a robot keeps to let another pass: up

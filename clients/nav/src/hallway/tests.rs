@@ -1,0 +1,77 @@
+//! Center-Hallway across a crossroads, by its own scans: where the
+//! walls on both sides fall away, nothing keeps the robot off the line
+//! of the corridor's walls beyond but what it remembers of them.
+
+use super::Hallway;
+use crate::drive::{Drive, NavConfig, FORWARD, ROBOT_RADIUS_MM, SONARS, SPACING};
+
+/// Half the corridor's width, wall to wall, mm (the Campus's 2.4 m).
+const HALF_MM: f64 = 1_200.0;
+
+/// The ranges from the skin of a robot `left_mm` left of the middle,
+/// heading `rel_deg` counter-clockwise of the axis: each side wall echoes
+/// only to a sonar within 20° of square to it; `open` leaves both out.
+fn scan(left_mm: f64, rel_deg: f64, open: bool) -> Vec<u32> {
+    (0..SONARS)
+        .map(|i| {
+            let at = rel_deg + (i as f64 - FORWARD as f64) * SPACING;
+            let (to_left, to_right) = (HALF_MM - left_mm, HALF_MM + left_mm);
+            let off_left = (at - 90.0).to_radians();
+            let off_right = (at + 90.0).to_radians();
+            if open {
+                10_000
+            } else if off_left.cos() > 20_f64.to_radians().cos() {
+                (to_left / off_left.cos() - ROBOT_RADIUS_MM) as u32
+            } else if off_right.cos() > 20_f64.to_radians().cos() {
+                (to_right / off_right.cos() - ROBOT_RADIUS_MM) as u32
+            } else {
+                10_000
+            }
+        })
+        .collect()
+}
+
+/// Drives down the middle of a 2.4 m corridor for 1.2 m, swerves 30°
+/// left where a crossroads 2.8 m across opens on both sides (as round one
+/// standing in it), and drives on: how far left of the middle the robot
+/// is where the corridor goes on beyond, mm.
+fn across(keep_within_walls: bool) -> f64 {
+    let cfg = NavConfig {
+        keep_within_walls,
+        ..NavConfig::default()
+    };
+    let mut h = Hallway::new(0);
+    let (mut left_mm, mut rel_deg) = (0.0_f64, 0.0_f64);
+    for k in 0..100_u32 {
+        // 100 ms and 40 mm a scan.
+        let along = 40.0 * f64::from(k);
+        if along >= 4_000.0 {
+            return left_mm;
+        }
+        if k == 30 {
+            rel_deg += 30.0;
+        }
+        let s = scan(left_mm, rel_deg, (1_200.0..4_000.0).contains(&along));
+        match h.step(&cfg, &s, rel_deg, 0.0, along, 100 * u64::from(k)) {
+            Drive::Jog(rate) => rel_deg += rate / 10.0,
+            Drive::Turn(by) => rel_deg += by,
+            _ => {}
+        }
+        left_mm += 40.0 * rel_deg.to_radians().sin();
+    }
+    left_mm
+}
+
+#[test]
+fn out_of_a_crossroads_the_robot_keeps_within_the_walls_it_left() {
+    // Its side touches the corner of the corridor beyond when its middle
+    // is more than the half-width less its radius off the middle.
+    let corner_mm = HALF_MM - ROBOT_RADIUS_MM;
+    let thesis = across(false);
+    let within = across(true);
+    assert!(thesis > corner_mm, "by the heading alone: {thesis:.0} mm");
+    assert!(
+        within.abs() < corner_mm - 80.0,
+        "within the walls: {within:.0} mm"
+    );
+}
