@@ -48,6 +48,10 @@ pub struct ScaleConfig {
     /// Turn back towards the middle before leaving where the walls were
     /// (`NavConfig::keep_within_walls`).
     pub keep_within_walls: bool,
+    /// With `keep_within_walls`, take up where the robot is from one wall
+    /// in view once the walls carried on are let go
+    /// (`NavConfig::walls_from_one_side`).
+    pub walls_from_one_side: bool,
     /// Add the tasks one this much simulated time after another, as a
     /// stream of errands, instead of all at the start.
     pub every: Option<Duration>,
@@ -173,6 +177,7 @@ pub async fn sweep(
         run.nav.remember_echoes = cfg.remember_echoes;
         run.nav.infrared_ahead = cfg.infrared_ahead;
         run.nav.keep_within_walls = cfg.keep_within_walls;
+        run.nav.walls_from_one_side = cfg.walls_from_one_side;
         run.seed = cfg.seed;
         run.limit = cfg.limit;
         run.rules = cfg.rules;

@@ -214,6 +214,13 @@ pub struct NavConfig {
     /// Off by default: it moved contacts rather than ended them
     /// (docs/traffic.md, "Back within the walls after a crossroads").
     pub keep_within_walls: bool,
+    /// With `keep_within_walls`: once the walls carried on are let go (a
+    /// turn of more than 45°, or 3 m driven), take up where the robot is
+    /// from the one wall in view, by the last fit's axis and width, for
+    /// up to 6 m. Off by default: fewer contacts on the Campus, more in
+    /// EB3's backlogs (docs/traffic.md, "Where the walls were, from one
+    /// wall").
+    pub walls_from_one_side: bool,
 }
 
 impl Default for NavConfig {
@@ -249,6 +256,7 @@ impl Default for NavConfig {
             remember_echoes: false,
             infrared_ahead: false,
             keep_within_walls: false,
+            walls_from_one_side: false,
         }
     }
 }

@@ -161,6 +161,9 @@ impl Hallway {
             // Every scan, whichever rule steers it: the turns of the open
             // direction and of the safety rule move the robot across too.
             self.walls.carry(along_mm, heading_deg);
+            if cfg.walls_from_one_side {
+                self.walls.reanchor(sonar, along_mm, heading_deg);
+            }
         }
         let speed = if now_ms < self.slow_until {
             cfg.cruise_mm_s * 0.75

@@ -12,17 +12,23 @@ const HALF_MM: f64 = 1_200.0;
 /// heading `rel_deg` counter-clockwise of the axis: each side wall echoes
 /// only to a sonar within 20° of square to it; `open` leaves both out.
 fn scan(left_mm: f64, rel_deg: f64, open: bool) -> Vec<u32> {
+    sides(HALF_MM, left_mm, rel_deg, !open, !open)
+}
+
+/// The ranges from the skin of a robot `left_mm` left of the middle of a
+/// corridor `half_mm` wide each side, heading `rel_deg` counter-clockwise
+/// of the axis, with the left and the right wall there or not.
+fn sides(half_mm: f64, left_mm: f64, rel_deg: f64, left: bool, right: bool) -> Vec<u32> {
     (0..SONARS)
         .map(|i| {
             let at = rel_deg + (i as f64 - FORWARD as f64) * SPACING;
-            let (to_left, to_right) = (HALF_MM - left_mm, HALF_MM + left_mm);
+            let (to_left, to_right) = (half_mm - left_mm, half_mm + left_mm);
             let off_left = (at - 90.0).to_radians();
             let off_right = (at + 90.0).to_radians();
-            if open {
-                10_000
-            } else if off_left.cos() > 20_f64.to_radians().cos() {
+            let square = 20_f64.to_radians().cos();
+            if left && off_left.cos() > square {
                 (to_left / off_left.cos() - ROBOT_RADIUS_MM) as u32
-            } else if off_right.cos() > 20_f64.to_radians().cos() {
+            } else if right && off_right.cos() > square {
                 (to_right / off_right.cos() - ROBOT_RADIUS_MM) as u32
             } else {
                 10_000
@@ -72,6 +78,60 @@ fn out_of_a_crossroads_the_robot_keeps_within_the_walls_it_left() {
     assert!(thesis > corner_mm, "by the heading alone: {thesis:.0} mm");
     assert!(
         within.abs() < corner_mm - 80.0,
+        "within the walls: {within:.0} mm"
+    );
+}
+
+/// Keeping right (0.6 m right of the middle) down a 3 m corridor, a
+/// robot swings 60° right where a 2.4 m mouth opens on its right, 0.6 m
+/// on (as from one met on its left), past where the walls are carried
+/// on, and turns back at 12° a second, driving on: how far left of the
+/// middle it is where the mouth's far corner stands, mm. Only the left
+/// wall is in view from the mouth on.
+fn past_a_mouth(keep_within_walls: bool, walls_from_one_side: bool) -> f64 {
+    const HALF: f64 = 1_500.0;
+    let cfg = NavConfig {
+        keep_within_walls,
+        walls_from_one_side,
+        ..NavConfig::default()
+    };
+    let mut h = Hallway::new(0);
+    let (mut left_mm, mut rel_deg) = (-600.0_f64, 0.0_f64);
+    for k in 0..200_u32 {
+        let along = 40.0 * f64::from(k);
+        if along >= 3_000.0 {
+            break;
+        }
+        if k == 15 {
+            rel_deg -= 60.0;
+        } else if rel_deg < 0.0 {
+            rel_deg = (rel_deg + 1.2).min(0.0);
+        }
+        let mouth = (600.0..3_000.0).contains(&along);
+        let s = sides(HALF, left_mm, rel_deg, true, !mouth);
+        match h.step(&cfg, &s, rel_deg, 0.0, along, 100 * u64::from(k)) {
+            Drive::Jog(rate) => rel_deg += rate / 10.0,
+            Drive::Turn(by) => rel_deg += by,
+            _ => {}
+        }
+        left_mm += 40.0 * rel_deg.to_radians().sin();
+    }
+    left_mm
+}
+
+#[test]
+fn past_a_mouth_the_robot_keeps_within_the_walls_by_the_one_wall_in_view() {
+    let corner_mm = 1_500.0 - ROBOT_RADIUS_MM;
+    let thesis = past_a_mouth(false, false);
+    let carried = past_a_mouth(true, false);
+    let within = past_a_mouth(true, true);
+    assert!(thesis < -corner_mm, "by the heading alone: {thesis:.0} mm");
+    assert!(
+        carried < -corner_mm,
+        "by the walls carried on alone: {carried:.0} mm"
+    );
+    assert!(
+        within > -corner_mm + 80.0,
         "within the walls: {within:.0} mm"
     );
 }

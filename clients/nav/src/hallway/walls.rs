@@ -33,6 +33,23 @@ pub struct Walls {
     /// Where the walls were at the last fit of fresh samples, carried on
     /// by odometry while no new sample comes.
     coast: Option<Coast>,
+    /// The walls' axis and the hallway's half-width at the last fit, while
+    /// guarding: what one wall in view needs to tell where the robot is
+    /// once [`Walls::carry`] has let the walls go ([`Walls::reanchor`]).
+    kept: Option<Kept>,
+}
+
+/// The last fit's axis and half-width, kept on after the walls carried on
+/// by odometry are let go.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Kept {
+    /// The walls' axis by the odometry's heading, degrees
+    /// counter-clockwise.
+    axis_deg: f64,
+    /// Half the hallway's width, wall to wall, mm.
+    half_mm: f64,
+    /// The distance driven at the fit, mm.
+    fit_mm: f64,
 }
 
 /// The robot's place between the walls at the last fit, and how it has
@@ -82,6 +99,10 @@ const WITHIN_BACK_DEG: f64 = 15.0;
 /// How far the sonars from ahead round to the side [`Walls::back_within`]
 /// turns to must read, mm from the skin.
 const WITHIN_CLEAR_MM: f64 = 1_000.0;
+
+/// How far past the last fit [`Walls::reanchor`] still goes by its axis
+/// and width, mm: past a junction's mouth, with a robot met in it.
+const KEPT_MM: f64 = 6_000.0;
 
 /// A side reading shorter than this is a wall in view, mm.
 const WALL_IN_VIEW_MM: f64 = 3_500.0;
@@ -153,6 +174,13 @@ impl Walls {
                 .push_back((along_mm, (right - left) / 2.0, width, heading_deg));
             let fit = self.angle_and_offset();
             let half_mm = width / 2.0 + ROBOT_RADIUS_MM;
+            if let Some((angle_deg, _)) = fit.filter(|_| self.guarding) {
+                self.kept = Some(Kept {
+                    axis_deg: self.mean_heading(heading_deg) - angle_deg,
+                    half_mm,
+                    fit_mm: along_mm,
+                });
+            }
             self.coast =
                 fit.filter(|_| self.coasting || self.guarding)
                     .map(|(angle_deg, offset_mm)| Coast {
@@ -203,6 +231,50 @@ impl Walls {
         c.along_mm = along_mm;
         c.angle_deg = angle;
         Some((c.offset_mm, angle))
+    }
+
+    /// Beyond the thesis: where the walls carried on were let go (the
+    /// robot turned further than [`COAST_TURNED_DEG`] off their axis, or
+    /// drove past [`COAST_MM`]) and only one wall is in view, takes up
+    /// where the robot is from that wall, by the axis and half-width of
+    /// the last fit, for [`Walls::back_within`]. A robot that met another
+    /// in a junction's mouth swung 63° off the axis, came back along the
+    /// line of the mouth's wall with the mouth on one side and the other
+    /// robot on the other, never again had both walls in view, and
+    /// touched the mouth's far corner (docs/traffic.md, "The three
+    /// options together"). A robot beside it, read as that side's wall,
+    /// makes it seem nearer that side than it is; a turn is then away
+    /// from that robot, and only onto sonars that read a metre clear.
+    pub(super) fn reanchor(&mut self, sonar: &[u32], along_mm: f64, heading_deg: f64) {
+        let Some(k) = self.kept else { return };
+        if self.coast.is_some() {
+            return;
+        }
+        if along_mm - k.fit_mm > KEPT_MM || along_mm < k.fit_mm {
+            self.kept = None;
+            return;
+        }
+        let angle = normalize_deg(heading_deg - k.axis_deg);
+        if angle.abs() > COAST_TURNED_DEG {
+            return;
+        }
+        let (left, right) = (
+            square_on(sonar, 90.0, angle),
+            square_on(sonar, -90.0, angle),
+        );
+        let offset_mm = match (left < WALL_IN_VIEW_MM, right < WALL_IN_VIEW_MM) {
+            (true, false) => k.half_mm - (left + ROBOT_RADIUS_MM),
+            (false, true) => right + ROBOT_RADIUS_MM - k.half_mm,
+            _ => return,
+        };
+        self.coast = Some(Coast {
+            axis_deg: k.axis_deg,
+            fit_mm: along_mm,
+            along_mm,
+            offset_mm,
+            half_mm: k.half_mm,
+            angle_deg: angle,
+        });
     }
 
     /// Beyond the thesis: the turn (degrees counter-clockwise) that keeps

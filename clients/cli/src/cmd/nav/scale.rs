@@ -97,6 +97,17 @@ pub struct Args {
     /// within the walls after a crossroads")
     #[arg(long)]
     keep_within_walls: bool,
+    /// With --keep-within-walls: once a turn of more than 45° (or 3 m
+    /// driven) has let the walls carried on go, take up where the robot
+    /// is from the one wall in view, by the last fit's axis and width, for
+    /// up to 6 m. A robot that swung round one met in a corridor's mouth
+    /// came back along the line of the mouth's wall and touched its far
+    /// corner. On the Campus, eight runs with all three of --brake-ahead,
+    /// --infrared-ahead and --keep-within-walls had fewer contacts with it;
+    /// EB3's backlogs had more, so it is off by default (docs/traffic.md,
+    /// "Where the walls were, from one wall").
+    #[arg(long, requires = "keep_within_walls")]
+    walls_from_one_side: bool,
 }
 
 /// Runs the sweep; exit status 1 when a task was not done.
@@ -127,6 +138,7 @@ pub async fn run(args: Args) -> anyhow::Result<u8> {
         remember_echoes: args.remember_echoes,
         infrared_ahead: args.infrared_ahead,
         keep_within_walls: args.keep_within_walls,
+        walls_from_one_side: args.walls_from_one_side,
         every,
         limit,
         stuck: Duration::from_secs(60),
