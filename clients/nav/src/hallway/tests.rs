@@ -37,6 +37,25 @@ fn sides(half_mm: f64, left_mm: f64, rel_deg: f64, left: bool, right: bool) -> V
         .collect()
 }
 
+/// The `k`-th scan, 100 ms and 40 mm after the last: steps the hallway
+/// and moves the robot by what it asked for.
+fn drive(
+    h: &mut Hallway,
+    cfg: &NavConfig,
+    s: &[u32],
+    k: u32,
+    rel_deg: &mut f64,
+    left_mm: &mut f64,
+) {
+    let along = 40.0 * f64::from(k);
+    match h.step(cfg, s, *rel_deg, 0.0, along, 100 * u64::from(k)) {
+        Drive::Jog(rate) => *rel_deg += rate / 10.0,
+        Drive::Turn(by) => *rel_deg += by,
+        _ => {}
+    }
+    *left_mm += 40.0 * rel_deg.to_radians().sin();
+}
+
 /// Drives down the middle of a 2.4 m corridor for 1.2 m, swerves 30°
 /// left where a crossroads 2.8 m across opens on both sides (as round one
 /// standing in it), and drives on: how far left of the middle the robot
@@ -49,7 +68,6 @@ fn across(keep_within_walls: bool) -> f64 {
     let mut h = Hallway::new(0);
     let (mut left_mm, mut rel_deg) = (0.0_f64, 0.0_f64);
     for k in 0..100_u32 {
-        // 100 ms and 40 mm a scan.
         let along = 40.0 * f64::from(k);
         if along >= 4_000.0 {
             return left_mm;
@@ -58,12 +76,7 @@ fn across(keep_within_walls: bool) -> f64 {
             rel_deg += 30.0;
         }
         let s = scan(left_mm, rel_deg, (1_200.0..4_000.0).contains(&along));
-        match h.step(&cfg, &s, rel_deg, 0.0, along, 100 * u64::from(k)) {
-            Drive::Jog(rate) => rel_deg += rate / 10.0,
-            Drive::Turn(by) => rel_deg += by,
-            _ => {}
-        }
-        left_mm += 40.0 * rel_deg.to_radians().sin();
+        drive(&mut h, &cfg, &s, k, &mut rel_deg, &mut left_mm);
     }
     left_mm
 }
@@ -109,12 +122,7 @@ fn past_a_mouth(keep_within_walls: bool, walls_from_one_side: bool) -> f64 {
         }
         let mouth = (600.0..3_000.0).contains(&along);
         let s = sides(HALF, left_mm, rel_deg, true, !mouth);
-        match h.step(&cfg, &s, rel_deg, 0.0, along, 100 * u64::from(k)) {
-            Drive::Jog(rate) => rel_deg += rate / 10.0,
-            Drive::Turn(by) => rel_deg += by,
-            _ => {}
-        }
-        left_mm += 40.0 * rel_deg.to_radians().sin();
+        drive(&mut h, &cfg, &s, k, &mut rel_deg, &mut left_mm);
     }
     left_mm
 }
