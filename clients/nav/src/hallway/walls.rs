@@ -138,6 +138,15 @@ fn square_on(sonar: &[u32], side_deg: f64, rel_deg: f64) -> f64 {
     f64::from(sonar[i]) - ROBOT_RADIUS_MM * (1.0 - off.cos())
 }
 
+/// The left and the right wall's distances from the skin, each read
+/// square on (see `square_on`), mm.
+fn side_walls(sonar: &[u32], rel_deg: f64) -> (f64, f64) {
+    (
+        square_on(sonar, 90.0, rel_deg),
+        square_on(sonar, -90.0, rel_deg),
+    )
+}
+
 impl Walls {
     /// Adds a scan; returns the steering correction (degrees
     /// counter-clockwise) that brings the robot back to the middle, when
@@ -154,10 +163,7 @@ impl Walls {
         along_mm: f64,
         heading_deg: f64,
     ) -> Option<f64> {
-        let (left, right) = (
-            square_on(sonar, 90.0, rel_deg),
-            square_on(sonar, -90.0, rel_deg),
-        );
+        let (left, right) = side_walls(sonar, rel_deg);
         let width = left + right;
         while self
             .samples
@@ -174,23 +180,27 @@ impl Walls {
                 .push_back((along_mm, (right - left) / 2.0, width, heading_deg));
             let fit = self.angle_and_offset();
             let half_mm = width / 2.0 + ROBOT_RADIUS_MM;
-            if let Some((angle_deg, _)) = fit.filter(|_| self.guarding) {
+            // The walls' axis, only when something carries them on.
+            let axis_deg = fit
+                .filter(|_| self.coasting || self.guarding)
+                .map(|(angle_deg, _)| self.mean_heading(heading_deg) - angle_deg);
+            if let Some(axis_deg) = axis_deg.filter(|_| self.guarding) {
                 self.kept = Some(Kept {
-                    axis_deg: self.mean_heading(heading_deg) - angle_deg,
+                    axis_deg,
                     half_mm,
                     fit_mm: along_mm,
                 });
             }
-            self.coast =
-                fit.filter(|_| self.coasting || self.guarding)
-                    .map(|(angle_deg, offset_mm)| Coast {
-                        axis_deg: self.mean_heading(heading_deg) - angle_deg,
-                        fit_mm: along_mm,
-                        along_mm,
-                        offset_mm,
-                        half_mm,
-                        angle_deg,
-                    });
+            self.coast = fit
+                .zip(axis_deg)
+                .map(|((angle_deg, offset_mm), axis_deg)| Coast {
+                    axis_deg,
+                    fit_mm: along_mm,
+                    along_mm,
+                    offset_mm,
+                    half_mm,
+                    angle_deg,
+                });
             return fit.map(|(angle, offset)| self.wanted(offset) - angle);
         }
         if !(self.coasting && self.brisk) {
@@ -258,10 +268,7 @@ impl Walls {
         if angle.abs() > COAST_TURNED_DEG {
             return;
         }
-        let (left, right) = (
-            square_on(sonar, 90.0, angle),
-            square_on(sonar, -90.0, angle),
-        );
+        let (left, right) = side_walls(sonar, angle);
         let offset_mm = match (left < WALL_IN_VIEW_MM, right < WALL_IN_VIEW_MM) {
             (true, false) => k.half_mm - (left + ROBOT_RADIUS_MM),
             (false, true) => right + ROBOT_RADIUS_MM - k.half_mm,
@@ -287,9 +294,9 @@ impl Walls {
     /// after a crossroads").
     pub(super) fn back_within(&self, sonar: &[u32]) -> Option<f64> {
         let c = self.coast.as_ref()?;
-        let both = [6, 18]
-            .iter()
-            .all(|&i| f64::from(sonar[i]) < WALL_IN_VIEW_MM);
+        let both = [90.0, -90.0]
+            .into_iter()
+            .all(|side| f64::from(sonar[sonar_towards(side)]) < WALL_IN_VIEW_MM);
         if both {
             return None;
         }
