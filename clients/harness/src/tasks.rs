@@ -82,8 +82,9 @@ pub struct TaskReport {
     pub wall: Duration,
 }
 
-/// A contact, where it began: the robot's ground truth at the first
-/// second the count rose (so within a second's drive of the touch).
+/// A contact, where it began: the robot's ground truth at the end of the
+/// second in which the count rose (so within a second's drive of the
+/// touch). Two touches begun in one second are two, at one place.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ContactAt {
     /// Simulated time since the start, s.
@@ -446,18 +447,15 @@ async fn run_all(
                         let r = w.robot(rig.index[k]);
                         (r.travelled_mm, r.contacts, r.pose.at)
                     };
-                    for (with_robot, rose) in [(false, c.wall > touched[k].0), (true, c.robot > touched[k].1)] {
-                        if rose {
-                            contact_places.push(ContactAt {
-                                t_s: (now - t0) as f64 / 1000.0,
-                                robot: names[k].clone(),
-                                x_mm: at.x,
-                                y_mm: at.y,
-                                with_robot,
-                                task: doing[k].clone(),
-                            });
-                        }
-                    }
+                    let here = ContactAt {
+                        t_s: (now - t0) as f64 / 1000.0,
+                        robot: names[k].clone(),
+                        x_mm: at.x,
+                        y_mm: at.y,
+                        with_robot: false,
+                        task: doing[k].clone(),
+                    };
+                    contact_places.extend(begun(touched[k], (c.wall, c.robot), &here));
                     touched[k] = (c.wall, c.robot);
                     // Waiting one's turn is not being stuck.
                     if !busy[k] || waits_since[k].is_some() || moved - still[k].1 >= 500.0 {
@@ -517,4 +515,41 @@ async fn run_all(
         sim_s,
         wall: wall.elapsed(),
     })
+}
+
+/// The contacts begun since the counts (wall, robot) were `before`: one
+/// for each the count rose by, at `here`, so the lines written match the
+/// counts however many touches one second held.
+fn begun(before: (u32, u32), now: (u32, u32), here: &ContactAt) -> Vec<ContactAt> {
+    let walls = (before.0..now.0).map(|_| false);
+    let robots = (before.1..now.1).map(|_| true);
+    walls
+        .chain(robots)
+        .map(|with_robot| ContactAt {
+            with_robot,
+            ..here.clone()
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn two_touches_begun_in_one_second_are_two_contacts() {
+        let here = ContactAt {
+            t_s: 12.0,
+            robot: "r3".into(),
+            x_mm: 1_000.0,
+            y_mm: 2_000.0,
+            with_robot: false,
+            task: Some("T4".into()),
+        };
+        let lines = begun((1, 0), (3, 1), &here);
+        let with: Vec<bool> = lines.iter().map(|c| c.with_robot).collect();
+        assert_eq!(with, [false, false, true]);
+        assert!(lines.iter().all(|c| c.t_s == 12.0 && c.robot == "r3"));
+        assert!(begun((3, 1), (3, 1), &here).is_empty());
+    }
 }
