@@ -52,6 +52,9 @@ pub struct ScaleConfig {
     /// in view once the walls carried on are let go
     /// (`NavConfig::walls_from_one_side`).
     pub walls_from_one_side: bool,
+    /// In the Corner state, go on past what only a 45° detector sees
+    /// when the way ahead is clear (`NavConfig::corner_creeps`).
+    pub corner_creeps: bool,
     /// Add the tasks one this much simulated time after another, as a
     /// stream of errands, instead of all at the start.
     pub every: Option<Duration>,
@@ -178,6 +181,7 @@ pub async fn sweep(
         run.nav.infrared_ahead = cfg.infrared_ahead;
         run.nav.keep_within_walls = cfg.keep_within_walls;
         run.nav.walls_from_one_side = cfg.walls_from_one_side;
+        run.nav.corner_creeps = cfg.corner_creeps;
         run.seed = cfg.seed;
         run.limit = cfg.limit;
         run.rules = cfg.rules;

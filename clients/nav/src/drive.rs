@@ -221,6 +221,16 @@ pub struct NavConfig {
     /// EB3's backlogs (docs/traffic.md, "Where the walls were, from one
     /// wall").
     pub walls_from_one_side: bool,
+    /// Whether the Corner state, turned to within 20° of the goal
+    /// direction with only a 45° detector lit and no echo in the strip it
+    /// would sweep over the next metre, goes on bearing away from what
+    /// the detector sees (`hallway::corner_step`). Else, as the thesis,
+    /// it spins away from it, and on past the goal direction: a robot
+    /// turned into a corridor with its wall a quarter of a metre off its
+    /// side, and another robot behind it, spun in place for minutes and
+    /// held three robots up (docs/traffic.md, "Spinning in a corridor's
+    /// mouth"). Off by default and in `rome fleet` (`--corner-creeps`).
+    pub corner_creeps: bool,
 }
 
 impl Default for NavConfig {
@@ -257,6 +267,7 @@ impl Default for NavConfig {
             infrared_ahead: false,
             keep_within_walls: false,
             walls_from_one_side: false,
+            corner_creeps: false,
         }
     }
 }

@@ -539,6 +539,35 @@ impl Passing {
 /// The Corner state's stop-and-go turn in place, degrees per second.
 const SPIN_DEG_S: f64 = 8.0;
 
+/// How near the goal direction the Corner state goes on past a side
+/// detector that is lit ([`NavConfig::corner_creeps`]), degrees.
+const CREEP_WITHIN_DEG: f64 = 20.0;
+
+/// How far ahead the way must be clear for the Corner state to go on
+/// past a lit side detector, mm from the robot's middle.
+const CREEP_CLEAR_AHEAD_MM: f64 = 1_000.0;
+
+/// How much wider than the robot the way must be clear, either side, mm.
+const CREEP_CLEAR_SIDE_MM: f64 = 150.0;
+
+/// Whether the way ahead is clear to go on ([`NavConfig::corner_creeps`]):
+/// no sonar within 75° of ahead hears anything in the strip the robot
+/// would sweep over the next [`CREEP_CLEAR_AHEAD_MM`], widened by
+/// [`CREEP_CLEAR_SIDE_MM`] either side. A wall alongside is beside the
+/// way; a robot at a slant ahead is on it.
+fn way_clear(sonar_mm: &[u32]) -> bool {
+    sonar_mm.iter().enumerate().all(|(i, &r)| {
+        let b = bearing(i);
+        let r = f64::from(r);
+        if b.abs() > 75.0 || r >= rome_schema::robot::body::SONAR_MAX_MM {
+            return true;
+        }
+        let d = ROBOT_RADIUS_MM + r;
+        let (ahead, across) = (d * b.to_radians().cos(), d * b.to_radians().sin());
+        ahead >= CREEP_CLEAR_AHEAD_MM || across.abs() >= ROBOT_RADIUS_MM + CREEP_CLEAR_SIDE_MM
+    })
+}
+
 /// How far off the goal direction the Corner state ever turns, degrees.
 const SPIN_BOUND_DEG: f64 = 90.0;
 
@@ -563,6 +592,23 @@ pub fn corner_step(
     let ir = |i: usize| scan.ir_lit(i);
     let (right, left) = (ir(0) || ir(1), ir(2) || ir(3));
     if right || left {
+        // Beyond the thesis: turned to within 20° of the goal direction
+        // with only a 45° detector lit and the strip ahead clear, what it
+        // sees is beside the way, not on it: the robot goes on, bearing
+        // away from it. Spinning on carried a robot past the goal
+        // direction with a wall lit on one side and a robot behind, back
+        // and forth for minutes (docs/traffic.md, "Spinning in a
+        // corridor's mouth").
+        if cfg.corner_creeps
+            && !(ir(1) || ir(2))
+            && right != left
+            && err.abs() <= CREEP_WITHIN_DEG
+            && way_clear(&scan.sonar_mm)
+        {
+            walls.spin = None;
+            let away = if right { 1.0 } else { -1.0 };
+            return Drive::Jog(away * JOG_RATE_DEG_S);
+        }
         let rate = walls.spin.get_or_insert(match (right, left) {
             (true, false) => SPIN_DEG_S,
             (false, true) => -SPIN_DEG_S,

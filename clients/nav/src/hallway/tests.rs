@@ -143,3 +143,39 @@ fn past_a_mouth_the_robot_keeps_within_the_walls_by_the_one_wall_in_view() {
         "within the walls: {within:.0} mm"
     );
 }
+
+/// Turned to the goal direction in the mouth of the corridor it turns
+/// into, its left wall 0.25 m off the robot's skin, only the 45° left
+/// detector lit: as the thesis' Corner state, the robot spins on, and
+/// past the goal direction; with `corner_creeps` it goes on, bearing
+/// away from the wall. A robot standing at a slant ahead, its echo in the
+/// strip the robot would sweep, keeps it spinning either way.
+#[test]
+fn a_corner_goes_on_past_a_wall_beside_it_but_not_past_a_robot_ahead() {
+    use crate::hallway::{corner_step, sonar_towards, Walls};
+    use rome_schema::robot::Scan;
+    let corner = |creeps: bool, sonar: Vec<u32>| {
+        let cfg = NavConfig {
+            corner_creeps: creeps,
+            ..NavConfig::default()
+        };
+        let mut ir = vec![0u8; 24];
+        ir[3] = 1;
+        let scan = Scan {
+            robot: "r1".into(),
+            seq: 0,
+            time_ms: 0,
+            sonar_mm: sonar,
+            ir,
+        };
+        corner_step(&cfg, &scan, -90.0, -90.0, &mut Walls::default(), 0.0)
+    };
+    // The middle 630 mm from the left wall, none on the right.
+    let wall = sides(HALF_MM, HALF_MM - 630.0, 0.0, true, false);
+    assert!(matches!(corner(false, wall.clone()), Drive::Spin(r) if r < 0.0));
+    assert!(matches!(corner(true, wall.clone()), Drive::Jog(r) if r < 0.0));
+    // Another robot's skin 250 mm off, 30° right of ahead.
+    let mut robot = wall;
+    robot[sonar_towards(-30.0)] = 250;
+    assert!(matches!(corner(true, robot), Drive::Spin(r) if r < 0.0));
+}
