@@ -113,9 +113,10 @@ pub struct Args {
     /// go on bearing away from what it sees instead of spinning on past
     /// the goal direction. A robot turned into a corridor with its wall
     /// 0.25 m off its side spun in place for minutes and held three
-    /// robots up; on an unseen grid floor, ten runs of five robots had
-    /// fewer stuck but more robot contacts, so it is off by default
-    /// (docs/traffic.md, "Spinning in a corridor's mouth")
+    /// robots up. Over runs on a grid floor, in EB3 and on the Campus,
+    /// more tasks were done and fewer robots stood a minute, but there
+    /// were as many contacts, so it is off by default (docs/traffic.md,
+    /// "Spinning in a corridor's mouth")
     #[arg(long)]
     corner_creeps: bool,
 }
